@@ -1,0 +1,57 @@
+"""Exceptions raised by planetnav.
+
+Every bad input raises one of these (all are ``ValueError`` subclasses, so callers
+that only know the standard library still catch them) with the offending value in
+the message.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+class PlanetNavError(ValueError):
+    """Base class of every planetnav input error."""
+
+
+class UnknownBodyError(PlanetNavError, KeyError):
+    """A body name that the constants or the ephemeris do not know."""
+
+    def __str__(self) -> str:  # KeyError would quote the message
+        return str(self.args[0]) if self.args else ""
+
+
+class InvalidParameterError(PlanetNavError):
+    """A physical parameter out of its valid range (non-positive step, focal length, ...)."""
+
+
+class NonFiniteError(PlanetNavError):
+    """A NaN or infinite value in a state, measurement or action."""
+
+
+class NotVisibleError(PlanetNavError):
+    """A measurement was requested of a body the sensor cannot see."""
+
+
+class ConfigError(PlanetNavError):
+    """An unknown configuration key or an invalid configuration value."""
+
+
+def require_positive(name: str, value: float) -> float:
+    """Return ``float(value)`` or raise :class:`InvalidParameterError` naming it."""
+    v = float(value)
+    if not np.isfinite(v) or v <= 0.0:
+        raise InvalidParameterError(f"{name} must be a positive finite number, got {value!r}")
+    return v
+
+
+def require_finite(name: str, array: np.ndarray) -> np.ndarray:
+    """Return ``array`` as float64, or raise :class:`NonFiniteError` naming it and the bad entries."""
+    a = np.asarray(array, dtype=float)
+    if not np.all(np.isfinite(a)):
+        bad = np.argwhere(~np.isfinite(a))
+        raise NonFiniteError(
+            f"{name} contains non-finite values at index {bad[:4].tolist()}"
+            f"{' ...' if len(bad) > 4 else ''}: {a[tuple(bad[0])] if a.ndim else a}"
+        )
+    return a
