@@ -19,7 +19,11 @@ from planetnav_env.dynamics.orbit import GravityModel, rk4_step
 from planetnav_env.ephemeris import Ephemeris
 from planetnav_env.errors import InvalidParameterError, require_positive
 from planetnav_env.estimation.ekf import BatchEKF, FilterConfig, nees, process_noise
+from planetnav_env.estimation.fast import KIND_CODES, predict_batch_kernel, update_batch_kernel
 from planetnav_env.estimation.measurements import MeasurementModel, los_basis
+
+_NONE = np.zeros((0, 3))
+_NO_MU = np.zeros(0)
 
 
 def perturb_direction(rng: np.random.Generator, u: np.ndarray, sigma: float) -> np.ndarray:
@@ -82,7 +86,7 @@ def simulate_navigation(
     t0: float,
     dt: float,
     n_steps: int,
-    schedule: Callable[[int, float], str | None],
+    schedule: Callable[[int, float, np.ndarray], str | None],
     ephemeris: Ephemeris,
     measurement: MeasurementModel,
     config: FilterConfig,
@@ -91,14 +95,20 @@ def simulate_navigation(
     gravity: GravityModel | None = None,
     truth_process_noise: bool = False,
     measure_every: int = 1,
+    engine: str = "compiled",
 ) -> NavigationResult:
     """Run ``n_runs`` filters against truths starting at ``x0`` (6,) at ``t0`` [s].
 
     Each run draws its initial estimate error from P0, its measurement noise from ``rng`` and,
     if ``truth_process_noise``, a discrete process-noise sample ``w ~ N(0, Q)`` per step added
-    to the truth (the noise the filter assumes; for consistency tests). ``schedule(k, t)``
-    names the planet measured after step k (or None). ``measure_every`` thins measurements.
+    to the truth (the noise the filter assumes; for consistency tests). ``schedule(k, t, x_est)``
+    names the planet measured after step k at time t (or None), given the filters' current
+    estimates ``x_est`` (N, 6); one target serves all runs. ``measure_every`` thins measurements.
+    ``engine``: ``"compiled"`` (numba kernels, default) or ``"numpy"`` (the reference core); both
+    run the same equations (``tests/test_fast_ekf.py``).
     """
+    if engine not in ("compiled", "numpy"):
+        raise InvalidParameterError(f"engine must be 'compiled' or 'numpy', got {engine!r}")
     dt = require_positive("dt", dt)
     if int(n_steps) < 1 or int(n_runs) < 1:
         raise InvalidParameterError(f"n_steps and n_runs must be >= 1, got {n_steps}, {n_runs}")
@@ -123,13 +133,20 @@ def simulate_navigation(
     measured = np.zeros((k_total, n_runs), bool)
     accepted = np.zeros((k_total, n_runs), bool)
     targets: list[str | None] = []
+    all_active = np.ones(n_runs, dtype=bool)
+    gate = {m: config.gate_threshold(m) for m in (2, 3)}
     xs_true[0], xs_est[0], ps[0] = x_true, ekf.x, ekf.P
     for k in range(k_total):
         x_true = rk4_step(gravity, x_true, t[k], dt)
         if q_chol is not None:
             x_true = x_true + rng.standard_normal((n_runs, 6)) @ q_chol.T
-        ekf.predict(t[k], dt)
-        name = schedule(k, t[k + 1]) if (k + 1) % measure_every == 0 else None
+        if engine == "numpy":
+            ekf.predict(t[k], dt)
+        else:
+            predict_batch_kernel(
+                ekf.x, ekf.P, dt, gravity.mu_central, _NONE, _NONE, _NONE, _NO_MU, q, config.stm == "euler"
+            )
+        name = schedule(k, t[k + 1], ekf.x) if (k + 1) % measure_every == 0 else None
         targets.append(name)
         if name is not None:
             planet = ephemeris.position(name, t[k + 1])
@@ -148,11 +165,28 @@ def simulate_navigation(
                 d_pred = planet - ekf.x[:, :3]
                 basis = los_basis(d_pred / np.linalg.norm(d_pred, axis=-1, keepdims=True))
             z = measurement.from_unit_vector(u_meas, alpha, basis)
-            h, jac, cov = measurement.evaluate(ekf.x[:, :3], planet, diameter, basis)
-            res = ekf.update(z, h, jac, cov, measurement.angle_mask)
-            nis[k] = res.nis
+            if engine == "numpy":
+                h, jac, cov = measurement.evaluate(ekf.x[:, :3], planet, diameter, basis)
+                res = ekf.update(z, h, jac, cov, measurement.angle_mask)
+                nis[k], accepted[k] = res.nis, res.accepted
+            else:
+                update_batch_kernel(
+                    ekf.x,
+                    ekf.P,
+                    np.ascontiguousarray(z),
+                    np.broadcast_to(planet, (n_runs, 3)),
+                    diameter,
+                    KIND_CODES[measurement.kind],
+                    measurement.sigma_dir,
+                    measurement.sigma_size,
+                    basis if basis is not None else np.zeros((n_runs, 2, 3)),
+                    all_active,
+                    gate[measurement.dim],
+                    nis[k],
+                    accepted[k],
+                )
+                ekf.rejected += ~accepted[k]
             measured[k] = True
-            accepted[k] = res.accepted
         xs_true[k + 1], xs_est[k + 1], ps[k + 1] = x_true, ekf.x, ekf.P
     nees_hist = nees(xs_est, ps, xs_true)
     return NavigationResult(t, xs_true, xs_est, ps, nees_hist, nis, measured, accepted, targets)

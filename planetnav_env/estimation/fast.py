@@ -291,6 +291,38 @@ def _inv_small(s, m, out):
 
 
 @njit(cache=True)
+def predict_batch_kernel(x, p, dt, mu, p0, p1, p2, mus, q, euler_stm):
+    """Predict N filters (leading axis) in place."""
+    w6 = np.empty((3, 6, 6))
+    v6 = np.empty((4, 6))
+    phi = np.empty((6, 6))
+    tmp = np.empty((6, 6))
+    for n in range(x.shape[0]):
+        predict_kernel(x[n], p[n], dt, mu, p0, p1, p2, mus, q, euler_stm, w6, v6, phi, tmp)
+
+
+@njit(cache=True)
+def update_batch_kernel(
+    x, p, z, planet, diameter, kind, sig_dir, sig_size, basis, active, gate, nis_out, acc_out
+):
+    """Update N filters in place, one planet measurement each; planet (N, 3), z (N, m), basis (N, 2, 3)."""
+    h = np.empty(3)
+    jac = np.empty((3, 6))
+    rcov = np.empty((3, 3))
+    uw = np.empty((5, 6, 6))
+    wrap_index = 1 if kind <= 1 else -1
+    for n in range(x.shape[0]):
+        if active[n]:
+            m = planet_model_kernel(
+                x[n, :3], planet[n], diameter, kind, sig_dir, sig_size, basis[n], h, jac, rcov
+            )
+            nis_out[n], acc_out[n] = update_kernel(x[n], p[n], z[n], h, jac, rcov, m, wrap_index, gate, uw)
+        else:
+            nis_out[n] = np.nan
+            acc_out[n] = False
+
+
+@njit(cache=True)
 def cycle_batch_kernel(
     x,
     p,
@@ -314,26 +346,12 @@ def cycle_batch_kernel(
     nis_out,
     acc_out,
 ):
-    """Predict + update for N filters (leading axis); planet (N, 3), z (N, m), basis (N, 2, 3)."""
-    h = np.empty(3)
-    jac = np.empty((3, 6))
-    rcov = np.empty((3, 3))
-    w6 = np.empty((3, 6, 6))
-    v6 = np.empty((4, 6))
-    phi = np.empty((6, 6))
-    tmp = np.empty((6, 6))
-    uw = np.empty((5, 6, 6))
-    wrap_index = 1 if kind <= 1 else -1
-    for n in range(x.shape[0]):
-        predict_kernel(x[n], p[n], dt, mu, p0, p1, p2, mus, q, euler_stm, w6, v6, phi, tmp)
-        if active[n]:
-            m = planet_model_kernel(
-                x[n, :3], planet[n], diameter, kind, sig_dir, sig_size, basis[n], h, jac, rcov
-            )
-            nis_out[n], acc_out[n] = update_kernel(x[n], p[n], z[n], h, jac, rcov, m, wrap_index, gate, uw)
-        else:
-            nis_out[n] = np.nan
-            acc_out[n] = False
+    """Predict + update for N filters (leading axis): :func:`predict_batch_kernel` then
+    :func:`update_batch_kernel` (the measurement and basis must not depend on the prediction)."""
+    predict_batch_kernel(x, p, dt, mu, p0, p1, p2, mus, q, euler_stm)
+    update_batch_kernel(
+        x, p, z, planet, diameter, kind, sig_dir, sig_size, basis, active, gate, nis_out, acc_out
+    )
 
 
 _EMPTY = np.zeros((0, 3))

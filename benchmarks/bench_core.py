@@ -1,0 +1,178 @@
+"""Speed of the physics core and the filter (a benchmark, not a test).
+
+Prints, in one run, microseconds per call of:
+  * one EKF cycle (predict + measurement model + update; 6 states, 3 measurements), single filter
+    and batched over 1024 filters (per filter);
+  * the same cycle on filterpy's ExtendedKalmanFilter (the reference);
+  * one truth step: orbit RK4 + attitude (PD law, sub-stepped) for one spacecraft.
+Targets (issue 2): batched core <= 2 us per filter cycle; single path no slower than filterpy.
+
+    python benchmarks/bench_core.py [--repeat N]
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+
+from planetnav_env.bodies import body
+from planetnav_env.dynamics.orbit import GravityModel, rk4_step
+from planetnav_env.ephemeris import KeplerianEphemeris
+from planetnav_env.estimation.ekf import BatchEKF, FilterConfig, FilterpyEKF, process_noise
+from planetnav_env.estimation.fast import KIND_CODES, SingleEKF, cycle_batch_kernel
+from planetnav_env.estimation.measurements import (
+    MeasurementModel,
+    h_direction,
+    h_size,
+    jac_direction,
+    jac_size,
+)
+from planetnav_env.reproduce.angular_size import EPOCH, initial_state
+
+
+def _time(fn, repeat: int) -> float:
+    fn()  # warm-up (JIT, caches)
+    best = float("inf")
+    for _ in range(5):
+        t0 = time.perf_counter()
+        for _ in range(repeat):
+            fn()
+        best = min(best, (time.perf_counter() - t0) / repeat)
+    return best * 1e6
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--repeat", type=int, default=200)
+    args = ap.parse_args()
+    model = GravityModel("sun")
+    cfg = FilterConfig(gate_probability=1.0)
+    meas = MeasurementModel("direction+size")
+    x0 = initial_state()
+    p0 = cfg.initial_covariance()
+    planet = KeplerianEphemeris().position("venus", EPOCH)
+    diameter = body("venus").diameter
+    dt = 60.0
+    z1 = np.concatenate([h_direction(x0[None, :3], planet), h_size(x0[None, :3], planet, diameter)], -1)
+
+    def batched(n: int):
+        ekf = BatchEKF(model, np.repeat(x0[None], n, 0), p0, cfg)
+        z = np.repeat(z1, n, 0)
+
+        def cycle():
+            ekf.predict(EPOCH, dt)
+            h, jac, cov = meas.evaluate(ekf.x[:, :3], planet, diameter)
+            ekf.update(z, h, jac, cov, meas.angle_mask)
+            ekf.P[:] = p0  # keep the benchmark stationary
+
+        return cycle
+
+    def compiled_batch(n: int):
+        x = np.repeat(x0[None], n, 0)
+        p = np.repeat(p0[None], n, 0)
+        z = np.repeat(z1, n, 0)
+        planets = np.repeat(planet[None], n, 0)
+        basis = np.zeros((n, 2, 3))
+        active = np.ones(n, bool)
+        nis = np.empty(n)
+        acc = np.empty(n, bool)
+        q = process_noise(dt, cfg.accel_psd)
+        empty = np.zeros((0, 3))
+        mus = np.zeros(0)
+        kind = KIND_CODES[meas.kind]
+
+        def cycle():
+            cycle_batch_kernel(
+                x,
+                p,
+                dt,
+                model.mu_central,
+                empty,
+                empty,
+                empty,
+                mus,
+                q,
+                False,
+                z,
+                planets,
+                diameter,
+                kind,
+                meas.sigma_dir,
+                meas.sigma_size,
+                basis,
+                active,
+                np.inf,
+                nis,
+                acc,
+            )
+            p[:] = p0
+
+        return cycle
+
+    single = SingleEKF(model, x0, p0, cfg)
+
+    def single_cycle():
+        single.predict(EPOCH, dt)
+        single.update_planet(z1[0], planet, diameter, meas)
+        single.P[:] = p0
+
+    ref = FilterpyEKF(model, x0, p0, dim_z=3, config=cfg)
+
+    def hx(x):
+        return np.concatenate([h_direction(x[None, :3], planet), h_size(x[None, :3], planet, diameter)], -1)[
+            0
+        ]
+
+    def hj(x):
+        return np.concatenate(
+            [jac_direction(x[None, :3], planet), jac_size(x[None, :3], planet, diameter)], -2
+        )[0]
+
+    r_cov = meas.evaluate(x0[None, :3], planet, diameter)[2][0]
+
+    def filterpy_cycle():
+        ref.predict(EPOCH, dt)
+        ref.update(z1[0], hx, hj, r_cov, meas.angle_mask)
+        ref.ekf.P[:] = p0
+
+    rows = []
+    t_single_np = _time(batched(1), args.repeat)
+    t_single = _time(single_cycle, args.repeat * 5)
+    t_batch_np = _time(batched(1024), max(args.repeat // 20, 5)) / 1024
+    t_batch = _time(compiled_batch(1024), max(args.repeat // 20, 5)) / 1024
+    t_fp = _time(filterpy_cycle, args.repeat)
+    rows.append(("EKF cycle, single filter (SingleEKF, numba)", t_single))
+    rows.append(("EKF cycle, single filter (BatchEKF numpy, N=1)", t_single_np))
+    rows.append(("EKF cycle, batched over 1024 (numba), per filter", t_batch))
+    rows.append(("EKF cycle, batched over 1024 (numpy), per filter", t_batch_np))
+    rows.append(("EKF cycle, filterpy ExtendedKalmanFilter", t_fp))
+
+    x = x0[None].copy()
+    rows.append(("truth orbit RK4 step (numpy)", _time(lambda: rk4_step(model, x, EPOCH, dt), args.repeat)))
+    try:
+        from planetnav_env.attitude.pointing import propagate_pointing_default_benchmark
+
+        rows.append(
+            ("truth attitude, 60 PD sub-steps (numba)", propagate_pointing_default_benchmark(args.repeat))
+        )
+    except ImportError:
+        pass
+
+    width = max(len(r[0]) for r in rows)
+    print(f"{'operation':<{width}}  {'us/call':>10}")
+    for name, us in rows:
+        print(f"{name:<{width}}  {us:>10.2f}")
+    print()
+    print(
+        f"batched per-filter cycle: {t_batch:.2f} us (target <= 2 us): {'PASS' if t_batch <= 2.0 else 'MISS'}"
+    )
+    print(
+        f"single vs filterpy: {t_single:.1f} us vs {t_fp:.1f} us, ratio {t_fp / t_single:.1f}x: "
+        f"{'PASS' if t_single <= t_fp else 'MISS'}"
+    )
+
+
+if __name__ == "__main__":
+    main()
