@@ -19,7 +19,12 @@ from planetnav_env.dynamics.orbit import GravityModel, rk4_step
 from planetnav_env.ephemeris import Ephemeris
 from planetnav_env.errors import InvalidParameterError, require_positive
 from planetnav_env.estimation.ekf import BatchEKF, FilterConfig, nees, process_noise
-from planetnav_env.estimation.fast import KIND_CODES, predict_batch_kernel, update_batch_kernel
+from planetnav_env.estimation.fast import (
+    KIND_CODES,
+    predict_batch_kernel,
+    rk4_batch_kernel,
+    update_batch_kernel,
+)
 from planetnav_env.estimation.measurements import MeasurementModel, los_basis
 
 _NONE = np.zeros((0, 3))
@@ -134,10 +139,14 @@ def simulate_navigation(
     accepted = np.zeros((k_total, n_runs), bool)
     targets: list[str | None] = []
     all_active = np.ones(n_runs, dtype=bool)
+    planet_table: dict[str, np.ndarray] = {}
     gate = {m: config.gate_threshold(m) for m in (2, 3)}
     xs_true[0], xs_est[0], ps[0] = x_true, ekf.x, ekf.P
     for k in range(k_total):
-        x_true = rk4_step(gravity, x_true, t[k], dt)
+        if engine == "numpy":
+            x_true = rk4_step(gravity, x_true, t[k], dt)
+        else:
+            rk4_batch_kernel(x_true, dt, gravity.mu_central, _NONE, _NONE, _NONE, _NO_MU)
         if q_chol is not None:
             x_true = x_true + rng.standard_normal((n_runs, 6)) @ q_chol.T
         if engine == "numpy":
@@ -149,7 +158,9 @@ def simulate_navigation(
         name = schedule(k, t[k + 1], ekf.x) if (k + 1) % measure_every == 0 else None
         targets.append(name)
         if name is not None:
-            planet = ephemeris.position(name, t[k + 1])
+            if name not in planet_table:
+                planet_table[name] = ephemeris.position(name, t)  # one vectorised call per planet
+            planet = planet_table[name][k + 1]
             diameter = body(name).diameter
             d_true = planet - x_true[:, :3]
             rho_true = np.linalg.norm(d_true, axis=-1, keepdims=True)

@@ -302,6 +302,18 @@ def predict_batch_kernel(x, p, dt, mu, p0, p1, p2, mus, q, euler_stm):
 
 
 @njit(cache=True)
+def rk4_batch_kernel(x, dt, mu, p0, p1, p2, mus):
+    """RK4 state step of N trajectories in place (the truth propagator; same stages as the filter)."""
+    w6 = np.empty((3, 6, 6))
+    v6 = np.empty((4, 6))
+    phi = np.empty((6, 6))
+    x_new = np.empty(6)
+    for n in range(x.shape[0]):
+        rk4_stm_kernel(x[n], dt, mu, p0, p1, p2, mus, x_new, phi, w6, v6)
+        x[n, :] = x_new
+
+
+@njit(cache=True)
 def update_batch_kernel(
     x, p, z, planet, diameter, kind, sig_dir, sig_size, basis, active, gate, nis_out, acc_out
 ):

@@ -29,24 +29,21 @@ from pathlib import Path
 
 import numpy as np
 
-from planetnav_env.bodies import AU_KM, ECLIPTIC_TO_EQUATORIAL, GM_SUN, body
-from planetnav_env.ephemeris import Ephemeris, elements_to_state, make_ephemeris
+from planetnav_env.bodies import body
+from planetnav_env.ephemeris import Ephemeris, make_ephemeris
 from planetnav_env.estimation.ekf import FilterConfig
 from planetnav_env.estimation.measurements import MeasurementModel
 from planetnav_env.navigation import NavigationResult, simulate_navigation
+from planetnav_env.scenarios import CRUISE_EPOCH, cruise_state
 from planetnav_env.sensors.camera import CameraConfig
-from planetnav_env.timescale import tdb_seconds
 
-EPOCH = tdb_seconds(2020, 8, 1)
+EPOCH = CRUISE_EPOCH
 MODELS = ("direction", "direction+size")
 
 
 def initial_state() -> np.ndarray:
-    """Spacecraft state at EPOCH (heliocentric ICRF, km and km/s): see the module docstring."""
-    rp, ra = 0.7233 * AU_KM, 1.5237 * AU_KM
-    a, e = 0.5 * (rp + ra), (ra - rp) / (ra + rp)
-    r, v = elements_to_state(a, e, np.deg2rad(2.0), 0.0, np.deg2rad(270.0), np.deg2rad(30.0), GM_SUN)
-    return np.concatenate([ECLIPTIC_TO_EQUATORIAL @ r, ECLIPTIC_TO_EQUATORIAL @ v])
+    """Spacecraft state at EPOCH (heliocentric ICRF, km and km/s): the ``cruise`` scenario's."""
+    return cruise_state()
 
 
 def measurement_model(kind: str, camera: CameraConfig) -> MeasurementModel:
@@ -119,8 +116,22 @@ def run_case(
     )
 
 
-def summarize(case: Case, res: NavigationResult) -> dict:
+def los_decomposition(case: Case, res: NavigationResult, eph: Ephemeris) -> tuple[np.ndarray, np.ndarray]:
+    """Final position error split along the last line of sight (range) and across it, per run [km]."""
+    name = next((p for p in reversed(res.target) if p is not None), None)
+    err = res.x_est[-1, :, :3] - res.x_true[-1, :, :3]
+    if name is None:
+        return np.full(len(err), np.nan), np.full(len(err), np.nan)
+    d = eph.position(name, res.t[-1]) - res.x_true[-1, :, :3]
+    u = d / np.linalg.norm(d, axis=-1, keepdims=True)
+    along = np.sum(err * u, axis=-1)
+    cross = np.linalg.norm(err - along[:, None] * u, axis=-1)
+    return np.abs(along), cross
+
+
+def summarize(case: Case, res: NavigationResult, eph: Ephemeris) -> dict:
     pos, vel = res.pos_err, res.vel_err
+    along, cross = los_decomposition(case, res, eph)
     switches = sum(1 for a, b in zip(res.target, res.target[1:], strict=False) if a != b)
     return {
         "planet": case.planet,
@@ -131,6 +142,8 @@ def summarize(case: Case, res: NavigationResult) -> dict:
         "final_vel_err_km_s": float(vel[-1].mean()),
         "rms_pos_err_km": float(np.sqrt(np.mean(pos**2, axis=0)).mean()),
         "rms_vel_err_km_s": float(np.sqrt(np.mean(vel**2, axis=0)).mean()),
+        "final_range_err_km": float(along.mean()),
+        "final_cross_err_km": float(cross.mean()),
         "final_pos_sigma_km": float(res.pos_sigma[-1].mean()),
         "final_vel_sigma_km_s": float(res.vel_sigma[-1].mean()),
         "mean_nees": float(res.nees.mean()),
@@ -201,13 +214,16 @@ def plot_angular_sizes(eph: Ephemeris, camera: CameraConfig, days: float, out: P
 
 def _table(rows: list[dict]) -> str:
     head = f"{'planet':<8}{'model':<16}{'span':>8}{'h [s]':>7}{'final |dr| km':>15}{'RMS |dr| km':>13}"
-    head += f"{'final |dv| m/s':>16}{'3σ r km':>10}{'NEES':>7}{'switch':>7}"
+    head += (
+        f"{'along LOS km':>13}{'across km':>10}{'final |dv| m/s':>16}{'3σ r km':>10}{'NEES':>7}{'switch':>7}"
+    )
     lines = [head, "-" * len(head)]
     for r in rows:
         span = f"{r['duration_s'] / 3600:g}h" if r["duration_s"] <= 86400 else f"{r['duration_s'] / 86400:g}d"
         lines.append(
             f"{r['planet']:<8}{r['model']:<16}{span:>8}{r['step_s']:>7g}{r['final_pos_err_km']:>15.1f}"
-            f"{r['rms_pos_err_km']:>13.1f}{1e3 * r['final_vel_err_km_s']:>16.3f}"
+            f"{r['rms_pos_err_km']:>13.1f}{r['final_range_err_km']:>13.1f}{r['final_cross_err_km']:>10.2f}"
+            f"{1e3 * r['final_vel_err_km_s']:>16.3f}"
             f"{3 * r['final_pos_sigma_km']:>10.0f}"
             f"{r['mean_nees']:>7.2f}{r['switches']:>7d}"
         )
@@ -240,7 +256,7 @@ def main(argv: list[str] | None = None) -> int:
         args.plots.mkdir(parents=True, exist_ok=True)
     for i, case in enumerate(thesis_cases(args.quick) + switching_cases(args.quick)):
         res = run_case(case, n_runs, args.seed + i, eph, camera, cfg)
-        row = summarize(case, res)
+        row = summarize(case, res, eph)
         (thesis_rows if case.planet != "nearest" and case.step_s < 600 else switch_rows).append(row)
         if args.plots:
             plot_case(case, res, args.plots / (case.name.replace("/", "_").replace("+", "-") + ".png"))

@@ -1,0 +1,101 @@
+"""Named scenarios: the spacecraft's initial state and epoch for an episode.
+
+``cruise``
+    The thesis reproduction's trajectory (``docs/angular_size.md``): a Venus-to-Mars Hohmann-type
+    transfer ellipse (perihelion 0.7233 AU, aphelion 1.5237 AU), inclination 2 deg to the J2000
+    ecliptic, node 0, argument of perihelion 270 deg, mean anomaly 30 deg at 2020-08-01 00:00 TDB.
+    Venus is 0.23 AU away, Mars 0.55 AU and Earth 0.40 AU, all well clear of the Sun.
+``random-cruise``
+    Drawn from the reset seed: epoch uniform in 2018-2032, a transfer ellipse between the orbits of
+    Venus and Mars (perihelion 0.70-0.75 AU, aphelion 1.45-1.60 AU, inclination 0-3 deg) with uniform
+    node, perihelion and mean anomaly; kept only if at least two of the configured planets are
+    within 1.5 AU and more than 10 deg outside the camera's Sun-exclusion cone (redrawn otherwise).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from planetnav_env.bodies import AU_KM, ECLIPTIC_TO_EQUATORIAL, GM_SUN
+from planetnav_env.ephemeris import Ephemeris, elements_to_state
+from planetnav_env.errors import ConfigError
+from planetnav_env.timescale import tdb_seconds
+
+CRUISE_EPOCH = tdb_seconds(2020, 8, 1)
+_RANDOM_EPOCHS = (tdb_seconds(2018, 1, 1), tdb_seconds(2032, 1, 1))
+
+
+def transfer_state(
+    perihelion_au: float,
+    aphelion_au: float,
+    inc_deg: float,
+    node_deg: float,
+    argp_deg: float,
+    mean_anom_deg: float,
+) -> np.ndarray:
+    """Heliocentric ICRF state [km, km/s] on an ellipse given in J2000-ecliptic elements."""
+    rp, ra = perihelion_au * AU_KM, aphelion_au * AU_KM
+    a, e = 0.5 * (rp + ra), (ra - rp) / (ra + rp)
+    r, v = elements_to_state(
+        a,
+        e,
+        np.deg2rad(inc_deg),
+        np.deg2rad(node_deg),
+        np.deg2rad(argp_deg),
+        np.deg2rad(mean_anom_deg),
+        GM_SUN,
+    )
+    return np.concatenate([ECLIPTIC_TO_EQUATORIAL @ r, ECLIPTIC_TO_EQUATORIAL @ v])
+
+
+def cruise_state() -> np.ndarray:
+    """The ``cruise`` scenario's initial state at :data:`CRUISE_EPOCH`."""
+    return transfer_state(0.7233, 1.5237, 2.0, 0.0, 270.0, 30.0)
+
+
+@dataclass(frozen=True)
+class Episode:
+    """Initial truth of one episode: epoch [TDB s since J2000] and state [km, km/s]."""
+
+    epoch: float
+    x0: np.ndarray
+
+
+def _sun_angle_deg(r_sc: np.ndarray, r_body: np.ndarray) -> float:
+    d = r_body - r_sc
+    return float(
+        np.degrees(np.arccos(np.clip(d @ -r_sc / (np.linalg.norm(d) * np.linalg.norm(r_sc)), -1, 1)))
+    )
+
+
+def draw_episode(
+    scenario: str,
+    rng: np.random.Generator,
+    ephemeris: Ephemeris,
+    planets: tuple[str, ...],
+    sun_exclusion_deg: float,
+) -> Episode:
+    """The initial truth for ``scenario`` (random scenarios draw from ``rng``)."""
+    if scenario == "cruise":
+        return Episode(CRUISE_EPOCH, cruise_state())
+    if scenario == "random-cruise":
+        for _ in range(1000):
+            epoch = float(rng.uniform(*_RANDOM_EPOCHS))
+            x0 = transfer_state(
+                rng.uniform(0.70, 0.75), rng.uniform(1.45, 1.60), rng.uniform(0.0, 3.0),
+                rng.uniform(0, 360), rng.uniform(0, 360), rng.uniform(0, 360),
+            )  # fmt: skip
+            good = 0
+            for p in planets:
+                rb = ephemeris.position(p, epoch)
+                if (
+                    np.linalg.norm(rb - x0[:3]) < 1.5 * AU_KM
+                    and _sun_angle_deg(x0[:3], rb) > sun_exclusion_deg + 10.0
+                ):
+                    good += 1
+            if good >= min(2, len(planets)):
+                return Episode(epoch, x0)
+        raise ConfigError(f"random-cruise: no geometry with two usable planets among {planets} in 1000 draws")
+    raise ConfigError(f"unknown scenario {scenario!r}")
