@@ -55,3 +55,8 @@ def require_finite(name: str, array: np.ndarray) -> np.ndarray:
             f"{' ...' if len(bad) > 4 else ''}: {a[tuple(bad[0])] if a.ndim else a}"
         )
     return a
+
+
+class DegenerateGeometryError(PlanetNavError):
+    """Measurement geometry that does not determine the unknown (one vector, parallel or zero vectors,
+    no usable satellites, ...)."""
