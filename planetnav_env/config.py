@@ -1,0 +1,232 @@
+"""Environment configuration: typed, validated dataclasses that YAML files in ``configs/`` map onto.
+
+An unknown key or an invalid value raises :class:`~planetnav_env.errors.ConfigError` naming it,
+never a silent default. ``EnvConfig.from_dict`` accepts the nested mapping of a YAML file::
+
+    scenario: cruise
+    planets: [venus, mars, earth]
+    step_s: 60
+    camera: {direction_noise_arcsec: 3.5}
+    filter: {sigma_pos0: 1000.0}
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field, fields
+from pathlib import Path
+from typing import Any
+
+from planetnav_env.bodies import BODIES
+from planetnav_env.errors import ConfigError, PlanetNavError
+from planetnav_env.estimation.ekf import FilterConfig
+from planetnav_env.estimation.measurements import MODELS
+from planetnav_env.sensors.camera import CameraConfig
+
+SCENARIOS = ("cruise", "random-cruise")
+ACTION_MODES = ("target", "torque", "target+torque")
+REWARDS = ("truth", "covariance")
+
+
+@dataclass(frozen=True)
+class AttitudeSettings:
+    """Spacecraft mass properties, wheels and the PD law (see :mod:`planetnav_env.attitude.pointing`).
+
+    inertia [kg m^2] (3 principal moments), wheel_torque_limit [N m], wheel_momentum_capacity [N m s],
+    k_a [N m], k_w [N m s]: PD gains, rate_noise_deg_s: 1-sigma of the reported body rates [deg/s].
+    """
+
+    inertia: tuple[float, float, float] = (10.0, 12.0, 8.0)
+    wheel_torque_limit: float = 0.01
+    wheel_momentum_capacity: float = 0.5
+    k_a: float = 0.02
+    k_w: float = 1.0
+    rate_noise_deg_s: float = 1e-4
+
+    def __post_init__(self) -> None:
+        _positive(self, "wheel_torque_limit", "wheel_momentum_capacity", "k_a", "k_w")
+        if len(self.inertia) != 3 or any(
+            not (math.isfinite(float(v)) and float(v) > 0) for v in self.inertia
+        ):
+            raise ConfigError(f"attitude.inertia must be 3 positive moments [kg m^2], got {self.inertia!r}")
+        if not (math.isfinite(self.rate_noise_deg_s) and self.rate_noise_deg_s >= 0):
+            raise ConfigError(f"attitude.rate_noise_deg_s must be >= 0, got {self.rate_noise_deg_s!r}")
+
+
+@dataclass(frozen=True)
+class EnvConfig:
+    """Everything that defines an episode. Units: s, km, rad unless the name says otherwise.
+
+    scenario: ``cruise`` (the thesis's Venus-to-Mars transfer from 2020-08-01, fixed) or
+        ``random-cruise`` (epoch, transfer arc and initial estimate error drawn from the reset seed).
+    planets: bodies the camera may target (their order is the action index).
+    step_s: environment step; attitude_substep_s: attitude integration step (must divide step_s).
+    episode_steps: steps before truncation.
+    action_mode: ``target``, ``torque`` or ``target+torque`` (see :class:`PlanetNavEnv`).
+    measurement_model: filter model, one of :data:`planetnav_env.estimation.measurements.MODELS`.
+    reward: ``truth`` (-|r_est - r_true| / reward_scale_km, privileged) or ``covariance``
+        (-sqrt(trace P_rr) / reward_scale_km, computable on board); torque_penalty multiplies
+        the squared commanded torque fraction.
+    divergence_km: the episode terminates when the true position error exceeds it.
+    observation: ``box`` (flat float32) or ``dict``.
+    idle_action: add a last discrete action "camera off" (for the idle floor agent).
+    star_tracker: ``qmethod`` (q-method fix from the synthetic sky each step) or ``ideal``.
+    star_tracker_sigma_arcsec: attitude error per axis the filter assumes on top of the camera's
+        direction noise (the star tracker's error rotates every measured line of sight).
+    """
+
+    scenario: str = "cruise"
+    planets: tuple[str, ...] = ("venus", "mars", "earth")
+    step_s: float = 60.0
+    attitude_substep_s: float = 1.0
+    episode_steps: int = 1440
+    action_mode: str = "target"
+    measurement_model: str = "los+size"
+    reward: str = "truth"
+    reward_scale_km: float = 1000.0
+    torque_penalty: float = 0.0
+    divergence_km: float = 1.0e5
+    observation: str = "box"
+    idle_action: bool = False
+    star_tracker: str = "qmethod"
+    star_tracker_sigma_arcsec: float = 3.0
+    camera: CameraConfig = field(default_factory=CameraConfig)
+    filter: FilterConfig = field(default_factory=FilterConfig)
+    attitude: AttitudeSettings = field(default_factory=AttitudeSettings)
+
+    def __post_init__(self) -> None:
+        if self.scenario not in SCENARIOS:
+            raise ConfigError(f"scenario must be one of {SCENARIOS}, got {self.scenario!r}")
+        planets = tuple(str(p).lower() for p in self.planets)
+        if not planets:
+            raise ConfigError("planets must name at least one body")
+        for p in planets:
+            if p not in BODIES or p == "sun":
+                raise ConfigError(
+                    f"planets: unknown or unusable body {p!r}; choose from {sorted(set(BODIES) - {'sun'})}"
+                )
+        if len(set(planets)) != len(planets):
+            raise ConfigError(f"planets must not repeat, got {list(planets)}")
+        object.__setattr__(self, "planets", planets)
+        _positive(self, "step_s", "attitude_substep_s", "reward_scale_km", "divergence_km")
+        ratio = self.step_s / self.attitude_substep_s
+        if abs(ratio - round(ratio)) > 1e-9:
+            raise ConfigError(
+                f"attitude_substep_s ({self.attitude_substep_s}) must divide step_s ({self.step_s}) exactly"
+            )
+        if int(self.episode_steps) != self.episode_steps or self.episode_steps < 1:
+            raise ConfigError(f"episode_steps must be a positive integer, got {self.episode_steps!r}")
+        if self.action_mode not in ACTION_MODES:
+            raise ConfigError(f"action_mode must be one of {ACTION_MODES}, got {self.action_mode!r}")
+        if self.measurement_model not in MODELS:
+            raise ConfigError(f"measurement_model must be one of {MODELS}, got {self.measurement_model!r}")
+        if self.reward not in REWARDS:
+            raise ConfigError(f"reward must be one of {REWARDS}, got {self.reward!r}")
+        if not (math.isfinite(self.torque_penalty) and self.torque_penalty >= 0):
+            raise ConfigError(f"torque_penalty must be >= 0, got {self.torque_penalty!r}")
+        if self.observation not in ("box", "dict"):
+            raise ConfigError(f"observation must be 'box' or 'dict', got {self.observation!r}")
+        if self.star_tracker not in ("qmethod", "ideal"):
+            raise ConfigError(f"star_tracker must be 'qmethod' or 'ideal', got {self.star_tracker!r}")
+        if not (math.isfinite(self.star_tracker_sigma_arcsec) and self.star_tracker_sigma_arcsec >= 0):
+            raise ConfigError(
+                f"star_tracker_sigma_arcsec must be >= 0, got {self.star_tracker_sigma_arcsec!r}"
+            )
+        if self.idle_action and self.action_mode != "target":
+            raise ConfigError("idle_action is only available with action_mode 'target'")
+
+    @property
+    def n_substeps(self) -> int:
+        return round(self.step_s / self.attitude_substep_s)
+
+    @property
+    def n_planets(self) -> int:
+        return len(self.planets)
+
+    # ------------------------------------------------------------------------------------------
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any] | None = None, **overrides: Any) -> EnvConfig:
+        """Build from a (YAML) mapping; nested ``camera``/``filter``/``attitude`` mappings allowed."""
+        merged = dict(data or {})
+        merged.update(overrides)
+        known = {f.name: f for f in fields(cls)}
+        kwargs: dict[str, Any] = {}
+        for key, value in merged.items():
+            if key not in known:
+                raise ConfigError(f"unknown environment option {key!r}; known options: {sorted(known)}")
+            sub = _NESTED.get(key)
+            if sub is not None and isinstance(value, Mapping):
+                value = _build(sub, value, key)
+            elif key == "planets":
+                if isinstance(value, str):
+                    value = (value,)
+                value = tuple(value)
+            kwargs[key] = value
+        try:
+            return cls(**kwargs)
+        except PlanetNavError as exc:
+            raise ConfigError(str(exc)) from None
+        except TypeError as exc:
+            raise ConfigError(f"invalid environment option: {exc}") from None
+
+    @classmethod
+    def from_yaml(cls, path: str | Path) -> EnvConfig:
+        """Load the ``env`` section of a YAML file (or the whole file if it has none)."""
+        import yaml
+
+        with open(path) as fh:
+            data = yaml.safe_load(fh) or {}
+        if not isinstance(data, Mapping):
+            raise ConfigError(f"{path}: expected a mapping at the top level")
+        return cls.from_dict(data.get("env", data))
+
+    def to_dict(self) -> dict[str, Any]:
+        """A plain mapping (YAML-serialisable) that :meth:`from_dict` turns back into this config."""
+        out: dict[str, Any] = {}
+        for f in fields(self):
+            v = getattr(self, f.name)
+            if dataclasses.is_dataclass(v):
+                v = {
+                    g.name: _plain(getattr(v, g.name))
+                    for g in fields(v)
+                    if g.init and not g.name.startswith("_")
+                }
+            out[f.name] = _plain(v)
+        return out
+
+
+_NESTED = {"camera": CameraConfig, "filter": FilterConfig, "attitude": AttitudeSettings}
+
+
+def _plain(v: Any) -> Any:
+    if isinstance(v, tuple):
+        return [_plain(x) for x in v]
+    return v
+
+
+def _build(cls: type, data: Mapping[str, Any], prefix: str) -> Any:
+    known = {f.name for f in fields(cls) if f.init and not f.name.startswith("_")}
+    for key in data:
+        if key not in known:
+            raise ConfigError(f"unknown option {prefix}.{key!r}; known: {sorted(known)}")
+    kwargs = {
+        k: (tuple(tuple(r) if isinstance(r, list) else r for r in v) if isinstance(v, list) else v)
+        for k, v in data.items()
+    }
+    try:
+        return cls(**kwargs)
+    except PlanetNavError as exc:
+        raise ConfigError(f"{prefix}: {exc}") from None
+
+
+def _positive(obj: Any, *names: str) -> None:
+    for name in names:
+        v = getattr(obj, name)
+        try:
+            ok = math.isfinite(float(v)) and float(v) > 0
+        except (TypeError, ValueError):
+            ok = False
+        if not ok:
+            raise ConfigError(f"{name} must be a positive finite number, got {v!r}")

@@ -1,0 +1,556 @@
+"""PlanetNavEnv: autonomous interplanetary navigation with a star camera, as a Gymnasium environment.
+
+One step (``EnvConfig.step_s``, default 60 s):
+
+1. the action is validated and decoded (target planet and/or wheel torque);
+2. the attitude advances ``step_s / attitude_substep_s`` RK4 sub-steps, the wheels applying the PD
+   law's torque toward the chosen planet (``target``), the agent's torque (``torque``), or both
+   (``target+torque``), clipped by the wheel torque and momentum limits;
+3. the truth orbit advances one RK4 step; the EKF predicts;
+4. the star tracker fixes the attitude (q-method on the stars in its field, ``star_tracker``);
+5. the camera measures the planet it is pointed at if that planet is visible (field of view, Sun
+   exclusion, occultation, detection threshold), turning the body-frame line of sight into the
+   inertial frame with the *star tracker's* attitude, and the EKF updates (innovations beyond the
+   chi-square gate are rejected and counted).
+
+The agent never reads the truth: observations are built from the filter's estimate and covariance,
+the star tracker's attitude, the reported rates, wheel momenta and the ephemeris. The default reward
+uses the true error (a privileged training signal; ``reward="covariance"`` is computable on board).
+
+Simplification: the PD law runs on the true attitude inside the sub-steps (its error, a few arcsec
+from the star tracker, is far below what changes a slew); the target direction it tracks comes from
+the *estimated* position.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+from numba import njit
+
+from planetnav_env import quaternion as qt
+from planetnav_env.attitude.pointing import frame_kernel, pd_torque_kernel
+from planetnav_env.bodies import AU_KM, body
+from planetnav_env.config import EnvConfig
+from planetnav_env.dynamics.attitude import (
+    load_state_kernel,
+    rk4_substep_kernel,
+    store_state_kernel,
+    wheel_torque_kernel,
+)
+from planetnav_env.dynamics.orbit import GravityModel
+from planetnav_env.ephemeris import DEEphemeris
+from planetnav_env.errors import InvalidParameterError, NonFiniteError, NotVisibleError
+from planetnav_env.estimation.fast import KIND_CODES, SingleEKF, rk4_batch_kernel
+from planetnav_env.estimation.measurements import MeasurementModel
+from planetnav_env.scenarios import draw_episode
+from planetnav_env.sensors import camera as cam
+from planetnav_env.sensors.star_tracker import StarTrackerConfig, estimate_attitude
+
+_NONE3 = np.zeros((0, 3))
+_NO_MU = np.zeros(0)
+_DEG = np.pi / 180.0
+ARCSEC = np.pi / 648_000.0
+
+_REASONS = {int(v): v.name.lower() for v in cam.VisibilityReason}
+
+#: Per-planet observation block: body-frame estimated direction (3), log10(distance / AU),
+#: estimated apparent diameter / camera diameter noise, predicted-visible flag.
+PLANET_FEATURES = 6
+
+
+@njit(cache=True)
+def _attitude_substeps(
+    q, w, h, use_pd, direction, roll_ref, u_bias, n, dt, jm, jinv, tau_max, h_max, k_a, k_w, u_last
+):  # pragma: no cover - compiled
+    """n RK4 sub-steps: PD torque toward ``direction`` (if use_pd) + ``u_bias`` -> wheel limits -> RK4.
+
+    Composes the attitude module's kernels (one implementation of each formula). Returns False when
+    the state became non-finite or the direction is zero.
+    """
+    y = np.empty(7)
+    work = np.empty((8, 7))
+    scratch = np.empty((2, 3, 3))
+    frame = np.empty((3, 3))
+    u_cmd = np.empty(3)
+    zero = np.zeros(3)
+    if not load_state_kernel(q, w, y):
+        return False
+    if use_pd and not frame_kernel(direction, roll_ref, frame):
+        return False
+    for _ in range(n):
+        if use_pd:
+            pd_torque_kernel(y[:4], y[4:], h, frame, jm, k_a, k_w, scratch[0], scratch[1], u_cmd)
+            for i in range(3):
+                u_cmd[i] += u_bias[i]
+        else:
+            for i in range(3):
+                u_cmd[i] = u_bias[i]
+        wheel_torque_kernel(u_cmd, h, dt, tau_max, h_max, u_last)
+        rk4_substep_kernel(y, h, u_last, zero, dt, jm, jinv, work)
+    return store_state_kernel(y, h, q, w, h)
+
+
+@njit(cache=True)
+def _dcm(q, out):  # pragma: no cover - compiled
+    """R(q) body -> inertial (mirror of quaternion.dcm_body_to_inertial, for unit q)."""
+    q0, q1, q2, q3 = q[0], q[1], q[2], q[3]
+    out[0, 0] = q0 * q0 + q1 * q1 - q2 * q2 - q3 * q3
+    out[0, 1] = 2.0 * (q1 * q2 - q0 * q3)
+    out[0, 2] = 2.0 * (q1 * q3 + q0 * q2)
+    out[1, 0] = 2.0 * (q1 * q2 + q0 * q3)
+    out[1, 1] = q0 * q0 - q1 * q1 + q2 * q2 - q3 * q3
+    out[1, 2] = 2.0 * (q2 * q3 - q0 * q1)
+    out[2, 0] = 2.0 * (q1 * q3 - q0 * q2)
+    out[2, 1] = 2.0 * (q2 * q3 + q0 * q1)
+    out[2, 2] = q0 * q0 - q1 * q1 - q2 * q2 + q3 * q3
+
+
+@njit(cache=True)
+def _measurement_vector(los_body, alpha, q_est, planet, x_est, kind, z, basis):  # pragma: no cover - compiled
+    """Filter measurement z from a body-frame line of sight rotated by the star-tracker attitude.
+
+    kind 0/1: (theta, phi[, alpha]); kind 2/3: the LOS projected on a basis orthogonal to the
+    *predicted* line of sight (written into ``basis``, as measurements.los_basis builds it).
+    Returns the dimension m.
+    """
+    r = np.empty((3, 3))
+    _dcm(q_est, r)
+    u = np.empty(3)
+    for i in range(3):
+        u[i] = r[i, 0] * los_body[0] + r[i, 1] * los_body[1] + r[i, 2] * los_body[2]
+    if kind <= 1:
+        z[0] = np.arcsin(min(max(u[2], -1.0), 1.0))
+        z[1] = np.arctan2(u[1], u[0])
+    else:
+        d = planet - x_est[:3]
+        d = d / np.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
+        # e1 = d x (axis least aligned with d), e2 = d x e1: the construction of los_basis.
+        k = 0
+        if abs(d[1]) < abs(d[k]):
+            k = 1
+        if abs(d[2]) < abs(d[k]):
+            k = 2
+        ax = np.zeros(3)
+        ax[k] = 1.0
+        e1 = np.cross(d, ax)
+        e1 /= np.sqrt(e1[0] * e1[0] + e1[1] * e1[1] + e1[2] * e1[2])
+        e2 = np.cross(d, e1)
+        for i in range(3):
+            basis[0, i] = e1[i]
+            basis[1, i] = e2[i]
+        z[0] = e1[0] * u[0] + e1[1] * u[1] + e1[2] * u[2]
+        z[1] = e2[0] * u[0] + e2[1] * u[1] + e2[2] * u[2]
+    if kind == 1 or kind == 3:
+        z[2] = alpha
+        return 3
+    return 2
+
+
+@njit(cache=True)
+def _planet_geometry(x_est, q_est, planets, radii, out):  # pragma: no cover - compiled
+    """Columns 0-4 of the per-planet observation block from the estimate (see PlanetNavEnv)."""
+    r = np.empty((3, 3))
+    _dcm(q_est, r)
+    for p in range(planets.shape[0]):
+        d0 = planets[p, 0] - x_est[0]
+        d1 = planets[p, 1] - x_est[1]
+        d2 = planets[p, 2] - x_est[2]
+        dist = np.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+        for i in range(3):  # R^T d / |d|
+            out[p, i] = (r[0, i] * d0 + r[1, i] * d1 + r[2, i] * d2) / dist
+        out[p, 3] = np.log10(dist / AU_KM)
+        out[p, 4] = 2.0 * np.arcsin(min(radii[p] / dist, 1.0))
+
+
+class PlanetNavEnv(gym.Env):
+    """Autonomous optical navigation between the planets (see the module docstring for one step).
+
+    Action spaces (``action_mode``)
+    -------------------------------
+    ============== ======================================== ==========================================
+    mode           space                                    meaning
+    ============== ======================================== ==========================================
+    target         ``Discrete(n_planets)``                  planet index (order of ``planets``); the
+                   (``+1`` "camera off" if ``idle_action``)  thesis's PD law slews to it
+    torque         ``Box(-1, 1, (3,))``                     wheel torque / torque limit, body axes;
+                                                            the camera measures the visible planet
+                                                            nearest its boresight
+    target+torque  ``Box(-1, 1, (n_planets + 3,))``         ``argmax(a[:n])`` picks the target (PD law
+                                                            slews to it); ``a[n:]`` is a residual torque
+                                                            (fraction of the limit) added to the PD
+                                                            command. A Box because Stable-Baselines3
+                                                            rejects Dict and Tuple action spaces.
+    ============== ======================================== ==========================================
+
+    Box actions outside [-1, 1] are clipped (SB3 clips to the bounds too); NaN or infinite actions
+    raise :class:`~planetnav_env.errors.NonFiniteError`; a discrete action outside its range raises
+    :class:`~planetnav_env.errors.InvalidParameterError`. Nothing invalid reaches the physics.
+
+    Observation (``observation="box"``, float32; ``P`` = number of planets)
+    -------------------------------------------------------------------------
+    ============ ========================================================== ==============
+    index        content                                                    scale
+    ============ ========================================================== ==============
+    0-2          estimated position, heliocentric ICRF                      / 1 AU
+    3-5          estimated velocity                                         / 30 km/s
+    6-8          log10 of the filter's position 1-sigma per axis            log10(km) / 4
+    9-11         log10 of the filter's velocity 1-sigma per axis            log10(m/s) / 4
+    12-15        attitude quaternion from the star tracker (scalar first)   -
+    16-18        reported body rates                                        deg/s
+    19-21        wheel momentum                                             / capacity
+    22+6p..27+6p planet p: estimated direction in body axes (3),             -, log10(AU),
+                 log10(estimated distance / AU), estimated apparent         / sigma_alpha,
+                 diameter / camera diameter noise, predicted visible (0/1)   0/1
+    22+6P..      current target, one-hot (P)                                0/1
+    last         elapsed fraction of the episode                            0..1
+    ============ ========================================================== ==============
+
+    ``observation="dict"`` gives the same quantities under the keys ``position``, ``velocity``,
+    ``log_sigma``, ``attitude``, ``rates``, ``wheel_momentum``, ``planets`` (P, 6), ``target`` (P,)
+    and ``elapsed`` (1,).
+
+    Reward, termination, info
+    -------------------------
+    ``reward="truth"``: ``-|r_est - r_true| / reward_scale_km`` per step (privileged: a real
+    spacecraft cannot compute it); ``"covariance"``: ``-sqrt(trace P_rr) / reward_scale_km``. Minus
+    ``torque_penalty * |u / u_max|^2`` for commanded torques. The episode *terminates* when the true
+    position error exceeds ``divergence_km`` or the filter state becomes non-finite (divergence), and
+    is *truncated* after ``episode_steps``. ``info`` holds ``pos_err_km``, ``vel_err_km_s``, ``nees``,
+    ``pos_sigma_km``, ``measured``, ``rejected``, ``target``, ``visibility`` (reason), ``slewing``,
+    ``attitude_err_arcsec`` (star tracker), ``time_s`` and ``filter`` (the estimate ``x`` and
+    covariance ``P``, which the spacecraft knows).
+    """
+
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 15}  # noqa: RUF012 (Gymnasium convention)
+
+    def __init__(
+        self, config: EnvConfig | dict | None = None, render_mode: str | None = None, **overrides: Any
+    ):
+        if isinstance(config, EnvConfig):
+            cfg = EnvConfig.from_dict(config.to_dict(), **overrides) if overrides else config
+        else:
+            cfg = EnvConfig.from_dict(config or {}, **overrides)
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise InvalidParameterError(
+                f"render_mode must be one of {self.metadata['render_modes']}, got {render_mode!r}"
+            )
+        self.config = cfg
+        self.render_mode = render_mode
+        self.planets = cfg.planets
+        n = cfg.n_planets
+        self._radii = np.array([body(p).radius for p in self.planets])
+        self._diameters = 2.0 * self._radii
+        self._ephemeris = DEEphemeris()
+        self._gravity = GravityModel("sun")
+        sigma_dir = np.hypot(cfg.camera.sigma_direction_rad, cfg.star_tracker_sigma_arcsec * ARCSEC)
+        self._meas = MeasurementModel(
+            cfg.measurement_model, sigma_dir=sigma_dir, sigma_size=cfg.camera.sigma_alpha_rad
+        )
+        self._kind = KIND_CODES[cfg.measurement_model]
+        self._tracker = StarTrackerConfig()
+        att = cfg.attitude
+        self._jm = np.diag(np.asarray(att.inertia, dtype=float))
+        self._jinv = np.linalg.inv(self._jm)
+        self._tau_max = np.full(3, att.wheel_torque_limit)
+        self._h_max = np.full(3, att.wheel_momentum_capacity)
+        self._boresight_body = cfg.camera.boresight_body
+
+        if cfg.action_mode == "target":
+            self.action_space = spaces.Discrete(n + (1 if cfg.idle_action else 0))
+        elif cfg.action_mode == "torque":
+            self.action_space = spaces.Box(-1.0, 1.0, (3,), dtype=np.float32)
+        else:
+            self.action_space = spaces.Box(-1.0, 1.0, (n + 3,), dtype=np.float32)
+        self._obs_dim = 22 + PLANET_FEATURES * n + n + 1
+        if cfg.observation == "box":
+            self.observation_space = spaces.Box(-np.inf, np.inf, (self._obs_dim,), dtype=np.float32)
+        else:
+            f32 = np.float32
+            self.observation_space = spaces.Dict(
+                {
+                    "position": spaces.Box(-np.inf, np.inf, (3,), f32),
+                    "velocity": spaces.Box(-np.inf, np.inf, (3,), f32),
+                    "log_sigma": spaces.Box(-np.inf, np.inf, (6,), f32),
+                    "attitude": spaces.Box(-1.0, 1.0, (4,), f32),
+                    "rates": spaces.Box(-np.inf, np.inf, (3,), f32),
+                    "wheel_momentum": spaces.Box(-1.0, 1.0, (3,), f32),
+                    "planets": spaces.Box(-np.inf, np.inf, (n, PLANET_FEATURES), f32),
+                    "target": spaces.Box(0.0, 1.0, (n,), f32),
+                    "elapsed": spaces.Box(0.0, 1.0, (1,), f32),
+                }
+            )
+        self._ekf: SingleEKF | None = None
+        self._done = False
+        self._z = np.empty(3)
+        self._basis = np.empty((2, 3))
+        self._features = np.empty((n, PLANET_FEATURES))
+        self._obs_buf = np.empty(self._obs_dim)
+
+    # ------------------------------------------------------------------------------------------
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        super().reset(seed=seed)
+        cfg = self.config
+        rng = self.np_random
+        ep = draw_episode(cfg.scenario, rng, self._ephemeris, self.planets, cfg.camera.sun_exclusion_deg)
+        self._epoch = ep.epoch
+        self._k = 0
+        self._done = False
+        k_total = cfg.episode_steps
+        # Planet positions at every half step of the episode: one vectorised ephemeris call per planet.
+        half = ep.epoch + 0.5 * cfg.step_s * np.arange(2 * k_total + 3)
+        self._table = np.stack([self._ephemeris.position(p, half) for p in self.planets])  # (P, 2K+3, 3)
+        self._x = ep.x0.copy()
+        p0 = cfg.filter.initial_covariance()
+        x_est = self._x + rng.multivariate_normal(np.zeros(6), p0)
+        self._ekf = SingleEKF(self._gravity, x_est, p0, cfg.filter)
+        self._q = qt.normalize(rng.normal(size=4))
+        self._w = np.zeros(3)
+        self._h = np.zeros(3)
+        self._u_last = np.zeros(3)
+        self._target = -1
+        self._q_est, self._att_err = self._star_fix()
+        self._w_meas = self._w + rng.normal(0.0, cfg.attitude.rate_noise_deg_s * _DEG, 3)
+        self._history: list[tuple[float, float]] = []
+        self._last_measurement: dict[str, Any] = {}
+        info = self._info(measured=False, rejected=False, reason="none", slewing=False)
+        self._history.append((info["pos_err_km"], info["pos_sigma_km"]))
+        return self._observation(), info
+
+    # ------------------------------------------------------------------------------------------
+    def _decode(self, action: Any) -> tuple[int, np.ndarray | None]:
+        """(target index or -1 for none/idle, torque fraction (3,) or None)."""
+        cfg = self.config
+        if cfg.action_mode == "target":
+            a = np.asarray(action)
+            if a.size != 1 or not np.issubdtype(a.dtype, np.number):
+                raise InvalidParameterError(f"target action must be one integer, got {action!r}")
+            if not np.all(np.isfinite(a)):
+                raise NonFiniteError(f"action is not finite: {action!r}")
+            idx = int(a.reshape(()))
+            if idx != a.reshape(()) or not 0 <= idx < self.action_space.n:
+                raise InvalidParameterError(
+                    f"target action must be an integer in [0, {self.action_space.n}), got {action!r}"
+                )
+            if idx == cfg.n_planets:  # the idle action
+                return -1, None
+            return idx, None
+        a = np.asarray(action, dtype=float).reshape(-1)
+        if a.shape != self.action_space.shape:
+            raise InvalidParameterError(
+                f"action must have shape {self.action_space.shape}, got {np.shape(action)}"
+            )
+        if not np.all(np.isfinite(a)):
+            raise NonFiniteError(f"action contains NaN or infinite values: {a.tolist()}")
+        a = np.clip(a, -1.0, 1.0)
+        if cfg.action_mode == "torque":
+            return -1, a
+        return int(np.argmax(a[: cfg.n_planets])), a[cfg.n_planets :]
+
+    def _planet_pos(self, half_index: int) -> np.ndarray:
+        return self._table[:, half_index]
+
+    def step(self, action: Any):
+        if self._ekf is None:
+            raise RuntimeError("call reset() before step()")
+        if self._done:
+            raise RuntimeError("the episode has ended (terminated or truncated): call reset() before step()")
+        cfg = self.config
+        target, torque_frac = self._decode(action)
+        k = self._k
+        ekf = self._ekf
+        t = self._epoch + k * cfg.step_s
+
+        # --- attitude: PD law toward the estimated direction of the target, and/or agent torque ---
+        use_pd = target >= 0 and cfg.action_mode != "torque"
+        direction = self._table[target, 2 * k] - ekf.x[:3] if use_pd else self._boresight_body
+        bias = torque_frac * self._tau_max if torque_frac is not None else np.zeros(3)
+        slewing = use_pd and target != self._target and self._target >= 0
+        if use_pd:
+            self._target = target
+        elif cfg.action_mode == "target":
+            self._target = -1
+        ok = _attitude_substeps(
+            self._q, self._w, self._h, use_pd, direction, ekf.x[:3], bias, cfg.n_substeps,
+            cfg.attitude_substep_s, self._jm, self._jinv, self._tau_max, self._h_max,
+            cfg.attitude.k_a, cfg.attitude.k_w, self._u_last,
+        )  # fmt: skip
+        if not ok:
+            raise NonFiniteError(
+                f"attitude state became non-finite at step {k} (q={self._q}, omega={self._w})"
+            )
+
+        # --- orbit truth and filter prediction ---
+        x2 = self._x.reshape(1, 6)
+        rk4_batch_kernel(x2, cfg.step_s, self._gravity.mu_central, _NONE3, _NONE3, _NONE3, _NO_MU)
+        ekf.predict(t, cfg.step_s, (_NONE3, _NONE3, _NONE3))
+        self._k = k = k + 1
+        rng = self.np_random
+
+        # --- sensors ---
+        self._q_est, self._att_err = self._star_fix()
+        self._w_meas = self._w + rng.normal(0.0, cfg.attitude.rate_noise_deg_s * _DEG, 3)
+        planets_now = self._planet_pos(2 * k)
+        measured = rejected = False
+        reason = "none"
+        meas_index = target if cfg.action_mode != "torque" else self._nearest_in_view(planets_now)
+        if cfg.action_mode == "torque":
+            self._target = meas_index
+        if meas_index >= 0:
+            code = int(
+                self._visible_reasons(
+                    self._x[None, :3], self._q[None], planets_now[meas_index : meas_index + 1],
+                    self._radii[meas_index : meas_index + 1], planets_now,
+                )[0]
+            )  # fmt: skip
+            reason = _REASONS[code]
+            if code == 0:
+                measured, rejected = self._measure(meas_index, planets_now[meas_index])
+
+        pos_err = float(np.linalg.norm(ekf.x[:3] - self._x[:3]))
+        terminated = not (np.isfinite(pos_err) and np.all(np.isfinite(ekf.P))) or pos_err > cfg.divergence_km
+        truncated = k >= cfg.episode_steps and not terminated
+        self._done = bool(terminated or truncated)
+        info = self._info(measured, rejected, reason, slewing)
+        reward = self._reward(info, torque_frac)
+        self._history.append((info["pos_err_km"], info["pos_sigma_km"]))
+        return self._observation(), reward, bool(terminated), bool(truncated), info
+
+    # ------------------------------------------------------------------------------------------
+    def _star_fix(self) -> tuple[np.ndarray, float]:
+        if self.config.star_tracker == "ideal":
+            return self._q.copy(), 0.0
+        try:
+            q_est, err = estimate_attitude(self.np_random, self._q, self._tracker)
+        except NotVisibleError:
+            # Too few stars in the field: keep the last fix (stale), reported as a large error.
+            return self._q_est, float("nan")
+        return q_est, float(err)
+
+    def _nearest_in_view(self, planets_now: np.ndarray) -> int:
+        """Index of the planet nearest the boresight by the true geometry (what the image shows), or -1."""
+        boresight = qt.rotate_body_to_inertial(self._q, self._boresight_body)
+        d = planets_now - self._x[:3]
+        cosang = d @ boresight / np.linalg.norm(d, axis=1)
+        i = int(np.argmax(cosang))
+        return i if cosang[i] > np.cos(self.config.camera.half_fov_diagonal_rad) else -1
+
+    def _measure(self, i: int, planet: np.ndarray) -> tuple[bool, bool]:
+        """Camera measurement of planet i, rotated to inertial with the star-tracker attitude; EKF update."""
+        cfg = self.config
+        m = cam.measure(
+            self.np_random, self._x[:3], self._q, planet, self._radii[i], cfg.camera, require_visible=False
+        )
+        ekf = self._ekf
+        dim = _measurement_vector(
+            m.los_body, float(m.alpha_rad), self._q_est, planet, ekf.x, self._kind, self._z, self._basis
+        )
+        nis, ok = ekf.update_planet(
+            self._z[:dim], planet, self._diameters[i], self._meas, self._basis if self._kind >= 2 else None
+        )
+        self._last_measurement = {"planet": self.planets[i], "nis": nis, "accepted": ok, "pixel": m.pixel}
+        return True, not ok
+
+    def _reward(self, info: dict, torque_frac: np.ndarray | None) -> float:
+        cfg = self.config
+        err = info["pos_err_km"] if cfg.reward == "truth" else info["pos_sigma_km"]
+        r = -float(err) / cfg.reward_scale_km
+        if torque_frac is not None and cfg.torque_penalty > 0:
+            r -= cfg.torque_penalty * float(torque_frac @ torque_frac)
+        return r if np.isfinite(r) else -cfg.divergence_km / cfg.reward_scale_km
+
+    def _info(self, measured: bool, rejected: bool, reason: str, slewing: bool) -> dict[str, Any]:
+        ekf = self._ekf
+        e = ekf.x - self._x
+        pos_err = float(np.linalg.norm(e[:3]))
+        try:
+            nees = float(e @ np.linalg.solve(ekf.P, e))
+        except np.linalg.LinAlgError:
+            nees = float("nan")
+        return {
+            "pos_err_km": pos_err,
+            "vel_err_km_s": float(np.linalg.norm(e[3:])),
+            "nees": nees,
+            "pos_sigma_km": float(np.sqrt(max(np.trace(ekf.P[:3, :3]), 0.0))),
+            "measured": measured,
+            "rejected": rejected,
+            "target": self.planets[self._target] if self._target >= 0 else None,
+            "visibility": reason,
+            "slewing": slewing,
+            "attitude_err_arcsec": self._att_err / ARCSEC,
+            "time_s": self._epoch + self._k * self.config.step_s,
+            "filter": {"x": ekf.x.copy(), "P": ekf.P.copy()},
+        }
+
+    # ------------------------------------------------------------------------------------------
+    def planet_features(self) -> np.ndarray:
+        """(P, 6) per-planet observation block from the estimate (see the class docstring)."""
+        cfg = self.config
+        ekf = self._ekf
+        planets_now = self._planet_pos(2 * self._k)
+        out = self._features
+        _planet_geometry(ekf.x, self._q_est, planets_now, self._radii, out)
+        n = cfg.n_planets
+        r_est = np.broadcast_to(ekf.x[:3], (n, 3))
+        reason = self._visible_reasons(
+            r_est, np.broadcast_to(self._q_est, (n, 4)), planets_now, self._radii, planets_now
+        )
+        out[:, 4] /= cfg.camera.sigma_alpha_rad
+        out[:, 5] = reason == 0
+        return out.copy()
+
+    def _visible_reasons(self, r, q, targets, radii, occulters) -> np.ndarray:
+        """Camera visibility reason codes (0 = visible) straight from the camera's kernel: the public
+        ``camera.visibility`` validates and wraps its inputs, which costs more than the geometry here."""
+        cfg = self.config.camera
+        st, _, res = cam._visibility_kernel(
+            np.ascontiguousarray(r), np.ascontiguousarray(q), np.ascontiguousarray(targets), radii,
+            occulters.reshape(1, -1, 3), self._radii, False, True, cfg._c2b, cfg._params,
+        )  # fmt: skip
+        if st != 0:  # a bad geometry: let the public function raise its specific error
+            cam.visibility(r, q, targets, occulters, self._radii, radii, cfg)
+        return res[0]
+
+    def _observation(self):
+        cfg = self.config
+        ekf = self._ekf
+        n = cfg.n_planets
+        buf = self._obs_buf
+        sig = np.sqrt(np.maximum(np.diagonal(ekf.P), 1e-30))
+        buf[0:3] = ekf.x[:3] / AU_KM
+        buf[3:6] = ekf.x[3:] / 30.0
+        buf[6:9] = np.log10(sig[:3]) / 4.0
+        buf[9:12] = np.log10(sig[3:] * 1e3) / 4.0
+        buf[12:16] = self._q_est
+        buf[16:19] = self._w_meas / _DEG
+        buf[19:22] = self._h / self._h_max
+        end = 22 + PLANET_FEATURES * n
+        buf[22:end] = self.planet_features().ravel()
+        buf[end : end + n] = 0.0
+        if self._target >= 0:
+            buf[end + self._target] = 1.0
+        buf[-1] = self._k / cfg.episode_steps
+        if cfg.observation == "box":
+            return buf.astype(np.float32)
+        f = buf.astype(np.float32)
+        return {
+            "position": f[0:3], "velocity": f[3:6], "log_sigma": f[6:12], "attitude": f[12:16],
+            "rates": f[16:19], "wheel_momentum": f[19:22], "planets": f[22:end].reshape(n, PLANET_FEATURES),
+            "target": f[end : end + n], "elapsed": f[-1:],
+        }  # fmt: skip
+
+    # ------------------------------------------------------------------------------------------
+    def render(self):
+        if self.render_mode != "rgb_array":
+            return None
+        from planetnav_env.render import render_frame
+
+        return render_frame(self)
+
+    @property
+    def truth(self) -> dict[str, np.ndarray]:
+        """The true state (for analysis and tests; agents must not read it)."""
+        return {"x": self._x.copy(), "q": self._q.copy(), "omega": self._w.copy(), "h_w": self._h.copy()}

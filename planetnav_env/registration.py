@@ -1,0 +1,42 @@
+"""Gymnasium registration of the planetnav environments (namespace ``planetnav``).
+
+``import planetnav_env`` registers them; ``gymnasium.make("planetnav/Cruise-Target-v0")`` then works.
+Without the import, ``gymnasium.make("planetnav_env:planetnav/Cruise-Target-v0")`` imports it first.
+"""
+
+from __future__ import annotations
+
+import gymnasium as gym
+
+ENV_IDS: dict[str, dict] = {
+    "planetnav/Cruise-Target-v0": {"scenario": "cruise", "action_mode": "target"},
+    "planetnav/Cruise-Torque-v0": {"scenario": "cruise", "action_mode": "torque"},
+    "planetnav/Cruise-TargetTorque-v0": {"scenario": "cruise", "action_mode": "target+torque"},
+    "planetnav/RandomCruise-Target-v0": {"scenario": "random-cruise", "action_mode": "target"},
+}
+
+
+def make_vector_env(id_kwargs: dict, num_envs: int = 1, **kwargs):
+    """Vector entry point: a ``SyncVectorEnv`` of independent environments."""
+    from planetnav_env.env import PlanetNavEnv
+
+    merged = {**id_kwargs, **kwargs}
+    render_mode = merged.pop("render_mode", None)
+    return gym.vector.SyncVectorEnv(
+        [lambda: PlanetNavEnv(render_mode=render_mode, **merged) for _ in range(num_envs)]
+    )
+
+
+def register_envs() -> None:
+    from functools import partial
+
+    for env_id, kwargs in ENV_IDS.items():
+        if env_id in gym.registry:
+            continue
+        gym.register(
+            id=env_id,
+            entry_point="planetnav_env.env:PlanetNavEnv",
+            vector_entry_point=partial(make_vector_env, kwargs),
+            kwargs=dict(kwargs),
+            disable_env_checker=True,  # the env validates its own actions; check_env runs in the tests
+        )

@@ -1,0 +1,178 @@
+"""Environment conformance, seeding, rendering, bad input, physics sanity."""
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.utils.env_checker import check_env as gym_check_env
+from stable_baselines3.common.env_checker import check_env as sb3_check_env
+
+import planetnav_env  # noqa: F401  (registers the ids)
+from planetnav_env.config import EnvConfig
+from planetnav_env.env import PlanetNavEnv
+from planetnav_env.errors import ConfigError, InvalidParameterError, NonFiniteError
+from planetnav_env.registration import ENV_IDS
+
+SHORT = {"episode_steps": 50}
+
+
+@pytest.mark.parametrize("env_id", sorted(ENV_IDS))
+def test_registered_ids_pass_gymnasium_and_sb3_checkers(env_id):
+    env = gym.make(env_id, render_mode="rgb_array", **SHORT)
+    gym_check_env(env.unwrapped, skip_render_check=False)
+    sb3_check_env(gym.make(env_id, **SHORT).unwrapped, warn=True)
+
+
+def test_dict_observation_variant_passes_checker():
+    env = PlanetNavEnv(observation="dict", **SHORT)
+    gym_check_env(env)
+    obs, _ = env.reset(seed=1)
+    assert set(obs) == set(env.observation_space.spaces)
+    box = PlanetNavEnv(**SHORT)
+    flat, _ = box.reset(seed=1)
+    np.testing.assert_array_equal(np.concatenate([np.ravel(v) for v in obs.values()]), flat)
+
+
+@pytest.mark.parametrize("env_id", ["planetnav/Cruise-Target-v0", "planetnav/Cruise-TargetTorque-v0"])
+def test_seeding_is_bit_for_bit_reproducible(env_id):
+    def rollout():
+        env = gym.make(env_id, episode_steps=1100)
+        env.action_space.seed(123)
+        obs, info = env.reset(seed=7)
+        frames = [obs.tobytes()]
+        rewards, infos = [], []
+        for _ in range(1000):
+            obs, r, term, trunc, info = env.step(env.action_space.sample())
+            frames.append(obs.tobytes())
+            rewards.append(r)
+            infos.append(
+                (info["pos_err_km"], info["nees"], info["measured"], info["rejected"], info["target"])
+            )
+            if term or trunc:
+                break
+        return frames, rewards, infos
+
+    a, b = rollout(), rollout()
+    assert len(a[0]) > 1000
+    assert a[0] == b[0] and a[1] == b[1] and a[2] == b[2]
+    # A different seed gives a different episode.
+    env = gym.make(env_id)
+    o1, _ = env.reset(seed=7)
+    o2, _ = env.reset(seed=8)
+    assert o1.tobytes() != o2.tobytes()
+
+
+def test_render_frames_have_shape_and_change():
+    env = PlanetNavEnv(render_mode="rgb_array", **SHORT)
+    env.reset(seed=3)
+    first = env.render()
+    assert first.shape == (256, 512, 3) and first.dtype == np.uint8
+    for _ in range(20):
+        env.step(1)
+    later = env.render()
+    assert later.shape == first.shape
+    assert np.count_nonzero(np.any(first != later, axis=-1)) > 100
+    assert PlanetNavEnv(**SHORT).render() is None
+
+
+def test_vector_entry_point():
+    vec = gym.make_vec(
+        "planetnav/Cruise-Target-v0", num_envs=3, vectorization_mode="vector_entry_point", **SHORT
+    )
+    obs, _ = vec.reset(seed=0)
+    assert obs.shape == (3, *gym.make("planetnav/Cruise-Target-v0").observation_space.shape)
+    obs, rew, term, trunc, _ = vec.step(np.array([0, 1, 2]))
+    assert rew.shape == (3,) and np.all(np.isfinite(rew))
+
+
+def test_target_mode_points_camera_and_measures():
+    env = PlanetNavEnv(episode_steps=200)
+    env.reset(seed=0)
+    measured = []
+    for _ in range(60):
+        _, _, _, _, info = env.step(0)
+        measured.append(info["measured"])
+    # A slew from a random attitude completes well inside an hour; then every step measures.
+    assert all(measured[-20:])
+    assert info["target"] == "venus" and info["visibility"] == "visible"
+    # The star tracker's attitude error is arcseconds.
+    assert info["attitude_err_arcsec"] < 60.0
+
+
+def test_bad_actions_raise_and_never_reach_the_physics():
+    env = PlanetNavEnv(**SHORT)
+    env.reset(seed=0)
+    before = env.truth
+    with pytest.raises(InvalidParameterError, match="integer in"):
+        env.step(5)
+    with pytest.raises(InvalidParameterError, match="integer in"):
+        env.step(-1)
+    with pytest.raises(NonFiniteError):
+        env.step(np.nan)
+    with pytest.raises(InvalidParameterError):
+        env.step(1.5)
+    after = env.truth
+    for k in before:
+        np.testing.assert_array_equal(before[k], after[k])
+    tenv = PlanetNavEnv(action_mode="torque", **SHORT)
+    tenv.reset(seed=0)
+    with pytest.raises(NonFiniteError, match="NaN"):
+        tenv.step(np.array([0.0, np.nan, 0.0]))
+    with pytest.raises(NonFiniteError):
+        tenv.step(np.array([np.inf, 0.0, 0.0]))
+    with pytest.raises(InvalidParameterError, match="shape"):
+        tenv.step(np.zeros(4))
+    # Out-of-range Box actions are clipped (documented): same result as the clipped action.
+    a, b = PlanetNavEnv(action_mode="torque", **SHORT), PlanetNavEnv(action_mode="torque", **SHORT)
+    a.reset(seed=4)
+    b.reset(seed=4)
+    oa = a.step(np.array([5.0, -3.0, 0.5]))[0]
+    ob = b.step(np.array([1.0, -1.0, 0.5]))[0]
+    np.testing.assert_array_equal(oa, ob)
+    assert np.all(np.isfinite(oa))
+
+
+def test_episode_end_and_step_before_reset():
+    env = PlanetNavEnv(episode_steps=3)
+    with pytest.raises(RuntimeError, match="reset"):
+        env.step(0)
+    env.reset(seed=0)
+    for _ in range(2):
+        assert not env.step(0)[3]
+    assert env.step(0)[3]  # truncated
+    with pytest.raises(RuntimeError, match="ended"):
+        env.step(0)
+
+
+def test_config_errors_name_the_key():
+    with pytest.raises(ConfigError, match="bogus_key"):
+        PlanetNavEnv(bogus_key=1)
+    with pytest.raises(ConfigError, match="step_s"):
+        PlanetNavEnv(step_s=-1)
+    with pytest.raises(ConfigError, match="pluto"):
+        PlanetNavEnv(planets=["venus", "pluto"])
+    with pytest.raises(ConfigError, match="focal_length"):
+        EnvConfig.from_dict({"camera": {"focal_length_mm": 0}})
+    with pytest.raises(ConfigError, match="camera.'pixels'"):
+        EnvConfig.from_dict({"camera": {"pixels": 3}})
+    with pytest.raises(ConfigError, match="divide"):
+        PlanetNavEnv(step_s=60, attitude_substep_s=7)
+    with pytest.raises(ConfigError, match="action_mode"):
+        PlanetNavEnv(action_mode="dance")
+
+
+def test_config_yaml_roundtrip(tmp_path):
+    import yaml
+
+    cfg = EnvConfig.from_dict({"planets": ["venus", "mars"], "filter": {"sigma_pos0": 500.0}, "step_s": 30})
+    path = tmp_path / "c.yaml"
+    path.write_text(yaml.safe_dump({"env": cfg.to_dict()}))
+    assert EnvConfig.from_yaml(path) == cfg
+
+
+def test_idle_action_never_measures():
+    env = PlanetNavEnv(idle_action=True, **SHORT)
+    env.reset(seed=0)
+    assert env.action_space.n == env.config.n_planets + 1
+    for _ in range(20):
+        _, _, _, _, info = env.step(env.config.n_planets)
+        assert not info["measured"] and info["target"] is None
