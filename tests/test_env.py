@@ -80,7 +80,7 @@ def test_vector_entry_point():
     )
     obs, _ = vec.reset(seed=0)
     assert obs.shape == (3, *gym.make("planetnav/Cruise-Target-v0").observation_space.shape)
-    obs, rew, term, trunc, _ = vec.step(np.array([0, 1, 2]))
+    obs, rew, _, _, _ = vec.step(np.array([0, 1, 2]))
     assert rew.shape == (3,) and np.all(np.isfinite(rew))
 
 
@@ -152,7 +152,7 @@ def test_config_errors_name_the_key():
         PlanetNavEnv(planets=["venus", "pluto"])
     with pytest.raises(ConfigError, match="focal_length"):
         EnvConfig.from_dict({"camera": {"focal_length_mm": 0}})
-    with pytest.raises(ConfigError, match="camera.'pixels'"):
+    with pytest.raises(ConfigError, match=r"camera\.'pixels'"):
         EnvConfig.from_dict({"camera": {"pixels": 3}})
     with pytest.raises(ConfigError, match="divide"):
         PlanetNavEnv(step_s=60, attitude_substep_s=7)
