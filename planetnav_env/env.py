@@ -251,7 +251,13 @@ class PlanetNavEnv(gym.Env):
             cfg.measurement_model, sigma_dir=sigma_dir, sigma_size=cfg.camera.sigma_alpha_rad
         )
         self._kind = KIND_CODES[cfg.measurement_model]
-        self._tracker = StarTrackerConfig()
+        # The thesis's star camera is one instrument: the stars in the planet image give the attitude.
+        # Sharing the boresight matters: a tracker's weak axis is roll about its own boresight, which
+        # would swing a camera mounted elsewhere by ~14" (measured) instead of ~1.4".
+        self._tracker = StarTrackerConfig(
+            boresight_body=tuple(float(v) for v in cfg.camera.boresight_body),
+            fov_deg=float(np.degrees(2.0 * min(cfg.camera.half_fov_rad))),
+        )
         att = cfg.attitude
         self._jm = np.diag(np.asarray(att.inertia, dtype=float))
         self._jinv = np.linalg.inv(self._jm)
