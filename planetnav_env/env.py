@@ -24,6 +24,7 @@ the *estimated* position.
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import gymnasium as gym
@@ -166,6 +167,36 @@ def _planet_geometry(x_est, q_est, planets, radii, out):  # pragma: no cover - c
         out[p, 4] = 2.0 * np.arcsin(min(radii[p] / dist, 1.0))
 
 
+@njit(cache=True)
+def _nees(x_est, x_true, p):  # pragma: no cover - compiled
+    """e^T P^-1 e by Cholesky (P symmetric positive definite); NaN if the factorisation fails."""
+    n = 6
+    e = np.empty(n)
+    for i in range(n):
+        e[i] = x_est[i] - x_true[i]
+    lo = np.zeros((n, n))
+    for i in range(n):
+        for j in range(i + 1):
+            acc = p[i, j]
+            for k in range(j):
+                acc -= lo[i, k] * lo[j, k]
+            if i == j:
+                if not acc > 0.0:
+                    return np.nan
+                lo[i, i] = np.sqrt(acc)
+            else:
+                lo[i, j] = acc / lo[j, j]
+    total = 0.0
+    y = np.empty(n)
+    for i in range(n):  # forward substitution L y = e
+        acc = e[i]
+        for k in range(i):
+            acc -= lo[i, k] * y[k]
+        y[i] = acc / lo[i, i]
+        total += y[i] * y[i]
+    return total
+
+
 class PlanetNavEnv(gym.Env):
     """Autonomous optical navigation between the planets (see the module docstring for one step).
 
@@ -295,6 +326,12 @@ class PlanetNavEnv(gym.Env):
         self._basis = np.empty((2, 3))
         self._features = np.empty((n, PLANET_FEATURES))
         self._obs_buf = np.empty(self._obs_dim)
+        self._codes = np.empty(n, dtype=np.int8)
+        self._r_tile = np.empty((n, 3))
+        self._q_tile = np.empty((n, 4))
+        self._los = np.empty((1, 3))
+        self._alpha = np.empty(1)
+        self._pix = np.empty((1, 2))
 
     # ------------------------------------------------------------------------------------------
     def reset(self, *, seed: int | None = None, options: dict | None = None):
@@ -308,7 +345,10 @@ class PlanetNavEnv(gym.Env):
         k_total = cfg.episode_steps
         # Planet positions at every half step of the episode: one vectorised ephemeris call per planet.
         half = ep.epoch + 0.5 * cfg.step_s * np.arange(2 * k_total + 3)
-        self._table = np.stack([self._ephemeris.position(p, half) for p in self.planets])  # (P, 2K+3, 3)
+        # (2K+3, P, 3): one contiguous (P, 3) slice per half step.
+        self._table = np.ascontiguousarray(
+            np.stack([self._ephemeris.position(p, half) for p in self.planets], axis=1)
+        )
         self._x = ep.x0.copy()
         p0 = cfg.filter.initial_covariance()
         x_est = self._x + rng.multivariate_normal(np.zeros(6), p0)
@@ -331,6 +371,13 @@ class PlanetNavEnv(gym.Env):
         """(target index or -1 for none/idle, torque fraction (3,) or None)."""
         cfg = self.config
         if cfg.action_mode == "target":
+            if type(action) is int or isinstance(action, np.integer):  # the common case, checked cheaply
+                idx = int(action)
+                if not 0 <= idx < self.action_space.n:
+                    raise InvalidParameterError(
+                        f"target action must be an integer in [0, {self.action_space.n}), got {action!r}"
+                    )
+                return (-1, None) if idx == cfg.n_planets else (idx, None)
             a = np.asarray(action)
             if a.size != 1 or not np.issubdtype(a.dtype, np.number):
                 raise InvalidParameterError(f"target action must be one integer, got {action!r}")
@@ -357,7 +404,7 @@ class PlanetNavEnv(gym.Env):
         return int(np.argmax(a[: cfg.n_planets])), a[cfg.n_planets :]
 
     def _planet_pos(self, half_index: int) -> np.ndarray:
-        return self._table[:, half_index]
+        return self._table[half_index]
 
     def step(self, action: Any):
         if self._ekf is None:
@@ -372,7 +419,7 @@ class PlanetNavEnv(gym.Env):
 
         # --- attitude: PD law toward the estimated direction of the target, and/or agent torque ---
         use_pd = target >= 0 and cfg.action_mode != "torque"
-        direction = self._table[target, 2 * k] - ekf.x[:3] if use_pd else self._boresight_body
+        direction = self._table[2 * k, target] - ekf.x[:3] if use_pd else self._boresight_body
         bias = torque_frac * self._tau_max if torque_frac is not None else np.zeros(3)
         slewing = use_pd and target != self._target and self._target >= 0
         if use_pd:
@@ -416,11 +463,15 @@ class PlanetNavEnv(gym.Env):
             if code == 0:
                 measured, rejected = self._measure(meas_index, planets_now[meas_index])
 
-        pos_err = float(np.linalg.norm(ekf.x[:3] - self._x[:3]))
-        terminated = not (np.isfinite(pos_err) and np.all(np.isfinite(ekf.P))) or pos_err > cfg.divergence_km
+        info = self._info(measured, rejected, reason, slewing)
+        pos_err = info["pos_err_km"]
+        # A non-finite covariance shows in its trace; a non-finite estimate in pos_err.
+        terminated = (
+            not (math.isfinite(pos_err) and math.isfinite(info["pos_sigma_km"]))
+            or pos_err > cfg.divergence_km
+        )
         truncated = k >= cfg.episode_steps and not terminated
         self._done = bool(terminated or truncated)
-        info = self._info(measured, rejected, reason, slewing)
         reward = self._reward(info, torque_frac)
         self._history.append((info["pos_err_km"], info["pos_sigma_km"]))
         return self._observation(), reward, bool(terminated), bool(truncated), info
@@ -447,17 +498,28 @@ class PlanetNavEnv(gym.Env):
     def _measure(self, i: int, planet: np.ndarray) -> tuple[bool, bool]:
         """Camera measurement of planet i, rotated to inertial with the star-tracker attitude; EKF update."""
         cfg = self.config
-        m = cam.measure(
-            self.np_random, self._x[:3], self._q, planet, self._radii[i], cfg.camera, require_visible=False
-        )
+        # camera.measure's kernel, with the same single standard-normal draw (1, 3); the public
+        # wrapper's validation costs more than the measurement (visibility was checked just before).
+        noise = self.np_random.standard_normal((1, 3))
+        st = cam.measure_into_kernel(
+            self._x[None, :3], self._q[None], planet[None], self._radii[i : i + 1], noise,
+            cfg.camera._c2b, cfg.camera._params, self._los, self._alpha, self._pix,
+        )  # fmt: skip
+        if st != 0:  # let the public function raise its specific error
+            cam.measure(self.np_random, self._x[:3], self._q, planet, self._radii[i], cfg.camera)
         ekf = self._ekf
         dim = _measurement_vector(
-            m.los_body, float(m.alpha_rad), self._q_est, planet, ekf.x, self._kind, self._z, self._basis
+            self._los[0], self._alpha[0], self._q_est, planet, ekf.x, self._kind, self._z, self._basis
         )
         nis, ok = ekf.update_planet(
             self._z[:dim], planet, self._diameters[i], self._meas, self._basis if self._kind >= 2 else None
         )
-        self._last_measurement = {"planet": self.planets[i], "nis": nis, "accepted": ok, "pixel": m.pixel}
+        self._last_measurement = {
+            "planet": self.planets[i],
+            "nis": nis,
+            "accepted": ok,
+            "pixel": self._pix[0].copy(),
+        }
         return True, not ok
 
     def _reward(self, info: dict, torque_frac: np.ndarray | None) -> float:
@@ -471,16 +533,12 @@ class PlanetNavEnv(gym.Env):
     def _info(self, measured: bool, rejected: bool, reason: str, slewing: bool) -> dict[str, Any]:
         ekf = self._ekf
         e = ekf.x - self._x
-        pos_err = float(np.linalg.norm(e[:3]))
-        try:
-            nees = float(e @ np.linalg.solve(ekf.P, e))
-        except np.linalg.LinAlgError:
-            nees = float("nan")
+        p = ekf.P
         return {
-            "pos_err_km": pos_err,
-            "vel_err_km_s": float(np.linalg.norm(e[3:])),
-            "nees": nees,
-            "pos_sigma_km": float(np.sqrt(max(np.trace(ekf.P[:3, :3]), 0.0))),
+            "pos_err_km": math.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2]),
+            "vel_err_km_s": math.sqrt(e[3] * e[3] + e[4] * e[4] + e[5] * e[5]),
+            "nees": float(_nees(ekf.x, self._x, p)),
+            "pos_sigma_km": math.sqrt(max(p[0, 0] + p[1, 1] + p[2, 2], 0.0)),
             "measured": measured,
             "rejected": rejected,
             "target": self.planets[self._target] if self._target >= 0 else None,
@@ -509,16 +567,16 @@ class PlanetNavEnv(gym.Env):
         return out.copy()
 
     def _visible_reasons(self, r, q, targets, radii, occulters) -> np.ndarray:
-        """Camera visibility reason codes (0 = visible) straight from the camera's kernel: the public
+        """Camera visibility reason codes (0 = visible) from the camera's codes-only kernel: the public
         ``camera.visibility`` validates and wraps its inputs, which costs more than the geometry here."""
         cfg = self.config.camera
-        st, _, res = cam._visibility_kernel(
-            np.ascontiguousarray(r), np.ascontiguousarray(q), np.ascontiguousarray(targets), radii,
-            occulters.reshape(1, -1, 3), self._radii, False, True, cfg._c2b, cfg._params,
-        )  # fmt: skip
+        out = self._codes[: len(targets)]
+        st = cam.visibility_codes_kernel(
+            r, q, targets, radii, occulters.reshape(1, -1, 3), self._radii, True, cfg._c2b, cfg._params, out
+        )
         if st != 0:  # a bad geometry: let the public function raise its specific error
             cam.visibility(r, q, targets, occulters, self._radii, radii, cfg)
-        return res[0]
+        return out
 
     def _observation(self):
         cfg = self.config

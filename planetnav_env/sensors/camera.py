@@ -679,6 +679,55 @@ def _measure_kernel(
     return _OK, -1, los, alpha, mm, pix, los_true, alpha_true
 
 
+@njit(cache=True, nogil=True)
+def visibility_codes_kernel(
+    r: np.ndarray,
+    q: np.ndarray,
+    t: np.ndarray,
+    trad: np.ndarray,
+    occ: np.ndarray,
+    occ_rad: np.ndarray,
+    include_sun: bool,
+    c2b: np.ndarray,
+    p: np.ndarray,
+    out: np.ndarray,
+) -> int:
+    """Reason codes only (into ``out``), for callers inside a step loop: returning the full result
+    tuple boxes ten arrays, which costs more than the geometry. Same semantics as
+    :func:`_visibility_kernel` with occulters shared by the batch; returns its status."""
+    st, _, res = _visibility_kernel(r, q, t, trad, occ, occ_rad, False, include_sun, c2b, p)
+    if st == _OK:
+        for i in range(out.shape[0]):
+            out[i] = res[0][i]
+    return st
+
+
+@njit(cache=True, nogil=True)
+def measure_into_kernel(
+    r: np.ndarray,
+    q: np.ndarray,
+    t: np.ndarray,
+    trad: np.ndarray,
+    z: np.ndarray,
+    c2b: np.ndarray,
+    p: np.ndarray,
+    los_out: np.ndarray,
+    alpha_out: np.ndarray,
+    pix_out: np.ndarray,
+) -> int:
+    """:func:`_measure_kernel` writing the noisy body-frame LOS, angular diameter and pixel of
+    element 0..n-1 into caller arrays (no boxing); returns its status."""
+    st, _, los, alpha, _, pix, _, _ = _measure_kernel(r, q, t, trad, z, c2b, p)
+    if st == _OK:
+        for i in range(los.shape[0]):
+            alpha_out[i] = alpha[i]
+            for k in range(3):
+                los_out[i, k] = los[i, k]
+            pix_out[i, 0] = pix[i, 0]
+            pix_out[i, 1] = pix[i, 1]
+    return st
+
+
 # ---------------------------------------------------------------------------------------------------------
 # Public hot-path API
 # ---------------------------------------------------------------------------------------------------------
