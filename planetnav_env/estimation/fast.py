@@ -13,8 +13,9 @@ Measurement kinds (integer codes, see :data:`KIND_CODES`): 0 direction, 1 direct
 
 from __future__ import annotations
 
+import numba
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 from planetnav_env.dynamics.orbit import GravityModel, PerturberFn
 from planetnav_env.errors import InvalidParameterError, require_finite, require_positive
@@ -290,15 +291,21 @@ def _inv_small(s, m, out):
         out[2, 2] = (s[0, 0] * s[1, 1] - s[0, 1] * s[1, 0]) / det
 
 
-@njit(cache=True)
+@njit(cache=True, parallel=True)
 def predict_batch_kernel(x, p, dt, mu, p0, p1, p2, mus, q, euler_stm):
-    """Predict N filters (leading axis) in place."""
-    w6 = np.empty((3, 6, 6))
-    v6 = np.empty((4, 6))
-    phi = np.empty((6, 6))
-    tmp = np.empty((6, 6))
-    for n in range(x.shape[0]):
-        predict_kernel(x[n], p[n], dt, mu, p0, p1, p2, mus, q, euler_stm, w6, v6, phi, tmp)
+    """Predict N filters (leading axis) in place, in chunks spread over the CPU's threads.
+
+    The filters are independent, so the result does not depend on the thread count.
+    """
+    n_total = x.shape[0]
+    n_chunks = min(numba.get_num_threads(), n_total)
+    for c in prange(n_chunks):
+        w6 = np.empty((3, 6, 6))
+        v6 = np.empty((4, 6))
+        phi = np.empty((6, 6))
+        tmp = np.empty((6, 6))
+        for n in range(c * n_total // n_chunks, (c + 1) * n_total // n_chunks):
+            predict_kernel(x[n], p[n], dt, mu, p0, p1, p2, mus, q, euler_stm, w6, v6, phi, tmp)
 
 
 @njit(cache=True)
@@ -313,25 +320,30 @@ def rk4_batch_kernel(x, dt, mu, p0, p1, p2, mus):
         x[n, :] = x_new
 
 
-@njit(cache=True)
+@njit(cache=True, parallel=True)
 def update_batch_kernel(
     x, p, z, planet, diameter, kind, sig_dir, sig_size, basis, active, gate, nis_out, acc_out
 ):
     """Update N filters in place, one planet measurement each; planet (N, 3), z (N, m), basis (N, 2, 3)."""
-    h = np.empty(3)
-    jac = np.empty((3, 6))
-    rcov = np.empty((3, 3))
-    uw = np.empty((5, 6, 6))
+    n_total = x.shape[0]
+    n_chunks = min(numba.get_num_threads(), n_total)
     wrap_index = 1 if kind <= 1 else -1
-    for n in range(x.shape[0]):
-        if active[n]:
-            m = planet_model_kernel(
-                x[n, :3], planet[n], diameter, kind, sig_dir, sig_size, basis[n], h, jac, rcov
-            )
-            nis_out[n], acc_out[n] = update_kernel(x[n], p[n], z[n], h, jac, rcov, m, wrap_index, gate, uw)
-        else:
-            nis_out[n] = np.nan
-            acc_out[n] = False
+    for c in prange(n_chunks):
+        h = np.empty(3)
+        jac = np.empty((3, 6))
+        rcov = np.empty((3, 3))
+        uw = np.empty((5, 6, 6))
+        for n in range(c * n_total // n_chunks, (c + 1) * n_total // n_chunks):
+            if active[n]:
+                m = planet_model_kernel(
+                    x[n, :3], planet[n], diameter, kind, sig_dir, sig_size, basis[n], h, jac, rcov
+                )
+                nis_out[n], acc_out[n] = update_kernel(
+                    x[n], p[n], z[n], h, jac, rcov, m, wrap_index, gate, uw
+                )
+            else:
+                nis_out[n] = np.nan
+                acc_out[n] = False
 
 
 @njit(cache=True)
