@@ -1,0 +1,572 @@
+"""Mars approach with hybrid optical + X-ray pulsar navigation (patent 003): scenario, truth, EKF harness.
+
+Trajectory and epoch (documented in ``docs/optical_pulsar.md``)
+----------------------------------------------------------------
+* Central body Mars; Sun, Earth and Jupiter as point-mass perturbers (direct minus indirect terms,
+  :class:`planetnav_env.dynamics.orbit.GravityModel`), their positions from DE421 (Jupiter: its system
+  barycentre). State ``x = [r, v]`` relative to Mars's centre, ICRF axes, km and km/s; time TDB s since J2000.
+* Closest approach (periapsis) at ``closest_approach_tdb``, default 2021-02-10 12:00 TDB (the week Tianwen-1
+  arrived; the trajectory is an idealised one, not Tianwen-1's).
+* Arrival geometry of a Hohmann-like transfer: the spacecraft reaches Mars near the aphelion of its transfer
+  orbit, moving slower than Mars, so its incoming hyperbolic excess velocity points against Mars's
+  heliocentric velocity: ``v_inf = -v_inf_km_s * unit(v_mars)``, default 2.65 km/s (the Hohmann value
+  for 1 -> 1.524 AU). The hyperbola's plane contains ``v_inf`` and is as close to the ecliptic as possible
+  (its normal is the ecliptic pole's component orthogonal to ``v_inf``), periapsis altitude 400 km.
+* The two-body periapsis state of that hyperbola at ``closest_approach_tdb`` defines the trajectory: it is
+  integrated *backwards* with the full force model by scipy's DOP853 (rtol 1e-12) to ``duration_h`` before
+  closest approach (default 96 h) and its dense output is the truth on the filter's time grid. Because the
+  state at ``closest_approach_tdb`` has ``r . v = 0`` exactly, it is the truth's closest approach.
+
+Filter
+------
+One :class:`planetnav_env.estimation.ekf.BatchEKF` per method (the leading axis = Monte Carlo runs), RK4
+prediction with the RK4 state transition matrix at ``dt_s`` (default 60 s), the same force model (the RK4 vs
+DOP853 difference is the only dynamics error, see ``tests/test_approach.py`` for its bound). Measurements
+(each sensor at its own rate; when both report at one step, they form one stacked vector and one update,
+``z = [p, l, delta_phi_1, ...]``):
+
+* optical: (p, l) [mm] of Mars's centre (:mod:`planetnav_env.estimation.image_plane`), every
+  ``optical_interval_s``; the truth camera points at Mars with a random pointing error; the filter uses the
+  star tracker's attitude (truth attitude times a random error) in ``R_ci``;
+* pulsar: total phase [cycles] of each pulsar (:mod:`planetnav_env.sensors.pulsar`), one per integration
+  window ``detector.integration_time_s``, cycle ambiguity resolved against the prediction when
+  ``k sigma_pred < 1/2`` cycle (otherwise skipped and counted).
+
+Methods: ``OPN`` optical only, ``PN`` pulsar only, ``OPHN`` both.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.integrate import solve_ivp
+
+from planetnav_env.bodies import ECLIPTIC_TO_EQUATORIAL, body
+from planetnav_env.dynamics.orbit import GravityModel, rk4_step
+from planetnav_env.ephemeris import DEEphemeris
+from planetnav_env.errors import InvalidParameterError, require_finite, require_positive
+from planetnav_env.estimation.ekf import BatchEKF, FilterConfig
+from planetnav_env.estimation.image_plane import (
+    boresight_camera_to_inertial,
+    image_plane_coordinates,
+    image_plane_jacobian,
+    image_plane_sigma_mm,
+)
+from planetnav_env.sensors import pulsar as psr
+from planetnav_env.sensors.camera import DEFAULT_CAMERA, CameraConfig
+from planetnav_env.timescale import tdb_seconds
+
+__all__ = [
+    "METHODS",
+    "PERTURBERS",
+    "ApproachConfig",
+    "ApproachResult",
+    "MarsApproach",
+    "NavConfig",
+    "check_pulsars_visible",
+    "hyperbolic_periapsis_state",
+    "run_method",
+    "run_methods",
+]
+
+PERTURBERS = ("sun", "earth", "jupiter")
+#: Which sensors each method uses: (optical, pulsar).
+METHODS: dict[str, tuple[bool, bool]] = {"OPN": (True, False), "PN": (False, True), "OPHN": (True, True)}
+DEFAULT_CLOSEST_APPROACH_TDB = tdb_seconds(2021, 2, 10, 12.0)
+_ECLIPTIC_POLE = ECLIPTIC_TO_EQUATORIAL @ np.array([0.0, 0.0, 1.0])
+
+
+def _unit(v: np.ndarray) -> np.ndarray:
+    return v / np.linalg.norm(v, axis=-1, keepdims=True)
+
+
+def hyperbolic_periapsis_state(
+    v_inf_vec: np.ndarray, periapsis_radius_km: float, mu: float, plane_normal_hint: np.ndarray
+) -> np.ndarray:
+    """Periapsis state (6,) [km, km/s] of the two-body hyperbola with incoming excess velocity ``v_inf_vec``.
+
+    ``e = 1 + r_p v_inf^2 / mu``; with ``s`` the unit incoming asymptote (velocity direction at infinity),
+    ``h`` the unit orbit normal (``plane_normal_hint`` made orthogonal to ``s``), ``w = h x s`` and
+    ``k = sqrt(e^2 - 1)``: periapsis direction ``p = (s - k w) / e``, velocity direction ``q = h x p``,
+    speed ``sqrt(v_inf^2 + 2 mu / r_p)``. (From the perifocal velocity at true anomaly ``-acos(-1/e)``,
+    which points along ``(p + k q) / e``.)
+    """
+    v_inf_vec = require_finite("v_inf_vec", v_inf_vec)
+    rp = require_positive("periapsis_radius_km", periapsis_radius_km)
+    vinf = float(np.linalg.norm(v_inf_vec))
+    require_positive("|v_inf|", vinf)
+    s = v_inf_vec / vinf
+    hint = np.asarray(plane_normal_hint, float)
+    h = hint - (hint @ s) * s
+    if np.linalg.norm(h) < 1e-9:
+        raise InvalidParameterError("plane_normal_hint is parallel to v_inf: the orbit plane is undefined")
+    h = _unit(h)
+    e = 1.0 + rp * vinf**2 / mu
+    k = np.sqrt(e * e - 1.0)
+    p = (s - k * np.cross(h, s)) / e
+    q = np.cross(h, p)
+    vp = np.sqrt(vinf**2 + 2.0 * mu / rp)
+    return np.concatenate([rp * p, vp * q])
+
+
+@dataclass(frozen=True)
+class ApproachConfig:
+    """The approach trajectory and the time grid.
+
+    closest_approach_tdb [TDB s since J2000]; v_inf_km_s [km/s]; periapsis_altitude_km [km above Mars's
+    equatorial radius]; duration_h: start of the simulation before closest approach [h]; end_before_ca_h: end
+    of the simulation before closest approach [h] (0 = at closest approach); dt_s: filter and truth grid
+    step [s].
+    """
+
+    closest_approach_tdb: float = DEFAULT_CLOSEST_APPROACH_TDB
+    v_inf_km_s: float = 2.65
+    periapsis_altitude_km: float = 400.0
+    duration_h: float = 96.0
+    end_before_ca_h: float = 0.0
+    dt_s: float = 60.0
+
+    def __post_init__(self) -> None:
+        for name in ("v_inf_km_s", "periapsis_altitude_km", "duration_h", "dt_s"):
+            require_positive(f"ApproachConfig.{name}", getattr(self, name))
+        if not np.isfinite(self.closest_approach_tdb):
+            raise InvalidParameterError(
+                f"closest_approach_tdb must be finite, got {self.closest_approach_tdb!r}"
+            )
+        if not 0.0 <= self.end_before_ca_h < self.duration_h:
+            raise InvalidParameterError(
+                f"end_before_ca_h must be in [0, duration_h={self.duration_h}), got {self.end_before_ca_h!r}"
+            )
+        span = (self.duration_h - self.end_before_ca_h) * 3600.0
+        n = span / self.dt_s
+        if abs(n - round(n)) > 1e-9 * max(1.0, n):
+            raise InvalidParameterError(f"the span {span} s is not a whole number of steps dt_s={self.dt_s}")
+
+
+class MarsApproach:
+    """Truth trajectory, ephemeris tables and the force model of one approach (see the module docstring).
+
+    Attributes: ``t`` (K+1,) grid [TDB s]; ``x_true`` (K+1, 6) [km, km/s, Mars-centred ICRF];
+    ``mars_helio`` (K+1, 3) and ``mars_ssb`` (K+1, 3) [km]; ``model`` the GravityModel.
+    """
+
+    def __init__(self, config: ApproachConfig | None = None, ephemeris: DEEphemeris | None = None) -> None:
+        self.config = cfg = config or ApproachConfig()
+        self.eph = ephemeris or DEEphemeris()
+        self.model = GravityModel(central="mars", perturbers=PERTURBERS)
+        self.t0 = cfg.closest_approach_tdb - cfg.duration_h * 3600.0
+        self.t_end = cfg.closest_approach_tdb - cfg.end_before_ca_h * 3600.0
+        self.dt = cfg.dt_s
+        self.n_steps = round((self.t_end - self.t0) / self.dt)
+        self.t = self.t0 + self.dt * np.arange(self.n_steps + 1)
+        # Perturber positions on the RK4 half-step grid: the filter's RK4 asks for exactly these times.
+        self._half = 0.5 * self.dt
+        t_half = self.t0 + self._half * np.arange(2 * self.n_steps + 1)
+        self._pert_table = self.perturber_positions(t_half)
+        self.mars_helio = self.eph.position("mars", self.t)
+        self.mars_ssb = self.mars_helio + psr.sun_ssb_position(self.t)
+        self.x_ca = self.periapsis_state()
+        self.x_true = self._integrate_truth()
+
+    # --- ephemeris ------------------------------------------------------------------------------------
+    def perturber_positions(self, t: np.ndarray | float) -> np.ndarray:
+        """Sun, Earth, Jupiter relative to Mars [km], shape ``t.shape + (3, 3)`` (body axis second last)."""
+        t = np.asarray(t, float)
+        mars = self.eph.position("mars", t)
+        out = [(-mars if b == "sun" else self.eph.position(b, t) - mars) for b in PERTURBERS]
+        return np.stack(out, axis=-2)
+
+    def perturbers(self, t: float) -> np.ndarray:
+        """``PerturberFn`` for the RK4 filter: tabulated on the half-step grid, exact elsewhere."""
+        j = (t - self.t0) / self._half
+        i = round(j)
+        if abs(j - i) < 1e-6 and 0 <= i < self._pert_table.shape[0]:
+            return self._pert_table[i]
+        return self.perturber_positions(t)
+
+    def periapsis_state(self) -> np.ndarray:
+        """Two-body periapsis state at closest approach (6,) (see :func:`hyperbolic_periapsis_state`)."""
+        cfg = self.config
+        _, v_mars = self.eph.state("mars", cfg.closest_approach_tdb)
+        v_inf = -cfg.v_inf_km_s * _unit(v_mars)
+        rp = body("mars").radius + cfg.periapsis_altitude_km
+        return hyperbolic_periapsis_state(v_inf, rp, self.model.mu_central, _ECLIPTIC_POLE)
+
+    def _rhs(self, t: float, x: np.ndarray) -> np.ndarray:
+        return self.model.derivative(x[None, :], self.perturber_positions(t))[0]
+
+    def _integrate_truth(self) -> np.ndarray:
+        t_ca = self.config.closest_approach_tdb
+        # Backwards from periapsis to the start; DOP853 at tight tolerance is the independent truth.
+        sol = solve_ivp(
+            self._rhs, (t_ca, self.t0), self.x_ca, method="DOP853", rtol=1e-12, atol=1e-9, dense_output=True
+        )
+        if not sol.success:  # pragma: no cover - scipy failure
+            raise RuntimeError(f"truth integration failed: {sol.message}")
+        return sol.sol(self.t).T.copy()
+
+    def rk4_trajectory(self) -> np.ndarray:
+        """The filter's fixed-step RK4 from the true initial state over the grid, (K+1, 6)."""
+        out = np.empty((self.n_steps + 1, 6))
+        x = self.x_true[:1].copy()
+        out[0] = x[0]
+        for k in range(self.n_steps):
+            x = rk4_step(self.model, x, self.t[k], self.dt, self.perturbers)
+            out[k + 1] = x[0]
+        return out
+
+    # --- geometry ---------------------------------------------------------------------------------------
+    @property
+    def hours(self) -> np.ndarray:
+        """Grid times since the start [h]."""
+        return (self.t - self.t0) / 3600.0
+
+    def range_km(self) -> np.ndarray:
+        """Distance from Mars's centre along the truth (K+1,) [km]."""
+        return np.linalg.norm(self.x_true[:, :3], axis=-1)
+
+
+@dataclass(frozen=True)
+class NavConfig:
+    """Sensors and filter of the navigation runs.
+
+    camera: its ``focal_length_mm``, ``camera_to_body``, ``direction_noise_arcsec`` (centroiding, 1-sigma per
+        axis) and field of view are used; optical_interval_s [s] between images;
+    star_tracker_arcsec: 1-sigma per-axis error of the star tracker's attitude used in ``R_ci`` [arcsec];
+    pointing_sigma_deg: 1-sigma per-axis error of the truth boresight about the Mars direction [deg] (the
+        planet is imaged off-centre; the measured (p, l) carries the offset);
+    pulsars: catalogue names; detector: area, integration time (= interval between TOAs), background;
+    filter: P0, Q, gating (:class:`FilterConfig`), units km, km/s, km^2/s^3. Default: 100 km and 1 m/s per
+        axis (1-sigma) a priori; white-acceleration PSD 1e-16 km^2/s^3 (~1e-10 km/s^2 over an hour, the
+        order of unmodelled solar pressure); gate at chi-square probability 0.9999;
+    ambiguity_k_sigma: a pulsar phase is used only if ``k sigma_pred < 1/2`` cycle.
+    """
+
+    camera: CameraConfig = DEFAULT_CAMERA
+    optical_interval_s: float = 600.0
+    star_tracker_arcsec: float = 3.0
+    pointing_sigma_deg: float = 0.1
+    pulsars: tuple[str, ...] = ("B0531+21",)
+    detector: psr.XrayDetector = psr.DEFAULT_DETECTOR
+    filter: FilterConfig = field(
+        default_factory=lambda: FilterConfig(sigma_pos0=100.0, sigma_vel0=1e-3, accel_psd=1e-16)
+    )
+    ambiguity_k_sigma: float = 3.0
+
+    def __post_init__(self) -> None:
+        require_positive("NavConfig.optical_interval_s", self.optical_interval_s)
+        for name in ("star_tracker_arcsec", "pointing_sigma_deg"):
+            v = getattr(self, name)
+            if not np.isfinite(v) or v < 0.0:
+                raise InvalidParameterError(f"NavConfig.{name} must be >= 0, got {v!r}")
+        object.__setattr__(self, "pulsars", tuple(psr.pulsar(p).bname for p in self.pulsars))
+        if not self.pulsars:
+            raise InvalidParameterError("NavConfig.pulsars must name at least one pulsar")
+        require_positive("NavConfig.ambiguity_k_sigma", self.ambiguity_k_sigma)
+
+
+@dataclass
+class ApproachResult:
+    """Histories of one method's Monte Carlo (time axis first, run axis second).
+
+    t_h (K+1,) hours since the start; pos_err, vel_err (K+1, N, 3) [km, km/s] estimate minus truth;
+    sigma_pos (K+1, N) ``sqrt(trace P_rr)`` [km] (1-sigma of the 3-D position error); nees (K+1, N);
+    counts of optical / pulsar updates and of skipped pulsar phases (ambiguity), rejected (gated) updates.
+    """
+
+    method: str
+    t_h: np.ndarray
+    pos_err: np.ndarray
+    vel_err: np.ndarray
+    sigma_pos: np.ndarray
+    nees: np.ndarray
+    n_optical: int
+    n_pulsar: int
+    n_ambiguity_skipped: int
+    n_pulsar_not_visible: int
+    n_optical_not_visible: int
+    rejected: np.ndarray
+
+    @property
+    def pos_err_norm(self) -> np.ndarray:
+        """|position error| (K+1, N) [km]."""
+        return np.linalg.norm(self.pos_err, axis=-1)
+
+    @property
+    def rms_over_runs(self) -> np.ndarray:
+        """RMS over runs of |position error| (K+1,) [km]."""
+        return np.sqrt(np.mean(self.pos_err_norm**2, axis=1))
+
+    def time_to_km(self, threshold_km: float = 10.0) -> float | None:
+        """Hours from the start after which the run-RMS position error stays below ``threshold_km`` to the
+        end; None if it is above at the end."""
+        e = self.rms_over_runs
+        above = np.flatnonzero(e >= threshold_km)
+        if above.size == 0:
+            return float(self.t_h[0])
+        if above[-1] == e.size - 1:
+            return None
+        return float(self.t_h[above[-1] + 1])
+
+    def summary(self) -> dict[str, float | None]:
+        """The reproduction's metrics: final_pos_err_km (RMS over runs at the end), rms_pos_err_km_last_half
+        (RMS over runs and over the second half of the time span), time_to_10km_h (see :meth:`time_to_km`)."""
+        e = self.pos_err_norm
+        half = e[e.shape[0] // 2 :]
+        return {
+            "final_pos_err_km": float(np.sqrt(np.mean(e[-1] ** 2))),
+            "rms_pos_err_km_last_half": float(np.sqrt(np.mean(half**2))),
+            "time_to_10km_h": self.time_to_km(10.0),
+            "final_3sigma_km": float(3.0 * np.sqrt(np.mean(self.sigma_pos[-1] ** 2))),
+            "mean_final_nees": float(np.mean(self.nees[-1])),
+        }
+
+
+@dataclass
+class _Draws:
+    """Random numbers shared by every method (common random numbers): same seed, same draws."""
+
+    x0_err: np.ndarray  # (N, 6)
+    centroid: np.ndarray  # (n_opt, N, 2) standard normal
+    pointing: np.ndarray  # (n_opt, N, 2) standard normal
+    tracker: np.ndarray  # (n_opt, N, 3) standard normal
+    phase: np.ndarray  # (n_psr, N, M) standard normal
+
+
+def _schedule(n_steps: int, dt: float, interval: float) -> np.ndarray:
+    """Step indices k (1..n_steps) at which a sensor with report ``interval`` [s] delivers: the first grid
+    time at or after each multiple of the interval since the start."""
+    due = np.arange(1, int(np.floor(n_steps * dt / interval + 1e-9)) + 1) * interval
+    return np.unique(np.ceil(due / dt - 1e-9).astype(int))
+
+
+def _small_rotation(angles: np.ndarray) -> np.ndarray:
+    """Rotation matrices (N, 3, 3) of rotation vectors ``angles`` (N, 3) [rad] (Rodrigues)."""
+    th = np.linalg.norm(angles, axis=-1)[:, None, None]
+    k = np.zeros((angles.shape[0], 3, 3))
+    k[:, 0, 1], k[:, 0, 2], k[:, 1, 2] = -angles[:, 2], angles[:, 1], -angles[:, 0]
+    k[:, 1, 0], k[:, 2, 0], k[:, 2, 1] = angles[:, 2], -angles[:, 1], angles[:, 0]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        a = np.where(th > 0, np.sin(th) / th, 1.0)
+        b = np.where(th > 0, (1.0 - np.cos(th)) / th**2, 0.5)
+    return np.eye(3) + a * k + b * (k @ k)
+
+
+def _mars_disk_fits(scn: MarsApproach, camera: CameraConfig, margin_rad: float) -> np.ndarray:
+    """Per grid time: the whole Mars disk (plus ``margin_rad`` of pointing error) fits in the sensor's
+    smaller half field of view (a limb fit needs the whole limb)."""
+    ang_rad = np.arcsin(np.clip(body("mars").radius / scn.range_km(), 0.0, 1.0))
+    return ang_rad + margin_rad < min(camera.half_fov_rad)
+
+
+def _sun_mars_angle_ok(scn: MarsApproach, camera: CameraConfig) -> np.ndarray:
+    """Per grid time: Mars is outside the camera's Sun-exclusion cone."""
+    r_helio = scn.mars_helio + scn.x_true[:, :3]
+    to_sun = _unit(-r_helio)
+    to_mars = _unit(-scn.x_true[:, :3])
+    ang = np.arccos(np.clip(np.sum(to_sun * to_mars, axis=-1), -1.0, 1.0))
+    return ang > camera.sun_exclusion_rad
+
+
+def run_methods(
+    scenario: MarsApproach,
+    methods: tuple[str, ...] | list[str] = tuple(METHODS),
+    runs: int = 20,
+    seed: int = 0,
+    nav: NavConfig | None = None,
+) -> dict[str, ApproachResult]:
+    """Monte Carlo of several navigation methods on ``scenario``, advanced together in one batched EKF.
+
+    Runs differ in the initial estimation error (drawn from P0) and in the measurement noise; every method
+    sees the same draws (common random numbers), so differences between methods are not sampling noise.
+    Raises :class:`NotVisibleError` if a pulsar is Sun-blocked at any time of the approach (a pulsar the
+    detector can never time is a configuration error, not a gap); occultations by Mars and images with Mars
+    too large for the field of view or inside the Sun-exclusion cone are gaps (counted).
+    """
+    methods = tuple(methods)
+    for m in methods:
+        if m not in METHODS:
+            raise InvalidParameterError(f"unknown method {m!r}; choose from {list(METHODS)}")
+    if not methods or len(set(methods)) != len(methods):
+        raise InvalidParameterError(f"methods must be distinct and non-empty, got {methods!r}")
+    runs = int(runs)
+    if runs < 1:
+        raise InvalidParameterError(f"runs must be >= 1, got {runs}")
+    nav = nav or NavConfig()
+    scn = scenario
+    cam = nav.camera
+    n_steps, dt = scn.n_steps, scn.dt
+    pulsars = [psr.pulsar(p) for p in nav.pulsars]
+    m_psr = len(pulsars)
+    g = len(methods)
+    nb = g * runs
+    uses_opt = np.repeat([METHODS[m][0] for m in methods], runs)
+    uses_psr = np.repeat([METHODS[m][1] for m in methods], runs)
+
+    r_helio_true = scn.mars_helio + scn.x_true[:, :3]
+    if np.any(uses_psr):
+        psr.check_visible(r_helio_true, pulsars, nav.detector)
+
+    opt_steps = _schedule(n_steps, dt, nav.optical_interval_s)
+    psr_steps = _schedule(n_steps, dt, nav.detector.integration_time_s)
+
+    rng = np.random.default_rng(seed)
+    p0 = nav.filter.initial_covariance()
+    draws = _Draws(
+        x0_err=rng.standard_normal((runs, 6)) @ np.linalg.cholesky(p0).T,
+        centroid=rng.standard_normal((opt_steps.size, runs, 2)),
+        pointing=rng.standard_normal((opt_steps.size, runs, 2)),
+        tracker=rng.standard_normal((opt_steps.size, runs, 3)),
+        phase=rng.standard_normal((psr_steps.size, runs, m_psr)),
+    )
+
+    def tile(a: np.ndarray) -> np.ndarray:
+        return np.tile(a, (g,) + (1,) * (a.ndim - 1))
+
+    x_true = scn.x_true
+    ekf = BatchEKF(scn.model, tile(x_true[0] + draws.x0_err), p0, nav.filter, perturbers=scn.perturbers)
+
+    sig_c = cam.sigma_direction_rad
+    sig_st = np.deg2rad(nav.star_tracker_arcsec / 3600.0)
+    sig_pt = np.deg2rad(nav.pointing_sigma_deg)
+    r_opt = np.eye(2) * image_plane_sigma_mm(cam, nav.star_tracker_arcsec) ** 2
+    sig_phase = np.array([psr.phase_sigma_cycles(p, nav.detector) for p in pulsars])
+    r_psr = np.diag(sig_phase**2)
+
+    opt_ok = _mars_disk_fits(scn, cam, 3.0 * sig_pt) & _sun_mars_angle_ok(scn, cam)
+    psr_vis = np.all(
+        psr.pulsar_visibility(
+            r_helio_true, pulsars, nav.detector, scn.mars_helio, psr.mars_radius_km()
+        ).visible,
+        axis=1,
+    )
+    opt_index = {int(k): i for i, k in enumerate(opt_steps)}
+    psr_index = {int(k): i for i, k in enumerate(psr_steps)}
+
+    k_all = n_steps + 1
+    pos_err = np.empty((k_all, nb, 3))
+    vel_err = np.empty((k_all, nb, 3))
+    sigma_pos = np.empty((k_all, nb))
+    nees = np.empty((k_all, nb))
+
+    def record(k: int) -> None:
+        e = ekf.x - x_true[k]
+        pos_err[k] = e[:, :3]
+        vel_err[k] = e[:, 3:]
+        sigma_pos[k] = np.sqrt(np.trace(ekf.P[:, :3, :3], axis1=1, axis2=2))
+        nees[k] = np.einsum("ni,ni->n", e, np.linalg.solve(ekf.P, e[..., None])[..., 0])
+
+    n_opt = np.zeros(nb, int)
+    n_psr = np.zeros(nb, int)
+    n_amb = np.zeros(nb, int)
+    gaps = {"opt": 0, "psr": 0}
+    mars = np.zeros(3)
+    record(0)
+    for k in range(n_steps):
+        ekf.predict(scn.t[k], dt)
+        kk = k + 1
+        opt_now = kk in opt_index and np.any(uses_opt)
+        psr_now = kk in psr_index and np.any(uses_psr)
+        if opt_now and not opt_ok[kk]:
+            gaps["opt"] += 1
+            opt_now = False
+        if psr_now and not psr_vis[kk]:
+            gaps["psr"] += 1
+            psr_now = False
+        if opt_now:
+            i = opt_index[kk]
+            los_true = _unit(mars - x_true[kk, :3])
+            # Truth camera: boresight on Mars, off by the pointing error; the star tracker reports the
+            # attitude with its own error, and the filter's R_ci is built from the reported attitude.
+            off = np.concatenate([sig_pt * draws.pointing[i], np.zeros((runs, 1))], axis=-1)
+            r_ci_true = boresight_camera_to_inertial(np.broadcast_to(los_true, (runs, 3))) @ _small_rotation(
+                off
+            )
+            r_ci_est = tile(r_ci_true @ _small_rotation(sig_st * draws.tracker[i]))
+            pl_true = image_plane_coordinates(
+                np.broadcast_to(x_true[kk, :3], (runs, 3)), mars, r_ci_true, cam
+            )
+            z_opt = tile(pl_true + cam.focal_length_mm * sig_c * draws.centroid[i])
+            h_opt = image_plane_coordinates(ekf.x[:, :3], mars, r_ci_est, cam)
+            j_opt = image_plane_jacobian(ekf.x[:, :3], mars, r_ci_est, cam)
+        if psr_now:
+            i = psr_index[kk]
+            frac = psr.measure_phase(
+                None, scn.mars_ssb[kk] + x_true[kk, :3], pulsars, nav.detector, noise=draws.phase[i]
+            )
+            h_psr = psr.phase_model(scn.mars_ssb[kk] + ekf.x[:, :3], pulsars)
+            j_psr = psr.phase_jacobian(nb, pulsars)
+            s_pred = np.einsum("nij,njk,nik->ni", j_psr, ekf.P, j_psr) + sig_phase**2
+            # Per filter and pulsar: is the cycle count trustworthy (k sigma < 1/2 cycle)?
+            resolvable = psr.ambiguity_resolvable(np.sqrt(s_pred), nav.ambiguity_k_sigma)
+            z_psr = psr.resolve_cycle_ambiguity(tile(frac), h_psr)
+            n_amb += np.sum(uses_psr[:, None] & ~resolvable, axis=1)
+        psr_use = uses_psr[:, None] & resolvable if psr_now else np.zeros((nb, m_psr), bool)
+        opt_on = uses_opt if opt_now else np.zeros(nb, bool)
+        # Filters are grouped by which rows they measure now; each group gets one stacked update of the mixed
+        # measurement z = [p, l, phases of the pulsars whose cycle count is trusted].
+        key = np.column_stack([opt_on, psr_use])
+        for pattern in np.unique(key[key.any(axis=1)], axis=0):
+            group = np.all(key == pattern, axis=1)
+            cols = np.flatnonzero(pattern[1:])
+            zs, hs, js, rs = [], [], [], []
+            if pattern[0]:
+                zs, hs, js, rs = [z_opt], [h_opt], [j_opt], [r_opt]
+            if cols.size:
+                zs.append(z_psr[:, cols])
+                hs.append(h_psr[:, cols])
+                js.append(j_psr[:, cols])
+                rs.append(r_psr[np.ix_(cols, cols)])
+            ekf.update(
+                np.concatenate(zs, axis=-1),
+                np.concatenate(hs, axis=-1),
+                np.concatenate(js, axis=-2),
+                _block_diag(rs),
+                active=group,
+            )
+        n_opt += opt_on
+        n_psr += psr_use.any(axis=1)
+        record(kk)
+
+    out = {}
+    for j, m in enumerate(methods):
+        sl = slice(j * runs, (j + 1) * runs)
+        out[m] = ApproachResult(
+            method=m,
+            t_h=scn.hours,
+            pos_err=pos_err[:, sl],
+            vel_err=vel_err[:, sl],
+            sigma_pos=sigma_pos[:, sl],
+            nees=nees[:, sl],
+            n_optical=int(n_opt[sl].max()),
+            n_pulsar=int(n_psr[sl].max()),
+            n_ambiguity_skipped=int(n_amb[sl].sum()),
+            n_pulsar_not_visible=gaps["psr"] if METHODS[m][1] else 0,
+            n_optical_not_visible=gaps["opt"] if METHODS[m][0] else 0,
+            rejected=ekf.rejected[sl].copy(),
+        )
+    return out
+
+
+def run_method(
+    scenario: MarsApproach, method: str, runs: int = 20, seed: int = 0, nav: NavConfig | None = None
+) -> ApproachResult:
+    """One method alone (see :func:`run_methods`; with the same seed it gives the same numbers)."""
+    return run_methods(scenario, (method,), runs, seed, nav)[method]
+
+
+def _block_diag(blocks: list[np.ndarray]) -> np.ndarray:
+    m = sum(b.shape[0] for b in blocks)
+    out = np.zeros((m, m))
+    i = 0
+    for b in blocks:
+        out[i : i + b.shape[0], i : i + b.shape[0]] = b
+        i += b.shape[0]
+    return out
+
+
+def check_pulsars_visible(scenario: MarsApproach, nav: NavConfig) -> None:
+    """Raise :class:`NotVisibleError` if a configured pulsar is Sun-blocked anywhere on the approach."""
+    r = scenario.mars_helio + scenario.x_true[:, :3]
+    psr.check_visible(r, nav.pulsars, nav.detector)

@@ -1,0 +1,541 @@
+"""X-ray pulsar timing: catalogue, TOA noise, phase/range measurement, Sun blocking, cycle ambiguity.
+
+Measurement (patent 003, step 1, rebuilt from ERRATA 003 item 1)
+-----------------------------------------------------------------
+A pulse that reaches the Solar-system barycentre (SSB) at ``t_b`` reaches a spacecraft at ``r`` (relative to
+the SSB, ICRF) earlier by ``n . r / c`` (plane wave from the pulsar's unit direction ``n``). The spacecraft
+folds its photons with the pulsar's timing model and measures the phase offset of the observed pulse train
+relative to the one predicted at the SSB:
+
+    n . r = lambda (delta_phi + delta_N),        lambda = c P,
+
+``delta_phi`` in [0, 1) the measured fractional phase [cycles], ``delta_N`` the unknown whole number of
+cycles, ``lambda`` [km] the distance light travels in one period ``P``. The filter's measurement model is the
+total phase ``h(x) = n . r_ssb(x) / lambda`` [cycles] with ``r_ssb = r_mars_ssb(t) + r_sc`` (state relative to
+Mars), which is *linear* in the position: ``dh/dr = n^T / lambda``. Only the ambiguity is nonlinear.
+
+Second-order terms (Shapiro delay, the curvature of the wavefront, aberration) are left out of both the truth
+and the filter model: a real system computes them from its own trajectory estimate, and the errors they leave
+are far below the TOA noise here. The SSB position of Mars comes from the same DE421 kernel for the truth and
+for the filter's prediction, so ephemeris errors do not appear in this simulation (they would in reality: they
+are a bias of ``n . delta r_mars``, see ``docs/optical_pulsar.md``).
+
+Cycle ambiguity
+---------------
+``delta_N`` is resolved against the prediction: ``delta_N = round(h(x_pred) - delta_phi)``, i.e. the phase
+innovation is wrapped to (-1/2, 1/2] cycle (:func:`resolve_cycle_ambiguity`). This is right when the predicted
+1-sigma of ``n . r`` is small against ``lambda``; :func:`ambiguity_resolvable` states the rule used here,
+``k sigma_pred < lambda / 2`` (k = 3 by default). For the Crab (lambda ~ 10,000 km) the a-priori uncertainty
+of an approach (~100 km) satisfies it from the start; for B1937+21 (lambda ~ 467 km) it does not, and the
+harness skips (and counts) such measurements rather than guessing a cycle.
+
+Noise (Sheikh et al. 2006)
+--------------------------
+S. I. Sheikh, D. J. Pines, P. S. Ray, K. S. Wood, M. N. Lovellette, M. T. Wolff, "Spacecraft Navigation Using
+X-Ray Pulsars", J. Guidance, Control, and Dynamics 29(1), 49-63 (2006), section on TOA accuracy:
+
+    d     = W / P                                          (duty cycle)
+    SNR   = F_x p_f A t / sqrt( [B_x + F_x (1 - p_f)] A t d + F_x p_f A t )
+    sigma_TOA = W / (2 SNR)                                 [s]
+
+``F_x`` source flux [ph/cm^2/s] (2-10 keV), ``p_f`` pulsed fraction, ``W`` pulse width (FWHM) [s], ``B_x``
+diffuse X-ray background [ph/cm^2/s] (Sheikh: 0.005), ``A`` detector area [cm^2], ``t`` integration time [s].
+The background (and the unpulsed source flux) counts only in the on-pulse window (fraction ``d``). The range
+noise is ``sigma_r = c sigma_TOA`` and the phase noise ``sigma_TOA / P`` cycles. This is the idealised
+(top-hat profile) estimate; real profiles and detector dead time give larger errors.
+
+Frames, units: ICRF axes; km, s; phases in cycles; angles in degrees in the catalogue, radians elsewhere.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+import re
+from dataclasses import dataclass
+
+import numpy as np
+
+from planetnav_env.bodies import body
+from planetnav_env.errors import (
+    InvalidParameterError,
+    NotVisibleError,
+    UnknownBodyError,
+    require_finite,
+    require_positive,
+)
+from planetnav_env.timescale import J2000_JD, SECONDS_PER_DAY
+
+__all__ = [
+    "DEFAULT_DETECTOR",
+    "PULSARS",
+    "SPEED_OF_LIGHT_KM_S",
+    "Pulsar",
+    "PulsarVisibility",
+    "UnknownPulsarError",
+    "XrayDetector",
+    "ambiguity_resolvable",
+    "check_visible",
+    "mars_radius_km",
+    "measure_phase",
+    "phase_jacobian",
+    "phase_model",
+    "phase_sigma_cycles",
+    "pulsar",
+    "pulsar_toa_sigma_s",
+    "pulsar_visibility",
+    "radec_to_unit",
+    "range_sigma_km",
+    "resolve_cycle_ambiguity",
+    "sun_ssb_position",
+    "toa_sigma_s",
+]
+
+#: Speed of light [km/s] (exact, SI).
+SPEED_OF_LIGHT_KM_S = 299_792.458
+
+
+class UnknownPulsarError(UnknownBodyError):
+    """A pulsar name that the catalogue does not know (a :class:`UnknownBodyError`, hence a KeyError and a
+    ValueError too)."""
+
+
+# ---------------------------------------------------------------------------------------------------------
+# Catalogue
+# ---------------------------------------------------------------------------------------------------------
+
+
+def _hms_to_deg(text: str) -> float:
+    h, m, s = (float(x) for x in text.split(":"))
+    return 15.0 * (h + m / 60.0 + s / 3600.0)
+
+
+def _dms_to_deg(text: str) -> float:
+    t = text.strip()
+    sign = -1.0 if t.startswith("-") else 1.0
+    d, m, s = (float(x) for x in t.lstrip("+-").split(":"))
+    return sign * (d + m / 60.0 + s / 3600.0)
+
+
+def radec_to_unit(ra_deg: np.ndarray | float, dec_deg: np.ndarray | float) -> np.ndarray:
+    """Unit vector(s) ``(..., 3)``, ICRF/J2000 equatorial axes, from right ascension and declination [deg]."""
+    ra = np.deg2rad(np.asarray(ra_deg, float))
+    dec = np.deg2rad(np.asarray(dec_deg, float))
+    return np.stack([np.cos(dec) * np.cos(ra), np.cos(dec) * np.sin(ra), np.sin(dec)], axis=-1)
+
+
+@dataclass(frozen=True)
+class Pulsar:
+    """One catalogue pulsar.
+
+    Attributes
+    ----------
+    bname, jname
+        B1950 and J2000 names (ATNF spelling, ASCII minus).
+    raj, decj
+        J2000 position as published (``hh:mm:ss.s``, ``+dd:mm:ss.s``), ATNF pulsar catalogue.
+    period_s
+        Barycentric spin period P0 [s] at the catalogue's epoch (ATNF). It sets the cycle length
+        ``lambda = c P``; the spin-down over decades (<1 % for the Crab) does not matter for navigation here.
+    flux_ph_cm2_s
+        X-ray photon flux F_x, 2-10 keV [ph/cm^2/s] (Sheikh et al. 2006, table 1).
+    pulsed_fraction
+        p_f in (0, 1] (Sheikh et al. 2006, table 1).
+    pulse_width_s
+        Pulse width W (FWHM) [s] (Sheikh et al. 2006, table 1).
+    """
+
+    bname: str
+    jname: str
+    raj: str
+    decj: str
+    period_s: float
+    flux_ph_cm2_s: float
+    pulsed_fraction: float
+    pulse_width_s: float
+
+    def __post_init__(self) -> None:
+        require_positive(f"{self.bname}.period_s", self.period_s)
+        require_positive(f"{self.bname}.flux_ph_cm2_s", self.flux_ph_cm2_s)
+        require_positive(f"{self.bname}.pulse_width_s", self.pulse_width_s)
+        if not 0.0 < self.pulsed_fraction <= 1.0:
+            raise InvalidParameterError(
+                f"{self.bname}.pulsed_fraction must be in (0, 1], got {self.pulsed_fraction}"
+            )
+        if self.pulse_width_s >= self.period_s:
+            raise InvalidParameterError(f"{self.bname}: pulse width {self.pulse_width_s} s >= period")
+
+    @property
+    def ra_deg(self) -> float:
+        """Right ascension J2000 [deg]."""
+        return _hms_to_deg(self.raj)
+
+    @property
+    def dec_deg(self) -> float:
+        """Declination J2000 [deg]."""
+        return _dms_to_deg(self.decj)
+
+    @property
+    def direction(self) -> np.ndarray:
+        """Unit vector from the Solar system towards the pulsar, ICRF, shape (3,)."""
+        return radec_to_unit(self.ra_deg, self.dec_deg)
+
+    @property
+    def wavelength_km(self) -> float:
+        """``lambda = c P`` [km]: the range equivalent of one cycle."""
+        return SPEED_OF_LIGHT_KM_S * self.period_s
+
+    @property
+    def duty_cycle(self) -> float:
+        """``d = W / P``."""
+        return self.pulse_width_s / self.period_s
+
+
+#: The navigation catalogue. Positions and periods: ATNF Pulsar Catalogue (Manchester, Hobbs, Teoh & Hobbs
+#: 2005, AJ 129, 1993; psrcat, https://www.atnf.csiro.au/research/pulsar/psrcat/). X-ray flux (2-10 keV),
+#: pulsed fraction and pulse width: Sheikh et al. 2006, JGCD 29(1), table 1. See docs/optical_pulsar.md for
+#: the cross-check of the positions.
+PULSARS: dict[str, Pulsar] = {
+    p.bname: p
+    for p in (
+        # The Crab: brightest, wide pulse; ATNF position (lpg+93 timing) and P0 at PEPOCH MJD 40000.
+        Pulsar("B0531+21", "J0534+2200", "05:34:31.973", "+22:00:52.06", 0.0333924123, 1.54e-2, 0.70, 1.7e-3),
+        # Millisecond pulsar in M28.
+        Pulsar(
+            "B1821-24", "J1824-2452A", "18:24:32.008", "-24:52:10.83", 0.00305431531, 1.93e-4, 0.98, 5.5e-5
+        ),
+        # The first millisecond pulsar.
+        Pulsar(
+            "B1937+21",
+            "J1939+2134",
+            "19:39:38.561224",
+            "+21:34:59.12570",
+            0.0015578064688,
+            4.99e-5,
+            0.86,
+            2.1e-5,
+        ),
+    )
+}
+_ALIASES = {p.jname.lower(): p.bname for p in PULSARS.values()} | {"crab": "B0531+21"}
+
+
+def _normalise_name(name: str) -> str:
+    # Accept the typographic minus and a "PSR " prefix: names are often copied from papers.
+    t = str(name).strip().replace("\u2212", "-").replace("\u2013", "-")
+    return re.sub(r"^psr\s*", "", t, flags=re.IGNORECASE).lower()
+
+
+def pulsar(name: str | Pulsar) -> Pulsar:
+    """Look a pulsar up by B or J name (case-insensitive, "PSR " prefix and Unicode minus accepted).
+
+    Raises :class:`UnknownPulsarError` naming the bad name and the known ones.
+    """
+    if isinstance(name, Pulsar):
+        return name
+    key = _normalise_name(name)
+    for b in PULSARS:
+        if b.lower() == key:
+            return PULSARS[b]
+    if key in _ALIASES:
+        return PULSARS[_ALIASES[key]]
+    raise UnknownPulsarError(
+        f"unknown pulsar {name!r}; the catalogue has {[f'{p.bname} ({p.jname})' for p in PULSARS.values()]}"
+    )
+
+
+# ---------------------------------------------------------------------------------------------------------
+# Detector and TOA noise
+# ---------------------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class XrayDetector:
+    """X-ray timing detector.
+
+    area_cm2
+        Effective area A [cm^2]. Default 1 m^2 = 1e4 cm^2, the detector size assumed in Sheikh et al. (2006)
+        and used by most XNAV feasibility studies (NICER's is ~0.19 m^2 at 1.5 keV).
+    integration_time_s
+        Photon integration (folding) time t per TOA [s]. Default 1000 s, within the 500-3000 s range of the
+        XNAV literature. One TOA is delivered per integration window.
+    background_ph_cm2_s
+        Diffuse X-ray background B_x in the detector's field of view [ph/cm^2/s], 2-10 keV. Default 0.005
+        (Sheikh et al. 2006).
+    sun_avoidance_deg
+        Minimum angle [deg] between the pulsar direction and the Sun direction for a usable observation.
+        Default 30 deg: an assumed baffle/thermal constraint (the patent gives none).
+    """
+
+    area_cm2: float = 1.0e4
+    integration_time_s: float = 1000.0
+    background_ph_cm2_s: float = 0.005
+    sun_avoidance_deg: float = 30.0
+
+    def __post_init__(self) -> None:
+        for name in ("area_cm2", "integration_time_s"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)):
+                raise InvalidParameterError(f"XrayDetector.{name} must be a positive number, got {v!r}")
+            if not math.isfinite(float(v)) or float(v) <= 0.0:
+                raise InvalidParameterError(
+                    f"XrayDetector.{name} must be a positive finite number, got {v!r}"
+                )
+            object.__setattr__(self, name, float(v))
+        b = float(self.background_ph_cm2_s)
+        if not math.isfinite(b) or b < 0.0:
+            raise InvalidParameterError(
+                f"XrayDetector.background_ph_cm2_s must be >= 0, got {self.background_ph_cm2_s!r}"
+            )
+        object.__setattr__(self, "background_ph_cm2_s", b)
+        s = float(self.sun_avoidance_deg)
+        if not 0.0 <= s < 180.0:
+            raise InvalidParameterError(f"XrayDetector.sun_avoidance_deg must be in [0, 180), got {s!r}")
+        object.__setattr__(self, "sun_avoidance_deg", s)
+
+
+DEFAULT_DETECTOR = XrayDetector()
+
+
+def toa_sigma_s(
+    flux_ph_cm2_s: np.ndarray | float,
+    pulsed_fraction: np.ndarray | float,
+    pulse_width_s: np.ndarray | float,
+    period_s: np.ndarray | float,
+    background_ph_cm2_s: np.ndarray | float,
+    area_cm2: np.ndarray | float,
+    integration_time_s: np.ndarray | float,
+) -> np.ndarray:
+    """1-sigma TOA error [s] of Sheikh et al. (2006): ``W / (2 SNR)`` (module docstring). Broadcasts.
+
+    Raises :class:`InvalidParameterError` for a non-positive area, integration time, flux, width or period,
+    a pulsed fraction outside (0, 1] or a negative background.
+    """
+    f = np.asarray(flux_ph_cm2_s, float)
+    pf = np.asarray(pulsed_fraction, float)
+    w = np.asarray(pulse_width_s, float)
+    p = np.asarray(period_s, float)
+    b = np.asarray(background_ph_cm2_s, float)
+    a = np.asarray(area_cm2, float)
+    t = np.asarray(integration_time_s, float)
+    for name, v in (
+        ("area_cm2", a),
+        ("integration_time_s", t),
+        ("flux", f),
+        ("pulse_width_s", w),
+        ("period_s", p),
+    ):
+        if not np.all(np.isfinite(v)) or np.any(v <= 0.0):
+            raise InvalidParameterError(f"{name} must be positive and finite, got {v}")
+    if np.any(~np.isfinite(pf) | (pf <= 0.0) | (pf > 1.0)):
+        raise InvalidParameterError(f"pulsed_fraction must be in (0, 1], got {pf}")
+    if np.any(~np.isfinite(b) | (b < 0.0)):
+        raise InvalidParameterError(f"background_ph_cm2_s must be >= 0, got {b}")
+    d = w / p
+    pulsed = f * pf * a * t
+    noise = np.sqrt((b + f * (1.0 - pf)) * a * t * d + pulsed)
+    return w / (2.0 * pulsed / noise)
+
+
+def pulsar_toa_sigma_s(psr: str | Pulsar, detector: XrayDetector = DEFAULT_DETECTOR) -> float:
+    """:func:`toa_sigma_s` for a catalogue pulsar and a detector [s]."""
+    p = pulsar(psr)
+    return float(
+        toa_sigma_s(
+            p.flux_ph_cm2_s,
+            p.pulsed_fraction,
+            p.pulse_width_s,
+            p.period_s,
+            detector.background_ph_cm2_s,
+            detector.area_cm2,
+            detector.integration_time_s,
+        )
+    )
+
+
+def range_sigma_km(psr: str | Pulsar, detector: XrayDetector = DEFAULT_DETECTOR) -> float:
+    """1-sigma range error along the line of sight [km]: ``c sigma_TOA``."""
+    return SPEED_OF_LIGHT_KM_S * pulsar_toa_sigma_s(psr, detector)
+
+
+def phase_sigma_cycles(psr: str | Pulsar, detector: XrayDetector = DEFAULT_DETECTOR) -> float:
+    """1-sigma phase error [cycles]: ``sigma_TOA / P``."""
+    p = pulsar(psr)
+    return pulsar_toa_sigma_s(p, detector) / p.period_s
+
+
+# ---------------------------------------------------------------------------------------------------------
+# Barycentric positions
+# ---------------------------------------------------------------------------------------------------------
+
+
+@functools.lru_cache(maxsize=1)
+def _sun_segment():
+    from planetnav_env.ephemeris import _open_kernel, de421_path
+
+    return _open_kernel(de421_path()).pairs[(0, 10)]
+
+
+def sun_ssb_position(t: np.ndarray | float) -> np.ndarray:
+    """Position of the Sun's centre relative to the Solar-system barycentre [km], ICRF, from DE421.
+
+    ``t`` [TDB s since J2000], any shape; result ``t.shape + (3,)``. Add it to a heliocentric position
+    (:class:`planetnav_env.ephemeris.DEEphemeris`) to get the barycentric one. Its size is ~1e6 km (mostly
+    Jupiter's pull), far from negligible in ``n . r``.
+    """
+    t = require_finite("time t", np.asarray(t, float))
+    seg = _sun_segment()
+    days = J2000_JD + t.ravel() / SECONDS_PER_DAY
+    if np.any(days < seg.start_jd) or np.any(days > seg.end_jd):
+        raise InvalidParameterError(f"time {t.min()}..{t.max()} s is outside the DE421 span")
+    pos = np.asarray(seg.compute(days)).reshape(3, -1)
+    return np.moveaxis(pos, 0, -1).reshape(t.shape + (3,))
+
+
+# ---------------------------------------------------------------------------------------------------------
+# Measurement model
+# ---------------------------------------------------------------------------------------------------------
+
+
+def _directions(pulsars: tuple[str | Pulsar, ...] | list[str | Pulsar]) -> tuple[np.ndarray, np.ndarray]:
+    ps = [pulsar(p) for p in pulsars]
+    if not ps:
+        raise InvalidParameterError("at least one pulsar is needed")
+    return np.stack([p.direction for p in ps]), np.array([p.wavelength_km for p in ps])
+
+
+def phase_model(r_ssb: np.ndarray, pulsars: tuple[str | Pulsar, ...] | list[str | Pulsar]) -> np.ndarray:
+    """Total phase ``n_i . r / lambda_i`` [cycles] of the spacecraft at ``r_ssb`` (N, 3) [km, relative to the
+    SSB, ICRF] for each pulsar: shape (N, M)."""
+    n, lam = _directions(pulsars)
+    r = require_finite("r_ssb", r_ssb)
+    return (r @ n.T) / lam
+
+
+def phase_jacobian(n_batch: int, pulsars: tuple[str | Pulsar, ...] | list[str | Pulsar]) -> np.ndarray:
+    """``d phase / d x`` (N, M, 6) [cycles/km on the position columns, 0 on velocity]: ``n_i^T / lambda_i``.
+
+    The SSB offset of the state's origin (Mars) does not depend on the state, so the Jacobian is constant.
+    """
+    n, lam = _directions(pulsars)
+    h = np.zeros((n_batch, len(lam), 6))
+    h[:, :, 0:3] = n / lam[:, None]
+    return h
+
+
+def measure_phase(
+    rng: np.random.Generator,
+    r_ssb: np.ndarray,
+    pulsars: tuple[str | Pulsar, ...] | list[str | Pulsar],
+    detector: XrayDetector = DEFAULT_DETECTOR,
+    noise: np.ndarray | None = None,
+) -> np.ndarray:
+    """Measured fractional phases ``delta_phi`` in [0, 1) [cycles], shape (N, M).
+
+    ``frac(n . r / lambda + e)``, ``e ~ N(0, sigma_TOA / P)``. ``noise`` (N, M) standard normal draws may be
+    supplied (common random numbers across filters); otherwise one ``rng.standard_normal((N, M))`` is drawn.
+    """
+    r = require_finite("r_ssb", np.atleast_2d(r_ssb))
+    ps = [pulsar(p) for p in pulsars]
+    sig = np.array([phase_sigma_cycles(p, detector) for p in ps])
+    if noise is None:
+        if not isinstance(rng, np.random.Generator):
+            raise InvalidParameterError(f"rng must be a numpy.random.Generator, got {type(rng).__name__}")
+        noise = rng.standard_normal((r.shape[0], len(ps)))
+    total = phase_model(r, ps) + sig * np.asarray(noise, float)
+    return total - np.floor(total)
+
+
+def resolve_cycle_ambiguity(phase_frac: np.ndarray, predicted_phase: np.ndarray) -> np.ndarray:
+    """Total measured phase ``delta_phi + delta_N`` [cycles] with ``delta_N = round(h_pred - delta_phi)``.
+
+    Equivalent to wrapping the phase innovation to [-1/2, 1/2) cycle around the prediction. Shapes broadcast.
+    """
+    f = require_finite("phase_frac", phase_frac)
+    h = require_finite("predicted_phase", predicted_phase)
+    return f + np.round(h - f)
+
+
+def ambiguity_resolvable(sigma_pred_cycles: np.ndarray | float, k_sigma: float = 3.0) -> np.ndarray:
+    """Whether the rounding of :func:`resolve_cycle_ambiguity` is trustworthy: ``k sigma_pred < 1/2`` cycle.
+
+    ``sigma_pred_cycles``: predicted 1-sigma of the total phase, ``sqrt(H P H^T + R)`` [cycles].
+    """
+    require_positive("k_sigma", k_sigma)
+    return k_sigma * np.asarray(sigma_pred_cycles, float) < 0.5
+
+
+# ---------------------------------------------------------------------------------------------------------
+# Visibility: Sun avoidance and occultation by a body
+# ---------------------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class PulsarVisibility:
+    """Per element (N,) and pulsar (M,): ``visible``, ``sun_blocked`` (Sun within the avoidance cone),
+    ``occulted`` (the line of sight passes through the occulting body), ``sun_angle_rad``."""
+
+    visible: np.ndarray
+    sun_blocked: np.ndarray
+    occulted: np.ndarray
+    sun_angle_rad: np.ndarray
+
+
+def pulsar_visibility(
+    r_sc_helio: np.ndarray,
+    pulsars: tuple[str | Pulsar, ...] | list[str | Pulsar],
+    detector: XrayDetector = DEFAULT_DETECTOR,
+    occulter_pos_helio: np.ndarray | None = None,
+    occulter_radius_km: float | None = None,
+) -> PulsarVisibility:
+    """Can each pulsar be timed from heliocentric ``r_sc_helio`` (N, 3) [km]?
+
+    * Sun blocking: the angle between the pulsar direction and the direction to the Sun is below
+      ``detector.sun_avoidance_deg`` (the Sun's disk itself, 0.27 deg at 1 AU, is inside any such cone).
+    * Occultation: the ray from the spacecraft along ``n`` passes within ``occulter_radius_km`` of
+      ``occulter_pos_helio`` (N, 3) or (3,) (e.g. Mars on approach), the body being ahead of the spacecraft.
+    """
+    r = require_finite("r_sc_helio", np.atleast_2d(r_sc_helio))
+    n, _ = _directions(pulsars)
+    to_sun = -r / np.linalg.norm(r, axis=-1, keepdims=True)
+    cosang = np.clip(to_sun @ n.T, -1.0, 1.0)
+    ang = np.arccos(cosang)
+    sun_blocked = ang < np.deg2rad(detector.sun_avoidance_deg)
+    occulted = np.zeros_like(sun_blocked)
+    if occulter_pos_helio is not None:
+        rad = require_positive("occulter_radius_km", occulter_radius_km)
+        d = np.broadcast_to(require_finite("occulter_pos_helio", occulter_pos_helio), r.shape) - r
+        along = d @ n.T  # (N, M): distance along each ray to the closest approach to the body's centre
+        miss2 = np.sum(d * d, axis=-1, keepdims=True) - along**2
+        occulted = (along > 0.0) & (miss2 < rad * rad)
+    return PulsarVisibility(~(sun_blocked | occulted), sun_blocked, occulted, ang)
+
+
+def check_visible(
+    r_sc_helio: np.ndarray,
+    pulsars: tuple[str | Pulsar, ...] | list[str | Pulsar],
+    detector: XrayDetector = DEFAULT_DETECTOR,
+    occulter_pos_helio: np.ndarray | None = None,
+    occulter_radius_km: float | None = None,
+    occulter_name: str = "occulter",
+) -> None:
+    """Raise :class:`NotVisibleError` naming the pulsar, the reason and the Sun angle if any pulsar cannot be
+    timed from any of the positions (see :func:`pulsar_visibility`)."""
+    ps = [pulsar(p) for p in pulsars]
+    vis = pulsar_visibility(r_sc_helio, ps, detector, occulter_pos_helio, occulter_radius_km)
+    for j, p in enumerate(ps):
+        if np.any(vis.sun_blocked[:, j]):
+            i = int(np.argmax(vis.sun_blocked[:, j]))
+            raise NotVisibleError(
+                f"pulsar {p.bname} is blocked by the Sun: its direction is "
+                f"{np.degrees(vis.sun_angle_rad[i, j]):.2f} deg from the Sun, inside the "
+                f"{detector.sun_avoidance_deg:g} deg avoidance cone (element {i})"
+            )
+        if np.any(vis.occulted[:, j]):
+            i = int(np.argmax(vis.occulted[:, j]))
+            raise NotVisibleError(f"pulsar {p.bname} is occulted by {occulter_name} (element {i})")
+
+
+def mars_radius_km() -> float:
+    """Mars's equatorial radius [km] (the occulter on approach)."""
+    return body("mars").radius

@@ -1,0 +1,211 @@
+"""X-ray pulsar sensor: catalogue vs independent positions, Sheikh TOA noise, phase model, ambiguity,
+visibility."""
+
+import numpy as np
+import pytest
+
+from planetnav_env.bodies import AU_KM
+from planetnav_env.ephemeris import DEEphemeris, _open_kernel, de421_path
+from planetnav_env.errors import InvalidParameterError, NotVisibleError, PlanetNavError, UnknownBodyError
+from planetnav_env.sensors import pulsar as psr
+from planetnav_env.timescale import J2000_JD, tdb_seconds
+
+# ICRS -> galactic rotation (Hipparcos, ESA 1997, vol. 1, sec. 1.5.3): an independent frame to check the
+# catalogue positions against the pulsars' published galactic coordinates.
+_A_G = np.array(
+    [
+        [-0.0548755604162154, -0.8734370902348850, -0.4838350155487132],
+        [+0.4941094278755837, -0.4448296299600112, +0.7469822444972189],
+        [-0.8676661490190047, -0.1980763734312015, +0.4559837761750669],
+    ]
+)
+
+# Galactic (l, b) [deg] as listed by the ATNF catalogue (Gl, Gb) and SIMBAD, to ~0.01 deg.
+GALACTIC = {"B0531+21": (184.558, -5.784), "B1821-24": (7.798, -5.577), "B1937+21": (57.509, -0.290)}
+
+
+def test_catalogue_has_the_required_pulsars_and_valid_fields():
+    for name in ("B0531+21", "B1821-24", "B1937+21"):
+        p = psr.pulsar(name)
+        assert np.isclose(np.linalg.norm(p.direction), 1.0)
+        assert 0.0 < p.pulsed_fraction <= 1.0
+        assert 0.0 < p.duty_cycle < 0.2
+        # Millisecond pulsars: lambda of a few hundred km; the Crab ~ 10,000 km.
+        assert 300.0 < p.wavelength_km < 11_000.0
+
+
+@pytest.mark.parametrize("name", sorted(GALACTIC))
+def test_positions_match_published_galactic_coordinates(name):
+    g = _A_G @ psr.pulsar(name).direction
+    lon = np.degrees(np.arctan2(g[1], g[0])) % 360.0
+    lat = np.degrees(np.arcsin(g[2]))
+    assert lon == pytest.approx(GALACTIC[name][0], abs=0.01)
+    assert lat == pytest.approx(GALACTIC[name][1], abs=0.01)
+
+
+def test_names_are_looked_up_by_b_or_j_name_and_unknown_ones_raise():
+    assert psr.pulsar("J0534+2200") is psr.pulsar("B0531+21")
+    assert psr.pulsar("PSR B1821\u221224").bname == "B1821-24"  # typographic minus, PSR prefix
+    assert psr.pulsar("crab").bname == "B0531+21"
+    with pytest.raises(psr.UnknownPulsarError, match="B9999"):
+        psr.pulsar("B9999+99")
+    # The error is also an UnknownBodyError, a KeyError and a ValueError.
+    for exc in (UnknownBodyError, KeyError, ValueError, PlanetNavError):
+        with pytest.raises(exc):
+            psr.pulsar("J0000+0000")
+
+
+def test_toa_sigma_matches_an_independent_evaluation_of_sheikhs_formula():
+    # Crab, 1 m^2, 1000 s, B = 0.005: counted by hand.
+    a, t, b = 1e4, 1000.0, 0.005
+    f, pf, w, per = 1.54e-2, 0.70, 1.7e-3, 0.0333924123
+    pulsed = f * pf * a * t  # 107,800 photons in the pulse
+    on_window_noise = (b + f * (1 - pf)) * a * t * (w / per)
+    snr = pulsed / np.sqrt(on_window_noise + pulsed)
+    assert psr.pulsar_toa_sigma_s("B0531+21") == pytest.approx(w / (2 * snr), rel=1e-12)
+    assert psr.range_sigma_km("B0531+21") == pytest.approx(299_792.458 * w / (2 * snr), rel=1e-12)
+    assert psr.phase_sigma_cycles("B0531+21") == pytest.approx(w / (2 * snr) / per, rel=1e-12)
+
+
+def test_toa_sigma_limits():
+    # Photon-limited, fully pulsed, no background: sigma = W / (2 sqrt(N)).
+    s = psr.toa_sigma_s(1e-2, 1.0, 1e-3, 0.03, 0.0, 1e4, 100.0)
+    assert s == pytest.approx(1e-3 / (2 * np.sqrt(1e-2 * 1e4 * 100.0)), rel=1e-12)
+    # Source dominated: 1/sqrt(t); background dominated: 1/sqrt(t) too but with sqrt(B A t d) noise.
+    s1, s4 = psr.toa_sigma_s(1e-2, 1.0, 1e-3, 0.03, 0.0, 1e4, [100.0, 400.0])
+    assert s1 / s4 == pytest.approx(2.0, rel=1e-12)
+    big_b = psr.toa_sigma_s(1e-6, 1.0, 1e-3, 0.03, 10.0, 1e4, [100.0, 400.0])
+    assert big_b[0] / big_b[1] == pytest.approx(2.0, rel=1e-3)
+    # Larger area, smaller error.
+    assert psr.toa_sigma_s(1e-3, 0.5, 1e-3, 0.03, 0.005, 2e4, 500.0) < psr.toa_sigma_s(
+        1e-3, 0.5, 1e-3, 0.03, 0.005, 1e4, 500.0
+    )
+
+
+@pytest.mark.parametrize(
+    "kwargs",
+    [
+        {"area_cm2": 0.0},
+        {"area_cm2": -1.0},
+        {"integration_time_s": 0.0},
+        {"integration_time_s": -5.0},
+        {"area_cm2": float("nan")},
+        {"integration_time_s": float("inf")},
+        {"background_ph_cm2_s": -0.1},
+        {"sun_avoidance_deg": 180.0},
+        {"area_cm2": True},
+    ],
+)
+def test_detector_rejects_bad_parameters(kwargs):
+    with pytest.raises(InvalidParameterError):
+        psr.XrayDetector(**kwargs)
+
+
+@pytest.mark.parametrize("bad", [{"area_cm2": 0.0}, {"integration_time_s": -1.0}, {"pulsed_fraction": 1.5}])
+def test_toa_sigma_rejects_bad_parameters(bad):
+    args = {
+        "flux_ph_cm2_s": 1e-3,
+        "pulsed_fraction": 0.5,
+        "pulse_width_s": 1e-3,
+        "period_s": 0.03,
+        "background_ph_cm2_s": 0.005,
+        "area_cm2": 1e4,
+        "integration_time_s": 500.0,
+    } | bad
+    with pytest.raises(InvalidParameterError):
+        psr.toa_sigma_s(**args)
+
+
+def test_sun_ssb_offset_agrees_with_the_kernels_mars_chain():
+    t = tdb_seconds(2021, 2, 10) + np.array([0.0, 3600.0, 86400.0])
+    kernel = _open_kernel(de421_path())
+    jd = J2000_JD + t / 86400.0
+    mars_ssb = kernel[0, 4].compute(jd) + kernel[4, 499].compute(jd)
+    ours = DEEphemeris().position("mars", t) + psr.sun_ssb_position(t)
+    np.testing.assert_allclose(ours, mars_ssb.T, atol=1e-6)
+    # The Sun's wobble about the barycentre: ~1 solar radius, never more than ~2e6 km.
+    assert np.all(np.linalg.norm(psr.sun_ssb_position(t), axis=-1) < 2.2e6)
+
+
+def test_phase_model_jacobian_and_measurement():
+    rng = np.random.default_rng(5)
+    r = rng.normal(size=(4, 3)) * AU_KM
+    names = ("B0531+21", "B1937+21")
+    jac = psr.phase_jacobian(4, names)
+    h0 = psr.phase_model(r, names)
+    for j in range(3):
+        dr = np.zeros(3)
+        dr[j] = 10.0
+        fd = (psr.phase_model(r + dr, names) - psr.phase_model(r - dr, names)) / 20.0
+        np.testing.assert_allclose(jac[:, :, j], fd, rtol=1e-6)
+    assert np.all(jac[:, :, 3:] == 0.0)
+    frac = psr.measure_phase(rng, r, names)
+    assert np.all((frac >= 0.0) & (frac < 1.0))
+    # Noise-free: the fraction is that of the model.
+    frac0 = psr.measure_phase(None, r, names, noise=np.zeros((4, 2)))
+    np.testing.assert_allclose(frac0, h0 - np.floor(h0), atol=1e-9)
+
+
+def test_phase_noise_has_the_stated_sigma():
+    rng = np.random.default_rng(11)
+    r = np.tile(np.array([[1.2, -0.4, 0.3]]) * AU_KM, (20000, 1))
+    det = psr.XrayDetector(area_cm2=100.0)
+    frac = psr.measure_phase(rng, r, ["B0531+21"], det)
+    total = psr.resolve_cycle_ambiguity(frac, psr.phase_model(r, ["B0531+21"]))
+    resid = total - psr.phase_model(r, ["B0531+21"])
+    sig = psr.phase_sigma_cycles("B0531+21", det)
+    assert 1e-4 < sig < 1e-2
+    assert np.std(resid) == pytest.approx(sig, rel=0.03)
+
+
+def test_ambiguity_is_resolved_against_the_prediction():
+    h_true = np.array([12345.3, 98.95, 7.02])
+    frac = h_true - np.floor(h_true)
+    # Prediction within half a cycle: the total phase comes back exactly.
+    pred = h_true + np.array([0.45, -0.3, 0.2])
+    np.testing.assert_allclose(psr.resolve_cycle_ambiguity(frac, pred), h_true, atol=1e-9)
+    # Beyond half a cycle the rounding picks the wrong cycle (documented): off by one.
+    wrong = psr.resolve_cycle_ambiguity(frac, h_true + 0.6)
+    np.testing.assert_allclose(wrong - h_true, 1.0, atol=1e-9)
+    # The rule used by the filter: 3 sigma < 1/2 cycle.
+    assert psr.ambiguity_resolvable(0.1).item() and not psr.ambiguity_resolvable(0.2).item()
+
+
+def test_sun_blocking_and_mars_occultation():
+    n = psr.pulsar("B0531+21").direction
+    # Spacecraft on the far side of the Sun from the pulsar: the Sun is exactly in the line of sight.
+    r_blocked = -1.5 * AU_KM * n
+    vis = psr.pulsar_visibility(r_blocked[None], ["B0531+21"])
+    assert vis.sun_blocked[0, 0] and not vis.visible[0, 0]
+    assert vis.sun_angle_rad[0, 0] == pytest.approx(0.0, abs=1e-9)
+    with pytest.raises(NotVisibleError, match="blocked by the Sun"):
+        psr.check_visible(r_blocked, ["B0531+21"])
+    # 20 deg off the Sun: blocked by the default 30 deg cone, visible with a 10 deg cone.
+    rot = np.cross(n, [0.0, 0.0, 1.0])
+    rot /= np.linalg.norm(rot)
+    d = np.cos(np.radians(20)) * n + np.sin(np.radians(20)) * np.cross(rot, n)
+    r20 = -1.5 * AU_KM * d
+    assert not psr.pulsar_visibility(r20[None], ["B0531+21"]).visible[0, 0]
+    assert psr.pulsar_visibility(r20[None], ["B0531+21"], psr.XrayDetector(sun_avoidance_deg=10.0)).visible[
+        0, 0
+    ]
+    # Anti-Sun direction: visible.
+    psr.check_visible(1.5 * AU_KM * n, ["B0531+21"])
+    # Mars between the spacecraft and the pulsar: occulted; beside it: not.
+    mars = np.array([2.0e8, 0.0, 0.0])
+    sc_behind = mars - 20_000.0 * n
+    with pytest.raises(NotVisibleError, match="occulted by Mars"):
+        psr.check_visible(
+            sc_behind, ["B0531+21"], occulter_pos_helio=mars, occulter_radius_km=3396.19, occulter_name="Mars"
+        )
+    side = np.cross(n, [0.0, 0.0, 1.0])
+    side /= np.linalg.norm(side)
+    sc_beside = sc_behind + 5000.0 * side
+    vis = psr.pulsar_visibility(
+        np.stack([sc_behind, sc_beside]), ["B0531+21"], psr.XrayDetector(), mars, 3396.19
+    )
+    assert vis.occulted[:, 0].tolist() == [True, False]
+    # Mars behind the spacecraft (pulsar side): not an occultation.
+    assert not psr.pulsar_visibility(
+        (mars + 20_000.0 * n)[None], ["B0531+21"], psr.XrayDetector(), mars, 3396.19
+    ).occulted[0, 0]
