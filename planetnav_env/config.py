@@ -24,8 +24,9 @@ from planetnav_env.errors import ConfigError, PlanetNavError
 from planetnav_env.estimation.ekf import FilterConfig
 from planetnav_env.estimation.measurements import MODELS
 from planetnav_env.sensors.camera import CameraConfig
+from planetnav_env.sensors.pulsar import XrayDetector, pulsar
 
-SCENARIOS = ("cruise", "random-cruise")
+SCENARIOS = ("cruise", "random-cruise", "mars-approach")
 ACTION_MODES = ("target", "torque", "target+torque")
 REWARDS = ("truth", "covariance")
 
@@ -59,8 +60,10 @@ class AttitudeSettings:
 class EnvConfig:
     """Everything that defines an episode. Units: s, km, rad unless the name says otherwise.
 
-    scenario: ``cruise`` (the thesis's Venus-to-Mars transfer from 2020-08-01, fixed) or
-        ``random-cruise`` (epoch, transfer arc and initial estimate error drawn from the reset seed).
+    scenario: ``cruise`` (the thesis's Venus-to-Mars transfer from 2020-08-01, fixed),
+        ``random-cruise`` (epoch, transfer arc and initial estimate error drawn from the reset seed) or
+        ``mars-approach`` (the patent's case: Mars-centred dynamics with Sun, Earth and Jupiter
+        perturbations; the episode ends ``approach_end_before_ca_h`` before closest approach).
     planets: bodies the camera may target (their order is the action index).
     step_s: environment step; attitude_substep_s: attitude integration step (must divide step_s).
     episode_steps: steps before truncation.
@@ -94,9 +97,14 @@ class EnvConfig:
     idle_action: bool = False
     star_tracker: str = "qmethod"
     star_tracker_sigma_arcsec: float = 1.5
+    pulsars: tuple[str, ...] = ()
+    detector_fov_deg: float = 2.0
+    ambiguity_k_sigma: float = 3.0
+    approach_end_before_ca_h: float = 2.0
     camera: CameraConfig = field(default_factory=CameraConfig)
     filter: FilterConfig = field(default_factory=FilterConfig)
     attitude: AttitudeSettings = field(default_factory=AttitudeSettings)
+    detector: XrayDetector = field(default_factory=XrayDetector)
 
     def __post_init__(self) -> None:
         if self.scenario not in SCENARIOS:
@@ -136,6 +144,18 @@ class EnvConfig:
             raise ConfigError(
                 f"star_tracker_sigma_arcsec must be >= 0, got {self.star_tracker_sigma_arcsec!r}"
             )
+        names = []
+        for name in self.pulsars:
+            try:
+                names.append(pulsar(name).bname)
+            except PlanetNavError as exc:
+                raise ConfigError(f"pulsars: {exc}") from None
+        if len(set(names)) != len(names):
+            raise ConfigError(f"pulsars must not repeat, got {list(self.pulsars)}")
+        object.__setattr__(self, "pulsars", tuple(names))
+        if names and self.action_mode != "target":
+            raise ConfigError("pulsars (sensor tasking) need action_mode 'target'")
+        _positive(self, "detector_fov_deg", "ambiguity_k_sigma", "approach_end_before_ca_h")
         if self.idle_action and self.action_mode != "target":
             raise ConfigError("idle_action is only available with action_mode 'target'")
 
@@ -146,6 +166,15 @@ class EnvConfig:
     @property
     def n_planets(self) -> int:
         return len(self.planets)
+
+    @property
+    def n_pulsars(self) -> int:
+        return len(self.pulsars)
+
+    @property
+    def n_targets(self) -> int:
+        """Planets and pulsars: the discrete target actions (before the optional idle action)."""
+        return len(self.planets) + len(self.pulsars)
 
     # ------------------------------------------------------------------------------------------
     @classmethod
@@ -161,7 +190,7 @@ class EnvConfig:
             sub = _NESTED.get(key)
             if sub is not None and isinstance(value, Mapping):
                 value = _build(sub, value, key)
-            elif key == "planets":
+            elif key in ("planets", "pulsars"):
                 if isinstance(value, str):
                     value = (value,)
                 value = tuple(value)
@@ -199,7 +228,12 @@ class EnvConfig:
         return out
 
 
-_NESTED = {"camera": CameraConfig, "filter": FilterConfig, "attitude": AttitudeSettings}
+_NESTED = {
+    "camera": CameraConfig,
+    "filter": FilterConfig,
+    "attitude": AttitudeSettings,
+    "detector": XrayDetector,
+}
 
 
 def _plain(v: Any) -> Any:

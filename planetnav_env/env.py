@@ -47,8 +47,9 @@ from planetnav_env.ephemeris import DEEphemeris
 from planetnav_env.errors import InvalidParameterError, NonFiniteError, NotVisibleError
 from planetnav_env.estimation.fast import KIND_CODES, SingleEKF, rk4_batch_kernel
 from planetnav_env.estimation.measurements import MeasurementModel
-from planetnav_env.scenarios import draw_episode
+from planetnav_env.scenarios import approach_episode, draw_episode
 from planetnav_env.sensors import camera as cam
+from planetnav_env.sensors import pulsar as psr
 from planetnav_env.sensors.star_tracker import StarTrackerConfig, estimate_attitude
 
 _NONE3 = np.zeros((0, 3))
@@ -276,7 +277,20 @@ class PlanetNavEnv(gym.Env):
         self._radii = np.array([body(p).radius for p in self.planets])
         self._diameters = 2.0 * self._radii
         self._ephemeris = DEEphemeris()
-        self._gravity = GravityModel("sun")
+        self._approach = cfg.scenario == "mars-approach"
+        if self._approach:
+            ep = approach_episode(cfg.episode_steps * cfg.step_s, cfg.approach_end_before_ca_h)
+            self._gravity = GravityModel(ep.central, ep.perturbers)
+        else:
+            self._gravity = GravityModel("sun")
+        # Observation scales: heliocentric AU and 30 km/s in cruise; 10^6 km and 5 km/s on approach.
+        self._pos_scale, self._vel_scale = (1.0e6, 5.0) if self._approach else (AU_KM, 30.0)
+        self._mus = np.asarray(self._gravity.mu_perturbers, dtype=float)
+        self.pulsars = cfg.pulsars
+        self._psr = [psr.pulsar(name) for name in cfg.pulsars]
+        self._psr_dirs = np.array([p.direction for p in self._psr]).reshape(-1, 3)
+        self._psr_lambda = np.array([p.wavelength_km for p in self._psr])
+        self._psr_sigma = np.array([psr.phase_sigma_cycles(p, cfg.detector) for p in self._psr])
         sigma_dir = np.hypot(cfg.camera.sigma_direction_rad, cfg.star_tracker_sigma_arcsec * ARCSEC)
         self._meas = MeasurementModel(
             cfg.measurement_model, sigma_dir=sigma_dir, sigma_size=cfg.camera.sigma_alpha_rad
@@ -296,13 +310,15 @@ class PlanetNavEnv(gym.Env):
         self._h_max = np.full(3, att.wheel_momentum_capacity)
         self._boresight_body = cfg.camera.boresight_body
 
+        n_targets = cfg.n_targets
         if cfg.action_mode == "target":
-            self.action_space = spaces.Discrete(n + (1 if cfg.idle_action else 0))
+            self.action_space = spaces.Discrete(n_targets + (1 if cfg.idle_action else 0))
         elif cfg.action_mode == "torque":
             self.action_space = spaces.Box(-1.0, 1.0, (3,), dtype=np.float32)
         else:
             self.action_space = spaces.Box(-1.0, 1.0, (n + 3,), dtype=np.float32)
-        self._obs_dim = 22 + PLANET_FEATURES * n + n + 1
+        n_psr = cfg.n_pulsars
+        self._obs_dim = 22 + PLANET_FEATURES * (n + n_psr) + n_targets + 1
         if cfg.observation == "box":
             self.observation_space = spaces.Box(-np.inf, np.inf, (self._obs_dim,), dtype=np.float32)
         else:
@@ -316,10 +332,14 @@ class PlanetNavEnv(gym.Env):
                     "rates": spaces.Box(-np.inf, np.inf, (3,), f32),
                     "wheel_momentum": spaces.Box(-1.0, 1.0, (3,), f32),
                     "planets": spaces.Box(-np.inf, np.inf, (n, PLANET_FEATURES), f32),
-                    "target": spaces.Box(0.0, 1.0, (n,), f32),
+                    "target": spaces.Box(0.0, 1.0, (n_targets,), f32),
                     "elapsed": spaces.Box(0.0, 1.0, (1,), f32),
                 }
             )
+            if n_psr:
+                self.observation_space.spaces["pulsars"] = spaces.Box(
+                    -np.inf, np.inf, (n_psr, PLANET_FEATURES), f32
+                )
         self._ekf: SingleEKF | None = None
         self._done = False
         self._z = np.empty(3)
@@ -338,17 +358,34 @@ class PlanetNavEnv(gym.Env):
         super().reset(seed=seed)
         cfg = self.config
         rng = self.np_random
-        ep = draw_episode(cfg.scenario, rng, self._ephemeris, self.planets, cfg.camera.sun_exclusion_deg)
+        if self._approach:
+            ep = approach_episode(cfg.episode_steps * cfg.step_s, cfg.approach_end_before_ca_h)
+        else:
+            ep = draw_episode(cfg.scenario, rng, self._ephemeris, self.planets, cfg.camera.sun_exclusion_deg)
         self._epoch = ep.epoch
         self._k = 0
         self._done = False
         k_total = cfg.episode_steps
-        # Planet positions at every half step of the episode: one vectorised ephemeris call per planet.
+        # Ephemerides at every half step of the episode (the RK4 stages ask for exactly these times):
+        # one vectorised call per body. Targets are heliocentric (the camera's frame, Sun at the
+        # origin); the truth and the filter work relative to the central body.
         half = ep.epoch + 0.5 * cfg.step_s * np.arange(2 * k_total + 3)
-        # (2K+3, P, 3): one contiguous (P, 3) slice per half step.
-        self._table = np.ascontiguousarray(
-            np.stack([self._ephemeris.position(p, half) for p in self.planets], axis=1)
+        eph = self._ephemeris
+        self._central_helio = np.ascontiguousarray(
+            eph.position(ep.central, half) if ep.central != "sun" else np.zeros((len(half), 3))
         )
+        # (2K+3, P, 3): one contiguous (P, 3) slice per half step.
+        self._table = np.ascontiguousarray(np.stack([eph.position(p, half) for p in self.planets], axis=1))
+        self._pert = np.ascontiguousarray(
+            np.stack([eph.position(b, half) - self._central_helio for b in ep.perturbers], axis=1)
+            if ep.perturbers
+            else np.zeros((len(half), 0, 3))
+        )
+        if self.pulsars:
+            self._central_ssb = self._central_helio + psr.sun_ssb_position(half)
+        self._integrated = 0.0
+        self._phase_skipped = 0
+        self._sensor = None
         self._x = ep.x0.copy()
         p0 = cfg.filter.initial_covariance()
         x_est = self._x + rng.multivariate_normal(np.zeros(6), p0)
@@ -377,7 +414,7 @@ class PlanetNavEnv(gym.Env):
                     raise InvalidParameterError(
                         f"target action must be an integer in [0, {self.action_space.n}), got {action!r}"
                     )
-                return (-1, None) if idx == cfg.n_planets else (idx, None)
+                return (-1, None) if idx == cfg.n_targets else (idx, None)
             a = np.asarray(action)
             if a.size != 1 or not np.issubdtype(a.dtype, np.number):
                 raise InvalidParameterError(f"target action must be one integer, got {action!r}")
@@ -388,7 +425,7 @@ class PlanetNavEnv(gym.Env):
                 raise InvalidParameterError(
                     f"target action must be an integer in [0, {self.action_space.n}), got {action!r}"
                 )
-            if idx == cfg.n_planets:  # the idle action
+            if idx == cfg.n_targets:  # the idle action
                 return -1, None
             return idx, None
         a = np.asarray(action, dtype=float).reshape(-1)
@@ -404,7 +441,14 @@ class PlanetNavEnv(gym.Env):
         return int(np.argmax(a[: cfg.n_planets])), a[cfg.n_planets :]
 
     def _planet_pos(self, half_index: int) -> np.ndarray:
+        """Heliocentric planet positions (P, 3) at half step ``half_index``."""
         return self._table[half_index]
+
+    def _target_direction(self, target: int, k: int, r_est_helio: np.ndarray) -> np.ndarray:
+        """Inertial direction (not normalised) from the estimated position to target ``target``."""
+        if target < self.config.n_planets:
+            return self._table[2 * k, target] - r_est_helio
+        return self._psr_dirs[target - self.config.n_planets]
 
     def step(self, action: Any):
         if self._ekf is None:
@@ -418,16 +462,19 @@ class PlanetNavEnv(gym.Env):
         t = self._epoch + k * cfg.step_s
 
         # --- attitude: PD law toward the estimated direction of the target, and/or agent torque ---
+        r_est_helio = ekf.x[:3] + self._central_helio[2 * k]
         use_pd = target >= 0 and cfg.action_mode != "torque"
-        direction = self._table[2 * k, target] - ekf.x[:3] if use_pd else self._boresight_body
+        direction = self._target_direction(target, k, r_est_helio) if use_pd else self._boresight_body
         bias = torque_frac * self._tau_max if torque_frac is not None else np.zeros(3)
         slewing = use_pd and target != self._target and self._target >= 0
+        if target != self._target:
+            self._integrated = 0.0  # an X-ray integration is lost when the detector leaves its pulsar
         if use_pd:
             self._target = target
         elif cfg.action_mode == "target":
             self._target = -1
         ok = _attitude_substeps(
-            self._q, self._w, self._h, use_pd, direction, ekf.x[:3], bias, cfg.n_substeps,
+            self._q, self._w, self._h, use_pd, direction, r_est_helio, bias, cfg.n_substeps,
             cfg.attitude_substep_s, self._jm, self._jinv, self._tau_max, self._h_max,
             cfg.attitude.k_a, cfg.attitude.k_w, self._u_last,
         )  # fmt: skip
@@ -436,32 +483,44 @@ class PlanetNavEnv(gym.Env):
                 f"attitude state became non-finite at step {k} (q={self._q}, omega={self._w})"
             )
 
-        # --- orbit truth and filter prediction ---
-        x2 = self._x.reshape(1, 6)
-        rk4_batch_kernel(x2, cfg.step_s, self._gravity.mu_central, _NONE3, _NONE3, _NONE3, _NO_MU)
-        ekf.predict(t, cfg.step_s, (_NONE3, _NONE3, _NONE3))
+        # --- orbit truth and filter prediction (same dynamics, perturbers from the table) ---
+        pert = (self._pert[2 * k], self._pert[2 * k + 1], self._pert[2 * k + 2])
+        rk4_batch_kernel(self._x.reshape(1, 6), cfg.step_s, self._gravity.mu_central, *pert, self._mus)
+        ekf.predict(t, cfg.step_s, pert)
         self._k = k = k + 1
         rng = self.np_random
 
         # --- sensors ---
         self._q_est, self._att_err = self._star_fix()
         self._w_meas = self._w + rng.normal(0.0, cfg.attitude.rate_noise_deg_s * _DEG, 3)
-        planets_now = self._planet_pos(2 * k)
         measured = rejected = False
         reason = "none"
-        meas_index = target if cfg.action_mode != "torque" else self._nearest_in_view(planets_now)
-        if cfg.action_mode == "torque":
-            self._target = meas_index
-        if meas_index >= 0:
-            code = int(
-                self._visible_reasons(
-                    self._x[None, :3], self._q[None], planets_now[meas_index : meas_index + 1],
-                    self._radii[meas_index : meas_index + 1], planets_now,
-                )[0]
-            )  # fmt: skip
-            reason = _REASONS[code]
-            if code == 0:
-                measured, rejected = self._measure(meas_index, planets_now[meas_index])
+        sensor = None
+        if target >= cfg.n_planets:
+            measured, rejected, reason = self._time_pulsar(target - cfg.n_planets)
+            sensor = "xray" if measured else None
+        else:
+            planets_now = self._planet_pos(2 * k)
+            r_helio = self._x[:3] + self._central_helio[2 * k]
+            meas_index = (
+                target if cfg.action_mode != "torque" else self._nearest_in_view(planets_now, r_helio)
+            )
+            if cfg.action_mode == "torque":
+                self._target = meas_index
+            if meas_index >= 0:
+                code = int(
+                    self._visible_reasons(
+                        r_helio[None], self._q[None], planets_now[meas_index : meas_index + 1],
+                        self._radii[meas_index : meas_index + 1], planets_now,
+                    )[0]
+                )  # fmt: skip
+                reason = _REASONS[code]
+                if code == 0 and self._too_large(meas_index, planets_now[meas_index], r_helio):
+                    code, reason = -1, "too_large"
+                if code == 0:
+                    measured, rejected = self._measure(meas_index, planets_now[meas_index], r_helio)
+                    sensor = "camera"
+        self._sensor = sensor
 
         info = self._info(measured, rejected, reason, slewing)
         pos_err = info["pos_err_km"]
@@ -487,32 +546,42 @@ class PlanetNavEnv(gym.Env):
             return self._q_est, float("nan")
         return q_est, float(err)
 
-    def _nearest_in_view(self, planets_now: np.ndarray) -> int:
+    def _nearest_in_view(self, planets_now: np.ndarray, r_helio: np.ndarray) -> int:
         """Index of the planet nearest the boresight by the true geometry (what the image shows), or -1."""
         boresight = qt.rotate_body_to_inertial(self._q, self._boresight_body)
-        d = planets_now - self._x[:3]
+        d = planets_now - r_helio
         cosang = d @ boresight / np.linalg.norm(d, axis=1)
         i = int(np.argmax(cosang))
         return i if cosang[i] > np.cos(self.config.camera.half_fov_diagonal_rad) else -1
 
-    def _measure(self, i: int, planet: np.ndarray) -> tuple[bool, bool]:
+    def _too_large(self, i: int, planet_helio: np.ndarray, r_helio: np.ndarray) -> bool:
+        """A disk wider than the sensor's field cannot give its centre or diameter (close approach)."""
+        dist = float(np.linalg.norm(planet_helio - r_helio))
+        return 2.0 * math.asin(min(self._radii[i] / dist, 1.0)) > 2.0 * min(self.config.camera.half_fov_rad)
+
+    def _measure(self, i: int, planet: np.ndarray, r_helio: np.ndarray) -> tuple[bool, bool]:
         """Camera measurement of planet i, rotated to inertial with the star-tracker attitude; EKF update."""
         cfg = self.config
         # camera.measure's kernel, with the same single standard-normal draw (1, 3); the public
         # wrapper's validation costs more than the measurement (visibility was checked just before).
         noise = self.np_random.standard_normal((1, 3))
         st = cam.measure_into_kernel(
-            self._x[None, :3], self._q[None], planet[None], self._radii[i : i + 1], noise,
+            r_helio[None], self._q[None], planet[None], self._radii[i : i + 1], noise,
             cfg.camera._c2b, cfg.camera._params, self._los, self._alpha, self._pix,
         )  # fmt: skip
         if st != 0:  # let the public function raise its specific error
-            cam.measure(self.np_random, self._x[:3], self._q, planet, self._radii[i], cfg.camera)
+            cam.measure(self.np_random, r_helio, self._q, planet, self._radii[i], cfg.camera)
         ekf = self._ekf
+        planet_rel = planet - self._central_helio[2 * self._k]  # the filter's frame
         dim = _measurement_vector(
-            self._los[0], self._alpha[0], self._q_est, planet, ekf.x, self._kind, self._z, self._basis
+            self._los[0], self._alpha[0], self._q_est, planet_rel, ekf.x, self._kind, self._z, self._basis
         )
         nis, ok = ekf.update_planet(
-            self._z[:dim], planet, self._diameters[i], self._meas, self._basis if self._kind >= 2 else None
+            self._z[:dim],
+            planet_rel,
+            self._diameters[i],
+            self._meas,
+            self._basis if self._kind >= 2 else None,
         )
         self._last_measurement = {
             "planet": self.planets[i],
@@ -521,6 +590,58 @@ class PlanetNavEnv(gym.Env):
             "pixel": self._pix[0].copy(),
         }
         return True, not ok
+
+    def _time_pulsar(self, j: int) -> tuple[bool, bool, str]:
+        """Accumulate X-ray photons from pulsar j while the detector points at it; after the detector's
+        integration time, a phase measurement (range along the pulsar's line of sight, relative to the
+        Solar-system barycentre) updates the filter. Returns (measured, rejected, reason)."""
+        cfg = self.config
+        k = self._k
+        n = self._psr_dirs[j]
+        r_helio = self._x[:3] + self._central_helio[2 * k]
+        boresight = qt.rotate_body_to_inertial(self._q, self._boresight_body)
+        off = math.acos(min(max(float(boresight @ n), -1.0), 1.0))
+        occulter = self._central_helio[2 * k] if self._approach else None
+        vis = psr.pulsar_visibility(
+            r_helio, [self._psr[j]], cfg.detector, occulter,
+            body(self._gravity.central).radius if occulter is not None else None,
+        )  # fmt: skip
+        if vis.sun_blocked[0, 0]:
+            self._integrated = 0.0
+            return False, False, "sun_exclusion"
+        if vis.occulted[0, 0]:
+            self._integrated = 0.0
+            return False, False, "occulted"
+        if off > math.radians(0.5 * cfg.detector_fov_deg):
+            self._integrated = 0.0
+            return False, False, "out_of_fov"
+        self._integrated += cfg.step_s
+        if self._integrated + 1e-9 < cfg.detector.integration_time_s:
+            return False, False, "integrating"
+        self._integrated = 0.0
+        lam = self._psr_lambda[j]
+        sigma = self._psr_sigma[j]
+        r_ssb = self._x[:3] + self._central_ssb[2 * k]
+        total = float(n @ r_ssb) / lam + sigma * float(self.np_random.standard_normal())
+        frac = total - math.floor(total)  # what the detector delivers: the phase within a cycle
+        ekf = self._ekf
+        h = float(n @ (ekf.x[:3] + self._central_ssb[2 * k])) / lam
+        jac = np.zeros(6)
+        jac[:3] = n / lam
+        sig_pred = math.sqrt(float(jac @ ekf.P @ jac) + sigma * sigma)
+        if cfg.ambiguity_k_sigma * sig_pred >= 0.5:
+            self._phase_skipped += 1  # the whole number of cycles cannot be trusted: skip, count
+            return False, False, "ambiguous"
+        z = frac + round(h - frac)  # cycle ambiguity resolved against the prediction
+        nis, ok = ekf.update_scalar(z, h, jac, sigma * sigma)
+        self._last_measurement = {"pulsar": self.pulsars[j], "nis": nis, "accepted": ok}
+        return True, not ok, "visible"
+
+    def _target_name(self, index: int) -> str | None:
+        if index < 0:
+            return None
+        n = self.config.n_planets
+        return self.planets[index] if index < n else self.pulsars[index - n]
 
     def _reward(self, info: dict, torque_frac: np.ndarray | None) -> float:
         cfg = self.config
@@ -541,7 +662,9 @@ class PlanetNavEnv(gym.Env):
             "pos_sigma_km": math.sqrt(max(p[0, 0] + p[1, 1] + p[2, 2], 0.0)),
             "measured": measured,
             "rejected": rejected,
-            "target": self.planets[self._target] if self._target >= 0 else None,
+            "target": self._target_name(self._target),
+            "sensor": getattr(self, "_sensor", None),
+            "ambiguous_skipped": self._phase_skipped,
             "visibility": reason,
             "slewing": slewing,
             "attitude_err_arcsec": self._att_err / ARCSEC,
@@ -556,15 +679,38 @@ class PlanetNavEnv(gym.Env):
         ekf = self._ekf
         planets_now = self._planet_pos(2 * self._k)
         out = self._features
-        _planet_geometry(ekf.x, self._q_est, planets_now, self._radii, out)
-        n = cfg.n_planets
-        r_est = np.broadcast_to(ekf.x[:3], (n, 3))
-        reason = self._visible_reasons(
-            r_est, np.broadcast_to(self._q_est, (n, 4)), planets_now, self._radii, planets_now
-        )
+        r_est_helio = ekf.x[:3] + self._central_helio[2 * self._k]
+        _planet_geometry(r_est_helio, self._q_est, planets_now, self._radii, out)
+        self._r_tile[:] = r_est_helio
+        self._q_tile[:] = self._q_est
+        reason = self._visible_reasons(self._r_tile, self._q_tile, planets_now, self._radii, planets_now)
         out[:, 4] /= cfg.camera.sigma_alpha_rad
         out[:, 5] = reason == 0
         return out.copy()
+
+    def pulsar_features(self) -> np.ndarray:
+        """(Q, 6) per-pulsar observation block: direction in body axes from the star-tracker attitude
+        (3), integration progress (0..1, current target only), log10 of the filter's predicted 1-sigma
+        of the phase [cycles], visible (not Sun-blocked or occulted, from the estimate)."""
+        cfg = self.config
+        ekf = self._ekf
+        k = self._k
+        out = np.empty((cfg.n_pulsars, PLANET_FEATURES))
+        out[:, 0:3] = qt.rotate_inertial_to_body(self._q_est, self._psr_dirs)
+        out[:, 3] = 0.0
+        if self._target >= cfg.n_planets:
+            out[self._target - cfg.n_planets, 3] = self._integrated / cfg.detector.integration_time_s
+        jac = self._psr_dirs / self._psr_lambda[:, None]
+        sig = np.sqrt(np.einsum("qi,ij,qj->q", jac, ekf.P[:3, :3], jac) + self._psr_sigma**2)
+        out[:, 4] = np.log10(sig)
+        r_est_helio = ekf.x[:3] + self._central_helio[2 * k]
+        occulter = self._central_helio[2 * k] if self._approach else None
+        vis = psr.pulsar_visibility(
+            r_est_helio, self._psr, cfg.detector, occulter,
+            body(self._gravity.central).radius if occulter is not None else None,
+        )  # fmt: skip
+        out[:, 5] = vis.visible[0]
+        return out
 
     def _visible_reasons(self, r, q, targets, radii, occulters) -> np.ndarray:
         """Camera visibility reason codes (0 = visible) from the camera's codes-only kernel: the public
@@ -584,8 +730,8 @@ class PlanetNavEnv(gym.Env):
         n = cfg.n_planets
         buf = self._obs_buf
         sig = np.sqrt(np.maximum(np.diagonal(ekf.P), 1e-30))
-        buf[0:3] = ekf.x[:3] / AU_KM
-        buf[3:6] = ekf.x[3:] / 30.0
+        buf[0:3] = ekf.x[:3] / self._pos_scale
+        buf[3:6] = ekf.x[3:] / self._vel_scale
         buf[6:9] = np.log10(sig[:3]) / 4.0
         buf[9:12] = np.log10(sig[3:] * 1e3) / 4.0
         buf[12:16] = self._q_est
@@ -593,18 +739,27 @@ class PlanetNavEnv(gym.Env):
         buf[19:22] = self._h / self._h_max
         end = 22 + PLANET_FEATURES * n
         buf[22:end] = self.planet_features().ravel()
-        buf[end : end + n] = 0.0
+        if cfg.n_pulsars:
+            end_p = end + PLANET_FEATURES * cfg.n_pulsars
+            buf[end:end_p] = self.pulsar_features().ravel()
+        else:
+            end_p = end
+        n_t = cfg.n_targets
+        buf[end_p : end_p + n_t] = 0.0
         if self._target >= 0:
-            buf[end + self._target] = 1.0
+            buf[end_p + self._target] = 1.0
         buf[-1] = self._k / cfg.episode_steps
         if cfg.observation == "box":
             return buf.astype(np.float32)
         f = buf.astype(np.float32)
-        return {
+        out = {
             "position": f[0:3], "velocity": f[3:6], "log_sigma": f[6:12], "attitude": f[12:16],
             "rates": f[16:19], "wheel_momentum": f[19:22], "planets": f[22:end].reshape(n, PLANET_FEATURES),
-            "target": f[end : end + n], "elapsed": f[-1:],
+            "target": f[end_p : end_p + n_t], "elapsed": f[-1:],
         }  # fmt: skip
+        if cfg.n_pulsars:
+            out["pulsars"] = f[end:end_p].reshape(cfg.n_pulsars, PLANET_FEATURES)
+        return out
 
     # ------------------------------------------------------------------------------------------
     def render(self):

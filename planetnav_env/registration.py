@@ -13,6 +13,18 @@ ENV_IDS: dict[str, dict] = {
     "planetnav/Cruise-Torque-v0": {"scenario": "cruise", "action_mode": "torque"},
     "planetnav/Cruise-TargetTorque-v0": {"scenario": "cruise", "action_mode": "target+torque"},
     "planetnav/RandomCruise-Target-v0": {"scenario": "random-cruise", "action_mode": "target"},
+    # Sensor tasking on Mars approach (patent 003): image Mars or time one of two X-ray pulsars.
+    # 94 h at 300 s steps ending 2 h before closest approach; filter settings of docs/optical_pulsar.md.
+    "planetnav/MarsApproach-Tasking-v0": {
+        "scenario": "mars-approach",
+        "action_mode": "target",
+        "planets": ("mars",),
+        "pulsars": ("B0531+21", "B1937+21"),
+        "step_s": 300.0,
+        "episode_steps": 1128,
+        "reward_scale_km": 10.0,
+        "filter": {"sigma_pos0": 100.0, "sigma_vel0": 1e-3, "accel_psd": 1e-16},
+    },
 }
 
 

@@ -10,10 +10,16 @@
     Venus and Mars (perihelion 0.70-0.75 AU, aphelion 1.45-1.60 AU, inclination 0-3 deg) with uniform
     node, perihelion and mean anomaly; kept only if at least two of the configured planets are
     within 1.5 AU and more than 10 deg outside the camera's Sun-exclusion cone (redrawn otherwise).
+``mars-approach``
+    The patent reproduction's approach (``docs/optical_pulsar.md``, :mod:`planetnav_env.approach`):
+    hyperbolic arrival at 2.65 km/s, periapsis 400 km, closest approach 2021-02-10 12:00 TDB;
+    Mars-centred ICRF state. The episode starts ``episode_steps * step_s`` before its end, which
+    is ``end_before_ca_h`` before closest approach.
 """
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -57,10 +63,30 @@ def cruise_state() -> np.ndarray:
 
 @dataclass(frozen=True)
 class Episode:
-    """Initial truth of one episode: epoch [TDB s since J2000] and state [km, km/s]."""
+    """Initial truth of one episode: epoch [TDB s since J2000], state [km, km/s] relative to the
+    ``central`` body, and the point masses the dynamics include besides it."""
 
     epoch: float
     x0: np.ndarray
+    central: str = "sun"
+    perturbers: tuple[str, ...] = ()
+
+
+@functools.lru_cache(maxsize=8)
+def _approach_start(duration_s: float, end_before_ca_h: float) -> tuple[float, tuple[float, ...]]:
+    from planetnav_env.approach import ApproachConfig, MarsApproach
+
+    hours = duration_s / 3600.0 + end_before_ca_h
+    app = MarsApproach(ApproachConfig(duration_h=hours, end_before_ca_h=end_before_ca_h, dt_s=duration_s))
+    return float(app.t0), tuple(float(v) for v in app.x_true[0])
+
+
+def approach_episode(duration_s: float, end_before_ca_h: float) -> Episode:
+    """The mars-approach truth at the start of an episode of ``duration_s`` (DOP853 from periapsis)."""
+    from planetnav_env.approach import PERTURBERS
+
+    t0, x0 = _approach_start(float(duration_s), float(end_before_ca_h))
+    return Episode(t0, np.array(x0), "mars", tuple(PERTURBERS))
 
 
 def _sun_angle_deg(r_sc: np.ndarray, r_body: np.ndarray) -> float:
@@ -77,7 +103,8 @@ def draw_episode(
     planets: tuple[str, ...],
     sun_exclusion_deg: float,
 ) -> Episode:
-    """The initial truth for ``scenario`` (random scenarios draw from ``rng``)."""
+    """The initial truth for ``scenario`` (random scenarios draw from ``rng``); see
+    :func:`approach_episode` for ``mars-approach``."""
     if scenario == "cruise":
         return Episode(CRUISE_EPOCH, cruise_state())
     if scenario == "random-cruise":

@@ -32,10 +32,17 @@ def test_dict_observation_variant_passes_checker():
     np.testing.assert_array_equal(np.concatenate([np.ravel(v) for v in obs.values()]), flat)
 
 
-@pytest.mark.parametrize("env_id", ["planetnav/Cruise-Target-v0", "planetnav/Cruise-TargetTorque-v0"])
-def test_seeding_is_bit_for_bit_reproducible(env_id):
+@pytest.mark.parametrize(
+    ("env_id", "steps"),
+    [
+        ("planetnav/Cruise-Target-v0", 1100),
+        ("planetnav/Cruise-TargetTorque-v0", 1100),
+        ("planetnav/MarsApproach-Tasking-v0", 1128),
+    ],
+)
+def test_seeding_is_bit_for_bit_reproducible(env_id, steps):
     def rollout():
-        env = gym.make(env_id, episode_steps=1100)
+        env = gym.make(env_id, episode_steps=steps)
         env.action_space.seed(123)
         obs, info = env.reset(seed=7)
         frames = [obs.tobytes()]
@@ -176,3 +183,42 @@ def test_idle_action_never_measures():
     for _ in range(20):
         _, _, _, _, info = env.step(env.config.n_planets)
         assert not info["measured"] and info["target"] is None
+
+
+def test_mars_approach_sensor_tasking_matters():
+    env = gym.make("planetnav/MarsApproach-Tasking-v0").unwrapped
+    assert env.action_space.n == 3 and env.config.pulsars == ("B0531+21", "B1937+21")
+
+    def run(policy, steps=400):
+        env.reset(seed=2)
+        for k in range(steps):
+            _, _, term, _, info = env.step(policy(k))
+            assert not term
+        return info
+
+    optical = run(lambda k: 0)
+    crab = run(lambda k: 1)
+    hybrid = run(lambda k: 0 if (k // 24) % 2 == 0 else 1)
+    # Pulsar phases arrive once per integration time (1000 s = 4 steps of 300 s).
+    assert crab["sensor"] in (None, "xray")
+    # Mixing both sensors shrinks the filter's uncertainty below either alone (measured ~x3).
+    assert hybrid["pos_sigma_km"] < 0.7 * min(optical["pos_sigma_km"], crab["pos_sigma_km"])
+    # B1937+21's 467 km cycle cannot be resolved from the 100 km prior alone: skipped and counted.
+    ms = run(lambda k: 2, steps=40)
+    assert ms["ambiguous_skipped"] >= 1 and not ms["measured"]
+
+
+def test_sun_blocked_pulsar_is_reported_not_measured():
+    # B1821-24 is ~11 deg from the Sun seen from Mars in February 2021 (inside the 30 deg cone).
+    env = PlanetNavEnv(
+        scenario="mars-approach", planets=["mars"], pulsars=["B1821-24"], step_s=300.0, episode_steps=40
+    )
+    env.reset(seed=0)
+    for _ in range(12):
+        _, _, _, _, info = env.step(1)
+        assert not info["measured"]
+    assert info["visibility"] == "sun_exclusion"
+    with pytest.raises(ConfigError, match="J9999"):
+        PlanetNavEnv(scenario="mars-approach", planets=["mars"], pulsars=["J9999+99"])
+    with pytest.raises(ConfigError, match="area_cm2"):
+        PlanetNavEnv(detector={"area_cm2": -1.0})

@@ -13,12 +13,14 @@ Measurement kinds (integer codes, see :data:`KIND_CODES`): 0 direction, 1 direct
 
 from __future__ import annotations
 
+import math
+
 import numba
 import numpy as np
 from numba import njit, prange
 
 from planetnav_env.dynamics.orbit import GravityModel, PerturberFn
-from planetnav_env.errors import InvalidParameterError, require_finite, require_positive
+from planetnav_env.errors import InvalidParameterError, NonFiniteError, require_finite, require_positive
 from planetnav_env.estimation.ekf import FilterConfig, process_noise
 from planetnav_env.estimation.measurements import MeasurementModel
 
@@ -454,6 +456,22 @@ class SingleEKF:
             self._phi,
             self._tmp,
         )
+
+    def update_scalar(self, z: float, h: float, jac_row: np.ndarray, variance: float) -> tuple[float, bool]:
+        """Update with one scalar measurement ``z`` of prediction ``h``, Jacobian row (6,) and noise
+        variance (e.g. a pulsar phase after its cycle ambiguity is resolved); returns (NIS, accepted)."""
+        if not (math.isfinite(z) and math.isfinite(h)):
+            raise NonFiniteError(f"scalar measurement or prediction is not finite: z={z!r}, h={h!r}")
+        self._h[0] = h
+        self._jac[0] = jac_row
+        self._r[0, 0] = require_positive("measurement variance", variance)
+        zz = np.array([float(z)])
+        nis, ok = update_kernel(
+            self.x, self.P, zz, self._h, self._jac, self._r, 1, -1, self._gate[1], self._uw
+        )
+        if not ok:
+            self.rejected += 1
+        return float(nis), bool(ok)
 
     def update_planet(
         self,
