@@ -15,13 +15,21 @@ from __future__ import annotations
 import argparse
 import time
 
+import numba
 import numpy as np
 
 from planetnav_env.bodies import body
 from planetnav_env.dynamics.orbit import GravityModel, rk4_step
 from planetnav_env.ephemeris import KeplerianEphemeris
 from planetnav_env.estimation.ekf import BatchEKF, FilterConfig, FilterpyEKF, process_noise
-from planetnav_env.estimation.fast import KIND_CODES, SingleEKF, cycle_batch_kernel
+from planetnav_env.estimation.fast import (
+    KIND_CODES,
+    SingleEKF,
+    predict_batch_kernel,
+    predict_batch_parallel,
+    update_batch_kernel,
+    update_batch_parallel,
+)
 from planetnav_env.estimation.measurements import (
     MeasurementModel,
     h_direction,
@@ -69,7 +77,7 @@ def main() -> None:
 
         return cycle
 
-    def compiled_batch(n: int):
+    def compiled_batch(n: int, threads: int):
         x = np.repeat(x0[None], n, 0)
         p = np.repeat(p0[None], n, 0)
         z = np.repeat(z1, n, 0)
@@ -84,29 +92,20 @@ def main() -> None:
         kind = KIND_CODES[meas.kind]
 
         def cycle():
-            cycle_batch_kernel(
-                x,
-                p,
-                dt,
-                model.mu_central,
-                empty,
-                empty,
-                empty,
-                mus,
-                q,
-                False,
-                z,
-                planets,
-                diameter,
-                kind,
-                meas.sigma_dir,
-                meas.sigma_size,
-                basis,
-                active,
-                np.inf,
-                nis,
-                acc,
-            )
+            if threads > 1:
+                predict_batch_parallel(
+                    x, p, dt, model.mu_central, empty, empty, empty, mus, q, False, threads
+                )
+                update_batch_parallel(
+                    x, p, z, planets, diameter, kind, meas.sigma_dir, meas.sigma_size, basis, active, np.inf,
+                    nis, acc, threads,
+                )  # fmt: skip
+            else:
+                predict_batch_kernel(x, p, dt, model.mu_central, empty, empty, empty, mus, q, False)
+                update_batch_kernel(
+                    x, p, z, planets, diameter, kind, meas.sigma_dir, meas.sigma_size, basis, active, np.inf,
+                    nis, acc,
+                )  # fmt: skip
             p[:] = p0
 
         return cycle
@@ -141,11 +140,15 @@ def main() -> None:
     t_single_np = _time(batched(1), args.repeat)
     t_single = _time(single_cycle, args.repeat * 5)
     t_batch_np = _time(batched(1024), max(args.repeat // 20, 5)) / 1024
-    t_batch = _time(compiled_batch(1024), max(args.repeat // 20, 5)) / 1024
+    t_batch_1 = _time(compiled_batch(1024, 1), max(args.repeat // 20, 5)) / 1024
+    t_batch = _time(compiled_batch(1024, numba.get_num_threads()), max(args.repeat // 20, 5)) / 1024
     t_fp = _time(filterpy_cycle, args.repeat)
     rows.append(("EKF cycle, single filter (SingleEKF, numba)", t_single))
     rows.append(("EKF cycle, single filter (BatchEKF numpy, N=1)", t_single_np))
-    rows.append(("EKF cycle, batched over 1024 (numba), per filter", t_batch))
+    rows.append(("EKF cycle, batched over 1024 (numba, 1 thread), per filter", t_batch_1))
+    rows.append(
+        (f"EKF cycle, batched over 1024 (numba, {numba.get_num_threads()} threads), per filter", t_batch)
+    )
     rows.append(("EKF cycle, batched over 1024 (numpy), per filter", t_batch_np))
     rows.append(("EKF cycle, filterpy ExtendedKalmanFilter", t_fp))
 
@@ -166,8 +169,10 @@ def main() -> None:
         print(f"{name:<{width}}  {us:>10.2f}")
     print()
     print(
-        f"batched per-filter cycle: {t_batch:.2f} us (target <= 2 us): {'PASS' if t_batch <= 2.0 else 'MISS'}"
+        f"batched per-filter cycle: {t_batch_1:.2f} us on one thread, {t_batch:.2f} us on all threads "
+        f"(target <= 2 us): {'PASS' if min(t_batch, t_batch_1) <= 2.0 else 'MISS'}"
     )
+    print("(the threaded kernel waits for every thread in each call: on a busy machine it is the slower one)")
     print(
         f"single vs filterpy: {t_single:.1f} us vs {t_fp:.1f} us, ratio {t_fp / t_single:.1f}x: "
         f"{'PASS' if t_single <= t_fp else 'MISS'}"

@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
 from numba import njit, prange
 
@@ -293,21 +292,57 @@ def _inv_small(s, m, out):
         out[2, 2] = (s[0, 0] * s[1, 1] - s[0, 1] * s[1, 0]) / det
 
 
-@njit(cache=True, parallel=True)
-def predict_batch_kernel(x, p, dt, mu, p0, p1, p2, mus, q, euler_stm):
-    """Predict N filters (leading axis) in place, in chunks spread over the CPU's threads.
+@njit(cache=True)
+def _predict_range(x, p, dt, mu, p0, p1, p2, mus, q, euler_stm, lo, hi):
+    """Predict filters lo..hi-1 of a batch in place (one scratch set for the chunk)."""
+    w6 = np.empty((3, 6, 6))
+    v6 = np.empty((4, 6))
+    phi = np.empty((6, 6))
+    tmp = np.empty((6, 6))
+    for n in range(lo, hi):
+        predict_kernel(x[n], p[n], dt, mu, p0, p1, p2, mus, q, euler_stm, w6, v6, phi, tmp)
 
-    The filters are independent, so the result does not depend on the thread count.
+
+@njit(cache=True)
+def _update_range(
+    x, p, z, planet, diameter, kind, sig_dir, sig_size, basis, active, gate, nis_out, acc_out, lo, hi
+):
+    """Update filters lo..hi-1 of a batch in place, one planet measurement each."""
+    h = np.empty(3)
+    jac = np.empty((3, 6))
+    rcov = np.empty((3, 3))
+    uw = np.empty((5, 6, 6))
+    wrap_index = 1 if kind <= 1 else -1
+    for n in range(lo, hi):
+        if active[n]:
+            m = planet_model_kernel(
+                x[n, :3], planet[n], diameter, kind, sig_dir, sig_size, basis[n], h, jac, rcov
+            )
+            nis_out[n], acc_out[n] = update_kernel(x[n], p[n], z[n], h, jac, rcov, m, wrap_index, gate, uw)
+        else:
+            nis_out[n] = np.nan
+            acc_out[n] = False
+
+
+@njit(cache=True)
+def predict_batch_kernel(x, p, dt, mu, p0, p1, p2, mus, q, euler_stm):
+    """Predict N filters (leading axis) in place, on the calling thread."""
+    _predict_range(x, p, dt, mu, p0, p1, p2, mus, q, euler_stm, 0, x.shape[0])
+
+
+@njit(cache=True, parallel=True)
+def predict_batch_parallel(x, p, dt, mu, p0, p1, p2, mus, q, euler_stm, n_chunks):
+    """:func:`predict_batch_kernel` in ``n_chunks`` chunks over the CPU's threads (pass
+    ``numba.get_num_threads()``; filters are independent, so the result does not depend on it).
+
+    Worth it for large batches on an idle machine only: each parallel region waits for every
+    thread, which a busy machine may not schedule for a while.
     """
     n_total = x.shape[0]
-    n_chunks = min(numba.get_num_threads(), n_total)
+    n_chunks = max(1, min(n_chunks, n_total))
     for c in prange(n_chunks):
-        w6 = np.empty((3, 6, 6))
-        v6 = np.empty((4, 6))
-        phi = np.empty((6, 6))
-        tmp = np.empty((6, 6))
-        for n in range(c * n_total // n_chunks, (c + 1) * n_total // n_chunks):
-            predict_kernel(x[n], p[n], dt, mu, p0, p1, p2, mus, q, euler_stm, w6, v6, phi, tmp)
+        lo, hi = c * n_total // n_chunks, (c + 1) * n_total // n_chunks
+        _predict_range(x, p, dt, mu, p0, p1, p2, mus, q, euler_stm, lo, hi)
 
 
 @njit(cache=True)
@@ -322,30 +357,42 @@ def rk4_batch_kernel(x, dt, mu, p0, p1, p2, mus):
         x[n, :] = x_new
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True)
 def update_batch_kernel(
     x, p, z, planet, diameter, kind, sig_dir, sig_size, basis, active, gate, nis_out, acc_out
 ):
     """Update N filters in place, one planet measurement each; planet (N, 3), z (N, m), basis (N, 2, 3)."""
+    _update_range(
+        x,
+        p,
+        z,
+        planet,
+        diameter,
+        kind,
+        sig_dir,
+        sig_size,
+        basis,
+        active,
+        gate,
+        nis_out,
+        acc_out,
+        0,
+        x.shape[0],
+    )
+
+
+@njit(cache=True, parallel=True)
+def update_batch_parallel(
+    x, p, z, planet, diameter, kind, sig_dir, sig_size, basis, active, gate, nis_out, acc_out, n_chunks
+):
+    """:func:`update_batch_kernel` in chunks over the CPU's threads (see :func:`predict_batch_parallel`)."""
     n_total = x.shape[0]
-    n_chunks = min(numba.get_num_threads(), n_total)
-    wrap_index = 1 if kind <= 1 else -1
+    n_chunks = max(1, min(n_chunks, n_total))
     for c in prange(n_chunks):
-        h = np.empty(3)
-        jac = np.empty((3, 6))
-        rcov = np.empty((3, 3))
-        uw = np.empty((5, 6, 6))
-        for n in range(c * n_total // n_chunks, (c + 1) * n_total // n_chunks):
-            if active[n]:
-                m = planet_model_kernel(
-                    x[n, :3], planet[n], diameter, kind, sig_dir, sig_size, basis[n], h, jac, rcov
-                )
-                nis_out[n], acc_out[n] = update_kernel(
-                    x[n], p[n], z[n], h, jac, rcov, m, wrap_index, gate, uw
-                )
-            else:
-                nis_out[n] = np.nan
-                acc_out[n] = False
+        lo, hi = c * n_total // n_chunks, (c + 1) * n_total // n_chunks
+        _update_range(
+            x, p, z, planet, diameter, kind, sig_dir, sig_size, basis, active, gate, nis_out, acc_out, lo, hi
+        )
 
 
 @njit(cache=True)
