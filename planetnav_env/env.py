@@ -37,6 +37,7 @@ from planetnav_env.attitude.pointing import frame_kernel, pd_torque_kernel
 from planetnav_env.bodies import AU_KM, body
 from planetnav_env.config import EnvConfig
 from planetnav_env.dynamics.attitude import (
+    dcm_body_to_inertial_kernel,
     load_state_kernel,
     rk4_substep_kernel,
     store_state_kernel,
@@ -97,21 +98,6 @@ def _attitude_substeps(
 
 
 @njit(cache=True)
-def _dcm(q, out):  # pragma: no cover - compiled
-    """R(q) body -> inertial (mirror of quaternion.dcm_body_to_inertial, for unit q)."""
-    q0, q1, q2, q3 = q[0], q[1], q[2], q[3]
-    out[0, 0] = q0 * q0 + q1 * q1 - q2 * q2 - q3 * q3
-    out[0, 1] = 2.0 * (q1 * q2 - q0 * q3)
-    out[0, 2] = 2.0 * (q1 * q3 + q0 * q2)
-    out[1, 0] = 2.0 * (q1 * q2 + q0 * q3)
-    out[1, 1] = q0 * q0 - q1 * q1 + q2 * q2 - q3 * q3
-    out[1, 2] = 2.0 * (q2 * q3 - q0 * q1)
-    out[2, 0] = 2.0 * (q1 * q3 - q0 * q2)
-    out[2, 1] = 2.0 * (q2 * q3 + q0 * q1)
-    out[2, 2] = q0 * q0 - q1 * q1 - q2 * q2 + q3 * q3
-
-
-@njit(cache=True)
 def _measurement_vector(los_body, alpha, q_est, planet, x_est, kind, z, basis):  # pragma: no cover - compiled
     """Filter measurement z from a body-frame line of sight rotated by the star-tracker attitude.
 
@@ -120,7 +106,7 @@ def _measurement_vector(los_body, alpha, q_est, planet, x_est, kind, z, basis): 
     Returns the dimension m.
     """
     r = np.empty((3, 3))
-    _dcm(q_est, r)
+    dcm_body_to_inertial_kernel(q_est[0], q_est[1], q_est[2], q_est[3], r)
     u = np.empty(3)
     for i in range(3):
         u[i] = r[i, 0] * los_body[0] + r[i, 1] * los_body[1] + r[i, 2] * los_body[2]
@@ -156,7 +142,7 @@ def _measurement_vector(los_body, alpha, q_est, planet, x_est, kind, z, basis): 
 def _planet_geometry(x_est, q_est, planets, radii, out):  # pragma: no cover - compiled
     """Columns 0-4 of the per-planet observation block from the estimate (see PlanetNavEnv)."""
     r = np.empty((3, 3))
-    _dcm(q_est, r)
+    dcm_body_to_inertial_kernel(q_est[0], q_est[1], q_est[2], q_est[3], r)
     for p in range(planets.shape[0]):
         d0 = planets[p, 0] - x_est[0]
         d1 = planets[p, 1] - x_est[1]

@@ -73,6 +73,17 @@ def process_noise(dt: float, accel_psd: float) -> np.ndarray:
     return accel_psd * np.block([[dt**3 / 3.0 * i3, dt**2 / 2.0 * i3], [dt**2 / 2.0 * i3, dt * i3]])
 
 
+def validate_initial(x0: np.ndarray, p0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Initial estimate (..., 6) and covariance (6, 6) as float arrays, or the error naming the problem."""
+    x = require_finite("initial estimate", np.array(x0, dtype=float))
+    if x.shape[-1:] != (6,):
+        raise InvalidParameterError(f"state must have 6 components, got shape {x.shape}")
+    p = require_finite("initial covariance", np.array(p0, dtype=float))
+    if p.shape[-2:] != (6, 6) or np.any(np.linalg.eigvalsh(0.5 * (p + np.swapaxes(p, -1, -2))) <= 0.0):
+        raise InvalidParameterError("initial covariance must be a symmetric positive definite 6x6 matrix")
+    return x, p
+
+
 def symmetrize(p: np.ndarray) -> np.ndarray:
     return 0.5 * (p + np.swapaxes(p, -1, -2))
 
@@ -174,13 +185,9 @@ class BatchEKF:
         self.model = model
         self.config = config or FilterConfig()
         self.perturbers = perturbers
-        self.x = require_finite("initial estimate", np.atleast_2d(np.array(x0, dtype=float)))
-        if self.x.shape[-1] != 6:
-            raise InvalidParameterError(f"state must have 6 components, got shape {self.x.shape}")
-        p0 = require_finite("initial covariance", np.array(p0, dtype=float))
-        self.P = np.broadcast_to(p0, self.x.shape[:-1] + (6, 6)).copy()
-        if np.any(np.linalg.eigvalsh(self.P) <= 0.0):
-            raise InvalidParameterError("initial covariance must be symmetric positive definite")
+        x, p = validate_initial(x0, p0)
+        self.x = np.atleast_2d(x)
+        self.P = np.broadcast_to(p, self.x.shape[:-1] + (6, 6)).copy()
         self.rejected = np.zeros(self.x.shape[0], dtype=int)
         self._q_cache: dict[float, np.ndarray] = {}
 

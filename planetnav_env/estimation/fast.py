@@ -20,7 +20,7 @@ from numba import njit, prange
 
 from planetnav_env.dynamics.orbit import GravityModel, PerturberFn
 from planetnav_env.errors import InvalidParameterError, NonFiniteError, require_finite, require_positive
-from planetnav_env.estimation.ekf import FilterConfig, process_noise
+from planetnav_env.estimation.ekf import FilterConfig, process_noise, validate_initial
 from planetnav_env.estimation.measurements import MeasurementModel
 
 KIND_CODES = {"direction": 0, "direction+size": 1, "los": 2, "los+size": 3}
@@ -449,10 +449,10 @@ class SingleEKF:
         self.model = model
         self.config = config or FilterConfig()
         self.perturbers = perturbers
-        self.x = require_finite("initial estimate", np.array(x0, dtype=float).reshape(6))
-        self.P = require_finite("initial covariance", np.array(p0, dtype=float).reshape(6, 6))
-        if np.any(np.linalg.eigvalsh(self.P) <= 0.0):
-            raise InvalidParameterError("initial covariance must be symmetric positive definite")
+        x, p = validate_initial(x0, p0)
+        if x.shape != (6,) or p.shape != (6, 6):
+            raise InvalidParameterError(f"one filter needs x0 (6,) and P0 (6, 6), got {x.shape}, {p.shape}")
+        self.x, self.P = x, p
         self._mus = np.asarray(model.mu_perturbers, dtype=float)
         self._q: dict[float, np.ndarray] = {}
         self._gate = {m: self.config.gate_threshold(m) for m in (1, 2, 3)}

@@ -40,6 +40,7 @@ import numpy as np
 
 from planetnav_env import quaternion as qt
 from planetnav_env.attitude.wahba import attitude_error_angle, q_method
+from planetnav_env.dynamics.attitude import dcm_body_to_inertial_kernel
 from planetnav_env.errors import (
     ConfigError,
     DegenerateGeometryError,
@@ -274,17 +275,8 @@ def _estimate_single(
 @numba.njit(cache=True)
 def _select_kernel(q, dirs, cos_half, bs):  # pragma: no cover - compiled
     """R(q) body->inertial and the indices of catalogue stars within the field."""
-    q0, q1, q2, q3 = q[0], q[1], q[2], q[3]
     rot = np.empty((3, 3))
-    rot[0, 0] = q0 * q0 + q1 * q1 - q2 * q2 - q3 * q3
-    rot[0, 1] = 2.0 * (q1 * q2 - q0 * q3)
-    rot[0, 2] = 2.0 * (q1 * q3 + q0 * q2)
-    rot[1, 0] = 2.0 * (q1 * q2 + q0 * q3)
-    rot[1, 1] = q0 * q0 - q1 * q1 + q2 * q2 - q3 * q3
-    rot[1, 2] = 2.0 * (q2 * q3 - q0 * q1)
-    rot[2, 0] = 2.0 * (q1 * q3 - q0 * q2)
-    rot[2, 1] = 2.0 * (q2 * q3 + q0 * q1)
-    rot[2, 2] = q0 * q0 - q1 * q1 - q2 * q2 + q3 * q3
+    dcm_body_to_inertial_kernel(q[0], q[1], q[2], q[3], rot)
     b0 = rot[0, 0] * bs[0] + rot[0, 1] * bs[1] + rot[0, 2] * bs[2]
     b1 = rot[1, 0] * bs[0] + rot[1, 1] * bs[1] + rot[1, 2] * bs[2]
     b2 = rot[2, 0] * bs[0] + rot[2, 1] * bs[1] + rot[2, 2] * bs[2]
