@@ -295,6 +295,8 @@ class PlanetNavEnv(gym.Env):
         self._tau_max = np.full(3, att.wheel_torque_limit)
         self._h_max = np.full(3, att.wheel_momentum_capacity)
         self._boresight_body = cfg.camera.boresight_body
+        # Disk wider than the field <=> asin(R/L) > half field <=> R > L sin(half field).
+        self._sin_half_fov = math.sin(min(cfg.camera.half_fov_rad))
 
         n_targets = cfg.n_targets
         if cfg.action_mode == "target":
@@ -542,8 +544,8 @@ class PlanetNavEnv(gym.Env):
 
     def _too_large(self, i: int, planet_helio: np.ndarray, r_helio: np.ndarray) -> bool:
         """A disk wider than the sensor's field cannot give its centre or diameter (close approach)."""
-        dist = float(np.linalg.norm(planet_helio - r_helio))
-        return 2.0 * math.asin(min(self._radii[i] / dist, 1.0)) > 2.0 * min(self.config.camera.half_fov_rad)
+        d0, d1, d2 = planet_helio[0] - r_helio[0], planet_helio[1] - r_helio[1], planet_helio[2] - r_helio[2]
+        return self._radii[i] > self._sin_half_fov * math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
 
     def _measure(self, i: int, planet: np.ndarray, r_helio: np.ndarray) -> tuple[bool, bool]:
         """Camera measurement of planet i, rotated to inertial with the star-tracker attitude; EKF update."""

@@ -531,8 +531,8 @@ class SingleEKF:
         """Update with one planet measurement ``z`` (m,) of ``measurement.kind``; returns (NIS, accepted)."""
         kind = KIND_CODES[measurement.kind]
         z = np.asarray(z, dtype=float)
-        if not np.all(np.isfinite(z)):
-            raise require_finite("measurement z", z)  # raises NonFiniteError
+        if not all(math.isfinite(v) for v in z):  # cheaper than np.all for <= 3 values
+            require_finite("measurement z", z)  # raises NonFiniteError naming the entries
         if kind >= 2 and basis is None:
             raise InvalidParameterError(f"model {measurement.kind!r} needs the line-of-sight basis")
         b = basis if basis is not None else np.zeros((2, 3))
