@@ -64,7 +64,8 @@ def main() -> None:
     cart = _cartpole_rate(20 * args.steps)
     print(f"CartPole-v1 (unwrapped): {cart:12,.0f} steps/s")
     print(f"{'environment':<36}{'env steps/s':>14}{'with agent':>14}{'CartPole / env':>16}")
-    for env_id in ("planetnav/Cruise-Target-v0", "planetnav/Cruise-Torque-v0", "planetnav/Cruise-TargetTorque-v0"):
+    modes = ("planetnav/Cruise-Target-v0", "planetnav/Cruise-Torque-v0", "planetnav/Cruise-TargetTorque-v0")
+    for env_id in modes:
         rate, with_agent = _planetnav_rate(env_id, args.steps)
         print(f"{env_id:<36}{rate:>14,.0f}{with_agent:>14,.0f}{cart / rate:>15.1f}x")
     print("target: >= 7,000 env steps/s in target mode (within 20x of CartPole)")

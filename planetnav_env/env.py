@@ -60,9 +60,8 @@ ARCSEC = np.pi / 648_000.0
 
 _REASONS = {int(v): v.name.lower() for v in cam.VisibilityReason}
 
-#: Per-planet observation block: body-frame estimated direction (3), log10(distance / AU),
-#: estimated apparent diameter / camera diameter noise, predicted-visible flag.
-PLANET_FEATURES = 6
+#: Per-target observation block (planets; pulsars use the same width): see PlanetNavEnv.
+PLANET_FEATURES = 7
 
 
 @njit(cache=True)
@@ -139,19 +138,41 @@ def _measurement_vector(los_body, alpha, q_est, planet, x_est, kind, z, basis): 
 
 
 @njit(cache=True)
-def _planet_geometry(x_est, q_est, planets, radii, out):  # pragma: no cover - compiled
-    """Columns 0-4 of the per-planet observation block from the estimate (see PlanetNavEnv)."""
+def _planet_geometry(x_est, q_est, p_rr, planets, radii, boresight, out, q_point):  # pragma: no cover
+    """Per-planet features from the estimate (see PlanetNavEnv), except the observable flag, and the
+    shortest-arc attitudes that would point the boresight at each planet (``q_point``, for that flag).
+
+    out[:, 0:3] direction in body axes, 3 log10(distance / AU), 4 apparent diameter [rad],
+    6 log10(position 1-sigma across the line of sight [km]) / 4.
+    """
     r = np.empty((3, 3))
     dcm_body_to_inertial_kernel(q_est[0], q_est[1], q_est[2], q_est[3], r)
+    tr = p_rr[0, 0] + p_rr[1, 1] + p_rr[2, 2]
     for p in range(planets.shape[0]):
         d0 = planets[p, 0] - x_est[0]
         d1 = planets[p, 1] - x_est[1]
         d2 = planets[p, 2] - x_est[2]
         dist = np.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
-        for i in range(3):  # R^T d / |d|
-            out[p, i] = (r[0, i] * d0 + r[1, i] * d1 + r[2, i] * d2) / dist
+        u0, u1, u2 = d0 / dist, d1 / dist, d2 / dist
+        for i in range(3):  # R^T u
+            out[p, i] = r[0, i] * u0 + r[1, i] * u1 + r[2, i] * u2
         out[p, 3] = np.log10(dist / AU_KM)
         out[p, 4] = 2.0 * np.arcsin(min(radii[p] / dist, 1.0))
+        along = (
+            u0 * (p_rr[0, 0] * u0 + p_rr[0, 1] * u1 + p_rr[0, 2] * u2)
+            + u1 * (p_rr[1, 0] * u0 + p_rr[1, 1] * u1 + p_rr[1, 2] * u2)
+            + u2 * (p_rr[2, 0] * u0 + p_rr[2, 1] * u1 + p_rr[2, 2] * u2)
+        )
+        out[p, 6] = np.log10(np.sqrt(max(tr - along, 1e-12))) / 4.0
+        # Shortest arc from the boresight b to u: q = [1 + b.u, b x u] / norm (u never opposite b
+        # here: that case takes a perpendicular axis).
+        b0, b1, b2 = boresight[0], boresight[1], boresight[2]
+        w = 1.0 + b0 * u0 + b1 * u1 + b2 * u2
+        c0, c1, c2 = b1 * u2 - b2 * u1, b2 * u0 - b0 * u2, b0 * u1 - b1 * u0
+        if w < 1e-12:
+            w, c0, c1, c2 = 0.0, -b1, b0, 0.0 if abs(b2) < 0.9 else b0
+        nq = np.sqrt(w * w + c0 * c0 + c1 * c1 + c2 * c2)
+        q_point[p, 0], q_point[p, 1], q_point[p, 2], q_point[p, 3] = w / nq, c0 / nq, c1 / nq, c2 / nq
 
 
 @njit(cache=True)
@@ -208,28 +229,37 @@ class PlanetNavEnv(gym.Env):
     raise :class:`~planetnav_env.errors.NonFiniteError`; a discrete action outside its range raises
     :class:`~planetnav_env.errors.InvalidParameterError`. Nothing invalid reaches the physics.
 
-    Observation (``observation="box"``, float32; ``P`` = number of planets)
-    -------------------------------------------------------------------------
-    ============ ========================================================== ==============
-    index        content                                                    scale
-    ============ ========================================================== ==============
-    0-2          estimated position, heliocentric ICRF                      / 1 AU
-    3-5          estimated velocity                                         / 30 km/s
-    6-8          log10 of the filter's position 1-sigma per axis            log10(km) / 4
-    9-11         log10 of the filter's velocity 1-sigma per axis            log10(m/s) / 4
-    12-15        attitude quaternion from the star tracker (scalar first)   -
-    16-18        reported body rates                                        deg/s
-    19-21        wheel momentum                                             / capacity
-    22+6p..27+6p planet p: estimated direction in body axes (3),             -, log10(AU),
-                 log10(estimated distance / AU), estimated apparent         / sigma_alpha,
-                 diameter / camera diameter noise, predicted visible (0/1)   0/1
-    22+6P..      current target, one-hot (P)                                0/1
-    last         elapsed fraction of the episode                            0..1
-    ============ ========================================================== ==============
+    Observation (``observation="box"``, float32; ``P`` planets, ``Q`` pulsars, ``T = P + Q``)
+    ----------------------------------------------------------------------------------------
+    ============== ======================================================== ================
+    index          content                                                  scale
+    ============== ======================================================== ================
+    0-2            estimated position relative to the central body (the    / 1 AU (10^6 km on
+                   Sun; Mars on approach), ICRF                             approach)
+    3-5            estimated velocity                                       / 30 km/s (5)
+    6-8            log10 of the filter's position 1-sigma per axis          log10(km) / 4
+    9-11           log10 of the filter's velocity 1-sigma per axis          log10(m/s) / 4
+    12-15          attitude quaternion from the star tracker (scalar first) -
+    16-18          reported body rates                                      deg/s
+    19-21          wheel momentum                                           / capacity
+    22+7p..28+7p   planet p: estimated direction in body axes (3),          -, log10(AU),
+                   log10(estimated distance / AU), estimated apparent       / sigma_alpha,
+                   diameter / diameter noise, observable if pointed at      0/1,
+                   (Sun exclusion, occultation, size), log10 of the         log10(km) / 4
+                   position 1-sigma across its line of sight (what a
+                   measurement of it would shrink)
+    22+7P+7j..     pulsar j: direction in body axes (3), integration        -, 0..1,
+                   progress, log10 predicted phase 1-sigma [cycles],        log10, 0/1,
+                   observable (Sun, occultation), log10 of the position     log10(km) / 4
+                   1-sigma along its direction
+    22+7T..        current target, one-hot (T)                              0/1
+    last           elapsed fraction of the episode                          0..1
+    ============== ======================================================== ================
 
     ``observation="dict"`` gives the same quantities under the keys ``position``, ``velocity``,
-    ``log_sigma``, ``attitude``, ``rates``, ``wheel_momentum``, ``planets`` (P, 6), ``target`` (P,)
-    and ``elapsed`` (1,).
+    ``log_sigma``, ``attitude``, ``rates``, ``wheel_momentum``, ``planets`` (P, 7), ``pulsars``
+    (Q, 7; only with pulsars), ``target`` (T,) and ``elapsed`` (1,). :meth:`decode_observation`
+    turns either form back into physical units (for rule-based agents).
 
     Reward, termination, info
     -------------------------
@@ -662,24 +692,29 @@ class PlanetNavEnv(gym.Env):
 
     # ------------------------------------------------------------------------------------------
     def planet_features(self) -> np.ndarray:
-        """(P, 6) per-planet observation block from the estimate (see the class docstring)."""
+        """(P, 7) per-planet observation block from the estimate (see the class docstring)."""
         cfg = self.config
         ekf = self._ekf
         planets_now = self._planet_pos(2 * self._k)
         out = self._features
         r_est_helio = ekf.x[:3] + self._central_helio[2 * self._k]
-        _planet_geometry(r_est_helio, self._q_est, planets_now, self._radii, out)
+        _planet_geometry(
+            r_est_helio, self._q_est, ekf.P[:3, :3], planets_now, self._radii, self._boresight_body, out,
+            self._q_tile,
+        )  # fmt: skip
+        # Observable if pointed at: the camera's own rules (Sun exclusion, occultation, size) for the
+        # attitude that would centre the planet; the disk must also fit in the field.
         self._r_tile[:] = r_est_helio
-        self._q_tile[:] = self._q_est
         reason = self._visible_reasons(self._r_tile, self._q_tile, planets_now, self._radii, planets_now)
+        out[:, 5] = (reason == 0) & (out[:, 4] < 2.0 * min(cfg.camera.half_fov_rad))
         out[:, 4] /= cfg.camera.sigma_alpha_rad
-        out[:, 5] = reason == 0
         return out.copy()
 
     def pulsar_features(self) -> np.ndarray:
-        """(Q, 6) per-pulsar observation block: direction in body axes from the star-tracker attitude
+        """(Q, 7) per-pulsar observation block: direction in body axes from the star-tracker attitude
         (3), integration progress (0..1, current target only), log10 of the filter's predicted 1-sigma
-        of the phase [cycles], visible (not Sun-blocked or occulted, from the estimate)."""
+        of the phase [cycles], observable (not Sun-blocked or occulted, from the estimate), log10 of the
+        position 1-sigma along the pulsar's direction [km] / 4."""
         cfg = self.config
         ekf = self._ekf
         k = self._k
@@ -688,9 +723,8 @@ class PlanetNavEnv(gym.Env):
         out[:, 3] = 0.0
         if self._target >= cfg.n_planets:
             out[self._target - cfg.n_planets, 3] = self._integrated / cfg.detector.integration_time_s
-        jac = self._psr_dirs / self._psr_lambda[:, None]
-        sig = np.sqrt(np.einsum("qi,ij,qj->q", jac, ekf.P[:3, :3], jac) + self._psr_sigma**2)
-        out[:, 4] = np.log10(sig)
+        var_along = np.einsum("qi,ij,qj->q", self._psr_dirs, ekf.P[:3, :3], self._psr_dirs)
+        out[:, 4] = np.log10(np.sqrt(var_along / self._psr_lambda**2 + self._psr_sigma**2))
         r_est_helio = ekf.x[:3] + self._central_helio[2 * k]
         occulter = self._central_helio[2 * k] if self._approach else None
         vis = psr.pulsar_visibility(
@@ -698,6 +732,7 @@ class PlanetNavEnv(gym.Env):
             body(self._gravity.central).radius if occulter is not None else None,
         )  # fmt: skip
         out[:, 5] = vis.visible[0]
+        out[:, 6] = np.log10(np.sqrt(np.maximum(var_along, 1e-12))) / 4.0
         return out
 
     def _visible_reasons(self, r, q, targets, radii, occulters) -> np.ndarray:
@@ -748,6 +783,44 @@ class PlanetNavEnv(gym.Env):
         if cfg.n_pulsars:
             out["pulsars"] = f[end:end_p].reshape(cfg.n_pulsars, PLANET_FEATURES)
         return out
+
+    def decode_observation(self, observation: Any) -> dict[str, Any]:
+        """Named arrays in physical units from a ``box`` or ``dict`` observation of this env:
+        position_km, velocity_km_s (relative to the central body), log_sigma (6,), q (star tracker),
+        rates_rad_s, wheel_fraction, planets (P, 7) and pulsars (Q, 7) as laid out in the class
+        docstring, target (index or -1), elapsed."""
+        cfg = self.config
+        n, nq = cfg.n_planets, cfg.n_pulsars
+        if isinstance(observation, dict):
+            o = {k: np.asarray(v, dtype=float) for k, v in observation.items()}
+            flat = np.concatenate(
+                [
+                    o[k].ravel()
+                    for k in ("position", "velocity", "log_sigma", "attitude", "rates", "wheel_momentum")
+                ]
+                + [o["planets"].ravel(), o.get("pulsars", np.zeros(0)).ravel(), o["target"], o["elapsed"]]
+            )
+        else:
+            flat = np.asarray(observation, dtype=float).reshape(-1)
+        if flat.size != self._obs_dim:
+            raise InvalidParameterError(
+                f"observation has {flat.size} values; this environment's have {self._obs_dim}"
+            )
+        end = 22 + PLANET_FEATURES * n
+        end_p = end + PLANET_FEATURES * nq
+        target_vec = flat[end_p : end_p + cfg.n_targets]
+        return {
+            "position_km": flat[0:3] * self._pos_scale,
+            "velocity_km_s": flat[3:6] * self._vel_scale,
+            "log_sigma": flat[6:12],
+            "q": flat[12:16] / np.linalg.norm(flat[12:16]),
+            "rates_rad_s": flat[16:19] * _DEG,
+            "wheel_fraction": flat[19:22],
+            "planets": flat[22:end].reshape(n, PLANET_FEATURES),
+            "pulsars": flat[end:end_p].reshape(nq, PLANET_FEATURES),
+            "target": int(np.argmax(target_vec)) if np.any(target_vec > 0.5) else -1,
+            "elapsed": float(flat[-1]),
+        }
 
     # ------------------------------------------------------------------------------------------
     def render(self):

@@ -1,0 +1,197 @@
+"""The one agent interface, observation parsing and the pointing helpers the rule-based agents share.
+
+Every agent (rule-based or learned) is an :class:`Agent`: ``reset(seed)`` at the start of an episode, then
+``act(observation, info) -> action`` once per step, with the observation and ``info`` the environment just
+returned. Agents read only what the spacecraft knows: the observation, ``info["filter"]`` (estimate and
+covariance), ``info["time_s"]``, the environment's public ``config``/``planets`` and the ephemeris. They
+never read ``env.truth`` or the true errors in ``info``.
+
+Rule-based agents that decide *which planet to look at* derive from :class:`TargetAgent`; it turns the
+chosen planet index into an action for any ``action_mode``:
+
+* ``target``: the index itself (the environment's PD law slews);
+* ``target+torque``: +1 on the chosen planet, -1 elsewhere, zero residual torque;
+* ``torque``: the PD command toward the planet's estimated direction, computed here from the observation
+  (star-tracker quaternion, reported rates, wheel momentum), as a fraction of the wheel torque limit.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+from planetnav_env import quaternion as qt
+from planetnav_env.attitude.pointing import pd_torque
+from planetnav_env.bodies import AU_KM, body
+from planetnav_env.config import EnvConfig
+from planetnav_env.dynamics.attitude import AttitudeConfig
+
+_DEG = math.pi / 180.0
+
+
+@dataclass(frozen=True)
+class ParsedObservation:
+    """The observation as named float64 arrays in physical units (:meth:`PlanetNavEnv.decode_observation`).
+
+    position_km, velocity_km_s: the filter's estimate relative to the scenario's central body; q:
+    star-tracker attitude (body->inertial, scalar first); rates_rad_s: reported body rates;
+    wheel_fraction: wheel momentum / capacity; planets (P, 7) and pulsars (Q, 7): the per-target blocks
+    of the class docstring; target: index of the current target (planets first, then pulsars) or -1;
+    elapsed: fraction of the episode.
+    """
+
+    position_km: np.ndarray
+    velocity_km_s: np.ndarray
+    q: np.ndarray
+    rates_rad_s: np.ndarray
+    wheel_fraction: np.ndarray
+    planets: np.ndarray
+    pulsars: np.ndarray
+    target: int
+    elapsed: float
+
+    @property
+    def planet_distance_km(self) -> np.ndarray:
+        """Estimated distance to each planet [km], (P,)."""
+        return AU_KM * 10.0 ** self.planets[:, 3]
+
+    @property
+    def planet_los_inertial(self) -> np.ndarray:
+        """Estimated unit line of sight to each planet, inertial axes (P, 3) (body block rotated by q)."""
+        return qt.rotate_body_to_inertial(self.q, self.planets[:, 0:3])
+
+    @property
+    def planet_observable(self) -> np.ndarray:
+        """(P,) bool: measurable if pointed at (Sun exclusion, occultation, size), per the env."""
+        return self.planets[:, 5] > 0.5
+
+    @property
+    def pulsar_los_inertial(self) -> np.ndarray:
+        """Unit direction of each pulsar, inertial axes (Q, 3)."""
+        return qt.rotate_body_to_inertial(self.q, self.pulsars[:, 0:3])
+
+    @property
+    def boresight_inertial(self) -> np.ndarray:
+        """Current camera boresight (body +x) in inertial axes, from the star-tracker attitude."""
+        return qt.rotate_body_to_inertial(self.q, np.array([1.0, 0.0, 0.0]))
+
+    def planet_positions(self, x_est: np.ndarray) -> np.ndarray:
+        """Planet positions (P, 3) [km] in the estimate's frame: ``x_est + distance * line of sight``."""
+        x = np.asarray(x_est, dtype=float)[:3]
+        return x + self.planet_los_inertial * self.planet_distance_km[:, None]
+
+
+def parse_observation(observation: Any, env: gym.Env) -> ParsedObservation:
+    """Split a ``box`` or ``dict`` observation of ``env`` (a planetnav environment, wrapped or not)."""
+    d = env.unwrapped.decode_observation(observation)
+    return ParsedObservation(
+        position_km=d["position_km"],
+        velocity_km_s=d["velocity_km_s"],
+        q=d["q"],
+        rates_rad_s=d["rates_rad_s"],
+        wheel_fraction=d["wheel_fraction"],
+        planets=d["planets"],
+        pulsars=d["pulsars"],
+        target=d["target"],
+        elapsed=d["elapsed"],
+    )
+
+
+class Agent:
+    """The interface every agent implements.
+
+    ``name`` labels results; ``requires_idle_action`` says the environment must be built with
+    ``idle_action=True`` (the evaluation harness does so for such agents only).
+    """
+
+    name: str = "agent"
+    requires_idle_action: bool = False
+
+    def reset(self, seed: int | None = None) -> None:
+        """Start of an episode; ``seed`` seeds any randomness the agent has."""
+
+    def act(self, observation: Any, info: dict[str, Any]) -> Any:
+        """The action for this step, from the latest observation and ``info``."""
+        raise NotImplementedError
+
+
+def unwrapped_config(env: gym.Env) -> EnvConfig:
+    """The :class:`EnvConfig` of a (possibly wrapped) planetnav environment."""
+    cfg = getattr(env.unwrapped, "config", None)
+    if not isinstance(cfg, EnvConfig):
+        raise TypeError(f"expected a planetnav environment, got {env!r}")
+    return cfg
+
+
+class TargetAgent(Agent):
+    """An agent that chooses a planet each step; :meth:`act` encodes it for the environment's action mode.
+
+    Subclasses implement :meth:`choose_target`. ``torque`` mode uses the thesis's PD law on the agent side
+    with gains re-tuned for a torque held over a whole environment step (see :meth:`torque_toward`).
+    """
+
+    def __init__(self, env: gym.Env) -> None:
+        cfg = unwrapped_config(env)
+        self.env = env
+        self.config = cfg
+        self.n_planets = cfg.n_planets
+        self.n_targets = cfg.n_targets
+        self.radii = np.array([body(p).radius for p in cfg.planets])
+        att = cfg.attitude
+        self._att_config = AttitudeConfig(inertia=att.inertia)
+        # Gains for a zero-order hold of step_s: the env applies the agent's torque unchanged for the whole
+        # step, so the 1-s-substep gains of the env's own PD law (k_a=0.02, k_w=1) would overshoot wildly.
+        # For a double integrator J theta'' = u held over T, u = -J (theta / T^2 + 1.5 omega / T) is
+        # deadbeat (both closed-loop poles at 0). With S ~ 2 theta this is k_a = J / (2 T^2),
+        # k_w = 1.5 J / T, taken at the mean moment (the per-axis ratio 0.8-1.25 keeps the poles inside
+        # the unit circle).
+        t = cfg.step_s
+        j_mean = float(np.mean(att.inertia))
+        self._k_a = j_mean / (2.0 * t * t)
+        self._k_w = 1.5 * j_mean / t
+        self._tau_max = att.wheel_torque_limit
+        self._h_max = att.wheel_momentum_capacity
+
+    def choose_target(self, obs: ParsedObservation, info: dict[str, Any]) -> int:
+        """Index of the target: a planet (order of ``config.planets``), then the pulsars."""
+        raise NotImplementedError
+
+    def act(self, observation: Any, info: dict[str, Any]) -> Any:
+        obs = parse_observation(observation, self.env)
+        idx = int(self.choose_target(obs, info))
+        mode = self.config.action_mode
+        if mode == "target":
+            return idx
+        if mode == "target+torque":
+            a = -np.ones(self.n_planets + 3, dtype=np.float32)
+            a[idx] = 1.0
+            a[self.n_planets :] = 0.0
+            return a
+        return self.torque_toward(obs, info, idx)
+
+    def estimate(self, obs: ParsedObservation, info: dict[str, Any]) -> np.ndarray:
+        """The filter's state estimate (6,) [km, km/s]: ``info["filter"]["x"]`` or, failing that, the obs."""
+        filt = info.get("filter") if info else None
+        if filt is not None and "x" in filt:
+            return np.asarray(filt["x"], dtype=float)
+        return np.concatenate([obs.position_km, obs.velocity_km_s])
+
+    def torque_toward(self, obs: ParsedObservation, info: dict[str, Any], idx: int) -> np.ndarray:
+        """Wheel torque fraction (3,) in [-1, 1] of the PD law toward planet ``idx``'s estimated direction."""
+        x_est = self.estimate(obs, info)
+        direction = obs.planet_los_inertial[idx]
+        u = pd_torque(
+            obs.q,
+            obs.rates_rad_s,
+            direction,
+            self._att_config,
+            h_w=obs.wheel_fraction * self._h_max,
+            roll_ref_inertial=x_est[:3],
+            k_a=self._k_a,
+            k_w=self._k_w,
+        )
+        return np.clip(u / self._tau_max, -1.0, 1.0).astype(np.float32)

@@ -1,0 +1,148 @@
+"""Greedy information agent: look where a measurement would shrink the position covariance most.
+
+Each step, for every planet the camera could see if pointed at it (the observation's "observable if
+pointed at" flag), the agent predicts the filter's position covariance after looking at that planet for
+a short horizon and picks the largest reduction of ``trace(P_rr)`` per step:
+
+1. Jacobian: ``MeasurementModel(config.measurement_model).evaluate`` at the estimate ``info["filter"]["x"]``
+   with the line-of-sight basis of the predicted direction (:func:`los_basis`), and the noise the
+   environment's filter uses: ``sigma_dir = hypot(camera direction noise, star-tracker sigma)``,
+   ``sigma_size = camera.sigma_alpha_rad``.
+2. Slew time lost: the angle between the current boresight (star-tracker quaternion x body +x) and the
+   planet's estimated direction gives a bang-bang (trapezoidal: torque limit, wheel momentum cap) slew time
+   at the mean moment of inertia, stretched by :data:`PD_SLOWDOWN` because the PD law is slower than
+   bang-bang. Steps lost = ``ceil(t / step_s) - 1`` (the measurement is taken at the end of a step, so a
+   slew shorter than one step loses nothing). Calibrated on 130 random-cruise slews (``docs/agents.md``):
+   slews under ~55 deg lose 0 steps, 60-120 deg lose 1-3, 130-170 deg 2-4 (up to 7 near 180 deg, where
+   the PD law's error signal ``2 sin(angle)`` vanishes).
+3. Over a horizon of ``horizon`` steps the planet is measured ``n = horizon - lost`` times; with the state
+   nearly static over the horizon (process noise ~1e-20 km^2/s^3) ``n`` identical measurements equal one
+   with covariance ``R / n``, so the predicted covariance is one Kalman update,
+   ``P+ = P - P H^T (H P H^T + R/n)^-1 H P``.
+
+Why a horizon and not one step: one measurement barely moves ``P`` (4.6 arcsec at 0.3 AU is ~1000 km),
+so a one-step comparison is dominated by the lost step and never switches; over the horizon the value of
+a new line of sight (the range along the current one is unobserved) outweighs the slew.
+
+In the default cruise this alternates between Venus and the other planets: the different lines of sight
+triangulate the position, which staring at one planet (the baseline) cannot.
+
+With a pulsar detector (``MarsApproach-Tasking``), each observable pulsar whose cycle count the filter
+can trust (predicted 3 sigma < half a cycle) is scored by the reduction of one phase update
+(``H = n / lambda``, ``R = sigma_phase^2``) divided by its cycle (slew + integration steps); a planet's
+score is divided by the horizon. An integration under way is always finished.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+from agents.base import ParsedObservation, TargetAgent
+from planetnav_env.estimation.measurements import MeasurementModel, los_basis
+from planetnav_env.sensors import pulsar as psr
+
+#: Ratio of the PD law's slew time to the bang-bang minimum, calibrated on the environment (see docstring).
+PD_SLOWDOWN = 1.6
+_ARCSEC = math.pi / 648_000.0
+
+
+def bang_bang_time(angle_rad: np.ndarray, accel: float, rate_max: float) -> np.ndarray:
+    """Minimum rest-to-rest slew time [s] through ``angle_rad`` with a bounded accel and rate (trapezoid)."""
+    angle = np.abs(np.asarray(angle_rad, dtype=float))
+    # Triangle profile while the peak rate sqrt(angle * accel) stays under the cap, trapezoid beyond.
+    tri = 2.0 * np.sqrt(angle / accel)
+    trap = angle / rate_max + rate_max / accel
+    return np.where(angle * accel <= rate_max * rate_max, tri, trap)
+
+
+class GreedyAgent(TargetAgent):
+    """Largest predicted reduction of ``trace(P_rr)`` over ``horizon`` steps, slew time counted."""
+
+    name = "greedy"
+    requires_idle_action = False
+
+    def __init__(self, env: gym.Env, horizon: int = 3, pd_slowdown: float = PD_SLOWDOWN) -> None:
+        super().__init__(env)
+        if horizon < 1:
+            raise ValueError(f"horizon must be >= 1 step, got {horizon}")
+        self.horizon = int(horizon)
+        self.pd_slowdown = float(pd_slowdown)
+        cfg = self.config
+        # The environment's filter noise, rebuilt from the public config (its own model is private).
+        sigma_dir = math.hypot(cfg.camera.sigma_direction_rad, cfg.star_tracker_sigma_arcsec * _ARCSEC)
+        self.model = MeasurementModel(
+            cfg.measurement_model, sigma_dir=sigma_dir, sigma_size=cfg.camera.sigma_alpha_rad
+        )
+        self.diameters = 2.0 * self.radii
+        # Pulsar timing (sensor tasking): wavelength [km] and phase noise [cycles] of each catalogue entry.
+        self._psr_lambda = np.array([psr.pulsar(n).wavelength_km for n in cfg.pulsars])
+        self._psr_sigma = np.array([psr.phase_sigma_cycles(n, cfg.detector) for n in cfg.pulsars])
+        self._integration_steps = max(1, math.ceil(cfg.detector.integration_time_s / cfg.step_s - 1e-9))
+        j_mean = float(np.mean(cfg.attitude.inertia))
+        self._accel = cfg.attitude.wheel_torque_limit / j_mean
+        self._rate_max = cfg.attitude.wheel_momentum_capacity / j_mean
+        self.last_scores: np.ndarray = np.zeros(cfg.n_targets)
+
+    def lost_steps(self, angle_rad: np.ndarray) -> np.ndarray:
+        """Predicted steps without a measurement while slewing through ``angle_rad``."""
+        t = self.pd_slowdown * bang_bang_time(angle_rad, self._accel, self._rate_max)
+        return np.maximum(np.ceil(t / self.config.step_s) - 1.0, 0.0)
+
+    def predicted_trace(self, x: np.ndarray, p: np.ndarray, planet: np.ndarray, i: int, n: int) -> float:
+        """``trace(P_rr)`` after ``n`` measurements of planet ``i`` (at ``planet``) from estimate ``x``."""
+        if n <= 0:
+            return float(np.trace(p[:3, :3]))
+        d = planet - x[:3]
+        basis = los_basis((d / np.linalg.norm(d))[None]) if self.model.kind.startswith("los") else None
+        _, h, r = self.model.evaluate(x[:3], planet, float(self.diameters[i]), basis)
+        h, r = h[0], r[0] / n
+        ph = p @ h.T
+        s = h @ ph + r
+        p_new = p - ph @ np.linalg.solve(s, ph.T)
+        return float(np.trace(p_new[:3, :3]))
+
+    def pulsar_trace(self, p: np.ndarray, n_dir: np.ndarray, j: int) -> float:
+        """``trace(P_rr)`` after one phase of pulsar ``j`` (direction ``n_dir``): a scalar update with
+        ``H = n / lambda`` on the position and ``R = sigma_phase^2``."""
+        h = np.zeros(6)
+        h[:3] = n_dir / self._psr_lambda[j]
+        ph = p @ h
+        p_new = p - np.outer(ph, ph) / (h @ ph + self._psr_sigma[j] ** 2)
+        return float(np.trace(p_new[:3, :3]))
+
+    def choose_target(self, obs: ParsedObservation, info: dict[str, Any]) -> int:
+        x = self.estimate(obs, info)
+        p = np.asarray(info["filter"]["P"], dtype=float)
+        n_p = self.n_planets
+        planets = obs.planet_positions(x)
+        u = obs.planet_los_inertial
+        boresight = obs.boresight_inertial
+        angle = np.arccos(np.clip(u @ boresight, -1.0, 1.0))
+        lost = self.lost_steps(angle)
+        trace0 = float(np.trace(p[:3, :3]))
+        # Scores are covariance reductions per step of the option's own cycle, so that a planet
+        # (``horizon`` steps of images) and a pulsar (one phase per integration window) compare.
+        scores = np.full(self.n_targets, -np.inf)
+        for i in np.flatnonzero(obs.planet_observable):
+            n = self.horizon - int(lost[i])
+            scores[i] = (trace0 - self.predicted_trace(x, p, planets[i], int(i), n)) / self.horizon
+        if obs.pulsars.shape[0]:
+            # An integration already under way is finished: leaving loses it.
+            if obs.target >= n_p and 0.0 < obs.pulsars[obs.target - n_p, 3] < 1.0:
+                self.last_scores = scores
+                return obs.target
+            n_dirs = obs.pulsar_los_inertial
+            psr_lost = self.lost_steps(np.arccos(np.clip(n_dirs @ boresight, -1.0, 1.0)))
+            resolvable = 3.0 * 10.0 ** obs.pulsars[:, 4] < 0.5  # the filter can trust the cycle count
+            for j in np.flatnonzero((obs.pulsars[:, 5] > 0.5) & resolvable):
+                cycle = self._integration_steps + int(psr_lost[j])
+                scores[n_p + j] = (trace0 - self.pulsar_trace(p, n_dirs[j], int(j))) / cycle
+        self.last_scores = scores
+        if not np.any(np.isfinite(scores)):
+            # Nothing observable: keep the current target (the camera waits pointed where it was).
+            return obs.target if obs.target >= 0 else 0
+        return int(np.argmax(scores))

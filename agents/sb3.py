@@ -1,0 +1,118 @@
+"""A saved Stable-Baselines3 model behind the :class:`~agents.base.Agent` interface (deterministic actions).
+
+``path`` is a model ``.zip`` or a run directory written by ``train.py`` (``runs/<name>/``, which holds
+``model.zip`` and ``config.yaml``). The algorithm comes from, in order: the ``algo`` argument, the
+``algo`` key of a ``config.yaml`` next to the model, or trying each known SB3 algorithm until one loads.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+from agents.base import Agent
+
+#: Lower-case names -> SB3 classes (imported lazily: SB3 and torch take seconds to import).
+ALGORITHMS = ("ppo", "a2c", "dqn", "sac", "td3", "ddpg")
+
+
+def algorithm_class(name: str) -> type:
+    """The SB3 algorithm class for a lower-case name in :data:`ALGORITHMS`."""
+    import stable_baselines3 as sb3
+
+    key = str(name).lower()
+    if key not in ALGORITHMS:
+        raise ValueError(f"unknown algorithm {name!r}; choose from {list(ALGORITHMS)}")
+    return getattr(sb3, key.upper())
+
+
+def resolve_model_path(path: str | Path) -> Path:
+    """The model ``.zip`` for a run directory, a ``.zip`` path, or a path given without ``.zip``."""
+    p = Path(path)
+    if p.is_dir():
+        p = p / "model.zip"
+    elif not p.exists() and p.with_suffix(".zip").exists():
+        p = p.with_suffix(".zip")
+    if not p.is_file():
+        raise FileNotFoundError(f"no SB3 model at {path} (expected a .zip or a run directory with model.zip)")
+    return p
+
+
+def _algo_from_sidecar(model_path: Path) -> str | None:
+    cfg = model_path.parent / "config.yaml"
+    if not cfg.is_file():
+        return None
+    import yaml
+
+    with open(cfg) as fh:
+        data = yaml.safe_load(fh) or {}
+    algo = data.get("algo") if isinstance(data, dict) else None
+    return str(algo).lower() if algo else None
+
+
+def load_model(path: str | Path, algo: str | None = None) -> Any:
+    """Load an SB3 model on the CPU; see the module docstring for how the algorithm is found."""
+    model_path = resolve_model_path(path)
+    algo = algo or _algo_from_sidecar(model_path)
+    if algo is not None:
+        return algorithm_class(algo).load(model_path, device="cpu")
+    errors = []
+    for name in ALGORITHMS:
+        try:
+            return algorithm_class(name).load(model_path, device="cpu")
+        except Exception as exc:
+            errors.append(f"{name}: {type(exc).__name__}: {exc}")
+    raise ValueError(f"could not load {model_path} with any of {list(ALGORITHMS)}:\n" + "\n".join(errors))
+
+
+class SB3Agent(Agent):
+    """Actions of a saved SB3 model (deterministic by default); checks the spaces match the environment's.
+
+    ``deterministic=False`` samples the policy instead (analysis only: with ``reset(seed)`` the sampling
+    is seeded through torch's global generator).
+    """
+
+    requires_idle_action = False
+
+    def __init__(
+        self,
+        path: str | Path,
+        env: gym.Env | None = None,
+        algo: str | None = None,
+        deterministic: bool = True,
+    ) -> None:
+        self.path = resolve_model_path(path)
+        self.deterministic = bool(deterministic)
+        self.model = load_model(self.path, algo)
+        stem = self.path.parent.name if self.path.name == "model.zip" else self.path.stem
+        self.name = f"{type(self.model).__name__.lower()}:{stem}" + (
+            "" if self.deterministic else ":stochastic"
+        )
+        if env is not None:
+            for what in ("observation_space", "action_space"):
+                mine, theirs = getattr(self.model, what), getattr(env, what)
+                if mine.shape != theirs.shape or type(mine) is not type(theirs):
+                    raise ValueError(
+                        f"{self.path}: the model's {what} {mine} does not match the environment's {theirs}"
+                    )
+            n = getattr(env.action_space, "n", None)
+            if n is not None and getattr(self.model.action_space, "n", None) != n:
+                raise ValueError(
+                    f"{self.path}: the model has {self.model.action_space} actions, the environment "
+                    f"{env.action_space} (was it trained with other planets or idle_action?)"
+                )
+
+    def reset(self, seed: int | None = None) -> None:
+        if not self.deterministic and seed is not None:
+            import torch
+
+            torch.manual_seed(seed)
+
+    def act(self, observation: Any, info: dict[str, Any]) -> Any:
+        action, _ = self.model.predict(observation, deterministic=self.deterministic)
+        if np.ndim(action) == 0 or getattr(self.model.action_space, "n", None) is not None:
+            return int(np.asarray(action).reshape(-1)[0])
+        return np.asarray(action, dtype=np.float32)

@@ -1,0 +1,678 @@
+#!/usr/bin/env python
+"""Train Stable-Baselines3 agents on planetnav and compare them with the rule-based agents.
+
+Usage::
+
+    python train.py                                   # = train --config configs/cruise_ppo.yaml (~10 min)
+    python train.py train --config configs/X.yaml [--run-dir DIR] [--timesteps N] [--no-eval]
+    python train.py evaluate --agent NAME|PATH --episodes N --seed S --json out.json [--config X.yaml]
+    python train.py compare --agents baseline greedy random idle [PATH ...] --episodes N \\
+        [--json J] [--report DIR]
+
+A training run writes ``runs/<name>/``: ``model.zip``, ``config.yaml`` (the resolved configuration; the SB3
+loader reads ``algo`` from it), ``tb/`` (TensorBoard), ``monitor/`` (episode CSVs), then, unless
+``--no-eval``, ``eval.json``, ``report.md`` and the plots ``pos_err.png``, ``pos_sigma.png``,
+``training.png``. Configuration keys: ``configs/README.md``. Agents evaluate on held-out seeds (default
+10_000 onwards; training environments use the config's ``seed`` onwards, far below).
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import inspect
+import json
+import math
+import sys
+import time
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+
+from agents import make_agent, requires_idle_action
+from agents.sb3 import ALGORITHMS, algorithm_class, resolve_model_path
+from planetnav_env.config import EnvConfig
+from planetnav_env.errors import ConfigError
+from planetnav_env.registration import ENV_IDS
+
+ROOT = Path(__file__).resolve().parent
+DEFAULT_CONFIG = ROOT / "configs" / "cruise_ppo.yaml"
+DEFAULT_AGENTS = ("baseline", "greedy", "random", "idle")
+EVAL_SEED = 10_000
+
+# ---------------------------------------------------------------------------------------------------------
+# Configuration
+# ---------------------------------------------------------------------------------------------------------
+
+
+@dataclass
+class EvalSettings:
+    """``eval:`` section: held-out episodes run after training (the trained model is added to ``agents``)."""
+
+    episodes: int = 5
+    seed: int = EVAL_SEED
+    agents: tuple[str, ...] = DEFAULT_AGENTS
+    episode_steps: int | None = None  # None: the env's own episode length
+
+
+@dataclass
+class TrainConfig:
+    """A training run, RL-Zoo style (see ``configs/README.md``)."""
+
+    name: str = "run"
+    algo: str = "ppo"
+    env_id: str | None = None
+    n_timesteps: int = 100_000
+    policy: str = "MlpPolicy"
+    n_envs: int = 4
+    seed: int = 0
+    torch_threads: int = 1
+    hyperparams: dict[str, Any] = field(default_factory=dict)
+    env: dict[str, Any] = field(default_factory=dict)
+    eval: EvalSettings = field(default_factory=EvalSettings)
+
+    def env_config(self) -> EnvConfig:
+        """The environment configuration: the ``env_id``'s defaults overridden by ``env``."""
+        base: dict[str, Any] = {}
+        if self.env_id is not None:
+            if self.env_id not in ENV_IDS:
+                raise ConfigError(f"env_id {self.env_id!r} is not one of {sorted(ENV_IDS)}")
+            base = dict(ENV_IDS[self.env_id])
+        return EnvConfig.from_dict({**base, **self.env})
+
+    def to_dict(self) -> dict[str, Any]:
+        out = dataclasses.asdict(self)
+        out["eval"]["agents"] = list(self.eval.agents)
+        return out
+
+
+_TOP_KEYS = {f.name for f in dataclasses.fields(TrainConfig)}
+_EVAL_KEYS = {f.name for f in dataclasses.fields(EvalSettings)}
+
+
+def _check_keys(data: Mapping[str, Any], known: set[str], where: str) -> None:
+    unknown = sorted(set(data) - known)
+    if unknown:
+        raise ConfigError(f"{where}: unknown key(s) {unknown}; known keys: {sorted(known)}")
+
+
+def parse_config(data: Mapping[str, Any] | None, name: str = "run") -> TrainConfig:
+    """Validate a configuration mapping (unknown keys raise :class:`ConfigError` naming them)."""
+    data = dict(data or {})
+    _check_keys(data, _TOP_KEYS, "config")
+    ev = data.pop("eval", None) or {}
+    if not isinstance(ev, Mapping):
+        raise ConfigError("config: 'eval' must be a mapping")
+    _check_keys(ev, _EVAL_KEYS, "config.eval")
+    eval_settings = EvalSettings(**{**ev, "agents": tuple(ev.get("agents", DEFAULT_AGENTS))})
+    for key in ("hyperparams", "env"):
+        if data.get(key) is None:
+            data[key] = {}
+        if not isinstance(data[key], Mapping):
+            raise ConfigError(f"config: {key!r} must be a mapping")
+        data[key] = dict(data[key])
+    data.setdefault("name", name)
+    tc = TrainConfig(**data, eval=eval_settings)
+    tc.algo = str(tc.algo).lower()
+    if tc.algo not in ALGORITHMS:
+        raise ConfigError(f"config: algo {tc.algo!r} is not one of {list(ALGORITHMS)}")
+    for key in ("n_timesteps", "n_envs", "torch_threads"):
+        value = getattr(tc, key)
+        if not isinstance(value, int) or isinstance(value, bool) or value < 1:
+            raise ConfigError(f"config: {key} must be a positive integer, got {value!r}")
+    if eval_settings.episodes < 1:
+        raise ConfigError(f"config.eval: episodes must be >= 1, got {eval_settings.episodes!r}")
+    _check_hyperparams(tc)
+    tc.env_config()  # validate the env section now, not after training
+    return tc
+
+
+def load_config(path: str | Path) -> TrainConfig:
+    """Read and validate a YAML training configuration; the run name defaults to the file's stem."""
+    path = Path(path)
+    if not path.is_file():
+        raise ConfigError(f"no configuration file {path}")
+    with open(path) as fh:
+        data = yaml.safe_load(fh) or {}
+    if not isinstance(data, Mapping):
+        raise ConfigError(f"{path}: expected a mapping at the top level")
+    try:
+        return parse_config(data, name=path.stem)
+    except ConfigError as exc:
+        raise ConfigError(f"{path}: {exc}") from None
+
+
+def _check_hyperparams(tc: TrainConfig) -> None:
+    params = inspect.signature(algorithm_class(tc.algo).__init__).parameters
+    # Set by this script from other keys; a user value would be silently overwritten.
+    reserved = {"self", "policy", "env", "seed", "tensorboard_log", "verbose", "device", "_init_setup_model"}
+    known = set(params) - reserved
+    _check_keys(tc.hyperparams, known, f"config.hyperparams ({tc.algo})")
+
+
+def _activation(name: str) -> Any:
+    import torch.nn as nn
+
+    table = {"tanh": nn.Tanh, "relu": nn.ReLU, "elu": nn.ELU, "leaky_relu": nn.LeakyReLU, "gelu": nn.GELU}
+    if name.lower() not in table:
+        raise ConfigError(f"policy_kwargs.activation_fn {name!r} is not one of {sorted(table)}")
+    return table[name.lower()]
+
+
+def _schedule(value: Any) -> Any:
+    """``"lin_3e-4"`` (RL-Zoo) -> linear decay to 0; numbers pass through."""
+    if isinstance(value, str) and value.startswith("lin_"):
+        start = float(value[4:])
+        return lambda progress_remaining: progress_remaining * start
+    return value
+
+
+def algo_kwargs(tc: TrainConfig) -> dict[str, Any]:
+    """The algorithm's constructor arguments from ``hyperparams`` (activation names, ``lin_`` schedules)."""
+    kw = dict(tc.hyperparams)
+    for key in ("learning_rate", "clip_range"):
+        if key in kw:
+            kw[key] = _schedule(kw[key])
+    pk = dict(kw.get("policy_kwargs") or {})
+    if isinstance(pk.get("activation_fn"), str):
+        pk["activation_fn"] = _activation(pk["activation_fn"])
+    if pk:
+        kw["policy_kwargs"] = pk
+    return kw
+
+
+# ---------------------------------------------------------------------------------------------------------
+# Training
+# ---------------------------------------------------------------------------------------------------------
+
+
+def _nav_callback_class() -> type:
+    from stable_baselines3.common.callbacks import BaseCallback
+
+    class NavMetricsCallback(BaseCallback):
+        """Logs navigation metrics of finished training episodes to TensorBoard (``nav/...``).
+
+        The final position error is privileged (truth) but only *logged*, never given to the policy.
+        """
+
+        def __init__(self) -> None:
+            super().__init__()
+            self.episodes: list[tuple[int, float, float]] = []  # (timestep, return, final pos err)
+            self._measured: np.ndarray | None = None
+            self._steps: np.ndarray | None = None
+
+        def _on_training_start(self) -> None:
+            n = self.training_env.num_envs
+            self._measured, self._steps = np.zeros(n), np.zeros(n)
+
+        def _on_step(self) -> bool:
+            infos, dones = self.locals["infos"], self.locals["dones"]
+            for i, info in enumerate(infos):
+                self._measured[i] += bool(info.get("measured", False))
+                self._steps[i] += 1
+                if dones[i]:
+                    ep = info.get("episode", {})
+                    err = float(info.get("pos_err_km", math.nan))
+                    self.logger.record_mean("nav/final_pos_err_km", err)
+                    self.logger.record_mean("nav/measured_fraction", self._measured[i] / self._steps[i])
+                    self.episodes.append((self.num_timesteps, float(ep.get("r", math.nan)), err))
+                    self._measured[i] = self._steps[i] = 0
+            return True
+
+    return NavMetricsCallback
+
+
+def make_training_env(tc: TrainConfig, monitor_dir: Path | None) -> Any:
+    """``n_envs`` environments in a DummyVecEnv (one process: the env is cheap, 2 cores), Monitor-wrapped."""
+    from stable_baselines3.common.env_util import make_vec_env
+    from stable_baselines3.common.vec_env import DummyVecEnv
+
+    from planetnav_env.env import PlanetNavEnv
+
+    env_cfg = tc.env_config()
+    return make_vec_env(
+        lambda: PlanetNavEnv(env_cfg),
+        n_envs=tc.n_envs,
+        seed=tc.seed,
+        monitor_dir=str(monitor_dir) if monitor_dir is not None else None,
+        vec_env_cls=DummyVecEnv,
+    )
+
+
+def train(tc: TrainConfig, run_dir: Path, progress: bool = True) -> tuple[Path, dict[str, Any]]:
+    """Train ``tc`` into ``run_dir``; returns the model path and training statistics."""
+    import torch
+
+    # A 64x64 MLP is too small to gain from intra-op threads; one thread leaves a core for the env.
+    torch.set_num_threads(tc.torch_threads)
+    run_dir.mkdir(parents=True, exist_ok=True)
+    with open(run_dir / "config.yaml", "w") as fh:
+        yaml.safe_dump(tc.to_dict(), fh, sort_keys=False)
+    venv = make_training_env(tc, run_dir / "monitor")
+    cls = algorithm_class(tc.algo)
+    model = cls(
+        tc.policy,
+        venv,
+        seed=tc.seed,
+        tensorboard_log=str(run_dir / "tb"),
+        device="cpu",
+        verbose=0,
+        **algo_kwargs(tc),
+    )
+    callback = _nav_callback_class()()
+    t0 = time.perf_counter()
+    model.learn(total_timesteps=tc.n_timesteps, callback=callback, progress_bar=progress, tb_log_name=tc.algo)
+    elapsed = time.perf_counter() - t0
+    model_path = run_dir / "model.zip"
+    model.save(model_path)
+    venv.close()
+    stats = {
+        "timesteps": int(model.num_timesteps),
+        "seconds": elapsed,
+        "steps_per_s": model.num_timesteps / max(elapsed, 1e-9),
+        "episodes": callback.episodes,
+    }
+    return model_path, stats
+
+
+# ---------------------------------------------------------------------------------------------------------
+# Evaluation
+# ---------------------------------------------------------------------------------------------------------
+
+
+@dataclass
+class EvalResult:
+    """Metrics of one agent over held-out episodes, plus the mean curves used by the plots."""
+
+    name: str
+    metrics: dict[str, Any]
+    pos_err_curve: np.ndarray
+    pos_sigma_curve: np.ndarray
+
+
+def _episode(agent: Any, env: Any, seed: int, on_step: Callable[[], None]) -> dict[str, Any]:
+    agent.reset(seed=seed)
+    obs, info = env.reset(seed=seed)
+    err, sig, vel, measured = [], [], [], 0
+    slews, ret, diverged = 0, 0.0, False
+    while True:
+        obs, reward, terminated, truncated, info = env.step(agent.act(obs, info))
+        err.append(info["pos_err_km"])
+        sig.append(info["pos_sigma_km"])
+        vel.append(info["vel_err_km_s"])
+        measured += bool(info["measured"])
+        slews += bool(info["slewing"])
+        ret += float(reward)
+        on_step()
+        if terminated or truncated:
+            diverged = bool(terminated)
+            break
+    return {
+        "pos_err": np.asarray(err),
+        "pos_sigma": np.asarray(sig),
+        "mean_vel_err_km_s": float(np.mean(vel)),
+        "measured_fraction": measured / len(err),
+        "slews": slews,
+        "return": ret,
+        "diverged": diverged,
+    }
+
+
+def _padded_mean(curves: Sequence[np.ndarray]) -> np.ndarray:
+    n = max(len(c) for c in curves)
+    out = np.full((len(curves), n), np.nan)
+    for i, c in enumerate(curves):
+        out[i, : len(c)] = c
+    return np.nanmean(out, axis=0)
+
+
+def evaluate_agent(
+    spec: str, env_cfg: EnvConfig, episodes: int, seed: int, progress: bool = True
+) -> EvalResult:
+    """Run agent ``spec`` (name or model path) on ``episodes`` seeds ``seed, seed+1, ...``."""
+    from tqdm.auto import tqdm
+
+    from planetnav_env.env import PlanetNavEnv
+
+    # Only the idle agent gets the extra "camera off" action: the others keep the trained action space.
+    overrides = {"idle_action": True} if requires_idle_action(spec) else {}
+    env = PlanetNavEnv(env_cfg, **overrides)
+    agent = make_agent(spec, env)
+    name = getattr(agent, "name", spec)
+    bar = tqdm(
+        total=episodes * env_cfg.episode_steps,
+        desc=f"eval {name}",
+        unit="step",
+        disable=not progress,
+        leave=False,
+    )
+    runs = [_episode(agent, env, seed + i, lambda: bar.update(1)) for i in range(episodes)]
+    bar.close()
+    env.close()
+    final = np.array([r["pos_err"][-1] for r in runs])
+    metrics = {
+        "episodes": episodes,
+        "seed": seed,
+        "mean_pos_err_km": float(np.mean([np.mean(r["pos_err"]) for r in runs])),
+        "final_pos_err_km": float(np.mean(final)),
+        "final_pos_err_std_km": float(np.std(final)),
+        "final_pos_sigma_km": float(np.mean([r["pos_sigma"][-1] for r in runs])),
+        "mean_vel_err_km_s": float(np.mean([r["mean_vel_err_km_s"] for r in runs])),
+        "measured_fraction": float(np.mean([r["measured_fraction"] for r in runs])),
+        "slews": float(np.mean([r["slews"] for r in runs])),
+        "return": float(np.mean([r["return"] for r in runs])),
+        "diverged": int(sum(r["diverged"] for r in runs)),
+    }
+    return EvalResult(
+        name=name,
+        metrics=metrics,
+        pos_err_curve=_padded_mean([r["pos_err"] for r in runs]),
+        pos_sigma_curve=_padded_mean([r["pos_sigma"] for r in runs]),
+    )
+
+
+def compare_agents(
+    specs: Sequence[str], env_cfg: EnvConfig, episodes: int, seed: int, progress: bool = True
+) -> list[EvalResult]:
+    """Evaluate each agent on the same seeds (so the same initial states and estimate errors)."""
+    return [evaluate_agent(s, env_cfg, episodes, seed, progress) for s in specs]
+
+
+def results_json(results: Sequence[EvalResult]) -> dict[str, Any]:
+    """``{"agents": {name: metrics}}`` (names made unique if two agents share one)."""
+    out: dict[str, Any] = {}
+    for r in results:
+        key, k = r.name, 2
+        while key in out:
+            key, k = f"{r.name}#{k}", k + 1
+        out[key] = r.metrics
+    return {"agents": out}
+
+
+TABLE_COLUMNS = (
+    ("agent", None, "{}"),
+    ("mean err km", "mean_pos_err_km", "{:.1f}"),
+    ("final err km", "final_pos_err_km", "{:.1f}"),
+    ("final 1σ km", "final_pos_sigma_km", "{:.1f}"),
+    ("vel err m/s", "mean_vel_err_km_s", "{:.3f}"),
+    ("measured", "measured_fraction", "{:.2f}"),
+    ("slews", "slews", "{:.1f}"),
+    ("return", "return", "{:.1f}"),
+)
+
+
+def table_rows(results: Sequence[EvalResult]) -> list[list[str]]:
+    rows = []
+    for r in results:
+        row = []
+        for _, key, fmt in TABLE_COLUMNS:
+            if key is None:
+                row.append(r.name)
+            elif key == "mean_vel_err_km_s":
+                row.append(fmt.format(1e3 * r.metrics[key]))
+            else:
+                row.append(fmt.format(r.metrics[key]))
+        rows.append(row)
+    return rows
+
+
+def markdown_table(results: Sequence[EvalResult]) -> str:
+    head = [c[0] for c in TABLE_COLUMNS]
+    lines = ["| " + " | ".join(head) + " |", "|" + "|".join("---" for _ in head) + "|"]
+    lines += ["| " + " | ".join(row) + " |" for row in table_rows(results)]
+    return "\n".join(lines)
+
+
+def print_table(results: Sequence[EvalResult]) -> None:
+    from rich.console import Console
+    from rich.table import Table
+
+    rows = table_rows(results)
+    table = Table(title="planetnav agents (held-out seeds)")
+    for title, key, _ in TABLE_COLUMNS:
+        table.add_column(title, justify="left" if key is None else "right", no_wrap=True)
+    for row in rows:
+        table.add_row(*row)
+    console = Console()
+    if not console.is_terminal:
+        # Logs and pipes: rich would assume 80 columns and truncate the agent names.
+        console = Console(width=160)
+    console.print(table)
+
+
+def write_plots(results: Sequence[EvalResult], out_dir: Path, step_s: float) -> list[str]:
+    """Mean position error and 1-sigma vs time, one line per agent (Agg PNGs); returns the file names."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    names = []
+    for attr, fname, ylabel in (
+        ("pos_err_curve", "pos_err.png", "position error [km] (mean over episodes)"),
+        ("pos_sigma_curve", "pos_sigma.png", "filter position 1-sigma, sqrt(tr P_rr) [km]"),
+    ):
+        fig, ax = plt.subplots(figsize=(8, 4.5))
+        for r in results:
+            curve = getattr(r, attr)
+            hours = (np.arange(len(curve)) + 1) * step_s / 3600.0
+            ax.plot(hours, curve, label=r.name, lw=1.2)
+        ax.set_yscale("log")
+        ax.set_xlabel("time [h]")
+        ax.set_ylabel(ylabel)
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend()
+        fig.tight_layout()
+        fig.savefig(out_dir / fname, dpi=110)
+        plt.close(fig)
+        names.append(fname)
+    return names
+
+
+def write_training_plot(episodes: Sequence[tuple[int, float, float]], out_dir: Path) -> str | None:
+    """Training episode return and final position error vs timesteps; None without finished episodes."""
+    if not episodes:
+        return None
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    steps, ret, err = (np.asarray(v, dtype=float) for v in zip(*episodes, strict=True))
+    fig, (a1, a2) = plt.subplots(2, 1, figsize=(8, 6), sharex=True)
+    a1.plot(steps, ret, ".", ms=3)
+    a1.set_ylabel("episode return")
+    a2.plot(steps, err, ".", ms=3)
+    a2.set_yscale("log")
+    a2.set_ylabel("final pos err [km]")
+    a2.set_xlabel("timesteps")
+    for a in (a1, a2):
+        a.grid(True, alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(out_dir / "training.png", dpi=110)
+    plt.close(fig)
+    return "training.png"
+
+
+def write_report(
+    out_dir: Path,
+    results: Sequence[EvalResult],
+    env_cfg: EnvConfig,
+    title: str,
+    train_stats: dict[str, Any] | None = None,
+    tc: TrainConfig | None = None,
+) -> Path:
+    """``report.md`` + plots + ``eval.json`` in ``out_dir``."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    plots = write_plots(results, out_dir, env_cfg.step_s)
+    training_plot = write_training_plot(train_stats["episodes"], out_dir) if train_stats else None
+    with open(out_dir / "eval.json", "w") as fh:
+        json.dump(results_json(results), fh, indent=2)
+    m0 = results[0].metrics
+    lines = [
+        f"# {title}",
+        "",
+        f"Scenario `{env_cfg.scenario}`, planets {', '.join(env_cfg.planets)}, action mode "
+        f"`{env_cfg.action_mode}`, {env_cfg.episode_steps} steps of {env_cfg.step_s:g} s, "
+        f"{m0['episodes']} held-out episodes (seeds {m0['seed']}..{m0['seed'] + m0['episodes'] - 1}).",
+        "",
+    ]
+    if train_stats and tc:
+        lines += [
+            f"Training: {tc.algo.upper()} `{tc.policy}`, {train_stats['timesteps']} timesteps on {tc.n_envs} "
+            f"envs in {train_stats['seconds']:.0f} s ({train_stats['steps_per_s']:.0f} env steps/s, "
+            f"environment + learning), seed {tc.seed}.",
+            "",
+        ]
+    lines += [
+        markdown_table(results),
+        "",
+        "Mean err: per-step position error averaged over the episode, then over episodes; final: at the "
+        "last step (mean over episodes). Final 1σ: sqrt(trace P_rr) of the filter at the last step. Vel err: "
+        "mean velocity error. Measured: fraction of steps with a camera "
+        "measurement. Slews: target changes per episode. Return: the environment's reward summed.",
+        "",
+    ]
+    lines += [f"![{p}]({p})" for p in plots]
+    if training_plot:
+        lines += ["", f"![training]({training_plot})"]
+    path = out_dir / "report.md"
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+# ---------------------------------------------------------------------------------------------------------
+# Command line
+# ---------------------------------------------------------------------------------------------------------
+
+
+def _eval_env_config(args: argparse.Namespace, specs: Sequence[str]) -> tuple[EnvConfig, EvalSettings]:
+    """The env of ``--config``, else of the first model run directory's ``config.yaml``, else defaults."""
+    if args.config:
+        tc = load_config(args.config)
+    else:
+        tc = parse_config({})
+        for s in specs:
+            try:
+                sidecar = resolve_model_path(s).parent / "config.yaml"
+            except FileNotFoundError:
+                continue
+            if sidecar.is_file():
+                tc = load_config(sidecar)
+                break
+    env_cfg = tc.env_config()
+    steps = args.episode_steps or tc.eval.episode_steps
+    if steps:
+        env_cfg = EnvConfig.from_dict(env_cfg.to_dict(), episode_steps=steps)
+    return env_cfg, tc.eval
+
+
+def cmd_train(args: argparse.Namespace) -> int:
+    tc = load_config(args.config)
+    if args.timesteps:
+        tc.n_timesteps = args.timesteps
+    run_dir = Path(args.run_dir) if args.run_dir else ROOT / "runs" / tc.name
+    progress = not args.no_progress
+    print(f"training {tc.algo.upper()} for {tc.n_timesteps} steps on {tc.n_envs} envs -> {run_dir}")
+    model_path, stats = train(tc, run_dir, progress=progress)
+    print(
+        f"trained {stats['timesteps']} steps in {stats['seconds']:.0f} s ({stats['steps_per_s']:.0f} steps/s)"
+    )
+    if args.no_eval:
+        return 0
+    env_cfg = tc.env_config()
+    if tc.eval.episode_steps:
+        env_cfg = EnvConfig.from_dict(env_cfg.to_dict(), episode_steps=tc.eval.episode_steps)
+    specs = [str(model_path), *tc.eval.agents]
+    results = compare_agents(specs, env_cfg, tc.eval.episodes, tc.eval.seed, progress)
+    print_table(results)
+    report = write_report(run_dir, results, env_cfg, f"Run `{tc.name}`", stats, tc)
+    print(f"report: {report}")
+    return 0
+
+
+def cmd_evaluate(args: argparse.Namespace) -> int:
+    env_cfg, ev = _eval_env_config(args, [args.agent])
+    episodes = args.episodes or ev.episodes
+    seed = ev.seed if args.seed is None else args.seed
+    result = evaluate_agent(args.agent, env_cfg, episodes, seed, progress=not args.no_progress)
+    print_table([result])
+    if args.json:
+        Path(args.json).parent.mkdir(parents=True, exist_ok=True)
+        Path(args.json).write_text(json.dumps(results_json([result]), indent=2))
+    return 0
+
+
+def cmd_compare(args: argparse.Namespace) -> int:
+    env_cfg, ev = _eval_env_config(args, args.agents)
+    episodes = args.episodes or ev.episodes
+    seed = ev.seed if args.seed is None else args.seed
+    results = compare_agents(args.agents, env_cfg, episodes, seed, progress=not args.no_progress)
+    print_table(results)
+    if args.json:
+        Path(args.json).parent.mkdir(parents=True, exist_ok=True)
+        Path(args.json).write_text(json.dumps(results_json(results), indent=2))
+    if args.report:
+        print(f"report: {write_report(Path(args.report), results, env_cfg, 'Agent comparison')}")
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(
+        description=__doc__.split("\n\n")[0], formatter_class=argparse.RawTextHelpFormatter
+    )
+    sub = p.add_subparsers(dest="command")
+
+    t = sub.add_parser("train", help="train an SB3 agent from a YAML config, then evaluate and report")
+    t.add_argument("--config", default=str(DEFAULT_CONFIG), help="training YAML (default %(default)s)")
+    t.add_argument("--run-dir", help="output directory (default runs/<name>)")
+    t.add_argument("--timesteps", type=int, help="override n_timesteps")
+    t.add_argument("--no-eval", action="store_true", help="skip the evaluation and report")
+    t.set_defaults(func=cmd_train)
+
+    def common(sp: argparse.ArgumentParser) -> None:
+        sp.add_argument(
+            "--episodes", type=int, help="episodes per agent (default: the config's eval.episodes)"
+        )
+        sp.add_argument("--seed", type=int, help=f"first held-out seed (default {EVAL_SEED})")
+        sp.add_argument("--config", help="YAML whose env (and eval) sections define the environment")
+        sp.add_argument("--episode-steps", type=int, help="override the episode length")
+        sp.add_argument("--json", help="write the metrics as JSON here")
+
+    e = sub.add_parser("evaluate", help="evaluate one agent (name or SB3 model path)")
+    e.add_argument("--agent", required=True, help="baseline, greedy, random, idle, ... or a model path")
+    common(e)
+    e.set_defaults(func=cmd_evaluate)
+
+    c = sub.add_parser("compare", help="evaluate several agents on the same seeds and print one table")
+    c.add_argument("--agents", nargs="+", default=list(DEFAULT_AGENTS), help="names and/or model paths")
+    c.add_argument("--report", help="also write report.md, plots and eval.json into this directory")
+    common(c)
+    c.set_defaults(func=cmd_compare)
+
+    for sp in (t, e, c):
+        sp.add_argument("--no-progress", action="store_true", help="no progress bars")
+    return p
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if not argv:
+        argv = ["train"]  # python train.py: the default training run
+    args = build_parser().parse_args(argv)
+    if args.command is None:
+        build_parser().print_help()
+        return 2
+    try:
+        return args.func(args)
+    except (ConfigError, FileNotFoundError, ValueError) as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())
