@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: run test lint bench clean
+.PHONY: run test reproduce bench clean
 
 $(STAMP): pyproject.toml
 	$(PY) -m venv $(VENV)
@@ -15,7 +15,12 @@ $(STAMP): pyproject.toml
 	touch $(STAMP)
 
 run: $(STAMP)
+	$(BIN)/python train.py
+
+reproduce: $(STAMP)
 	$(BIN)/python -m planetnav_env.reproduce angular-size --plots results/angular_size --json results/angular_size.json
+	$(BIN)/python -m planetnav_env.reproduce optical-pulsar --plots results/optical_pulsar --json results/optical_pulsar.json
+	$(BIN)/python -m planetnav_env.reproduce gnss-magnetometer --plots results/gnss_magnetometer --json results/gnss_magnetometer.json
 
 test: $(STAMP)
 	$(BIN)/ruff check .
@@ -23,6 +28,8 @@ test: $(STAMP)
 
 bench: $(STAMP)
 	$(BIN)/python benchmarks/bench_core.py
+	$(BIN)/python benchmarks/bench_env.py
+	$(BIN)/python benchmarks/bench_gnss.py
 
 clean:
 	rm -rf $(VENV) results runs
