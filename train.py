@@ -33,7 +33,7 @@ from typing import Any
 import numpy as np
 import yaml
 
-from agents import make_agent, requires_idle_action
+from agents import make_agent, requires_idle_action, strip_sampled
 from agents.sb3 import ALGORITHMS, algorithm_class, resolve_model_path
 from planetnav_env.config import EnvConfig
 from planetnav_env.errors import ConfigError
@@ -558,7 +558,7 @@ def _eval_env_config(args: argparse.Namespace, specs: Sequence[str]) -> tuple[En
         tc = parse_config({})
         for s in specs:
             try:
-                sidecar = resolve_model_path(s).parent / "config.yaml"
+                sidecar = resolve_model_path(strip_sampled(s)).parent / "config.yaml"
             except FileNotFoundError:
                 continue
             if sidecar.is_file():
@@ -587,7 +587,9 @@ def cmd_train(args: argparse.Namespace) -> int:
     env_cfg = tc.env_config()
     if tc.eval.episode_steps:
         env_cfg = EnvConfig.from_dict(env_cfg.to_dict(), episode_steps=tc.eval.episode_steps)
-    specs = [str(model_path), *tc.eval.agents]
+    # The trained policy twice: its argmax (the usual deterministic evaluation) and its sampled actions,
+    # which on this problem can differ a lot (docs/training.md).
+    specs = [str(model_path), f"{model_path}@sampled", *tc.eval.agents]
     results = compare_agents(specs, env_cfg, tc.eval.episodes, tc.eval.seed, progress)
     print_table(results)
     report = write_report(run_dir, results, env_cfg, f"Run `{tc.name}`", stats, tc)

@@ -11,6 +11,7 @@ greedy         the planet whose measurements shrink the position covariance most
 random         a uniformly random action each step
 idle           never measures (needs ``idle_action=True``)
 PATH           a saved SB3 model (``.zip`` or a ``runs/<name>/`` directory), deterministic actions
+PATH@sampled   the same model, actions sampled from the policy (seeded by ``reset(seed)``)
 ============== ==========================================================================================
 """
 
@@ -40,6 +41,16 @@ AGENTS: dict[str, Callable[..., Agent]] = {
 NEEDS_IDLE_ACTION = frozenset({"idle"})
 
 
+#: Suffix of a model path that evaluates the policy's sampled actions instead of its argmax.
+SAMPLED_SUFFIX = "@sampled"
+
+
+def strip_sampled(spec: str) -> str:
+    """The model path of a ``PATH@sampled`` agent spec (other specs unchanged)."""
+    s = str(spec)
+    return s[: -len(SAMPLED_SUFFIX)] if s.endswith(SAMPLED_SUFFIX) else s
+
+
 def requires_idle_action(name_or_path: str) -> bool:
     """Whether the agent ``name_or_path`` needs an environment with ``idle_action=True``."""
     return str(name_or_path) in NEEDS_IDLE_ACTION
@@ -52,6 +63,10 @@ def make_agent(name_or_path: str | Path, env: gym.Env, **kwargs: Any) -> Agent:
     model). Raises ``ValueError`` naming the known agents when the name is neither registered nor a path.
     """
     key = str(name_or_path)
+    if key.endswith(SAMPLED_SUFFIX):
+        # "PATH@sampled": the saved policy's actions are sampled, not its argmax (seeded by reset(seed)).
+        key = key[: -len(SAMPLED_SUFFIX)]
+        kwargs.setdefault("deterministic", False)
     if key in AGENTS:
         return AGENTS[key](env, **kwargs)
     path = Path(key)
@@ -73,4 +88,5 @@ __all__ = [
     "make_agent",
     "parse_observation",
     "requires_idle_action",
+    "strip_sampled",
 ]
