@@ -1,5 +1,7 @@
 """Environment conformance, seeding, rendering, bad input, physics sanity."""
 
+from pathlib import Path
+
 import gymnasium as gym
 import numpy as np
 import pytest
@@ -222,3 +224,22 @@ def test_sun_blocked_pulsar_is_reported_not_measured():
         PlanetNavEnv(scenario="mars-approach", planets=["mars"], pulsars=["J9999+99"])
     with pytest.raises(ConfigError, match="area_cm2"):
         PlanetNavEnv(detector={"area_cm2": -1.0})
+
+
+SCENARIO_FILES = sorted((Path(__file__).resolve().parents[1] / "configs" / "scenarios").glob("*.yaml"))
+
+
+def test_scenario_config_files_exist():
+    assert {p.stem for p in SCENARIO_FILES} >= {"cruise", "random_cruise", "mars_approach"}
+
+
+@pytest.mark.parametrize("path", SCENARIO_FILES, ids=lambda p: p.stem)
+def test_scenario_configs_load_and_run(path):
+    cfg = EnvConfig.from_yaml(path)
+    env = PlanetNavEnv(cfg, episode_steps=5)
+    env.reset(seed=0)
+    _, reward, _, _, info = env.step(0)
+    assert np.isfinite(reward) and info["time_s"] > 0
+    if cfg.scenario == "cruise":
+        # The scenario file spells out the registered default environment.
+        assert cfg == gym.make("planetnav/Cruise-Target-v0").unwrapped.config
