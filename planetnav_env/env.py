@@ -176,6 +176,20 @@ def _planet_geometry(x_est, q_est, p_rr, planets, radii, boresight, out, q_point
 
 
 @njit(cache=True)
+def _spacecraft_block(buf, x, p, q_est, w_meas, h_w, h_max, pos_scale, vel_scale):  # pragma: no cover
+    """Observation entries 0-21 (see PlanetNavEnv): estimate, log sigmas, attitude, rates, wheels."""
+    for i in range(3):
+        buf[i] = x[i] / pos_scale
+        buf[3 + i] = x[3 + i] / vel_scale
+        buf[6 + i] = np.log10(np.sqrt(max(p[i, i], 1e-30))) / 4.0
+        buf[9 + i] = np.log10(np.sqrt(max(p[3 + i, 3 + i], 1e-30)) * 1e3) / 4.0
+        buf[16 + i] = w_meas[i] / (np.pi / 180.0)
+        buf[19 + i] = h_w[i] / h_max[i]
+    for i in range(4):
+        buf[12 + i] = q_est[i]
+
+
+@njit(cache=True)
 def _nees(x_est, x_true, p):  # pragma: no cover - compiled
     """e^T P^-1 e by Cholesky (P symmetric positive definite); NaN if the factorisation fails."""
     n = 6
@@ -752,14 +766,17 @@ class PlanetNavEnv(gym.Env):
         ekf = self._ekf
         n = cfg.n_planets
         buf = self._obs_buf
-        sig = np.sqrt(np.maximum(np.diagonal(ekf.P), 1e-30))
-        buf[0:3] = ekf.x[:3] / self._pos_scale
-        buf[3:6] = ekf.x[3:] / self._vel_scale
-        buf[6:9] = np.log10(sig[:3]) / 4.0
-        buf[9:12] = np.log10(sig[3:] * 1e3) / 4.0
-        buf[12:16] = self._q_est
-        buf[16:19] = self._w_meas / _DEG
-        buf[19:22] = self._h / self._h_max
+        _spacecraft_block(
+            buf,
+            ekf.x,
+            ekf.P,
+            self._q_est,
+            self._w_meas,
+            self._h,
+            self._h_max,
+            self._pos_scale,
+            self._vel_scale,
+        )
         end = 22 + PLANET_FEATURES * n
         buf[22:end] = self.planet_features().ravel()
         if cfg.n_pulsars:

@@ -254,7 +254,8 @@ def _estimate_single(
     rng: np.random.Generator, q: np.ndarray, config: StarTrackerConfig
 ) -> tuple[np.ndarray, float]:
     """The batched path's model for one attitude, in two numba kernels around the noise draw."""
-    if not np.all(np.isfinite(q)) or abs(float(q @ q) - 1.0) > 2e-6:
+    # One comparison covers both checks: it is False for a NaN/inf norm as well as a non-unit one.
+    if not abs(float(q @ q) - 1.0) <= 2e-6:
         _check_attitude(q)  # raises the specific error
     dirs, _, cos_half, bs = _geometry(config)
     rot, idx = _select_kernel(q, dirs, cos_half, bs)
