@@ -52,7 +52,8 @@ def test_smoke_training_writes_the_run(smoke_run: Path) -> None:
     report = (smoke_run / "report.md").read_text()
     assert "| baseline |" in report and "| random |" in report and "ppo:smoke" in report
     data = json.loads((smoke_run / "eval.json").read_text())
-    assert set(data["agents"]) == {"ppo:smoke", "baseline", "random"}
+    # The trained policy appears twice: argmax and sampled actions.
+    assert set(data["agents"]) == {"ppo:smoke", "ppo:smoke:stochastic", "baseline", "random"}
 
 
 def test_evaluate_json_schema(tmp_path: Path, smoke_run: Path) -> None:
