@@ -125,6 +125,19 @@ def _check_step(dt: float) -> float:
     return require_positive("step dt [s]", dt)
 
 
+def _step_inputs(
+    model: GravityModel, x: np.ndarray, t: float, dt: float, perturbers: PerturberFn | None
+) -> tuple[float, np.ndarray, tuple[np.ndarray | None, np.ndarray | None, np.ndarray | None]]:
+    """Validated step, state, and perturber positions at the RK4 stage times t, t + dt/2, t + dt."""
+    dt = _check_step(dt)
+    x = require_finite("orbit state", x)
+    if not model.n_perturbers:
+        return dt, x, (None, None, None)
+    if perturbers is None:
+        raise InvalidParameterError("the gravity model has perturbers: pass their positions function")
+    return dt, x, (perturbers(t), perturbers(t + 0.5 * dt), perturbers(t + dt))
+
+
 def rk4_step(
     model: GravityModel,
     x: np.ndarray,
@@ -133,13 +146,7 @@ def rk4_step(
     perturbers: PerturberFn | None = None,
 ) -> np.ndarray:
     """One RK4 step of the state ``x`` (N, 6) from ``t`` to ``t + dt`` [s] (thesis, section 2.1)."""
-    dt = _check_step(dt)
-    x = require_finite("orbit state", x)
-    if model.n_perturbers and perturbers is None:
-        raise InvalidParameterError("the gravity model has perturbers: pass their positions function")
-    p0 = p1 = p2 = None
-    if model.n_perturbers:
-        p0, p1, p2 = perturbers(t), perturbers(t + 0.5 * dt), perturbers(t + dt)
+    dt, x, (p0, p1, p2) = _step_inputs(model, x, t, dt, perturbers)
     k1 = model.derivative(x, p0)
     k2 = model.derivative(x + 0.5 * dt * k1, p1)
     k3 = model.derivative(x + 0.5 * dt * k2, p1)
@@ -159,13 +166,7 @@ def rk4_step_stm(
     Returns ``(x(t+dt), Phi)`` with ``Phi`` of shape (N, 6, 6). Because ``F = [[0, I], [G, 0]]``,
     ``F @ M = [M_lower; G M_upper]`` is formed without a 6x6 product.
     """
-    dt = _check_step(dt)
-    x = require_finite("orbit state", x)
-    if model.n_perturbers and perturbers is None:
-        raise InvalidParameterError("the gravity model has perturbers: pass their positions function")
-    p0 = p1 = p2 = None
-    if model.n_perturbers:
-        p0, p1, p2 = perturbers(t), perturbers(t + 0.5 * dt), perturbers(t + dt)
+    dt, x, (p0, p1, p2) = _step_inputs(model, x, t, dt, perturbers)
     eye = np.broadcast_to(np.eye(6), x.shape[:-1] + (6, 6))
 
     def f_phi(xs: np.ndarray, phi: np.ndarray, rp: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
