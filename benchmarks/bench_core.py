@@ -4,7 +4,7 @@ Prints, in one run, microseconds per call of:
   * one EKF cycle (predict + measurement model + update; 6 states, 3 measurements), single filter
     and batched over 1024 filters (per filter);
   * the same cycle on filterpy's ExtendedKalmanFilter (the reference);
-  * one truth step: orbit RK4 + attitude (PD law, sub-stepped) for one spacecraft.
+  * one truth step: orbit RK4 + attitude (PD law, 60 sub-steps) for one spacecraft.
 Targets (issue 2): batched core <= 2 us per filter cycle; single path no slower than filterpy.
 
     python benchmarks/bench_core.py [--repeat N]
@@ -18,7 +18,9 @@ import time
 import numba
 import numpy as np
 
+from planetnav_env.attitude.pointing import propagate_pointing
 from planetnav_env.bodies import body
+from planetnav_env.dynamics.attitude import AttitudeConfig
 from planetnav_env.dynamics.orbit import GravityModel, rk4_step
 from planetnav_env.ephemeris import KeplerianEphemeris
 from planetnav_env.estimation.ekf import BatchEKF, FilterConfig, FilterpyEKF, process_noise
@@ -27,6 +29,7 @@ from planetnav_env.estimation.fast import (
     SingleEKF,
     predict_batch_kernel,
     predict_batch_parallel,
+    rk4_batch_kernel,
     update_batch_kernel,
     update_batch_parallel,
 )
@@ -153,15 +156,24 @@ def main() -> None:
     rows.append(("EKF cycle, filterpy ExtendedKalmanFilter", t_fp))
 
     x = x0[None].copy()
-    rows.append(("truth orbit RK4 step (numpy)", _time(lambda: rk4_step(model, x, EPOCH, dt), args.repeat)))
-    try:
-        from planetnav_env.attitude.pointing import propagate_pointing_default_benchmark
+    rows.append(
+        ("truth orbit RK4 step (numpy reference)", _time(lambda: rk4_step(model, x, EPOCH, dt), args.repeat))
+    )
 
-        rows.append(
-            ("truth attitude, 60 PD sub-steps (numba)", propagate_pointing_default_benchmark(args.repeat))
-        )
-    except ImportError:
-        pass
+    # One truth step of the environment: orbit RK4 (compiled) + 60 attitude sub-steps of 1 s with the
+    # PD law toward Venus through the wheel limits (the public single-spacecraft API).
+    att = AttitudeConfig()
+    q = np.array([0.5, 0.5, 0.5, 0.5])
+    w = np.zeros(3)
+    hw = np.zeros(3)
+    empty3 = np.zeros((0, 3))
+    direction = planet - x0[:3]
+
+    def truth_step():
+        rk4_batch_kernel(x, dt, model.mu_central, empty3, empty3, empty3, np.zeros(0))
+        propagate_pointing(q, w, hw, direction, 1.0, 60, att, roll_ref_inertial=x0[:3], k_a=0.02, k_w=1.0)
+
+    rows.append(("truth step: orbit RK4 + 60 attitude sub-steps (compiled)", _time(truth_step, args.repeat)))
 
     width = max(len(r[0]) for r in rows)
     print(f"{'operation':<{width}}  {'us/call':>10}")
