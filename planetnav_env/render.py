@@ -20,6 +20,15 @@ if TYPE_CHECKING:
     from planetnav_env.env import PlanetNavEnv
 
 SIZE = 256
+PLANET_COLORS = {
+    "mercury": (180, 170, 160),
+    "venus": (255, 200, 80),
+    "earth": (80, 150, 255),
+    "moon": (210, 210, 210),
+    "mars": (230, 90, 60),
+    "jupiter": (220, 180, 140),
+    "saturn": (230, 210, 150),
+}
 
 
 def _disk(img: np.ndarray, cx: float, cy: float, r: float, color: tuple[int, int, int]) -> None:
@@ -52,17 +61,10 @@ def _camera_panel(env: PlanetNavEnv) -> np.ndarray:
     py = cfg.f_px * v_cam[1, front] / v_cam[2, front] + cfg.principal_point[1]
     inside = (px >= 0) & (px < w) & (py >= 0) & (py < h)
     img[(py[inside] * scale).astype(int), (px[inside] * scale).astype(int)] = (200, 200, 200)
-    planets = env._planet_pos(2 * env._k)
-    colors = [
-        (255, 200, 80),
-        (230, 90, 60),
-        (80, 150, 255),
-        (200, 200, 120),
-        (180, 120, 255),
-        (120, 255, 160),
-    ]
+    planets = env._planet_pos(2 * env._k)  # heliocentric
+    r_helio = env._x[:3] + env._central_helio[2 * env._k]  # the truth is relative to the central body
     for i, p in enumerate(planets):
-        d = p - env._x[:3]
+        d = p - r_helio
         dist = np.linalg.norm(d)
         c = cfg.camera_to_body_matrix.T @ qt.rotate_inertial_to_body(q, d / dist)
         if c[2] <= 0:
@@ -70,7 +72,7 @@ def _camera_panel(env: PlanetNavEnv) -> np.ndarray:
         x = (cfg.f_px * c[0] / c[2] + cfg.principal_point[0]) * scale
         y = (cfg.f_px * c[1] / c[2] + cfg.principal_point[1]) * scale
         radius_px = max(np.arcsin(min(env._radii[i] / dist, 1.0)) * cfg.f_px * scale, 2.0)
-        _disk(img, x, y, radius_px, colors[i % len(colors)])
+        _disk(img, x, y, radius_px, PLANET_COLORS.get(env.planets[i], (200, 200, 200)))
         if i == env._target:
             _ring(img, x, y, radius_px + 5, (255, 255, 255))
     img[[0, -1], :] = (90, 90, 90)  # field-of-view edge

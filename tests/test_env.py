@@ -243,3 +243,15 @@ def test_scenario_configs_load_and_run(path):
     if cfg.scenario == "cruise":
         # The scenario file spells out the registered default environment.
         assert cfg == gym.make("planetnav/Cruise-Target-v0").unwrapped.config
+
+
+def test_render_on_mars_approach_shows_mars_when_pointed():
+    env = gym.make("planetnav/MarsApproach-Tasking-v0", render_mode="rgb_array", episode_steps=60).unwrapped
+    env.reset(seed=1)
+    for _ in range(20):
+        env.step(0)  # point at Mars
+    frame = env.render()
+    camera = frame[:, :256]
+    # Mars's disk colour is drawn near the image centre once the camera is on it.
+    centre = camera[118:138, 118:138].reshape(-1, 3)
+    assert np.any(np.all(centre == (230, 90, 60), axis=1))
