@@ -255,3 +255,35 @@ def test_render_on_mars_approach_shows_mars_when_pointed():
     # Mars's disk colour is drawn near the image centre once the camera is on it.
     centre = camera[118:138, 118:138].reshape(-1, 3)
     assert np.any(np.all(centre == (230, 90, 60), axis=1))
+
+
+def test_star_tracker_attitude_error_reaches_navigation():
+    """The camera's line of sight is rotated to inertial with the star tracker's attitude, not the truth:
+    a 20" attitude bias (identical random streams otherwise) shifts the estimate across the line of sight
+    by ~20" x range."""
+    from planetnav_env import quaternion as qt
+
+    bias_rad = 20.0 / 206264.806
+
+    def run(biased):
+        env = PlanetNavEnv(star_tracker="ideal", episode_steps=400)
+        if biased:
+            tilt = qt.from_axis_angle([0.0, 0.0, 1.0], bias_rad)  # about body z: swings the boresight (x)
+
+            def fix():
+                return qt.multiply(env._q, tilt), bias_rad
+
+            env._star_fix = fix
+        env.reset(seed=3)
+        for _ in range(400):
+            _, _, _, _, info = env.step(0)  # Venus
+        return env, info["filter"]["x"][:3]
+
+    env, r_ideal = run(False)
+    _, r_biased = run(True)
+    venus = env._planet_pos(2 * env._k)[0] - r_ideal
+    rng_km = np.linalg.norm(venus)
+    u = venus / rng_km
+    shift = r_biased - r_ideal
+    across = np.linalg.norm(shift - (shift @ u) * u)
+    assert 0.7 * bias_rad * rng_km < across < 1.3 * bias_rad * rng_km
