@@ -33,15 +33,13 @@ from gymnasium import spaces
 from numba import njit
 
 from planetnav_env import quaternion as qt
-from planetnav_env.attitude.pointing import frame_kernel, pd_torque_kernel
+from planetnav_env.attitude.pointing import frame_kernel, substeps_kernel
 from planetnav_env.bodies import AU_KM, body
 from planetnav_env.config import EnvConfig
 from planetnav_env.dynamics.attitude import (
     dcm_body_to_inertial_kernel,
     load_state_kernel,
-    rk4_substep_kernel,
     store_state_kernel,
-    wheel_torque_kernel,
 )
 from planetnav_env.dynamics.orbit import GravityModel
 from planetnav_env.ephemeris import DEEphemeris
@@ -54,6 +52,7 @@ from planetnav_env.sensors import pulsar as psr
 from planetnav_env.sensors.star_tracker import StarTrackerConfig, estimate_attitude
 
 _NONE3 = np.zeros((0, 3))
+_ZERO3 = np.zeros(3)
 _NO_MU = np.zeros(0)
 _DEG = np.pi / 180.0
 ARCSEC = np.pi / 648_000.0
@@ -68,31 +67,20 @@ PLANET_FEATURES = 7
 def _attitude_substeps(
     q, w, h, use_pd, direction, roll_ref, u_bias, n, dt, jm, jinv, tau_max, h_max, k_a, k_w, u_last
 ):  # pragma: no cover - compiled
-    """n RK4 sub-steps: PD torque toward ``direction`` (if use_pd) + ``u_bias`` -> wheel limits -> RK4.
+    """Load the state, build the PD reference frame, run the pointing module's sub-step loop, store.
 
-    Composes the attitude module's kernels (one implementation of each formula). Returns False when
-    the state became non-finite or the direction is zero.
+    Returns False when the state became non-finite or the direction is zero.
     """
     y = np.empty(7)
-    work = np.empty((8, 7))
-    scratch = np.empty((2, 3, 3))
     frame = np.empty((3, 3))
-    u_cmd = np.empty(3)
-    zero = np.zeros(3)
     if not load_state_kernel(q, w, y):
         return False
     if use_pd and not frame_kernel(direction, roll_ref, frame):
         return False
-    for _ in range(n):
-        if use_pd:
-            pd_torque_kernel(y[:4], y[4:], h, frame, jm, k_a, k_w, scratch[0], scratch[1], u_cmd)
-            for i in range(3):
-                u_cmd[i] += u_bias[i]
-        else:
-            for i in range(3):
-                u_cmd[i] = u_bias[i]
-        wheel_torque_kernel(u_cmd, h, dt, tau_max, h_max, u_last)
-        rk4_substep_kernel(y, h, u_last, zero, dt, jm, jinv, work)
+    substeps_kernel(
+        y, h, use_pd, frame, u_bias, _ZERO3, n, dt, jm, jinv, tau_max, h_max, k_a, k_w,
+        np.empty((8, 7)), np.empty((3, 3)), np.empty((3, 3)), np.empty(3), u_last,
+    )  # fmt: skip
     return store_state_kernel(y, h, q, w, h)
 
 
@@ -497,7 +485,7 @@ class PlanetNavEnv(gym.Env):
         r_est_helio = ekf.x[:3] + self._central_helio[2 * k]
         use_pd = target >= 0 and cfg.action_mode != "torque"
         direction = self._target_direction(target, k, r_est_helio) if use_pd else self._boresight_body
-        bias = torque_frac * self._tau_max if torque_frac is not None else np.zeros(3)
+        bias = torque_frac * self._tau_max if torque_frac is not None else _ZERO3
         slewing = use_pd and target != self._target and self._target >= 0
         if target != self._target:
             self._integrated = 0.0  # an X-ray integration is lost when the detector leaves its pulsar

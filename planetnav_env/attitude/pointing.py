@@ -236,6 +236,44 @@ def _pd_torque_batch(
 
 
 @njit(cache=True)
+def substeps_kernel(
+    y: np.ndarray,
+    h: np.ndarray,
+    use_pd: bool,
+    frame: np.ndarray,
+    u_bias: np.ndarray,
+    u_ext: np.ndarray,
+    n_substeps: int,
+    dt: float,
+    jm: np.ndarray,
+    jinv: np.ndarray,
+    tau_max: np.ndarray,
+    h_max: np.ndarray,
+    k_a: float,
+    k_w: float,
+    work: np.ndarray,
+    rq: np.ndarray,
+    a: np.ndarray,
+    u_cmd: np.ndarray,
+    u: np.ndarray,
+) -> None:
+    """``n_substeps`` closed-loop sub-steps of one spacecraft, in place on ``y = (q, omega)`` and ``h``:
+    command = PD torque toward ``frame`` (if ``use_pd``) + ``u_bias`` -> wheel limits -> RK4 (the one
+    sub-step loop: :func:`propagate_pointing` and the environment both run it). ``u`` holds the last
+    applied wheel torque; ``work``, ``rq``, ``a``, ``u_cmd`` are scratch."""
+    for _ in range(n_substeps):
+        if use_pd:
+            pd_torque_kernel(y[:4], y[4:], h, frame, jm, k_a, k_w, rq, a, u_cmd)
+            for i in range(3):
+                u_cmd[i] += u_bias[i]
+        else:
+            for i in range(3):
+                u_cmd[i] = u_bias[i]
+        wheel_torque_kernel(u_cmd, h, dt, tau_max, h_max, u)
+        rk4_substep_kernel(y, h, u, u_ext, dt, jm, jinv, work)
+
+
+@njit(cache=True)
 def _propagate_pointing_batch(
     q: np.ndarray,
     omega: np.ndarray,
@@ -273,19 +311,17 @@ def _propagate_pointing_batch(
     h = np.empty(3)
     u_cmd = np.empty(3)
     u = np.empty(3)
+    zero = np.zeros(3)
     for b in range(q.shape[0]):
         if not load_state_kernel(q[b], omega[b], y):
             return STATUS_ZERO_Q
         if not frame_kernel(direction[b], roll_ref[b], frame):
             return STATUS_ZERO_DIRECTION
         h[:] = h_w[b]
-        qv = y[:4]
-        wv = y[4:]
-        ub = u_ext[b]
-        for _ in range(n_substeps):
-            pd_torque_kernel(qv, wv, h, frame, jm, k_a, k_w, rq, a, u_cmd)
-            wheel_torque_kernel(u_cmd, h, dt, tau_max, h_max, u)
-            rk4_substep_kernel(y, h, u, ub, dt, jm, jinv, work)
+        substeps_kernel(
+            y, h, True, frame, zero, u_ext[b], n_substeps, dt, jm, jinv, tau_max, h_max, k_a, k_w,
+            work, rq, a, u_cmd, u,
+        )  # fmt: skip
         if not store_state_kernel(y, h, q_out[b], w_out[b], h_out[b]):
             return STATUS_NONFINITE_RESULT
     return STATUS_OK
