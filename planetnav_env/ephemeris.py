@@ -284,10 +284,27 @@ class DEEphemeris:
 
     def __init__(self, path: str | None = None) -> None:
         self.path = path or de421_path()
-        self._kernel = _open_kernel(self.path)
         seg = self._kernel.pairs[(0, 10)]
         self._span = ((seg.start_jd - J2000_JD) * SECONDS_PER_DAY, (seg.end_jd - J2000_JD) * SECONDS_PER_DAY)
         self.bodies = tuple(_DE_CHAINS)
+
+    @property
+    def _kernel(self):
+        # Looked up, not held: an open file handle cannot be pickled or deep-copied, and environments
+        # that hold this object must be (planners, Ray, multiprocessing). The kernel is opened once per
+        # process and path (``_open_kernel`` caches it).
+        return _open_kernel(self.path)
+
+    def sun_barycentric_position(self, t: np.ndarray | float) -> np.ndarray:
+        """Position of the Sun's centre relative to the Solar-system barycentre [km], ICRF, at ``t``
+        [TDB s since J2000] (any shape; result ``t.shape + (3,)``)."""
+        t = _check_times(t)
+        if not self.covers(t):
+            raise InvalidParameterError(
+                f"time {t.min()}..{t.max()} s is outside the DE kernel span {self._span} s TDB since J2000"
+            )
+        pos, _ = self._barycentric("sun", t.ravel() / SECONDS_PER_DAY)
+        return np.moveaxis(np.asarray(pos).reshape(3, -1), 0, -1).reshape(t.shape + (3,))
 
     def covers(self, t: np.ndarray | float) -> bool:
         t = np.asarray(t, dtype=float)

@@ -370,10 +370,10 @@ def phase_sigma_cycles(psr: str | Pulsar, detector: XrayDetector = DEFAULT_DETEC
 
 
 @functools.lru_cache(maxsize=1)
-def _sun_segment():
-    from planetnav_env.ephemeris import _open_kernel, de421_path
+def _de421():
+    from planetnav_env.ephemeris import DEEphemeris
 
-    return _open_kernel(de421_path()).pairs[(0, 10)]
+    return DEEphemeris()
 
 
 def sun_ssb_position(t: np.ndarray | float) -> np.ndarray:
@@ -384,12 +384,7 @@ def sun_ssb_position(t: np.ndarray | float) -> np.ndarray:
     Jupiter's pull), far from negligible in ``n . r``.
     """
     t = require_finite("time t", np.asarray(t, float))
-    seg = _sun_segment()
-    days = J2000_JD + t.ravel() / SECONDS_PER_DAY
-    if np.any(days < seg.start_jd) or np.any(days > seg.end_jd):
-        raise InvalidParameterError(f"time {t.min()}..{t.max()} s is outside the DE421 span")
-    pos = np.asarray(seg.compute(days)).reshape(3, -1)
-    return np.moveaxis(pos, 0, -1).reshape(t.shape + (3,))
+    return _de421().sun_barycentric_position(t)
 
 
 # ---------------------------------------------------------------------------------------------------------
