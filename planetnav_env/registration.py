@@ -28,27 +28,16 @@ ENV_IDS: dict[str, dict] = {
 }
 
 
-def make_vector_env(id_kwargs: dict, num_envs: int = 1, **kwargs):
-    """Vector entry point: a ``SyncVectorEnv`` of independent environments."""
-    from planetnav_env.env import PlanetNavEnv
-
-    merged = {**id_kwargs, **kwargs}
-    render_mode = merged.pop("render_mode", None)
-    return gym.vector.SyncVectorEnv(
-        [lambda: PlanetNavEnv(render_mode=render_mode, **merged) for _ in range(num_envs)]
-    )
-
-
 def register_envs() -> None:
-    from functools import partial
-
     for env_id, kwargs in ENV_IDS.items():
         if env_id in gym.registry:
             continue
         gym.register(
             id=env_id,
             entry_point="planetnav_env.env:PlanetNavEnv",
-            vector_entry_point=partial(make_vector_env, kwargs),
+            # gym.make_vec(id, num_envs=N) builds the native vector env over the batch core (the id's
+            # kwargs are passed to it); vectorization_mode="sync" still gives a SyncVectorEnv.
+            vector_entry_point="planetnav_env.vector_env:PlanetNavVectorEnv",
             kwargs=dict(kwargs),
             disable_env_checker=True,  # the env validates its own actions; check_env runs in the tests
         )

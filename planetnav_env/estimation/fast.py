@@ -427,6 +427,45 @@ def cycle_batch_kernel(
     )
 
 
+@njit(cache=True, nogil=True)
+def nees_kernel(x_est, x_true, p, lo, y):  # pragma: no cover - compiled
+    """NEES ``e^T P^-1 e`` with ``e = x_est - x_true`` (6,), by Cholesky of the symmetric positive-definite
+    ``P`` (6, 6); NaN if the factorisation fails. ``lo`` (6, 6) and ``y`` (6,) are scratch (no allocation).
+
+    The one compiled implementation (the environments' core and the Monte Carlo harnesses call it;
+    ``BatchEKF.nees`` is its numpy oracle in the tests).
+    """
+    n = 6
+    for i in range(n):
+        for j in range(i + 1):
+            acc = p[i, j]
+            for k in range(j):
+                acc -= lo[i, k] * lo[j, k]
+            if i == j:
+                if not acc > 0.0:
+                    return np.nan
+                lo[i, i] = np.sqrt(acc)
+            else:
+                lo[i, j] = acc / lo[j, j]
+    total = 0.0
+    for i in range(n):  # forward substitution L y = e (y[k] for k < i already computed)
+        acc = x_est[i] - x_true[i]
+        for k in range(i):
+            acc -= lo[i, k] * y[k]
+        y[i] = acc / lo[i, i]
+        total += y[i] * y[i]
+    return total
+
+
+@njit(cache=True, nogil=True)
+def nees_batch_kernel(x_est, x_true, p, out):  # pragma: no cover - compiled
+    """:func:`nees_kernel` for every row: x_est, x_true (N, 6), p (N, 6, 6) -> out (N,)."""
+    lo = np.empty((6, 6))
+    y = np.empty(6)
+    for n in range(x_est.shape[0]):
+        out[n] = nees_kernel(x_est[n], x_true[n], p[n], lo, y)
+
+
 _EMPTY = np.zeros((0, 3))
 
 

@@ -508,6 +508,107 @@ def _camera_los(
     return dist, _OK
 
 
+#: Slots of the per-element visibility record written by :func:`visibility_row_kernel`.
+V_REASON, V_IN_FOV, V_SUN_EX, V_OCCULTED, V_SMALL, V_OCCULTER, V_ALPHA, V_ANG_B, V_ANG_T, V_PIX_X, V_PIX_Y = range(11)
+N_VIS_SLOTS = 11
+
+
+@njit(cache=True, nogil=True)
+def visibility_row_kernel(
+    r: np.ndarray,
+    q: np.ndarray,
+    t: np.ndarray,
+    i: int,
+    rt: float,
+    occ: np.ndarray,
+    occ_rad: np.ndarray,
+    include_sun: bool,
+    c2b: np.ndarray,
+    p: np.ndarray,
+    m: np.ndarray,
+    u: np.ndarray,
+    vals: np.ndarray,
+) -> int:
+    """Visibility of target ``t[i]`` (radius ``rt`` [km]) from spacecraft ``r[i]`` at attitude ``q[i]``.
+
+    The one implementation of the camera's visibility rules (field of view, occultation by the Sun and
+    the bodies ``occ`` (K, 3) of radii ``occ_rad`` (K,) [km], Sun exclusion, detection threshold): the
+    batch kernel and the simulation core both call it. Writes the record ``vals`` (``N_VIS_SLOTS``,
+    slots ``V_*``; reason code 0 visible, 1 out of field, 2 occulted, 3 Sun exclusion, 4 too small;
+    occulter -2 the Sun, -1 none, else k). ``m`` (3, 3) and ``u`` (6,) are scratch. Returns a status
+    (``_OK`` or an ``_ERR_*`` code). Allocates nothing.
+    """
+    dist, st = _camera_los(r, q, t, i, c2b, m, u)
+    if st != _OK:
+        return st
+    if not math.isfinite(rt):
+        return _ERR_NONFINITE
+    if rt <= 0.0:
+        return _ERR_RADIUS
+    if dist <= rt:
+        return _ERR_INSIDE_TARGET
+    f_px, cx, cy, w, h = p[_P_FPX], p[_P_CX], p[_P_CY], p[_P_W], p[_P_H]
+    excl, min_px, r_sun = p[_P_EXCL], p[_P_MINPX], p[_P_RSUN]
+    a = 2.0 * math.asin(rt / dist)
+    vals[V_ALPHA] = a
+    # Field of view: the centre's pixel inside the closed sensor rectangle, in front of the lens.
+    zc = u[5]
+    fov = False
+    if zc > 0.0:
+        xp = f_px * u[3] / zc + cx
+        yp = f_px * u[4] / zc + cy
+        vals[V_PIX_X], vals[V_PIX_Y] = xp, yp
+        fov = 0.0 <= xp <= w and 0.0 <= yp <= h
+    else:
+        vals[V_PIX_X], vals[V_PIX_Y] = np.nan, np.nan
+    # Sun (origin) seen from the spacecraft: direction -r.
+    rx, ry, rz = r[i, 0], r[i, 1], r[i, 2]
+    d_sun = math.sqrt(rx * rx + ry * ry + rz * rz)
+    ab = _angle(m[2, 0], m[2, 1], m[2, 2], -rx, -ry, -rz)
+    at = _angle(u[0], u[1], u[2], -rx, -ry, -rz)
+    vals[V_ANG_B], vals[V_ANG_T] = ab, at
+    sun_ex = ab < excl or at < excl
+    # Occultation: a body whose centre is nearer than the target's and whose disk overlaps the target's
+    # disk at all (sep < rho_occ + rho_target); the nearest such body is reported.
+    rho_t = 0.5 * a
+    best = math.inf
+    who = -1
+    if include_sun:
+        if d_sun <= r_sun:
+            return _ERR_INSIDE_OCC
+        if d_sun < dist and at < math.asin(r_sun / d_sun) + rho_t:
+            best = d_sun
+            who = -2
+    for k in range(occ_rad.shape[0]):
+        ox, oy, oz = occ[k, 0] - rx, occ[k, 1] - ry, occ[k, 2] - rz
+        if not (math.isfinite(ox) and math.isfinite(oy) and math.isfinite(oz)):
+            return _ERR_NONFINITE
+        dk = math.sqrt(ox * ox + oy * oy + oz * oz)
+        if dk <= occ_rad[k]:
+            return _ERR_INSIDE_OCC
+        if dk < dist and dk < best:
+            if _angle(u[0], u[1], u[2], ox, oy, oz) < math.asin(occ_rad[k] / dk) + rho_t:
+                best = dk
+                who = k
+    small = a * f_px < min_px
+    reason = 0
+    if not fov:
+        reason = 1
+    elif who != -1:
+        reason = 2
+    elif sun_ex:
+        reason = 3
+    elif small:
+        reason = 4
+    vals[V_REASON] = reason
+    vals[V_IN_FOV] = fov
+    vals[V_SUN_EX] = sun_ex
+    vals[V_OCCULTED] = who != -1
+    vals[V_SMALL] = small
+    vals[V_OCCULTER] = who
+    return _OK
+
+
 @njit(cache=True, nogil=True)
 def _visibility_kernel(
     r: np.ndarray,
@@ -536,79 +637,99 @@ def _visibility_kernel(
     res = (reason, in_fov, sun_ex, occd, small, occulter, alpha, ang_b, ang_t, pix)
     m = np.empty((3, 3))
     u = np.empty(6)
-    f_px, cx, cy, w, h = p[_P_FPX], p[_P_CX], p[_P_CY], p[_P_W], p[_P_H]
-    excl, min_px, r_sun = p[_P_EXCL], p[_P_MINPX], p[_P_RSUN]
+    vals = np.empty(N_VIS_SLOTS)
     for k in range(n_occ):
         if not math.isfinite(occ_rad[k]):
             return _ERR_NONFINITE, -1, res
         if occ_rad[k] <= 0.0:
             return _ERR_OCC_RADIUS, k, res
     for i in range(n):
-        dist, st = _camera_los(r, q, t, i, c2b, m, u)
+        st = visibility_row_kernel(
+            r, q, t, i, trad[i], occ[i if occ_per_elem else 0], occ_rad, include_sun, c2b, p, m, u, vals
+        )
         if st != _OK:
             return st, i, res
-        rt = trad[i]
-        if not math.isfinite(rt):
-            return _ERR_NONFINITE, i, res
-        if rt <= 0.0:
-            return _ERR_RADIUS, i, res
-        if dist <= rt:
-            return _ERR_INSIDE_TARGET, i, res
-        a = 2.0 * math.asin(rt / dist)
-        alpha[i] = a
-        # Field of view: the centre's pixel inside the closed sensor rectangle, in front of the lens.
-        zc = u[5]
-        fov = False
-        if zc > 0.0:
-            xp = f_px * u[3] / zc + cx
-            yp = f_px * u[4] / zc + cy
-            pix[i, 0], pix[i, 1] = xp, yp
-            fov = 0.0 <= xp <= w and 0.0 <= yp <= h
-        else:
-            pix[i, 0], pix[i, 1] = np.nan, np.nan
-        in_fov[i] = fov
-        # Sun (origin) seen from the spacecraft: direction -r.
-        rx, ry, rz = r[i, 0], r[i, 1], r[i, 2]
-        d_sun = math.sqrt(rx * rx + ry * ry + rz * rz)
-        ab = _angle(m[2, 0], m[2, 1], m[2, 2], -rx, -ry, -rz)
-        at = _angle(u[0], u[1], u[2], -rx, -ry, -rz)
-        ang_b[i], ang_t[i] = ab, at
-        sun_ex[i] = ab < excl or at < excl
-        # Occultation: a body whose centre is nearer than the target's and whose disk overlaps the target's
-        # disk at all (sep < rho_occ + rho_target); the nearest such body is reported.
-        rho_t = 0.5 * a
-        best = math.inf
-        who = -1
-        if include_sun:
-            if d_sun <= r_sun:
-                return _ERR_INSIDE_OCC, i, res
-            if d_sun < dist and at < math.asin(r_sun / d_sun) + rho_t:
-                best = d_sun
-                who = -2
-        j = i if occ_per_elem else 0
-        for k in range(n_occ):
-            ox, oy, oz = occ[j, k, 0] - rx, occ[j, k, 1] - ry, occ[j, k, 2] - rz
-            if not (math.isfinite(ox) and math.isfinite(oy) and math.isfinite(oz)):
-                return _ERR_NONFINITE, i, res
-            dk = math.sqrt(ox * ox + oy * oy + oz * oz)
-            if dk <= occ_rad[k]:
-                return _ERR_INSIDE_OCC, i, res
-            if dk < dist and dk < best:
-                if _angle(u[0], u[1], u[2], ox, oy, oz) < math.asin(occ_rad[k] / dk) + rho_t:
-                    best = dk
-                    who = k
-        occulter[i] = who
-        occd[i] = who != -1
-        small[i] = a * f_px < min_px
-        if not fov:
-            reason[i] = 1
-        elif occd[i]:
-            reason[i] = 2
-        elif sun_ex[i]:
-            reason[i] = 3
-        elif small[i]:
-            reason[i] = 4
+        reason[i] = int(vals[V_REASON])
+        in_fov[i] = vals[V_IN_FOV] != 0.0
+        sun_ex[i] = vals[V_SUN_EX] != 0.0
+        occd[i] = vals[V_OCCULTED] != 0.0
+        small[i] = vals[V_SMALL] != 0.0
+        occulter[i] = int(vals[V_OCCULTER])
+        alpha[i] = vals[V_ALPHA]
+        ang_b[i] = vals[V_ANG_B]
+        ang_t[i] = vals[V_ANG_T]
+        pix[i, 0], pix[i, 1] = vals[V_PIX_X], vals[V_PIX_Y]
     return _OK, -1, res
+
+
+@njit(cache=True, nogil=True)
+def measure_row_kernel(
+    r: np.ndarray,
+    q: np.ndarray,
+    t: np.ndarray,
+    i: int,
+    rt: float,
+    z: np.ndarray,
+    c2b: np.ndarray,
+    p: np.ndarray,
+    m: np.ndarray,
+    u: np.ndarray,
+    los: np.ndarray,
+    los_true: np.ndarray,
+    mm: np.ndarray,
+    pix: np.ndarray,
+) -> tuple[int, float, float]:
+    """One camera measurement of target ``t[i]`` (radius ``rt``) from ``r[i]`` at attitude ``q[i]`` with
+    the three standard-normal draws ``z`` (two across the line of sight, one for the diameter).
+
+    The one implementation of the measurement model (the batch kernel and the simulation core call it).
+    Writes the noisy and true body-frame lines of sight ``los``/``los_true`` (3,), the image point ``mm``
+    (2,) [mm] and ``pix`` (2,) [px]; returns (status, noisy angular diameter, true angular diameter)
+    [rad]. ``m`` (3, 3) and ``u`` (6,) are scratch. Allocates nothing.
+    """
+    dist, st = _camera_los(r, q, t, i, c2b, m, u)
+    if st != _OK:
+        return st, 0.0, 0.0
+    if not math.isfinite(rt):
+        return _ERR_NONFINITE, 0.0, 0.0
+    if rt <= 0.0:
+        return _ERR_RADIUS, 0.0, 0.0
+    if dist <= rt:
+        return _ERR_INSIDE_TARGET, 0.0, 0.0
+    f_px, cx, cy, f_mm = p[_P_FPX], p[_P_CX], p[_P_CY], p[_P_FMM]
+    s_dir, s_alpha = p[_P_SDIR], p[_P_SALPHA]
+    a = 2.0 * math.asin(rt / dist)
+    ux, uy, uz = u[3], u[4], u[5]
+    # Tangent basis at the true LOS: e1 = camera X projected off the LOS (camera Y when the LOS is within
+    # ~26 deg of X, to stay well conditioned); e2 = u x e1. Near the boresight e1 ~ X and e2 ~ Y, so the
+    # two draws are the errors along the image axes.
+    if abs(ux) < 0.9:
+        e1x, e1y, e1z = 1.0 - ux * ux, -ux * uy, -ux * uz
+    else:
+        e1x, e1y, e1z = -uy * ux, 1.0 - uy * uy, -uy * uz
+    inv = 1.0 / math.sqrt(e1x * e1x + e1y * e1y + e1z * e1z)
+    e1x, e1y, e1z = e1x * inv, e1y * inv, e1z * inv
+    e2x, e2y, e2z = uy * e1z - uz * e1y, uz * e1x - ux * e1z, ux * e1y - uy * e1x
+    # Rotate u by the angle vector (d1, d2) in the tangent plane (exponential map on the sphere): an exact
+    # unit vector, per-axis angular errors d1, d2 ~ N(0, sigma) independent.
+    d1 = s_dir * z[0]
+    d2 = s_dir * z[1]
+    wx, wy, wz = d1 * e1x + d2 * e2x, d1 * e1y + d2 * e2y, d1 * e1z + d2 * e2z
+    phi = math.sqrt(d1 * d1 + d2 * d2)
+    cphi = math.cos(phi)
+    sinc = math.sin(phi) / phi if phi > 0.0 else 1.0
+    vx, vy, vz = cphi * ux + sinc * wx, cphi * uy + sinc * wy, cphi * uz + sinc * wz
+    for k in range(3):
+        los[k] = c2b[k, 0] * vx + c2b[k, 1] * vy + c2b[k, 2] * vz
+        los_true[k] = c2b[k, 0] * ux + c2b[k, 1] * uy + c2b[k, 2] * uz
+    if vz > 0.0:
+        mm[0], mm[1] = f_mm * vx / vz, f_mm * vy / vz
+        pix[0], pix[1] = f_px * vx / vz + cx, f_px * vy / vz + cy
+    else:
+        mm[0], mm[1] = np.nan, np.nan
+        pix[0], pix[1] = np.nan, np.nan
+    # Unbiased additive noise; may go negative when sigma_alpha >> alpha (kept on purpose).
+    return _OK, a + s_alpha * z[2], a
 
 
 @njit(cache=True, nogil=True)
@@ -630,52 +751,12 @@ def _measure_kernel(
     pix = np.empty((n, 2))
     m = np.empty((3, 3))
     u = np.empty(6)
-    f_px, cx, cy, f_mm = p[_P_FPX], p[_P_CX], p[_P_CY], p[_P_FMM]
-    s_dir, s_alpha = p[_P_SDIR], p[_P_SALPHA]
     for i in range(n):
-        dist, st = _camera_los(r, q, t, i, c2b, m, u)
+        st, alpha[i], alpha_true[i] = measure_row_kernel(
+            r, q, t, i, trad[i], z[i], c2b, p, m, u, los[i], los_true[i], mm[i], pix[i]
+        )
         if st != _OK:
             return st, i, los, alpha, mm, pix, los_true, alpha_true
-        rt = trad[i]
-        if not math.isfinite(rt):
-            return _ERR_NONFINITE, i, los, alpha, mm, pix, los_true, alpha_true
-        if rt <= 0.0:
-            return _ERR_RADIUS, i, los, alpha, mm, pix, los_true, alpha_true
-        if dist <= rt:
-            return _ERR_INSIDE_TARGET, i, los, alpha, mm, pix, los_true, alpha_true
-        a = 2.0 * math.asin(rt / dist)
-        ux, uy, uz = u[3], u[4], u[5]
-        # Tangent basis at the true LOS: e1 = camera X projected off the LOS (camera Y when the LOS is within
-        # ~26 deg of X, to stay well conditioned); e2 = u x e1. Near the boresight e1 ~ X and e2 ~ Y, so the
-        # two draws are the errors along the image axes.
-        if abs(ux) < 0.9:
-            e1x, e1y, e1z = 1.0 - ux * ux, -ux * uy, -ux * uz
-        else:
-            e1x, e1y, e1z = -uy * ux, 1.0 - uy * uy, -uy * uz
-        inv = 1.0 / math.sqrt(e1x * e1x + e1y * e1y + e1z * e1z)
-        e1x, e1y, e1z = e1x * inv, e1y * inv, e1z * inv
-        e2x, e2y, e2z = uy * e1z - uz * e1y, uz * e1x - ux * e1z, ux * e1y - uy * e1x
-        # Rotate u by the angle vector (d1, d2) in the tangent plane (exponential map on the sphere): an exact
-        # unit vector, per-axis angular errors d1, d2 ~ N(0, sigma) independent.
-        d1 = s_dir * z[i, 0]
-        d2 = s_dir * z[i, 1]
-        wx, wy, wz = d1 * e1x + d2 * e2x, d1 * e1y + d2 * e2y, d1 * e1z + d2 * e2z
-        phi = math.sqrt(d1 * d1 + d2 * d2)
-        cphi = math.cos(phi)
-        sinc = math.sin(phi) / phi if phi > 0.0 else 1.0
-        vx, vy, vz = cphi * ux + sinc * wx, cphi * uy + sinc * wy, cphi * uz + sinc * wz
-        for k in range(3):
-            los[i, k] = c2b[k, 0] * vx + c2b[k, 1] * vy + c2b[k, 2] * vz
-            los_true[i, k] = c2b[k, 0] * ux + c2b[k, 1] * uy + c2b[k, 2] * uz
-        if vz > 0.0:
-            mm[i, 0], mm[i, 1] = f_mm * vx / vz, f_mm * vy / vz
-            pix[i, 0], pix[i, 1] = f_px * vx / vz + cx, f_px * vy / vz + cy
-        else:
-            mm[i, 0], mm[i, 1] = np.nan, np.nan
-            pix[i, 0], pix[i, 1] = np.nan, np.nan
-        alpha_true[i] = a
-        # Unbiased additive noise; may go negative when sigma_alpha >> alpha (kept on purpose).
-        alpha[i] = a + s_alpha * z[i, 2]
     return _OK, -1, los, alpha, mm, pix, los_true, alpha_true
 
 

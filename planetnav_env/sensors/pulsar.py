@@ -55,6 +55,7 @@ import re
 from dataclasses import dataclass
 
 import numpy as np
+from numba import vectorize
 
 from planetnav_env.bodies import body
 from planetnav_env.errors import (
@@ -440,6 +441,19 @@ def measure_phase(
     return total - np.floor(total)
 
 
+@vectorize(["float64(float64, float64)"], cache=True)
+def resolve_cycle_kernel(phase_frac: float, predicted_phase: float) -> float:  # pragma: no cover - compiled
+    """Total phase ``phase_frac + round(predicted - phase_frac)`` [cycles] (half to even), a ufunc: the
+    environment's compiled core calls it on scalars, :func:`resolve_cycle_ambiguity` on arrays."""
+    return phase_frac + np.rint(predicted_phase - phase_frac)
+
+
+@vectorize(["boolean(float64, float64)"], cache=True)
+def ambiguity_resolvable_kernel(sigma_pred_cycles: float, k_sigma: float) -> bool:  # pragma: no cover
+    """``k_sigma * sigma_pred < 1/2`` cycle (a ufunc; see :func:`ambiguity_resolvable`)."""
+    return k_sigma * sigma_pred_cycles < 0.5
+
+
 def resolve_cycle_ambiguity(phase_frac: np.ndarray, predicted_phase: np.ndarray) -> np.ndarray:
     """Total measured phase ``delta_phi + delta_N`` [cycles] with ``delta_N = round(h_pred - delta_phi)``.
 
@@ -447,7 +461,7 @@ def resolve_cycle_ambiguity(phase_frac: np.ndarray, predicted_phase: np.ndarray)
     """
     f = require_finite("phase_frac", phase_frac)
     h = require_finite("predicted_phase", predicted_phase)
-    return f + np.round(h - f)
+    return resolve_cycle_kernel(np.asarray(f, float), np.asarray(h, float))
 
 
 def ambiguity_resolvable(sigma_pred_cycles: np.ndarray | float, k_sigma: float = 3.0) -> np.ndarray:
@@ -456,7 +470,7 @@ def ambiguity_resolvable(sigma_pred_cycles: np.ndarray | float, k_sigma: float =
     ``sigma_pred_cycles``: predicted 1-sigma of the total phase, ``sqrt(H P H^T + R)`` [cycles].
     """
     require_positive("k_sigma", k_sigma)
-    return k_sigma * np.asarray(sigma_pred_cycles, float) < 0.5
+    return ambiguity_resolvable_kernel(np.asarray(sigma_pred_cycles, float), float(k_sigma))
 
 
 # ---------------------------------------------------------------------------------------------------------

@@ -1,0 +1,4 @@
+"""Batch-first compiled (numba) simulation core of planetnav.
+
+Building blocks live in submodules (``ephemeris_table``, ``rng``, ...); import them directly.
+"""

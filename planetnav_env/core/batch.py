@@ -1,0 +1,231 @@
+"""BatchCore: the state of N environment rows as arrays, and the Python side of reset and step.
+
+Both environments are shells over this class: :class:`~planetnav_env.env.PlanetNavEnv` holds a batch of
+one, :class:`~planetnav_env.vector_env.PlanetNavVectorEnv` a batch of ``num_envs``. The compiled step is
+:mod:`planetnav_env.core.kernels`; here live what needs Python: drawing an episode (the scenario, the
+initial error, from the row's ``numpy`` generator), fitting the row's ephemeris table, choosing the
+serial or the threaded loop, and turning row statuses into named errors.
+
+Memory per row (default cruise, 3 planets, 1 day): state 104 floats + 13 ints, covariance 36 floats,
+observation 47 floats, random state 32 bytes, ephemeris table 936 bytes: about 2.5 kB
+(:meth:`BatchCore.bytes_per_row` computes it for any configuration).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+
+from planetnav_env import quaternion as qt
+from planetnav_env.config import EnvConfig
+from planetnav_env.core import kernels as K
+from planetnav_env.core import layout as L
+from planetnav_env.core import rng as crng
+from planetnav_env.core.ephemeris_table import SEGMENT_S, TableSpec, fit_table
+from planetnav_env.core.params import ChannelPlan, build_params, episode_duration_s
+from planetnav_env.dynamics.orbit import GravityModel
+from planetnav_env.ephemeris import DEEphemeris
+from planetnav_env.errors import NonFiniteError, PlanetNavError
+from planetnav_env.scenarios import Episode, approach_episode, draw_episode
+
+#: Batches at least this large step on all of numba's threads (smaller ones are faster serially: a
+#: parallel region costs ~10-50 us to start and waits for every thread).
+PARALLEL_MIN_ROWS = 64
+
+
+@dataclass(frozen=True)
+class RowEpisode:
+    """What :meth:`BatchCore.reset_rows` drew for a row (kept for analysis and rendering)."""
+
+    epoch: float
+    central: str
+    perturbers: tuple[str, ...]
+
+
+class BatchCore:
+    """State of ``num_rows`` environments (leading axis) and the calls that advance them.
+
+    Arrays (public, read-only for callers): ``f`` (N, NF) float state, ``p`` (N, 6, 6) filter covariance,
+    ``i`` (N, NI) integer state, ``rng`` (N, 4) random streams, ``eph`` per-row ephemeris tables,
+    ``obs`` (N, obs_dim) observations; columns are named in :mod:`planetnav_env.core.layout`.
+    """
+
+    def __init__(self, config: EnvConfig, num_rows: int) -> None:
+        if int(num_rows) != num_rows or num_rows < 1:
+            raise PlanetNavError(f"num_rows must be a positive integer, got {num_rows!r}")
+        self.config = cfg = config
+        self.num_rows = n = int(num_rows)
+        self.approach = cfg.scenario == "mars-approach"
+        if self.approach:
+            ep = approach_episode(cfg.episode_steps * cfg.step_s, cfg.approach_end_before_ca_h)
+            central, perturbers = ep.central, ep.perturbers
+        else:
+            central, perturbers = "sun", ()
+        self.gravity = GravityModel(central, perturbers)
+        self.plan = ChannelPlan(central, cfg.planets, tuple(perturbers), bool(cfg.pulsars))
+        self.params = build_params(
+            cfg, self.plan, self.gravity.mu_central, np.asarray(self.gravity.mu_perturbers, dtype=float)
+        )
+        self.layout = L.ObservationLayout(cfg.n_planets, cfg.n_pulsars)
+        self.table_spec = TableSpec.for_duration(
+            episode_duration_s(cfg), max(self.plan.n_channels, 1), segment_s=SEGMENT_S
+        )
+        self.f = np.zeros((n, L.NF))
+        self.p = np.zeros((n, 6, 6))
+        self.i = np.zeros((n, L.NI), dtype=np.int64)
+        self.rng = np.zeros((n, crng.STATE_WORDS), dtype=np.uint64)
+        self.eph = np.zeros((n, *self.table_spec.shape))
+        self.obs = np.zeros((n, self.layout.size))
+        self.episodes: list[RowEpisode | None] = [None] * n
+        self._ephemeris = DEEphemeris()
+        self._table_cache: tuple[float, np.ndarray] | None = None
+        self._all = np.ones(n, dtype=np.bool_)
+        self._p0 = cfg.filter.initial_covariance()
+
+    # ------------------------------------------------------------------------------------------
+    def bytes_per_row(self) -> int:
+        """Bytes of state one row holds (all arrays of the batch divided by the rows)."""
+        total = sum(a.nbytes for a in (self.f, self.p, self.i, self.rng, self.eph, self.obs))
+        return total // self.num_rows
+
+    def _draw(self, gen: np.random.Generator) -> Episode:
+        cfg = self.config
+        if self.approach:
+            return approach_episode(cfg.episode_steps * cfg.step_s, cfg.approach_end_before_ca_h)
+        return draw_episode(cfg.scenario, gen, self._ephemeris, cfg.planets, cfg.camera.sun_exclusion_deg)
+
+    def _table(self, epoch: float) -> np.ndarray:
+        # Fixed scenarios start every row at the same epoch: fit once, copy.
+        if self._table_cache is not None and self._table_cache[0] == epoch:
+            return self._table_cache[1]
+        spec = self.table_spec
+        if self.plan.n_channels == 0:
+            coeffs = np.zeros(spec.shape)
+        else:
+            coeffs = fit_table(
+                lambda t: self.plan.positions(self._ephemeris, t), epoch, spec.span_s, spec.n_channels,
+                segment_s=spec.segment_s, degree=spec.degree,
+            )  # fmt: skip
+        self._table_cache = (epoch, coeffs)
+        return coeffs
+
+    def reset_rows(self, rows: np.ndarray, generators: list[np.random.Generator]) -> None:
+        """Start a new episode in each of ``rows``, drawing it from the matching ``generators`` entry
+        (the row's Gymnasium ``np_random``): scenario, initial filter error, attitude, then the row's
+        compiled random stream. The same generator state gives the same row, whatever the batch."""
+        rows = np.asarray(rows, dtype=np.int64).reshape(-1)
+        f = self.f
+        for r, gen in zip(rows, generators, strict=True):
+            ep = self._draw(gen)
+            self.episodes[r] = RowEpisode(ep.epoch, ep.central, tuple(ep.perturbers))
+            self.eph[r] = self._table(ep.epoch)
+            f[r] = 0.0
+            f[r, L.F_T0] = ep.epoch
+            x = np.asarray(ep.x0, dtype=float)
+            f[r, L.F_X : L.F_X + 6] = x
+            f[r, L.F_XE : L.F_XE + 6] = x + gen.multivariate_normal(np.zeros(6), self._p0)
+            self.p[r] = self._p0
+            f[r, L.F_Q : L.F_Q + 4] = qt.normalize(gen.normal(size=4))
+            self.rng[r] = crng.seed_state(gen)
+        K.reset_rows(self.params, f, self.p, self.i, self.rng, self.eph, self.obs, rows)
+
+    def step(self, targets: np.ndarray, torques: np.ndarray, active: np.ndarray | None = None) -> None:
+        """Advance the ``active`` rows (all by default) by one step with decoded actions: ``targets``
+        (N,) int64 (-1: none) and ``torques`` (N, 3) float64 fractions of the wheel limit in [-1, 1]."""
+        act = self._all if active is None else active
+        args = (self.params, self.f, self.p, self.i, self.rng, self.eph, self.obs, targets, torques, act)
+        if self.num_rows >= PARALLEL_MIN_ROWS and numba.get_num_threads() > 1:
+            K.step_batch_parallel(*args, numba.get_num_threads())
+        else:
+            K.step_batch(*args)
+        status = self.i[:, L.I_STATUS]
+        if status.any():
+            bad = np.flatnonzero(status)
+            r = int(bad[0])
+            what = {
+                L.STATUS_ATTITUDE_NONFINITE: "the attitude state became non-finite",
+                L.STATUS_CAMERA: "the camera geometry is invalid (inside a body, or a non-finite position)",
+            }.get(int(status[r]), f"status {int(status[r])}")
+            raise NonFiniteError(
+                f"row {r} (of rows {bad.tolist()}) at step {int(self.i[r, L.I_K])}: {what}; "
+                f"q={self.f[r, L.F_Q : L.F_Q + 4]}, omega={self.f[r, L.F_W : L.F_W + 3]}"
+            )
+
+    # ------------------------------------------------------------------------------------------
+    def time_s(self, row: int) -> float:
+        return float(self.f[row, L.F_T0] + self.i[row, L.I_K] * self.config.step_s)
+
+    def info_row(self, row: int) -> dict:
+        """The ``info`` of one row as the single environment reports it (see PlanetNavEnv)."""
+        f, i = self.f[row], self.i[row]
+        cfg = self.config
+        target = int(i[L.I_TARGET])
+        names = cfg.planets + cfg.pulsars
+        att = f[L.F_ATT_ERR]
+        return {
+            "pos_err_km": float(f[L.F_POS_ERR]),
+            "vel_err_km_s": float(f[L.F_VEL_ERR]),
+            "nees": float(f[L.F_NEES]),
+            "pos_sigma_km": float(f[L.F_POS_SIGMA]),
+            "measured": bool(i[L.I_MEASURED]),
+            "rejected": bool(i[L.I_REJECTED]),
+            "target": names[target] if target >= 0 else None,
+            "sensor": L.SENSORS[int(i[L.I_SENSOR])],
+            "ambiguous_skipped": int(i[L.I_SKIPPED]),
+            "visibility": L.REASONS[int(i[L.I_REASON])],
+            "slewing": bool(i[L.I_SLEWING]),
+            "attitude_err_arcsec": float(att) / K_ARCSEC if math.isfinite(att) else float("nan"),
+            "time_s": self.time_s(row),
+            "filter": {"x": f[L.F_XE : L.F_XE + 6].copy(), "P": self.p[row].copy()},
+        }
+
+    def info_batch(self) -> dict[str, np.ndarray]:
+        """The same quantities as arrays over the rows (the vector environment's ``info``)."""
+        f, i = self.f, self.i
+        cfg = self.config
+        names = np.array([*cfg.planets, *cfg.pulsars, ""], dtype=object)
+        tgt = i[:, L.I_TARGET]
+        return {
+            "pos_err_km": f[:, L.F_POS_ERR].copy(),
+            "vel_err_km_s": f[:, L.F_VEL_ERR].copy(),
+            "nees": f[:, L.F_NEES].copy(),
+            "pos_sigma_km": f[:, L.F_POS_SIGMA].copy(),
+            "measured": i[:, L.I_MEASURED].astype(bool),
+            "rejected": i[:, L.I_REJECTED].astype(bool),
+            "target_index": tgt.copy(),
+            "target": names[tgt],
+            "visibility": np.array(L.REASONS, dtype=object)[i[:, L.I_REASON]],
+            "slewing": i[:, L.I_SLEWING].astype(bool),
+            "attitude_err_arcsec": f[:, L.F_ATT_ERR] / K_ARCSEC,
+            "time_s": f[:, L.F_T0] + i[:, L.I_K] * cfg.step_s,
+            "filter_x": f[:, L.F_XE : L.F_XE + 6].copy(),
+            "filter_P": self.p.copy(),
+        }
+
+    def truth_row(self, row: int) -> dict[str, np.ndarray]:
+        f = self.f[row]
+        return {
+            "x": f[L.F_X : L.F_X + 6].copy(),
+            "q": f[L.F_Q : L.F_Q + 4].copy(),
+            "omega": f[L.F_W : L.F_W + 3].copy(),
+            "h_w": f[L.F_HW : L.F_HW + 3].copy(),
+        }
+
+    def body_positions(self, row: int, half_index: int | None = None) -> dict[str, np.ndarray]:
+        """Heliocentric positions [km] of the central body and the planets at the row's current time
+        (for rendering and analysis), from the row's table."""
+        from planetnav_env.core.ephemeris_table import evaluate
+
+        t = self.time_s(row)
+        vals = evaluate(self.eph[row], float(self.f[row, L.F_T0]), self.table_spec.segment_s, np.array([t]))[
+            0
+        ]
+        plan = self.plan
+        central = vals[plan.central] if plan.central >= 0 else np.zeros(3)
+        return {"central": central, "planets": vals[plan.planet0 : plan.planet0 + len(plan.planets)]}
+
+
+K_ARCSEC = math.pi / 648_000.0

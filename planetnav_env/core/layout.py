@@ -1,0 +1,266 @@
+"""Array layouts of the batch core: the per-row state columns, the parameter slots and the observation.
+
+The compiled kernels take a handful of arrays instead of dozens of arguments (numba's dispatcher pays
+per argument: a named tuple of 80 fields costs ~17 us a call, more than a whole environment step).
+Each array's columns are named here, once; kernels index them with these module-level constants,
+which numba folds at compile time.
+
+:class:`ObservationLayout` is the one description of the observation vector: the kernels write it at its
+offsets, the environments build their spaces and decode observations from it, and the docstring table
+of :class:`~planetnav_env.env.PlanetNavEnv` is generated from it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+def _slots(*names: str) -> dict[str, int]:
+    return {n: i for i, n in enumerate(names)}
+
+
+# ------------------------------------------------------------------------------------------------
+# Per-row float state (BatchState.f): name -> (offset, width)
+# ------------------------------------------------------------------------------------------------
+_F_FIELDS = (
+    ("X", 6),  # true position [km] and velocity [km/s] relative to the central body
+    ("XE", 6),  # the filter's estimate
+    ("P", 36),  # the filter's covariance (6 x 6, row-major)
+    ("Q", 4),  # true attitude, scalar-first, body -> inertial
+    ("W", 3),  # true body rates [rad/s]
+    ("HW", 3),  # wheel momentum [N m s]
+    ("U", 3),  # last applied wheel torque [N m]
+    ("QE", 4),  # star-tracker attitude
+    ("ATT_ERR", 1),  # star-tracker error angle [rad] (NaN: no fix this step)
+    ("WM", 3),  # reported body rates [rad/s]
+    ("T0", 1),  # episode epoch [TDB s since J2000]
+    ("INTEGRATED", 1),  # X-ray photons accumulated on the current pulsar [s]
+    # outputs of the last step
+    ("POS_ERR", 1),  # |r_est - r_true| [km]
+    ("VEL_ERR", 1),  # [km/s]
+    ("NEES", 1),
+    ("POS_SIGMA", 1),  # sqrt(trace P_rr) [km]
+    ("REWARD", 1),
+    ("NIS", 1),
+    ("PIX", 2),  # pixel of the last planet image
+)
+F_OFFSETS: dict[str, tuple[int, int]] = {}
+_o = 0
+for _name, _w in _F_FIELDS:
+    F_OFFSETS[_name] = (_o, _w)
+    _o += _w
+NF = _o
+F_X, F_XE, F_P, F_Q, F_W, F_HW, F_U, F_QE = (
+    F_OFFSETS[k][0] for k in ("X", "XE", "P", "Q", "W", "HW", "U", "QE")
+)
+F_ATT_ERR, F_WM, F_T0, F_INTEGRATED = (F_OFFSETS[k][0] for k in ("ATT_ERR", "WM", "T0", "INTEGRATED"))
+F_POS_ERR, F_VEL_ERR, F_NEES, F_POS_SIGMA = (
+    F_OFFSETS[k][0] for k in ("POS_ERR", "VEL_ERR", "NEES", "POS_SIGMA")
+)
+F_REWARD, F_NIS, F_PIX = (F_OFFSETS[k][0] for k in ("REWARD", "NIS", "PIX"))
+
+# ------------------------------------------------------------------------------------------------
+# Per-row integer state (BatchState.i)
+# ------------------------------------------------------------------------------------------------
+_I = _slots(
+    "K",  # steps taken in the episode
+    "TARGET",  # current target index (planets, then pulsars) or -1
+    "SKIPPED",  # pulsar phases skipped for cycle ambiguity
+    "SETTLED",  # 1: the attitude is settled on the target (coarse sub-steps allowed)
+    "MEASURED",
+    "REJECTED",
+    "REASON",  # REASON_* code of the last step
+    "SLEWING",
+    "SENSOR",  # SENSOR_* code
+    "TERMINATED",
+    "TRUNCATED",
+    "STATUS",  # STATUS_* code: 0 ok
+    "STARS",  # stars in the star tracker's field at the last fix
+)
+NI = len(_I)
+I_K, I_TARGET, I_SKIPPED, I_SETTLED, I_MEASURED, I_REJECTED = (
+    _I[k] for k in ("K", "TARGET", "SKIPPED", "SETTLED", "MEASURED", "REJECTED")
+)
+I_REASON, I_SLEWING, I_SENSOR, I_TERMINATED, I_TRUNCATED, I_STATUS, I_STARS = (
+    _I[k] for k in ("REASON", "SLEWING", "SENSOR", "TERMINATED", "TRUNCATED", "STATUS", "STARS")
+)
+
+#: ``info["visibility"]`` strings by code: the camera's reasons first (VisibilityReason order).
+REASONS = (
+    "visible",
+    "out_of_fov",
+    "occulted",
+    "sun_exclusion",
+    "too_small",
+    "too_large",
+    "none",
+    "integrating",
+    "ambiguous",
+)
+(
+    REASON_VISIBLE,
+    REASON_OUT_OF_FOV,
+    REASON_OCCULTED,
+    REASON_SUN_EXCLUSION,
+    REASON_TOO_SMALL,
+    REASON_TOO_LARGE,
+    REASON_NONE,
+    REASON_INTEGRATING,
+    REASON_AMBIGUOUS,
+) = range(len(REASONS))
+SENSORS = (None, "camera", "xray")
+SENSOR_NONE, SENSOR_CAMERA, SENSOR_XRAY = range(3)
+#: Row status codes (BatchState.i[:, I_STATUS]); the shells turn non-zero ones into named errors.
+STATUS_OK, STATUS_ATTITUDE_NONFINITE, STATUS_CAMERA = range(3)
+
+# ------------------------------------------------------------------------------------------------
+# Parameter slots (CoreParams.s floats, CoreParams.n integers)
+# ------------------------------------------------------------------------------------------------
+_S = _slots(
+    "STEP_S", "SUBSTEP_S", "COARSE_S", "K_A", "K_W", "MU", "SIG_DIR", "SIG_SIZE", "GATE1", "GATE2", "GATE3",
+    "RATE_NOISE", "STAR_SIGMA", "STAR_COS_HALF", "COS_HALF_DIAG", "SIN_HALF_FOV", "ALPHA_MAX", "SIGMA_ALPHA",
+    "PSR_INT_S", "DET_HALF_FOV", "SUN_AVOID", "AMBIG_K", "CENTRAL_RADIUS", "REWARD_SCALE", "TORQUE_PENALTY",
+    "DIVERGENCE", "POS_SCALE", "VEL_SCALE", "SEGMENT_S", "SETTLE_ANGLE", "SETTLE_RATE",
+)  # fmt: skip
+NS = len(_S)
+(
+    S_STEP_S, S_SUBSTEP_S, S_COARSE_S, S_K_A, S_K_W, S_MU, S_SIG_DIR, S_SIG_SIZE, S_GATE1, S_GATE2, S_GATE3,
+    S_RATE_NOISE, S_STAR_SIGMA, S_STAR_COS_HALF, S_COS_HALF_DIAG, S_SIN_HALF_FOV, S_ALPHA_MAX, S_SIGMA_ALPHA,
+    S_PSR_INT_S, S_DET_HALF_FOV, S_SUN_AVOID, S_AMBIG_K, S_CENTRAL_RADIUS, S_REWARD_SCALE, S_TORQUE_PENALTY,
+    S_DIVERGENCE, S_POS_SCALE, S_VEL_SCALE, S_SEGMENT_S, S_SETTLE_ANGLE, S_SETTLE_RATE,
+) = range(NS)  # fmt: skip
+
+_N = _slots(
+    "MODE", "NP", "NQ", "NT", "N_SUB", "N_COARSE", "KIND", "EULER", "IDEAL_STAR", "REWARD_TRUTH",
+    "EPISODE_STEPS", "CH_CENTRAL", "CH_PLANET0", "CH_PERT0", "N_PERT", "CH_SSB", "APPROACH", "MIN_STARS",
+    "OBS_DIM", "OBS_PLANETS", "OBS_PULSARS", "OBS_TARGET", "OBS_ELAPSED", "MAX_STARS",
+)  # fmt: skip
+NN = len(_N)
+(
+    N_MODE, N_NP, N_NQ, N_NT, N_N_SUB, N_N_COARSE, N_KIND, N_EULER, N_IDEAL_STAR, N_REWARD_TRUTH,
+    N_EPISODE_STEPS, N_CH_CENTRAL, N_CH_PLANET0, N_CH_PERT0, N_N_PERT, N_CH_SSB, N_APPROACH, N_MIN_STARS,
+    N_OBS_DIM, N_OBS_PLANETS, N_OBS_PULSARS, N_OBS_TARGET, N_OBS_ELAPSED, N_MAX_STARS,
+) = range(NN)  # fmt: skip
+
+MODE_TARGET, MODE_TORQUE, MODE_TARGET_TORQUE = range(3)
+MODE_CODES = {"target": MODE_TARGET, "torque": MODE_TORQUE, "target+torque": MODE_TARGET_TORQUE}
+
+# ------------------------------------------------------------------------------------------------
+# Observation
+# ------------------------------------------------------------------------------------------------
+#: Width of the per-target block (planets; pulsars use the same width).
+TARGET_FEATURES = 7
+#: The spacecraft block: (name, width, content, scale), in order from index 0.
+SPACECRAFT_BLOCK = (
+    ("position", 3, "estimated position relative to the central body (the Sun; Mars on approach), ICRF",
+     "/ 1 AU (10^6 km on approach)"),
+    ("velocity", 3, "estimated velocity", "/ 30 km/s (5 on approach)"),
+    ("log_sigma", 6, "log10 of the filter's position 1-sigma per axis, then velocity 1-sigma per axis",
+     "log10(km) / 4, log10(m/s) / 4"),
+    ("attitude", 4, "attitude quaternion from the star tracker (scalar first)", "-"),
+    ("rates", 3, "reported body rates", "deg/s"),
+    ("wheel_momentum", 3, "wheel momentum", "/ capacity"),
+)  # fmt: skip
+PLANET_FEATURE_TEXT = (
+    "planet p: estimated direction in body axes (3), log10(estimated distance / AU), estimated apparent "
+    "diameter / diameter noise, observable if pointed at (Sun exclusion, occultation, size) 0/1, log10 of "
+    "the position 1-sigma across its line of sight [km] / 4 (what a measurement of it would shrink)"
+)
+PULSAR_FEATURE_TEXT = (
+    "pulsar j: direction in body axes (3), integration progress 0..1, log10 predicted phase 1-sigma "
+    "[cycles], observable (Sun, occultation) 0/1, log10 of the position 1-sigma along its direction [km] / 4"
+)
+
+
+@dataclass(frozen=True)
+class ObservationLayout:
+    """Offsets of every block of the flat observation for ``n_planets`` planets and ``n_pulsars`` pulsars.
+
+    ``blocks`` lists ``(name, start, stop, shape)``; the ``dict`` observation uses the same names and
+    shapes, so one table serves the builders, the spaces, :func:`decode` and the documentation.
+    """
+
+    n_planets: int
+    n_pulsars: int
+
+    @property
+    def n_targets(self) -> int:
+        return self.n_planets + self.n_pulsars
+
+    @property
+    def planets_start(self) -> int:
+        return sum(w for _, w, _, _ in SPACECRAFT_BLOCK)
+
+    @property
+    def pulsars_start(self) -> int:
+        return self.planets_start + TARGET_FEATURES * self.n_planets
+
+    @property
+    def target_start(self) -> int:
+        return self.pulsars_start + TARGET_FEATURES * self.n_pulsars
+
+    @property
+    def elapsed_index(self) -> int:
+        return self.target_start + self.n_targets
+
+    @property
+    def size(self) -> int:
+        return self.elapsed_index + 1
+
+    @property
+    def blocks(self) -> tuple[tuple[str, int, int, tuple[int, ...]], ...]:
+        out = []
+        i = 0
+        for name, w, _, _ in SPACECRAFT_BLOCK:
+            out.append((name, i, i + w, (w,)))
+            i += w
+        out.append(("planets", self.planets_start, self.pulsars_start, (self.n_planets, TARGET_FEATURES)))
+        if self.n_pulsars:
+            out.append(("pulsars", self.pulsars_start, self.target_start, (self.n_pulsars, TARGET_FEATURES)))
+        out.append(("target", self.target_start, self.elapsed_index, (self.n_targets,)))
+        out.append(("elapsed", self.elapsed_index, self.size, (1,)))
+        return tuple(out)
+
+    def to_dict(self, flat: np.ndarray) -> dict[str, np.ndarray]:
+        """Split a flat observation (..., size) into the named blocks (views; trailing shapes of ``blocks``)."""
+        lead = flat.shape[:-1]
+        return {name: flat[..., a:b].reshape(lead + shape) for name, a, b, shape in self.blocks}
+
+    def from_dict(self, obs: dict[str, np.ndarray]) -> np.ndarray:
+        """Inverse of :meth:`to_dict` for one observation; missing ``pulsars`` reads as none."""
+        parts = []
+        for name, a, b, _ in self.blocks:
+            parts.append(np.asarray(obs[name], dtype=float).reshape(-1))
+            if parts[-1].size != b - a:
+                raise ValueError(f"observation block {name!r} has {parts[-1].size} values, expected {b - a}")
+        return np.concatenate(parts)
+
+    def doc_table(self) -> str:
+        """The reStructuredText table of the flat layout (generated into the environment's docstring)."""
+        rows = []
+        i = 0
+        for name, w, text, scale in SPACECRAFT_BLOCK:
+            rows.append((f"{i}-{i + w - 1}", f"{name}: {text}", scale))
+            i += w
+        rows.append(("22+7p..28+7p", PLANET_FEATURE_TEXT, "-, log10(AU), / sigma_alpha, 0/1, log10(km)/4"))
+        rows.append(("22+7P+7j..", PULSAR_FEATURE_TEXT, "-, 0..1, log10, 0/1, log10(km)/4"))
+        rows.append(("22+7T..", "current target, one-hot (T = P + Q)", "0/1"))
+        rows.append(("last", "elapsed fraction of the episode", "0..1"))
+        w0 = max(len(r[0]) for r in rows)
+        w1 = max(len(r[1]) for r in rows)
+        w2 = max(len(r[2]) for r in rows)
+        sep = f"{'=' * w0} {'=' * w1} {'=' * w2}"
+        lines = [sep, f"{'index':<{w0}} {'content':<{w1}} {'scale':<{w2}}", sep]
+        lines += [f"{a:<{w0}} {b:<{w1}} {c:<{w2}}" for a, b, c in rows]
+        lines.append(sep)
+        return "\n".join(lines)
+
+
+def observation_scales(scenario: str) -> tuple[float, float]:
+    """Position [km] and velocity [km/s] scales of the observation: 1 AU and 30 km/s in cruise; 10^6 km and
+    5 km/s on approach (Mars-centred)."""
+    from planetnav_env.bodies import AU_KM
+
+    return (1.0e6, 5.0) if scenario == "mars-approach" else (AU_KM, 30.0)

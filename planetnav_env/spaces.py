@@ -1,0 +1,145 @@
+"""Action and observation spaces, action decoding and observation decoding, shared by the single and the
+vector environment (one place for each rule: both shells call these)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from gymnasium import spaces
+
+from planetnav_env.config import EnvConfig
+from planetnav_env.core.layout import TARGET_FEATURES, ObservationLayout, observation_scales
+from planetnav_env.errors import InvalidParameterError, NonFiniteError
+
+_DEG = np.pi / 180.0
+
+
+def action_space(cfg: EnvConfig) -> spaces.Space:
+    """``Discrete(T [+1 idle])`` in target mode, ``Box(-1, 1, (3,))`` in torque mode,
+    ``Box(-1, 1, (P + 3,))`` in target+torque mode."""
+    if cfg.action_mode == "target":
+        return spaces.Discrete(cfg.n_targets + (1 if cfg.idle_action else 0))
+    if cfg.action_mode == "torque":
+        return spaces.Box(-1.0, 1.0, (3,), dtype=np.float32)
+    return spaces.Box(-1.0, 1.0, (cfg.n_planets + 3,), dtype=np.float32)
+
+
+def observation_space(cfg: EnvConfig, layout: ObservationLayout) -> spaces.Space:
+    """Flat ``Box`` (``observation="box"``) or ``Dict`` of the layout's blocks, float32."""
+    if cfg.observation == "box":
+        return spaces.Box(-np.inf, np.inf, (layout.size,), dtype=np.float32)
+    bounds = {
+        "attitude": (-1.0, 1.0),
+        "wheel_momentum": (-1.0, 1.0),
+        "target": (0.0, 1.0),
+        "elapsed": (0.0, 1.0),
+    }
+    return spaces.Dict(
+        {
+            name: spaces.Box(*bounds.get(name, (-np.inf, np.inf)), shape, np.float32)
+            for name, _, _, shape in layout.blocks
+        }
+    )
+
+
+def format_observation(cfg: EnvConfig, layout: ObservationLayout, flat: np.ndarray) -> Any:
+    """float32 observation(s) in the configured form from the core's float64 rows (..., size)."""
+    f = flat.astype(np.float32)
+    if cfg.observation == "box":
+        return f
+    return layout.to_dict(f)
+
+
+def decode_target_actions(cfg: EnvConfig, n_actions: int, actions: Any, n_rows: int) -> np.ndarray:
+    """Target indices (N,) int64 (-1: the idle action) from discrete actions; errors name the row."""
+    a = np.asarray(actions)
+    if a.shape not in ((n_rows,), (n_rows, 1)) or not (np.issubdtype(a.dtype, np.number) or a.dtype == bool):
+        raise InvalidParameterError(
+            f"target actions must be {n_rows} integer(s) (shape ({n_rows},)), got shape {a.shape} "
+            f"dtype {a.dtype}: {actions!r}"
+        )
+    a = a.reshape(n_rows)
+    if not np.issubdtype(a.dtype, np.integer):
+        bad = ~np.isfinite(a)
+        if bad.any():
+            r = int(np.flatnonzero(bad)[0])
+            raise NonFiniteError(f"action of row {r} is not finite: {a[r]!r}; no row was stepped")
+        frac = a != np.round(a)
+        if frac.any():
+            r = int(np.flatnonzero(frac)[0])
+            raise InvalidParameterError(
+                f"action of row {r} must be an integer in [0, {n_actions}), got {a[r]!r}; no row was stepped"
+            )
+    idx = a.astype(np.int64)
+    out = (idx < 0) | (idx >= n_actions)
+    if out.any():
+        r = int(np.flatnonzero(out)[0])
+        raise InvalidParameterError(
+            f"action of row {r} must be an integer in [0, {n_actions}), got {a[r]!r}; no row was stepped"
+        )
+    return np.where(idx == cfg.n_targets, -1, idx)
+
+
+def decode_box_actions(
+    cfg: EnvConfig, shape: tuple[int, ...], actions: Any, n_rows: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """(targets (N,), torque fractions (N, 3)) from Box actions of ``shape`` per row; values outside
+    [-1, 1] are clipped (as SB3 does), NaN/inf raise naming the row."""
+    try:
+        a = np.asarray(actions, dtype=float)
+    except (TypeError, ValueError):
+        raise InvalidParameterError(
+            f"actions must be numbers of shape {(n_rows, *shape)}, got {actions!r}"
+        ) from None
+    if a.shape != (n_rows, *shape) and not (n_rows == 1 and a.shape == shape):
+        raise InvalidParameterError(f"actions must have shape {(n_rows, *shape)}, got {np.shape(actions)}")
+    a = a.reshape(n_rows, *shape)
+    bad = ~np.isfinite(a).all(axis=1)
+    if bad.any():
+        r = int(np.flatnonzero(bad)[0])
+        raise NonFiniteError(
+            f"action of row {r} contains NaN or infinite values: {a[r].tolist()}; no row was stepped"
+        )
+    a = np.clip(a, -1.0, 1.0)
+    if cfg.action_mode == "torque":
+        return np.full(n_rows, -1, dtype=np.int64), np.ascontiguousarray(a)
+    n = cfg.n_planets
+    return np.argmax(a[:, :n], axis=1).astype(np.int64), np.ascontiguousarray(a[:, n:])
+
+
+def decode_observation(cfg: EnvConfig, layout: ObservationLayout, observation: Any) -> dict[str, Any]:
+    """Named arrays in physical units from one ``box`` or ``dict`` observation: position_km,
+    velocity_km_s (relative to the central body), log_sigma (6,), q (star tracker), rates_rad_s,
+    wheel_fraction, planets (P, 7) and pulsars (Q, 7) as in the layout, target (index or -1), elapsed."""
+    if isinstance(observation, dict):
+        obs = dict(observation)
+        if "pulsars" not in obs and layout.n_pulsars == 0:
+            obs.pop("pulsars", None)
+        try:
+            flat = layout.from_dict(obs)
+        except (KeyError, ValueError) as exc:
+            raise InvalidParameterError(
+                f"observation does not match this environment's layout: {exc}"
+            ) from None
+    else:
+        flat = np.asarray(observation, dtype=float).reshape(-1)
+    if flat.size != layout.size:
+        raise InvalidParameterError(
+            f"observation has {flat.size} values; this environment's have {layout.size}"
+        )
+    b = layout.to_dict(flat)
+    pos_scale, vel_scale = observation_scales(cfg.scenario)
+    target_vec = b["target"]
+    return {
+        "position_km": b["position"] * pos_scale,
+        "velocity_km_s": b["velocity"] * vel_scale,
+        "log_sigma": b["log_sigma"],
+        "q": b["attitude"] / np.linalg.norm(b["attitude"]),
+        "rates_rad_s": b["rates"] * _DEG,
+        "wheel_fraction": b["wheel_momentum"],
+        "planets": b["planets"],
+        "pulsars": b.get("pulsars", np.zeros((0, TARGET_FEATURES))),
+        "target": int(np.argmax(target_vec)) if np.any(target_vec > 0.5) else -1,
+        "elapsed": float(b["elapsed"][0]),
+    }

@@ -1,0 +1,182 @@
+"""PlanetNavVectorEnv: N environments stepped by one compiled loop over the batch core.
+
+``gym.make_vec("planetnav/<id>", num_envs=N)`` returns it (the ids' ``vector_entry_point``). Row ``i``
+after ``reset(seed=s)`` is, bit for bit, the single :class:`~planetnav_env.env.PlanetNavEnv` after
+``reset(seed=s + i)``: both run :class:`~planetnav_env.core.batch.BatchCore`, and each row keeps its own
+Gymnasium ``np_random`` (for episode draws) and its own compiled random stream (for sensor noise).
+
+Autoreset: ``autoreset_mode="next_step"`` (Gymnasium's default): the step after a row ends resets it and
+returns its first observation with reward 0; ``"same_step"``: a row that ends is reset in the same
+step, its last observation in ``info["final_obs"]`` and its last info in ``info["final_info"]`` (what
+Stable-Baselines3 expects; :class:`planetnav_env.sb3_vec.PlanetNavSB3VecEnv` uses it).
+
+``info`` is a dict of arrays over the rows (Gymnasium's vector convention, with the ``_key`` masks).
+Bad actions (wrong shape, NaN in a row, out of range) raise before any row is stepped, naming the row.
+A row whose filter diverges terminates alone.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from gymnasium.utils import seeding
+from gymnasium.vector import AutoresetMode, VectorEnv
+from gymnasium.vector.utils import batch_space
+
+from planetnav_env.config import EnvConfig
+from planetnav_env.core import layout as L
+from planetnav_env.core.batch import BatchCore
+from planetnav_env.env import resolve_config
+from planetnav_env.errors import InvalidParameterError
+from planetnav_env.spaces import (
+    action_space,
+    decode_box_actions,
+    decode_observation,
+    decode_target_actions,
+    format_observation,
+    observation_space,
+)
+
+_MODES = {"next_step": AutoresetMode.NEXT_STEP, "same_step": AutoresetMode.SAME_STEP}
+
+
+class PlanetNavVectorEnv(VectorEnv):
+    """``num_envs`` planetnav environments as one batch (see the module docstring)."""
+
+    metadata = {"autoreset_mode": AutoresetMode.NEXT_STEP, "render_modes": []}  # noqa: RUF012
+
+    def __init__(
+        self,
+        num_envs: int = 1,
+        config: EnvConfig | dict | None = None,
+        autoreset_mode: str | AutoresetMode = "next_step",
+        render_mode: str | None = None,
+        **overrides: Any,
+    ) -> None:
+        if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
+            raise InvalidParameterError(f"num_envs must be a positive integer, got {num_envs!r}")
+        if render_mode is not None:
+            raise InvalidParameterError(
+                f"the vector environment does not render (got render_mode={render_mode!r}); "
+                "render a single PlanetNavEnv"
+            )
+        mode = _MODES.get(autoreset_mode, autoreset_mode) if isinstance(autoreset_mode, str) else autoreset_mode
+        if mode not in (AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP):
+            raise InvalidParameterError(
+                f"autoreset_mode must be 'next_step' or 'same_step', got {autoreset_mode!r}"
+            )
+        self.metadata = {**self.metadata, "autoreset_mode": mode}
+        self.autoreset_mode = mode
+        cfg = resolve_config(config, overrides)
+        self.config = cfg
+        self.num_envs = n = int(num_envs)
+        self.core = BatchCore(cfg, n)
+        self.layout = self.core.layout
+        self.single_action_space = action_space(cfg)
+        self.single_observation_space = observation_space(cfg, self.layout)
+        self.action_space = batch_space(self.single_action_space, n)
+        self.observation_space = batch_space(self.single_observation_space, n)
+        self.render_mode = None
+        self._generators: list[np.random.Generator] | None = None
+        self._needs_reset = np.zeros(n, dtype=bool)
+        self._targets = np.full(n, -1, dtype=np.int64)
+        self._torques = np.zeros((n, 3))
+        self._rows = np.arange(n, dtype=np.int64)
+
+    # ------------------------------------------------------------------------------------------
+    def reset(
+        self, *, seed: int | list[int | None] | None = None, options: dict | None = None
+    ) -> tuple[Any, dict[str, Any]]:
+        """Reset every row (or the rows of ``options["reset_mask"]``). ``seed`` int s seeds row i with
+        s + i; a list gives one seed (or None) per row."""
+        n = self.num_envs
+        if seed is None:
+            seeds: list[int | None] = [None] * n
+        elif isinstance(seed, (int, np.integer)) and not isinstance(seed, bool):
+            seeds = [int(seed) + i for i in range(n)]
+        else:
+            seeds = list(seed)
+            if len(seeds) != n:
+                raise InvalidParameterError(f"seed list must have {n} entries, got {len(seeds)}")
+        mask = np.ones(n, dtype=bool)
+        if options and "reset_mask" in options:
+            mask = np.asarray(options["reset_mask"], dtype=bool)
+            if mask.shape != (n,):
+                raise InvalidParameterError(f"reset_mask must have shape ({n},), got {mask.shape}")
+        if self._generators is None:
+            self._generators = [seeding.np_random(s)[0] for s in seeds]
+        else:
+            for r in np.flatnonzero(mask):
+                if seeds[r] is not None or self._generators[r] is None:
+                    self._generators[r] = seeding.np_random(seeds[r])[0]
+        rows = self._rows[mask]
+        self.core.reset_rows(rows, [self._generators[r] for r in rows])
+        self._needs_reset[mask] = False
+        return self._observations(), self._infos()
+
+    def step(self, actions: Any):
+        if self._generators is None:
+            raise RuntimeError("call reset() before step()")
+        cfg = self.config
+        n = self.num_envs
+        if cfg.action_mode == "target":
+            targets = decode_target_actions(cfg, self.single_action_space.n, actions, n)
+            torques = self._torques
+        else:
+            targets, torques = decode_box_actions(cfg, self.single_action_space.shape, actions, n)
+        core = self.core
+        if self.autoreset_mode == AutoresetMode.NEXT_STEP and self._needs_reset.any():
+            rows = np.flatnonzero(self._needs_reset)
+            core.reset_rows(rows, [self._generators[r] for r in rows])
+            active = ~self._needs_reset
+            core.step(targets, torques, active)
+            reward = np.where(active, core.f[:, L.F_REWARD], 0.0)
+            terminated = np.where(active, core.i[:, L.I_TERMINATED] != 0, False)
+            truncated = np.where(active, core.i[:, L.I_TRUNCATED] != 0, False)
+        else:
+            core.step(targets, torques)
+            reward = core.f[:, L.F_REWARD].copy()
+            terminated = core.i[:, L.I_TERMINATED] != 0
+            truncated = core.i[:, L.I_TRUNCATED] != 0
+        done = terminated | truncated
+        infos = self._infos()
+        if self.autoreset_mode == AutoresetMode.SAME_STEP:
+            if done.any():
+                rows = np.flatnonzero(done)
+                infos["final_obs"] = np.array([None] * n, dtype=object)
+                infos["final_info"] = np.array([None] * n, dtype=object)
+                obs_now = self._observations()
+                for r in rows:
+                    infos["final_obs"][r] = obs_now[r] if cfg.observation == "box" else {
+                        k: v[r] for k, v in obs_now.items()
+                    }
+                    infos["final_info"][r] = self.core.info_row(int(r))
+                infos["_final_obs"] = done.copy()
+                infos["_final_info"] = done.copy()
+                core.reset_rows(rows, [self._generators[r] for r in rows])
+        else:
+            self._needs_reset = done.copy()
+        return self._observations(), reward, terminated, truncated, infos
+
+    # ------------------------------------------------------------------------------------------
+    def _observations(self) -> Any:
+        return format_observation(self.config, self.layout, self.core.obs)
+
+    def _infos(self) -> dict[str, Any]:
+        info = self.core.info_batch()
+        for k in list(info):
+            info["_" + k] = np.ones(self.num_envs, dtype=bool)
+        return info
+
+    def decode_observation(self, observation: Any) -> dict[str, Any]:
+        """One row's observation in physical units (see :meth:`PlanetNavEnv.decode_observation`)."""
+        return decode_observation(self.config, self.layout, observation)
+
+    def info_row(self, row: int) -> dict[str, Any]:
+        """Row ``row``'s info in the single environment's form (dicts, Python scalars)."""
+        return self.core.info_row(int(row))
+
+    def close_extras(self, **kwargs: Any) -> None:
+        return None
+
