@@ -14,7 +14,6 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from planetnav_env import quaternion as qt
-from planetnav_env.sensors.star_tracker import catalogue_for
 
 if TYPE_CHECKING:
     from planetnav_env.env import PlanetNavEnv
@@ -53,16 +52,19 @@ def _camera_panel(env: PlanetNavEnv) -> np.ndarray:
     img = np.zeros((SIZE, SIZE, 3), dtype=np.uint8)
     w, h = cfg.resolution_px
     scale = SIZE / max(w, h)
-    q = env._q  # the image is what the camera really sees
-    stars = catalogue_for(env._tracker).directions
+    truth = env.truth
+    q = truth["q"]  # the image is what the camera really sees
+    stars = env.core.params.stars.dirs
     v_cam = cfg.camera_to_body_matrix.T @ qt.rotate_inertial_to_body(q, stars).T
     front = v_cam[2] > 0
     px = cfg.f_px * v_cam[0, front] / v_cam[2, front] + cfg.principal_point[0]
     py = cfg.f_px * v_cam[1, front] / v_cam[2, front] + cfg.principal_point[1]
     inside = (px >= 0) & (px < w) & (py >= 0) & (py < h)
     img[(py[inside] * scale).astype(int), (px[inside] * scale).astype(int)] = (200, 200, 200)
-    planets = env._planet_pos(2 * env._k)  # heliocentric
-    r_helio = env._x[:3] + env._central_helio[2 * env._k]  # the truth is relative to the central body
+    bodies = env.body_positions()
+    planets = bodies["planets"]  # heliocentric
+    r_helio = truth["x"][:3] + bodies["central"]  # the truth is relative to the central body
+    radii = env.core.params.radii
     for i, p in enumerate(planets):
         d = p - r_helio
         dist = np.linalg.norm(d)
@@ -71,9 +73,9 @@ def _camera_panel(env: PlanetNavEnv) -> np.ndarray:
             continue
         x = (cfg.f_px * c[0] / c[2] + cfg.principal_point[0]) * scale
         y = (cfg.f_px * c[1] / c[2] + cfg.principal_point[1]) * scale
-        radius_px = max(np.arcsin(min(env._radii[i] / dist, 1.0)) * cfg.f_px * scale, 2.0)
+        radius_px = max(np.arcsin(min(radii[i] / dist, 1.0)) * cfg.f_px * scale, 2.0)
         _disk(img, x, y, radius_px, PLANET_COLORS.get(env.planets[i], (200, 200, 200)))
-        if i == env._target:
+        if i == env.target_index:
             _ring(img, x, y, radius_px + 5, (255, 255, 255))
     img[[0, -1], :] = (90, 90, 90)  # field-of-view edge
     img[:, [0, -1]] = (90, 90, 90)
@@ -82,7 +84,7 @@ def _camera_panel(env: PlanetNavEnv) -> np.ndarray:
 
 def _history_panel(env: PlanetNavEnv) -> np.ndarray:
     img = np.full((SIZE, SIZE, 3), 20, dtype=np.uint8)
-    hist = np.asarray(env._history, dtype=float)
+    hist = np.asarray(env.history, dtype=float)
     n_total = env.config.episode_steps + 1
     lo, hi = 0.0, 5.0  # log10 km: 1 km .. 100,000 km
     for level in range(6):

@@ -61,7 +61,9 @@ class PlanetNavVectorEnv(VectorEnv):
                 f"the vector environment does not render (got render_mode={render_mode!r}); "
                 "render a single PlanetNavEnv"
             )
-        mode = _MODES.get(autoreset_mode, autoreset_mode) if isinstance(autoreset_mode, str) else autoreset_mode
+        mode = (
+            _MODES.get(autoreset_mode, autoreset_mode) if isinstance(autoreset_mode, str) else autoreset_mode
+        )
         if mode not in (AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP):
             raise InvalidParameterError(
                 f"autoreset_mode must be 'next_step' or 'same_step', got {autoreset_mode!r}"
@@ -148,9 +150,9 @@ class PlanetNavVectorEnv(VectorEnv):
                 infos["final_info"] = np.array([None] * n, dtype=object)
                 obs_now = self._observations()
                 for r in rows:
-                    infos["final_obs"][r] = obs_now[r] if cfg.observation == "box" else {
-                        k: v[r] for k, v in obs_now.items()
-                    }
+                    infos["final_obs"][r] = (
+                        obs_now[r] if cfg.observation == "box" else {k: v[r] for k, v in obs_now.items()}
+                    )
                     infos["final_info"][r] = self.core.info_row(int(r))
                 infos["_final_obs"] = done.copy()
                 infos["_final_info"] = done.copy()
@@ -179,4 +181,3 @@ class PlanetNavVectorEnv(VectorEnv):
 
     def close_extras(self, **kwargs: Any) -> None:
         return None
-

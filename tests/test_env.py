@@ -262,26 +262,27 @@ def test_star_tracker_attitude_error_reaches_navigation():
     a 20" attitude bias (identical random streams otherwise) shifts the estimate across the line of sight
     by ~20" x range."""
     from planetnav_env import quaternion as qt
+    from planetnav_env.core import layout as L
 
     bias_rad = 20.0 / 206264.806
 
     def run(biased):
-        env = PlanetNavEnv(star_tracker="ideal", episode_steps=400)
-        if biased:
-            tilt = qt.from_axis_angle([0.0, 0.0, 1.0], bias_rad)  # about body z: swings the boresight (x)
-
-            def fix():
-                return qt.multiply(env._q, tilt), bias_rad
-
-            env._star_fix = fix
-        env.reset(seed=3)
+        # The bias rotates the fix about body z, which swings the boresight (body x).
+        bias = (0.0, 0.0, 20.0) if biased else (0.0, 0.0, 0.0)
+        env = PlanetNavEnv(star_tracker="ideal", episode_steps=400, star_tracker_bias_arcsec=bias)
+        _, info = env.reset(seed=3)
+        if biased:  # the configured bias is the Hamilton product q * tilt (quaternion.multiply's oracle)
+            tilt = qt.from_axis_angle([0.0, 0.0, 1.0], bias_rad)
+            np.testing.assert_allclose(
+                env.core.f[0, L.F_QE : L.F_QE + 4], qt.multiply(env.truth["q"], tilt), atol=1e-15
+            )
         for _ in range(400):
             _, _, _, _, info = env.step(0)  # Venus
         return env, info["filter"]["x"][:3]
 
     env, r_ideal = run(False)
     _, r_biased = run(True)
-    venus = env._planet_pos(2 * env._k)[0] - r_ideal
+    venus = env.body_positions()["planets"][0] - r_ideal
     rng_km = np.linalg.norm(venus)
     u = venus / rng_km
     shift = r_biased - r_ideal

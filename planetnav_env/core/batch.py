@@ -14,9 +14,10 @@ observation 47 floats, random state 32 bytes, ephemeris table 936 bytes: about 2
 from __future__ import annotations
 
 import math
+import os
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
-import numba
 import numpy as np
 
 from planetnav_env import quaternion as qt
@@ -31,9 +32,20 @@ from planetnav_env.ephemeris import DEEphemeris
 from planetnav_env.errors import NonFiniteError, PlanetNavError
 from planetnav_env.scenarios import Episode, approach_episode, draw_episode
 
-#: Batches at least this large step on all of numba's threads (smaller ones are faster serially: a
-#: parallel region costs ~10-50 us to start and waits for every thread).
+#: Batches at least this large step in chunks on several threads (smaller ones are faster serially:
+#: handing chunks to threads costs ~20-50 us a step).
 PARALLEL_MIN_ROWS = 64
+
+
+def default_threads() -> int:
+    """Threads for large batches: ``PLANETNAV_THREADS`` or the CPUs this process may use."""
+    env = os.environ.get("PLANETNAV_THREADS")
+    if env:
+        return max(1, int(env))
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # not on Linux
+        return max(1, os.cpu_count() or 1)
 
 
 @dataclass(frozen=True)
@@ -84,6 +96,8 @@ class BatchCore:
         self._table_cache: tuple[float, np.ndarray] | None = None
         self._all = np.ones(n, dtype=np.bool_)
         self._p0 = cfg.filter.initial_covariance()
+        self.threads = default_threads() if n >= PARALLEL_MIN_ROWS else 1
+        self._pool: ThreadPoolExecutor | None = None
 
     # ------------------------------------------------------------------------------------------
     def bytes_per_row(self) -> int:
@@ -137,8 +151,14 @@ class BatchCore:
         (N,) int64 (-1: none) and ``torques`` (N, 3) float64 fractions of the wheel limit in [-1, 1]."""
         act = self._all if active is None else active
         args = (self.params, self.f, self.p, self.i, self.rng, self.eph, self.obs, targets, torques, act)
-        if self.num_rows >= PARALLEL_MIN_ROWS and numba.get_num_threads() > 1:
-            K.step_batch_parallel(*args, numba.get_num_threads())
+        if self.threads > 1:
+            # The kernels release the GIL; rows are independent, so the chunking changes no result.
+            if self._pool is None:
+                self._pool = ThreadPoolExecutor(self.threads, thread_name_prefix="planetnav-core")
+            n, c = self.num_rows, self.threads
+            jobs = [self._pool.submit(K.step_range, *args, j * n // c, (j + 1) * n // c) for j in range(c)]
+            for job in jobs:
+                job.result()
         else:
             K.step_batch(*args)
         status = self.i[:, L.I_STATUS]
@@ -226,6 +246,11 @@ class BatchCore:
         plan = self.plan
         central = vals[plan.central] if plan.central >= 0 else np.zeros(3)
         return {"central": central, "planets": vals[plan.planet0 : plan.planet0 + len(plan.planets)]}
+
+    def __getstate__(self) -> dict:
+        state = self.__dict__.copy()
+        state["_pool"] = None  # threads are not state: a copy starts its own
+        return state
 
 
 K_ARCSEC = math.pi / 648_000.0

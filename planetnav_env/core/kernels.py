@@ -1,7 +1,8 @@
 """The compiled step of the batch core: one row kernel per stage, one loop over the rows.
 
 Every environment row ``n`` is advanced by :func:`step_row` and observed by :func:`observe_row`; the
-batch functions loop over a range of rows (serially, or in chunks on threads). A row reads and writes
+batch functions loop over a range of rows; :class:`~planetnav_env.core.batch.BatchCore` runs chunks of
+rows on Python threads (the kernels release the GIL). A row reads and writes
 only its own slices of the state arrays (``f``, ``p``, ``i``, ``rng``, ``eph``, ``obs``; columns in
 :mod:`planetnav_env.core.layout`), and its parameters are shared read-only: rows are independent, so
 the result does not depend on the batch size, the chunking or the thread, and the single environment
@@ -25,7 +26,7 @@ import math
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
 from planetnav_env.attitude.pointing import error_matrix_kernel, frame_kernel, substeps_kernel
 from planetnav_env.bodies import AU_KM
@@ -165,6 +166,7 @@ class CoreParams(NamedTuple):
     cam: np.ndarray  # (11,) camera parameters (CameraConfig._params)
     qproc: np.ndarray  # (6, 6) process noise over one step
     stars: tuple  # star_tracker.StarFixTables
+    q_bias: np.ndarray  # (4,) fixed star-tracker misalignment composed with every fix (identity: none)
 
 
 class Scratch(NamedTuple):
@@ -319,9 +321,9 @@ def _star_fix(prm, f, i, rng, n, sc):  # pragma: no cover - compiled
     qe = f[n, F_QE : F_QE + 4]
     if prm.n[N_IDEAL_STAR]:
         for j in range(4):
-            qe[j] = q[j]
-        f[n, F_ATT_ERR] = 0.0
+            sc.q_fix[j] = q[j]
         i[n, I_STARS] = -1
+        f[n, F_ATT_ERR] = _apply_bias(prm, q, sc.q_fix, qe, 0.0)
         return
     tables = prm.stars
     n_stars = select_stars(tables, q, sc.rq, sc.star_idx)
@@ -334,11 +336,30 @@ def _star_fix(prm, f, i, rng, n, sc):  # pragma: no cover - compiled
             sc.star_noise[a, c] = tables.sigma_rad * crng.standard_normal(rng[n])
     err, ok = star_fix(tables, q, sc.rq, sc.star_idx, n_stars, sc.star_noise, sc.star_work, sc.q_fix)
     if ok:
-        for j in range(4):
-            qe[j] = sc.q_fix[j]
-        f[n, F_ATT_ERR] = err
+        f[n, F_ATT_ERR] = _apply_bias(prm, q, sc.q_fix, qe, err)
     else:
         f[n, F_ATT_ERR] = np.nan
+
+
+@njit(cache=True, nogil=True)
+def _apply_bias(prm, q, q_fix, qe, err) -> float:  # pragma: no cover - compiled
+    """qe = q_fix * q_bias (Hamilton product, scalar first; ``quaternion.multiply`` is its oracle in the
+    tests); returns the error angle [rad] of the biased fix (``err`` when there is no bias)."""
+    b = prm.q_bias
+    if b[0] == 1.0:
+        for j in range(4):
+            qe[j] = q_fix[j]
+        return err
+    a0, a1, a2, a3 = q_fix[0], q_fix[1], q_fix[2], q_fix[3]
+    qe[0] = a0 * b[0] - a1 * b[1] - a2 * b[2] - a3 * b[3]
+    qe[1] = a0 * b[1] + a1 * b[0] + a2 * b[3] - a3 * b[2]
+    qe[2] = a0 * b[2] - a1 * b[3] + a2 * b[0] + a3 * b[1]
+    qe[3] = a0 * b[3] + a1 * b[2] - a2 * b[1] + a3 * b[0]
+    s0 = q[0] * qe[0] + q[1] * qe[1] + q[2] * qe[2] + q[3] * qe[3]
+    d1 = q[0] * qe[1] - q[1] * qe[0] - q[2] * qe[3] + q[3] * qe[2]
+    d2 = q[0] * qe[2] + q[1] * qe[3] - q[2] * qe[0] - q[3] * qe[1]
+    d3 = q[0] * qe[3] - q[1] * qe[2] + q[2] * qe[1] - q[3] * qe[0]
+    return 2.0 * math.atan2(math.sqrt(d1 * d1 + d2 * d2 + d3 * d3), abs(s0))
 
 
 @njit(cache=True, nogil=True)
@@ -803,7 +824,8 @@ def reset_row(prm, f, p, i, rng, eph, obs, n, sc) -> None:  # pragma: no cover -
 # Batch loops
 # ------------------------------------------------------------------------------------------------
 @njit(cache=True, nogil=True)
-def _step_range(prm, f, p, i, rng, eph, obs, targets, torques, active, lo, hi) -> None:  # pragma: no cover
+def step_range(prm, f, p, i, rng, eph, obs, targets, torques, active, lo, hi) -> None:  # pragma: no cover
+    """Step the ``active`` rows ``lo .. hi - 1`` (releases the GIL: chunks run on Python threads)."""
     sc = make_scratch(prm)
     for n in range(lo, hi):
         if active[n]:
@@ -815,22 +837,7 @@ def _step_range(prm, f, p, i, rng, eph, obs, targets, torques, active, lo, hi) -
 @njit(cache=True, nogil=True)
 def step_batch(prm, f, p, i, rng, eph, obs, targets, torques, active) -> None:  # pragma: no cover
     """Step every ``active`` row on the calling thread."""
-    _step_range(prm, f, p, i, rng, eph, obs, targets, torques, active, 0, f.shape[0])
-
-
-@njit(cache=True, parallel=True)
-def step_batch_parallel(
-    prm, f, p, i, rng, eph, obs, targets, torques, active, n_chunks
-) -> None:  # pragma: no cover
-    """:func:`step_batch` in ``n_chunks`` chunks over the CPU's threads (rows are independent: the result
-    does not depend on the chunking)."""
-    n_total = f.shape[0]
-    n_chunks = max(1, min(n_chunks, n_total))
-    for c in prange(n_chunks):
-        _step_range(
-            prm, f, p, i, rng, eph, obs, targets, torques, active, c * n_total // n_chunks,
-            (c + 1) * n_total // n_chunks,
-        )  # fmt: skip
+    step_range(prm, f, p, i, rng, eph, obs, targets, torques, active, 0, f.shape[0])
 
 
 @njit(cache=True, nogil=True)

@@ -224,7 +224,7 @@ class ObservationLayout:
         return tuple(out)
 
     def to_dict(self, flat: np.ndarray) -> dict[str, np.ndarray]:
-        """Split a flat observation (..., size) into the named blocks (views; trailing shapes of ``blocks``)."""
+        """Split a flat observation (..., size) into the named blocks (views, shapes of ``blocks``)."""
         lead = flat.shape[:-1]
         return {name: flat[..., a:b].reshape(lead + shape) for name, a, b, shape in self.blocks}
 

@@ -23,7 +23,7 @@ from planetnav_env.sensors.star_tracker import StarTrackerConfig, star_fix_table
 
 ARCSEC = math.pi / 648_000.0
 #: Pointing error [rad] and rate [rad/s] below which a held target's attitude counts as settled (see
-#: docs/architecture.md: the coarse sub-steps are tested to move the attitude by < 1e-3 arcsec).
+#: docs/architecture.md: the coarse sub-steps are tested to stay within 1" of the fine integration).
 SETTLE_ANGLE_RAD = 1e-4
 SETTLE_RATE_RAD_S = 1e-5
 
@@ -169,4 +169,14 @@ def build_params(cfg: EnvConfig, plan: ChannelPlan, mu_central: float, mus: np.n
         cam=np.ascontiguousarray(cam._params),
         qproc=process_noise(cfg.step_s, cfg.filter.accel_psd),
         stars=tables,
+        q_bias=bias_quaternion(cfg.star_tracker_bias_arcsec),
     )
+
+
+def bias_quaternion(bias_arcsec: tuple[float, float, float]) -> np.ndarray:
+    """Unit quaternion of the rotation vector ``bias_arcsec`` (body axes) [arcsec]."""
+    v = np.asarray(bias_arcsec, dtype=float) * ARCSEC
+    angle = float(np.linalg.norm(v))
+    if angle == 0.0:
+        return np.array([1.0, 0.0, 0.0, 0.0])
+    return np.concatenate([[math.cos(0.5 * angle)], math.sin(0.5 * angle) * v / angle])

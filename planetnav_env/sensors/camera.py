@@ -509,7 +509,9 @@ def _camera_los(
 
 
 #: Slots of the per-element visibility record written by :func:`visibility_row_kernel`.
-V_REASON, V_IN_FOV, V_SUN_EX, V_OCCULTED, V_SMALL, V_OCCULTER, V_ALPHA, V_ANG_B, V_ANG_T, V_PIX_X, V_PIX_Y = range(11)
+V_REASON, V_IN_FOV, V_SUN_EX, V_OCCULTED, V_SMALL, V_OCCULTER, V_ALPHA, V_ANG_B, V_ANG_T, V_PIX_X, V_PIX_Y = (
+    range(11)
+)
 N_VIS_SLOTS = 11
 
 
