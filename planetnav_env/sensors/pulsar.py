@@ -64,7 +64,6 @@ from planetnav_env.errors import (
     require_finite,
     require_positive,
 )
-from planetnav_env.timescale import J2000_JD, SECONDS_PER_DAY
 
 __all__ = [
     "DEFAULT_DETECTOR",
