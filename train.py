@@ -8,12 +8,17 @@ Usage::
     python train.py evaluate --agent NAME|PATH --episodes N --seed S --json out.json [--config X.yaml]
     python train.py compare --agents baseline greedy random idle [PATH ...] --episodes N \\
         [--json J] [--report DIR]
+    python train.py train --config configs/rllib_ppo.yaml [--address HOST:PORT]   # RLlib, needs [ray]
+    python train.py tune --config configs/sweep.yaml [--address HOST:PORT] [--resume]  # Ray Tune sweep
 
 A training run writes ``runs/<name>/``: ``model.zip``, ``config.yaml`` (the resolved configuration; the SB3
 loader reads ``algo`` from it), ``tb/`` (TensorBoard), ``monitor/`` (episode CSVs), then, unless
 ``--no-eval``, ``eval.json``, ``report.md`` and the plots ``pos_err.png``, ``pos_sigma.png``,
-``training.png``. Configuration keys: ``configs/README.md``. Agents evaluate on held-out seeds (default
-10_000 onwards; training environments use the config's ``seed`` onwards, far below).
+``training.png``. ``algo: rllib_ppo`` trains with RLlib instead (``planetnav_rl/rllib.py``; the run
+directory then holds ``checkpoint/`` in place of ``model.zip``, and ``evaluate``/``compare`` take it as an
+agent like a model path). Sweeps: ``planetnav_rl/tune.py``, docs/scaling.md. Configuration keys:
+``configs/README.md``. Agents evaluate on held-out seeds (default 10_000 onwards; training environments
+use the config's ``seed`` onwards, far below).
 """
 
 from __future__ import annotations
@@ -34,10 +39,12 @@ import numpy as np
 import yaml
 
 from agents import make_agent, requires_idle_action, strip_sampled
+from agents.rllib import config_sidecar as rllib_config_sidecar
 from agents.sb3 import ALGORITHMS, algorithm_class, resolve_model_path
 from planetnav_env.config import EnvConfig
 from planetnav_env.errors import ConfigError
 from planetnav_env.registration import ENV_IDS
+from planetnav_rl import RLLIB_ALGOS, is_rllib_algo
 
 ROOT = Path(__file__).resolve().parent
 DEFAULT_CONFIG = ROOT / "configs" / "cruise_ppo.yaml"
@@ -118,8 +125,8 @@ def parse_config(data: Mapping[str, Any] | None, name: str = "run") -> TrainConf
     data.setdefault("name", name)
     tc = TrainConfig(**data, eval=eval_settings)
     tc.algo = str(tc.algo).lower()
-    if tc.algo not in ALGORITHMS:
-        raise ConfigError(f"config: algo {tc.algo!r} is not one of {list(ALGORITHMS)}")
+    if tc.algo not in ALGORITHMS and not is_rllib_algo(tc.algo):
+        raise ConfigError(f"config: algo {tc.algo!r} is not one of {[*ALGORITHMS, *RLLIB_ALGOS]}")
     for key in ("n_timesteps", "n_envs", "torch_threads"):
         value = getattr(tc, key)
         if not isinstance(value, int) or isinstance(value, bool) or value < 1:
@@ -147,6 +154,11 @@ def load_config(path: str | Path) -> TrainConfig:
 
 
 def _check_hyperparams(tc: TrainConfig) -> None:
+    if is_rllib_algo(tc.algo):  # RLlib's PPOConfig keywords (needs the [ray] extra)
+        from planetnav_rl.rllib import check_hyperparams
+
+        check_hyperparams(tc.hyperparams)
+        return
     params = inspect.signature(algorithm_class(tc.algo).__init__).parameters
     # Set by this script from other keys; a user value would be silently overwritten.
     reserved = {"self", "policy", "env", "seed", "tensorboard_log", "verbose", "device", "_init_setup_model"}
@@ -560,7 +572,9 @@ def _eval_env_config(args: argparse.Namespace, specs: Sequence[str]) -> tuple[En
             try:
                 sidecar = resolve_model_path(strip_sampled(s)).parent / "config.yaml"
             except FileNotFoundError:
-                continue
+                sidecar = rllib_config_sidecar(strip_sampled(s))  # an RLlib run or checkpoint directory
+                if sidecar is None:
+                    continue
             if sidecar.is_file():
                 tc = load_config(sidecar)
                 break
@@ -578,7 +592,14 @@ def cmd_train(args: argparse.Namespace) -> int:
     run_dir = Path(args.run_dir) if args.run_dir else ROOT / "runs" / tc.name
     progress = not args.no_progress
     print(f"training {tc.algo.upper()} for {tc.n_timesteps} steps on {tc.n_envs} envs -> {run_dir}")
-    model_path, stats = train(tc, run_dir, progress=progress)
+    if is_rllib_algo(tc.algo):
+        from planetnav_rl.rllib import train as train_rllib
+
+        model_path, stats = train_rllib(tc, run_dir, address=args.address, progress=progress)
+    elif args.address:
+        raise ConfigError(f"--address {args.address!r}: only RLlib configs (algo: rllib_ppo) train on Ray")
+    else:
+        model_path, stats = train(tc, run_dir, progress=progress)
     print(
         f"trained {stats['timesteps']} steps in {stats['seconds']:.0f} s ({stats['steps_per_s']:.0f} steps/s)"
     )
@@ -634,7 +655,21 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--run-dir", help="output directory (default runs/<name>)")
     t.add_argument("--timesteps", type=int, help="override n_timesteps")
     t.add_argument("--no-eval", action="store_true", help="skip the evaluation and report")
+    t.add_argument("--address", help="RLlib only: join the Ray cluster at HOST:PORT (default: a local Ray)")
     t.set_defaults(func=cmd_train)
+
+    def cmd_tune(args: argparse.Namespace) -> int:
+        from planetnav_rl.tune import cmd_tune as run_tune
+
+        return run_tune(args)
+
+    tn = sub.add_parser("tune", help="Ray Tune sweep over an SB3 or RLlib config (needs the [ray] extra)")
+    tn.add_argument("--config", required=True, help="sweep YAML (e.g. configs/sweep.yaml)")
+    tn.add_argument("--address", help="join the Ray cluster at HOST:PORT (default: a local Ray)")
+    tn.add_argument("--run-dir", help="output directory (default runs/<sweep name>)")
+    tn.add_argument("--resume", action="store_true", help="continue an interrupted sweep in --run-dir")
+    tn.add_argument("--num-cpus", type=int, help="CPUs of the local Ray (default: all)")
+    tn.set_defaults(func=cmd_tune)
 
     def common(sp: argparse.ArgumentParser) -> None:
         sp.add_argument(
@@ -656,7 +691,7 @@ def build_parser() -> argparse.ArgumentParser:
     common(c)
     c.set_defaults(func=cmd_compare)
 
-    for sp in (t, e, c):
+    for sp in (t, e, c, tn):
         sp.add_argument("--no-progress", action="store_true", help="no progress bars")
     return p
 

@@ -11,6 +11,8 @@ greedy         the planet whose measurements shrink the position covariance most
 random         a uniformly random action each step
 idle           never measures (needs ``idle_action=True``)
 PATH           a saved SB3 model (``.zip`` or a ``runs/<name>/`` directory), deterministic actions
+PATH           an RLlib checkpoint (a ``runs/<name>/`` directory of ``algo: rllib_ppo``, or the checkpoint
+               directory itself; needs the ``[ray]`` extra), the policy's mode (:mod:`agents.rllib`)
 PATH@sampled   the same model, actions sampled from the policy (seeded by ``reset(seed)``)
 ============== ==========================================================================================
 """
@@ -26,6 +28,8 @@ import gymnasium as gym
 from agents.base import Agent, ParsedObservation, TargetAgent, parse_observation
 from agents.baseline import BaselineAgent
 from agents.greedy import GreedyAgent
+from agents.rllib import RLlibAgent
+from agents.rllib import find_checkpoint as find_rllib_checkpoint
 from agents.sb3 import SB3Agent
 from agents.simple import IdleAgent, RandomAgent
 
@@ -70,6 +74,9 @@ def make_agent(name_or_path: str | Path, env: gym.Env, **kwargs: Any) -> Agent:
     if key in AGENTS:
         return AGENTS[key](env, **kwargs)
     path = Path(key)
+    if find_rllib_checkpoint(path) is not None:
+        kwargs.pop("algo", None)  # an RLlib checkpoint names its own algorithm
+        return RLlibAgent(path, env, **kwargs)
     if path.exists() or path.with_suffix(".zip").exists():
         return SB3Agent(path, env, **kwargs)
     raise ValueError(f"unknown agent {key!r}: not one of {sorted(AGENTS)} and no model file at that path")
@@ -82,6 +89,7 @@ __all__ = [
     "GreedyAgent",
     "IdleAgent",
     "ParsedObservation",
+    "RLlibAgent",
     "RandomAgent",
     "SB3Agent",
     "TargetAgent",

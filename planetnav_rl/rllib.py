@@ -1,0 +1,241 @@
+"""RLlib PPO (new API stack) on any ``planetnav/*`` environment, driven by ``train.py``'s configuration.
+
+A training configuration with ``algo: rllib_ppo`` (``configs/rllib_ppo.yaml``) maps onto RLlib as:
+
+================== =====================================================================================
+config key         RLlib
+================== =====================================================================================
+env_id, env        the environment (``env`` overrides the id's defaults, exactly as for SB3)
+n_timesteps        train until at least this many env steps are sampled (whole iterations)
+n_envs             ``num_envs_per_env_runner``: environments per env runner, vectorised
+seed               ``debugging(seed=...)``: RLlib seeds each runner's environments from it
+torch_threads      torch threads of the learner (in the driver process)
+hyperparams        keyword arguments of ``PPOConfig.training`` (``lr``, ``gamma``, ``lambda_``,
+                   ``train_batch_size_per_learner``, ``minibatch_size``, ``num_epochs``, ...), plus
+                   ``num_env_runners``, ``rollout_fragment_length``, ``num_cpus_per_env_runner``,
+                   ``sample_timeout_s`` (``env_runners``), ``num_learners`` (``learners``) and
+                   ``model_config`` (``rl_module``: ``fcnet_hiddens``, ``fcnet_activation``, ...)
+================== =====================================================================================
+
+Env runners build their environments with ``gymnasium.make_vec(id, vectorization_mode=
+"vector_entry_point")``: the id's registered vector entry point, so the native vector environment is used
+wherever ``planetnav_env.registration`` provides one, and Gymnasium's ``SyncVectorEnv`` until then.
+Ray is imported only inside functions.
+"""
+
+from __future__ import annotations
+
+import inspect
+import math
+import time
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from planetnav_env.errors import ConfigError
+from planetnav_rl import require_ray
+
+if TYPE_CHECKING:  # train.py's dataclass; imported lazily at run time (train.py is a script)
+    from train import TrainConfig
+
+#: Name under which the environment creator is registered with Ray (``tune.register_env``).
+ENV_NAME = "planetnav"
+
+#: Environment id used when a configuration has none (its ``env`` section then defines the scenario; the
+#: full resolved environment configuration is passed as keywords, so the id's own defaults never leak in).
+FALLBACK_ENV_ID = "planetnav/Cruise-Target-v0"
+
+#: Subdirectory of a run directory that holds the RLlib checkpoint (``Algorithm.save_to_path``).
+CHECKPOINT_DIR = "checkpoint"
+
+#: ``hyperparams`` keys routed to other ``AlgorithmConfig`` sections than ``training``.
+ENV_RUNNER_KEYS = (
+    "num_env_runners",
+    "rollout_fragment_length",
+    "num_cpus_per_env_runner",
+    "sample_timeout_s",
+)
+LEARNER_KEYS = ("num_learners",)
+MODULE_KEYS = ("model_config",)
+
+#: ``training`` keywords that are not hyper-parameters or are set from other config keys / deprecated.
+_RESERVED = {"self", "kwargs", "model", "learner_class", "learner_connector", "num_sgd_iter",
+             "add_default_connectors_to_learner_pipeline", "learner_config_dict", "train_batch_size",
+             "max_requests_in_flight_per_sampler_worker", "num_aggregator_actors_per_learner",
+             "max_requests_in_flight_per_aggregator_actor"}  # fmt: skip
+
+
+def hyperparameter_names() -> set[str]:
+    """Every key ``hyperparams`` may hold for ``rllib_ppo`` (see the module docstring)."""
+    require_ray("algo: rllib_ppo")
+    from ray.rllib.algorithms.algorithm_config import AlgorithmConfig
+    from ray.rllib.algorithms.ppo import PPOConfig
+
+    # PPOConfig.training takes PPO's own keywords and passes **kwargs on to AlgorithmConfig.training.
+    names = set(inspect.signature(PPOConfig.training).parameters)
+    names |= set(inspect.signature(AlgorithmConfig.training).parameters)
+    return (names - _RESERVED) | set(ENV_RUNNER_KEYS) | set(LEARNER_KEYS) | set(MODULE_KEYS)
+
+
+def check_hyperparams(hyperparams: dict[str, Any]) -> None:
+    """Raise :class:`ConfigError` naming every key of ``hyperparams`` that RLlib's PPO does not take."""
+    known = hyperparameter_names()
+    unknown = sorted(set(hyperparams) - known)
+    if unknown:
+        raise ConfigError(
+            f"config.hyperparams (rllib_ppo): unknown key(s) {unknown}; known keys: {sorted(known)}"
+        )
+    mc = hyperparams.get("model_config")
+    if mc is not None and not isinstance(mc, dict):
+        raise ConfigError(f"config.hyperparams.model_config must be a mapping, got {mc!r}")
+
+
+def make_env(ctx: dict[str, Any]) -> Any:
+    """RLlib's environment creator: ``ctx`` is ``{"env_id", "env"}`` (+ ``"num_envs"`` for a vector env).
+
+    Runs inside each env runner; registers the planetnav ids there first.
+    """
+    import gymnasium as gym
+
+    import planetnav_env  # noqa: F401  (registers the ids in this worker process)
+
+    env_id, env_kwargs = ctx["env_id"], dict(ctx["env"])
+    if "num_envs" in ctx:
+        return gym.make_vec(
+            env_id, num_envs=int(ctx["num_envs"]), vectorization_mode="vector_entry_point", **env_kwargs
+        )
+    return gym.make(env_id, **env_kwargs)
+
+
+def _callbacks_class() -> type:
+    from ray.rllib.callbacks.callbacks import RLlibCallback
+
+    class NavMetricsCallback(RLlibCallback):
+        """Logs each finished episode's final true position error [km] (``final_pos_err_km`` in the
+        ``env_runners`` results). Truth is only *logged* for the training plot, never seen by the policy."""
+
+        def on_episode_end(self, *, episode: Any, metrics_logger: Any = None, **kwargs: Any) -> None:
+            info = episode.get_infos(-1)
+            if metrics_logger is not None and isinstance(info, dict) and "pos_err_km" in info:
+                metrics_logger.log_value("final_pos_err_km", float(info["pos_err_km"]), reduce="mean")
+
+    return NavMetricsCallback
+
+
+def build_config(tc: TrainConfig, num_env_runners: int | None = None) -> Any:
+    """The ``PPOConfig`` of training configuration ``tc`` (see the module docstring for the mapping).
+
+    ``num_env_runners`` overrides the configuration's (Tune trials sample in their own process: 0).
+    """
+    require_ray("algo: rllib_ppo")
+    from ray.rllib.algorithms.ppo import PPOConfig
+
+    check_hyperparams(tc.hyperparams)
+    hp = dict(tc.hyperparams)
+    runners = {k: hp.pop(k) for k in ENV_RUNNER_KEYS if k in hp}
+    learners = {k: hp.pop(k) for k in LEARNER_KEYS if k in hp}
+    model_config = hp.pop("model_config", None)
+    if num_env_runners is not None:
+        runners["num_env_runners"] = num_env_runners
+    runners.setdefault("num_env_runners", 1)
+    env_ctx = {"env_id": tc.env_id or FALLBACK_ENV_ID, "env": tc.env_config().to_dict()}
+    config = (
+        PPOConfig()
+        .environment(ENV_NAME, env_config=env_ctx, clip_actions=True)
+        .env_runners(
+            num_envs_per_env_runner=tc.n_envs, gym_env_vectorize_mode="vector_entry_point", **runners
+        )
+        .learners(**learners)
+        .training(**hp)
+        .callbacks(_callbacks_class())
+        .debugging(seed=tc.seed, log_level="ERROR")
+    )
+    if model_config is not None:
+        config = config.rl_module(model_config=dict(model_config))
+    return config
+
+
+def register() -> None:
+    """Register :func:`make_env` with Ray under :data:`ENV_NAME` (needs ``ray.init`` first)."""
+    from ray.tune.registry import register_env
+
+    register_env(ENV_NAME, make_env)
+
+
+def iteration_summary(result: dict[str, Any]) -> dict[str, float]:
+    """Env steps sampled so far, mean episode return and mean final position error [km] (NaN when no
+    episode finished yet) from one ``Algorithm.train()`` result."""
+    er = result.get("env_runners", {}) or {}
+    return {
+        "timesteps": float(
+            er.get("num_env_steps_sampled_lifetime", result.get("num_env_steps_sampled_lifetime", 0))
+        ),
+        "return": float(er.get("episode_return_mean", math.nan)),
+        "final_pos_err_km": float(er.get("final_pos_err_km", math.nan)),
+    }
+
+
+def build_algorithm(tc: TrainConfig, num_env_runners: int | None = None) -> Any:
+    """Register the environment and build the PPO algorithm (Ray must be initialised)."""
+    import torch
+
+    # The learner lives in this process; a 64x64 MLP gains nothing from intra-op threads.
+    torch.set_num_threads(tc.torch_threads)
+    register()
+    return build_config(tc, num_env_runners).build_algo()
+
+
+def train(
+    tc: TrainConfig, run_dir: Path, address: str | None = None, progress: bool = True
+) -> tuple[Path, dict[str, Any]]:
+    """Train ``tc`` with RLlib into ``run_dir``; return the checkpoint directory and training statistics
+    (the keys ``train.train`` returns: timesteps, seconds, steps_per_s, episodes).
+
+    Without ``address`` a local Ray is started on 127.0.0.1 (and shut down at the end); with one, the env
+    runners run on that cluster while the learner stays in this process.
+    """
+    import yaml
+
+    from planetnav_rl.cluster import init_ray, shutdown_ray
+
+    run_dir = Path(run_dir).resolve()
+    run_dir.mkdir(parents=True, exist_ok=True)
+    with open(run_dir / "config.yaml", "w") as fh:
+        yaml.safe_dump(tc.to_dict(), fh, sort_keys=False)
+    build_config(tc)  # validate before starting Ray
+    ray_info = init_ray(address)
+    try:
+        from torch.utils.tensorboard import SummaryWriter
+
+        algo = build_algorithm(tc)
+        writer = SummaryWriter(str(run_dir / "tb" / f"{tc.algo}_1"))
+        episodes: list[tuple[int, float, float]] = []
+        t0, steps = time.perf_counter(), 0
+        while steps < tc.n_timesteps:
+            result = algo.train()
+            s = iteration_summary(result)
+            steps = int(s["timesteps"])
+            if not math.isnan(s["return"]):
+                episodes.append((steps, s["return"], s["final_pos_err_km"]))
+                writer.add_scalar("rollout/ep_rew_mean", s["return"], steps)
+            if not math.isnan(s["final_pos_err_km"]):
+                writer.add_scalar("nav/final_pos_err_km", s["final_pos_err_km"], steps)
+            writer.add_scalar("time/fps", steps / max(time.perf_counter() - t0, 1e-9), steps)
+            if progress:
+                print(
+                    f"  iteration {result['training_iteration']}: {steps} env steps, "
+                    f"return {s['return']:.2f}, final pos err {s['final_pos_err_km']:.0f} km"
+                )
+        elapsed = time.perf_counter() - t0
+        writer.close()
+        checkpoint = run_dir / CHECKPOINT_DIR
+        algo.save_to_path(str(checkpoint))
+        algo.stop()
+    finally:
+        shutdown_ray(ray_info)
+    stats = {
+        "timesteps": steps,
+        "seconds": elapsed,
+        "steps_per_s": steps / max(elapsed, 1e-9),
+        "episodes": episodes,
+    }
+    return checkpoint, stats
