@@ -6,19 +6,23 @@ Usage::
     python train.py                                   # = train --config configs/cruise_ppo.yaml (~10 min)
     python train.py train --config configs/X.yaml [--run-dir DIR] [--timesteps N] [--no-eval]
     python train.py evaluate --agent NAME|PATH --episodes N --seed S --json out.json [--config X.yaml]
-    python train.py compare --agents baseline greedy random idle [PATH ...] --episodes N \\
-        [--json J] [--report DIR]
+    python train.py compare --agents planner greedy periodic baseline random idle [PATH ...] --episodes N \\
+        [--json J] [--report DIR] [--reference greedy]
+    python train.py sweep-periodic [--periods 10 30 60 ...] [--cycles 0-1 0-1-2 ...] [--episodes N] [--seed S]
     python train.py train --config configs/rllib_ppo.yaml [--address HOST:PORT]   # RLlib, needs [ray]
     python train.py tune --config configs/sweep.yaml [--address HOST:PORT] [--resume]  # Ray Tune sweep
 
 A training run writes ``runs/<name>/``: ``model.zip``, ``config.yaml`` (the resolved configuration; the SB3
 loader reads ``algo`` from it), ``tb/`` (TensorBoard), ``monitor/`` (episode CSVs), then, unless
 ``--no-eval``, ``eval.json``, ``report.md`` and the plots ``pos_err.png``, ``pos_sigma.png``,
-``training.png``. ``algo: rllib_ppo`` trains with RLlib instead (``planetnav_rl/rllib.py``; the run
-directory then holds ``checkpoint/`` in place of ``model.zip``, and ``evaluate``/``compare`` take it as an
-agent like a model path). Sweeps: ``planetnav_rl/tune.py``, docs/scaling.md. Configuration keys:
-``configs/README.md``. Agents evaluate on held-out seeds (default 10_000 onwards; training environments
-use the config's ``seed`` onwards, far below).
+``training.png``. Configuration keys: ``configs/README.md``. Agents evaluate on 20 held-out seeds (default
+10_000 onwards; training environments use the config's ``seed`` onwards, far below), every agent on the
+same seeds; each mean comes with a 95 % t-interval and the paired difference from a reference agent
+(``greedy``) on the same seeds (:mod:`agents.stats`). Agents that cannot act in the environment's action
+mode (``idle`` outside ``target`` mode, a model trained for other spaces) are skipped with a note.
+``algo: rllib_ppo`` trains with RLlib instead (``planetnav_rl/rllib.py``; the run directory then holds
+``checkpoint/`` in place of ``model.zip``, and ``evaluate``/``compare`` take it as an agent like a model
+path). Sweeps: ``planetnav_rl/tune.py``, docs/scaling.md.
 """
 
 from __future__ import annotations
@@ -38,9 +42,12 @@ from typing import Any
 import numpy as np
 import yaml
 
-from agents import make_agent, requires_idle_action, strip_sampled
+from agents import NotApplicableError, make_agent, not_applicable, requires_idle_action, strip_sampled
+from agents.features import NavFeatures, check_features
 from agents.rllib import config_sidecar as rllib_config_sidecar
 from agents.sb3 import ALGORITHMS, algorithm_class, resolve_model_path
+from agents.shaping import SHAPINGS, PointingShaping
+from agents.stats import MeanCI, mean_ci, paired_difference
 from planetnav_env.config import EnvConfig
 from planetnav_env.errors import ConfigError
 from planetnav_env.registration import ENV_IDS
@@ -48,8 +55,12 @@ from planetnav_rl import RLLIB_ALGOS, is_rllib_algo
 
 ROOT = Path(__file__).resolve().parent
 DEFAULT_CONFIG = ROOT / "configs" / "cruise_ppo.yaml"
-DEFAULT_AGENTS = ("baseline", "greedy", "random", "idle")
+DEFAULT_AGENTS = ("planner", "greedy", "periodic", "baseline", "random", "idle")
 EVAL_SEED = 10_000
+EVAL_EPISODES = 20
+REFERENCE = "greedy"
+#: Seeds of the periodic sweep: disjoint from the evaluation seeds (the chosen setting is not tuned on them).
+SWEEP_SEED = 20_000
 
 # ---------------------------------------------------------------------------------------------------------
 # Configuration
@@ -60,10 +71,11 @@ EVAL_SEED = 10_000
 class EvalSettings:
     """``eval:`` section: held-out episodes run after training (the trained model is added to ``agents``)."""
 
-    episodes: int = 5
+    episodes: int = EVAL_EPISODES
     seed: int = EVAL_SEED
     agents: tuple[str, ...] = DEFAULT_AGENTS
     episode_steps: int | None = None  # None: the env's own episode length
+    reference: str = REFERENCE  # paired differences are taken against this agent (if it ran)
 
 
 @dataclass
@@ -78,9 +90,14 @@ class TrainConfig:
     n_envs: int = 4
     seed: int = 0
     torch_threads: int = 1
+    # "native": n_envs rows of the compiled vector env (planetnav_env.sb3_vec); "dummy": n_envs single
+    # environments in SB3's DummyVecEnv (the path for observation features and shaping wrappers).
+    vec_env: str = "native"
     hyperparams: dict[str, Any] = field(default_factory=dict)
     env: dict[str, Any] = field(default_factory=dict)
     eval: EvalSettings = field(default_factory=EvalSettings)
+    features: list[str] = field(default_factory=list)  # extra observation features (agents/features.py)
+    shaping: dict[str, float] = field(default_factory=dict)  # potential-based, training only (agents/shaping)
 
     def env_config(self) -> EnvConfig:
         """The environment configuration: the ``env_id``'s defaults overridden by ``env``."""
@@ -131,10 +148,21 @@ def parse_config(data: Mapping[str, Any] | None, name: str = "run") -> TrainConf
         value = getattr(tc, key)
         if not isinstance(value, int) or isinstance(value, bool) or value < 1:
             raise ConfigError(f"config: {key} must be a positive integer, got {value!r}")
+    if tc.vec_env not in ("native", "dummy"):
+        raise ConfigError(f"config: vec_env must be 'native' or 'dummy', got {tc.vec_env!r}")
     if eval_settings.episodes < 1:
         raise ConfigError(f"config.eval: episodes must be >= 1, got {eval_settings.episodes!r}")
     _check_hyperparams(tc)
     tc.env_config()  # validate the env section now, not after training
+    try:
+        tc.features = list(check_features(tc.features or []))
+    except ValueError as exc:
+        raise ConfigError(f"config: features: {exc}") from None
+    tc.shaping = dict(tc.shaping or {})
+    _check_keys(tc.shaping, set(SHAPINGS), "config.shaping")
+    for key, weight in tc.shaping.items():
+        if isinstance(weight, bool) or not isinstance(weight, int | float) or not weight > 0:
+            raise ConfigError(f"config.shaping: {key} must be a positive weight, got {weight!r}")
     return tc
 
 
@@ -239,15 +267,35 @@ def _nav_callback_class() -> type:
 
 
 def make_training_env(tc: TrainConfig, monitor_dir: Path | None) -> Any:
-    """``n_envs`` environments in a DummyVecEnv (one process: the env is cheap, 2 cores), Monitor-wrapped."""
+    """The training VecEnv: ``n_envs`` rows of the native vector env (one compiled step for all rows,
+    :class:`planetnav_env.sb3_vec.PlanetNavSB3VecEnv`) under SB3's ``VecMonitor``. Observation features
+    and shaping are gymnasium wrappers of single environments: with either configured, ``n_envs``
+    wrapped single environments in a ``DummyVecEnv`` instead (``vec_env: dummy`` forces that path)."""
     from stable_baselines3.common.env_util import make_vec_env
-    from stable_baselines3.common.vec_env import DummyVecEnv
+    from stable_baselines3.common.vec_env import DummyVecEnv, VecMonitor
 
     from planetnav_env.env import PlanetNavEnv
+    from planetnav_env.sb3_vec import PlanetNavSB3VecEnv
 
     env_cfg = tc.env_config()
+    features = tuple(tc.features)
+    pointing = tc.shaping.get("pointing")
+    gamma = float(tc.hyperparams.get("gamma", 0.99))
+
+    if not features and not pointing and tc.vec_env == "native":
+        if monitor_dir is not None:
+            monitor_dir.mkdir(parents=True, exist_ok=True)
+        venv = PlanetNavSB3VecEnv(tc.n_envs, env_cfg, seed=tc.seed)
+        return VecMonitor(venv, filename=str(monitor_dir / "vec") if monitor_dir is not None else None)
+
+    def make_env() -> Any:
+        env = PlanetNavEnv(env_cfg)
+        if pointing:  # the shaping reads the raw observation: inside the feature wrapper
+            env = PointingShaping(env, pointing, gamma)
+        return NavFeatures(env, features) if features else env
+
     return make_vec_env(
-        lambda: PlanetNavEnv(env_cfg),
+        make_env,
         n_envs=tc.n_envs,
         seed=tc.seed,
         monitor_dir=str(monitor_dir) if monitor_dir is not None else None,
@@ -298,12 +346,24 @@ def train(tc: TrainConfig, run_dir: Path, progress: bool = True) -> tuple[Path, 
 
 @dataclass
 class EvalResult:
-    """Metrics of one agent over held-out episodes, plus the mean curves used by the plots."""
+    """Metrics of one agent over held-out episodes, the per-episode values the statistics use, and the
+    mean curves used by the plots. ``skipped`` holds the reason when the agent could not run here."""
 
     name: str
     metrics: dict[str, Any]
     pos_err_curve: np.ndarray
     pos_sigma_curve: np.ndarray
+    episode_mean_err: np.ndarray = field(default_factory=lambda: np.zeros(0))  # km, one per seed
+    seeds: tuple[int, ...] = ()
+    skipped: str | None = None
+
+    @property
+    def ran(self) -> bool:
+        return self.skipped is None
+
+
+def _skipped(name: str, reason: str) -> EvalResult:
+    return EvalResult(name, {"skipped": reason}, np.zeros(0), np.zeros(0), skipped=reason)
 
 
 def _episode(agent: Any, env: Any, seed: int, on_step: Callable[[], None]) -> dict[str, Any]:
@@ -311,6 +371,7 @@ def _episode(agent: Any, env: Any, seed: int, on_step: Callable[[], None]) -> di
     obs, info = env.reset(seed=seed)
     err, sig, vel, measured = [], [], [], 0
     slews, ret, diverged = 0, 0.0, False
+    t0 = time.perf_counter()
     while True:
         obs, reward, terminated, truncated, info = env.step(agent.act(obs, info))
         err.append(info["pos_err_km"])
@@ -331,6 +392,7 @@ def _episode(agent: Any, env: Any, seed: int, on_step: Callable[[], None]) -> di
         "slews": slews,
         "return": ret,
         "diverged": diverged,
+        "seconds": time.perf_counter() - t0,
     }
 
 
@@ -345,11 +407,17 @@ def _padded_mean(curves: Sequence[np.ndarray]) -> np.ndarray:
 def evaluate_agent(
     spec: str, env_cfg: EnvConfig, episodes: int, seed: int, progress: bool = True
 ) -> EvalResult:
-    """Run agent ``spec`` (name or model path) on ``episodes`` seeds ``seed, seed+1, ...``."""
+    """Run agent ``spec`` (name, ``name:key=value,...`` or model path) on seeds ``seed, seed+1, ...``.
+
+    Raises :class:`agents.NotApplicableError` when the agent cannot act in this environment.
+    """
     from tqdm.auto import tqdm
 
     from planetnav_env.env import PlanetNavEnv
 
+    reason = not_applicable(spec, env_cfg)
+    if reason:
+        raise NotApplicableError(reason)
     # Only the idle agent gets the extra "camera off" action: the others keep the trained action space.
     overrides = {"idle_action": True} if requires_idle_action(spec) else {}
     env = PlanetNavEnv(env_cfg, **overrides)
@@ -366,93 +434,184 @@ def evaluate_agent(
     bar.close()
     env.close()
     final = np.array([r["pos_err"][-1] for r in runs])
+    per_episode = np.array([np.mean(r["pos_err"]) for r in runs])
+    ci = mean_ci(per_episode)
     metrics = {
         "episodes": episodes,
         "seed": seed,
-        "mean_pos_err_km": float(np.mean([np.mean(r["pos_err"]) for r in runs])),
+        "mean_pos_err_km": ci.mean,
+        "mean_pos_err_ci95_km": [ci.low, ci.high],
         "final_pos_err_km": float(np.mean(final)),
         "final_pos_err_std_km": float(np.std(final)),
+        "final_pos_err_ci95_km": [mean_ci(final).low, mean_ci(final).high],
         "final_pos_sigma_km": float(np.mean([r["pos_sigma"][-1] for r in runs])),
+        "mean_pos_sigma_km": float(np.mean([np.mean(r["pos_sigma"]) for r in runs])),
         "mean_vel_err_km_s": float(np.mean([r["mean_vel_err_km_s"] for r in runs])),
         "measured_fraction": float(np.mean([r["measured_fraction"] for r in runs])),
         "slews": float(np.mean([r["slews"] for r in runs])),
         "return": float(np.mean([r["return"] for r in runs])),
         "diverged": int(sum(r["diverged"] for r in runs)),
+        "seconds_per_episode": float(np.mean([r["seconds"] for r in runs])),
+        "per_episode_mean_pos_err_km": per_episode.tolist(),
     }
     return EvalResult(
         name=name,
         metrics=metrics,
         pos_err_curve=_padded_mean([r["pos_err"] for r in runs]),
         pos_sigma_curve=_padded_mean([r["pos_sigma"] for r in runs]),
+        episode_mean_err=per_episode,
+        seeds=tuple(range(seed, seed + episodes)),
     )
 
 
+def add_paired(results: Sequence[EvalResult], reference: str) -> EvalResult | None:
+    """Adds ``metrics["vs_reference"]`` (mean of the per-seed differences agent - reference of the mean
+    position error [km] with its paired 95 % t-interval, and the ratio of the means) to every agent that
+    ran on the reference's seeds. The reference is the result whose name is ``reference`` (or starts with
+    ``reference:``); returns it, or None when it did not run."""
+    ref = next(
+        (r for r in results if r.ran and (r.name == reference or r.name.startswith(reference + ":"))), None
+    )
+    if ref is None:
+        return None
+    for r in results:
+        if not r.ran or r.seeds != ref.seeds:
+            continue
+        d = paired_difference(r.episode_mean_err, ref.episode_mean_err)
+        r.metrics["vs_reference"] = {
+            "reference": ref.name,
+            "mean_diff_km": d.mean,
+            "ci95_km": [d.low, d.high],
+            "ratio": r.metrics["mean_pos_err_km"] / ref.metrics["mean_pos_err_km"],
+            "outside_noise": d.excludes_zero(),
+        }
+    return ref
+
+
 def compare_agents(
-    specs: Sequence[str], env_cfg: EnvConfig, episodes: int, seed: int, progress: bool = True
+    specs: Sequence[str],
+    env_cfg: EnvConfig,
+    episodes: int,
+    seed: int,
+    progress: bool = True,
+    reference: str = REFERENCE,
 ) -> list[EvalResult]:
-    """Evaluate each agent on the same seeds (so the same initial states and estimate errors)."""
-    return [evaluate_agent(s, env_cfg, episodes, seed, progress) for s in specs]
+    """Evaluate each agent on the same seeds (so the same initial states and estimate errors); agents that
+    cannot act in this environment are kept as skipped rows with the reason; paired differences against
+    ``reference`` (see :func:`add_paired`)."""
+    results = []
+    for s in specs:
+        try:
+            results.append(evaluate_agent(s, env_cfg, episodes, seed, progress))
+        except NotApplicableError as exc:
+            results.append(_skipped(str(s), str(exc)))
+    add_paired(results, reference)
+    return results
 
 
 def results_json(results: Sequence[EvalResult]) -> dict[str, Any]:
-    """``{"agents": {name: metrics}}`` (names made unique if two agents share one)."""
+    """``{"agents": {name: metrics}, "skipped": {name: reason}}`` (names made unique if two agents share
+    one)."""
     out: dict[str, Any] = {}
+    skipped: dict[str, str] = {}
     for r in results:
+        if not r.ran:
+            skipped[r.name] = str(r.skipped)
+            continue
         key, k = r.name, 2
         while key in out:
             key, k = f"{r.name}#{k}", k + 1
         out[key] = r.metrics
-    return {"agents": out}
+    return {"agents": out, "skipped": skipped}
 
 
-TABLE_COLUMNS = (
-    ("agent", None, "{}"),
-    ("mean err km", "mean_pos_err_km", "{:.1f}"),
-    ("final err km", "final_pos_err_km", "{:.1f}"),
-    ("final 1σ km", "final_pos_sigma_km", "{:.1f}"),
-    ("vel err m/s", "mean_vel_err_km_s", "{:.3f}"),
-    ("measured", "measured_fraction", "{:.2f}"),
-    ("slews", "slews", "{:.1f}"),
-    ("return", "return", "{:.1f}"),
+def _vs_reference(r: EvalResult) -> tuple[str, str]:
+    vs = r.metrics.get("vs_reference")
+    if vs is None:
+        return "-", "-"
+    if vs["reference"] == r.name:
+        return "(reference)", "1.00"
+    d = MeanCI(vs["mean_diff_km"], *vs["ci95_km"], r.metrics["episodes"], math.nan, 0.95)
+    return d.format("{:+.1f}"), f"{vs['ratio']:.2f}"
+
+
+TABLE_HEAD = (
+    "agent",
+    "mean err km [95% CI]",
+    "Δ vs ref km [95% CI]",
+    "ratio",
+    "final err km",
+    "final 1σ km",
+    "measured",
+    "slews",
+    "s/episode",
 )
 
 
 def table_rows(results: Sequence[EvalResult]) -> list[list[str]]:
     rows = []
     for r in results:
-        row = []
-        for _, key, fmt in TABLE_COLUMNS:
-            if key is None:
-                row.append(r.name)
-            elif key == "mean_vel_err_km_s":
-                row.append(fmt.format(1e3 * r.metrics[key]))
-            else:
-                row.append(fmt.format(r.metrics[key]))
-        rows.append(row)
+        if not r.ran:
+            rows.append([r.name, f"skipped: {r.skipped}", *[""] * (len(TABLE_HEAD) - 2)])
+            continue
+        m = r.metrics
+        ci = MeanCI(m["mean_pos_err_km"], *m["mean_pos_err_ci95_km"], m["episodes"], math.nan, 0.95)
+        diff, ratio = _vs_reference(r)
+        rows.append(
+            [
+                r.name,
+                ci.format("{:.1f}"),
+                diff,
+                ratio,
+                f"{m['final_pos_err_km']:.1f}",
+                f"{m['final_pos_sigma_km']:.1f}",
+                f"{m['measured_fraction']:.2f}",
+                f"{m['slews']:.1f}",
+                f"{m['seconds_per_episode']:.2f}",
+            ]
+        )
     return rows
 
 
+def _reference_name(results: Sequence[EvalResult]) -> str | None:
+    return next(
+        (r.metrics["vs_reference"]["reference"] for r in results if "vs_reference" in r.metrics), None
+    )
+
+
 def markdown_table(results: Sequence[EvalResult]) -> str:
-    head = [c[0] for c in TABLE_COLUMNS]
+    head = list(TABLE_HEAD)
+    ref = _reference_name(results)
+    if ref:
+        head[2] = f"Δ vs {ref} km [95% CI]"
     lines = ["| " + " | ".join(head) + " |", "|" + "|".join("---" for _ in head) + "|"]
     lines += ["| " + " | ".join(row) + " |" for row in table_rows(results)]
     return "\n".join(lines)
 
 
-def print_table(results: Sequence[EvalResult]) -> None:
+def print_table(results: Sequence[EvalResult], title: str | None = None) -> None:
     from rich.console import Console
     from rich.table import Table
 
     rows = table_rows(results)
-    table = Table(title="planetnav agents (held-out seeds)")
-    for title, key, _ in TABLE_COLUMNS:
-        table.add_column(title, justify="left" if key is None else "right", no_wrap=True)
+    ran = [r for r in results if r.ran]
+    if title is None:
+        n = ran[0].metrics["episodes"] if ran else 0
+        first = ran[0].metrics["seed"] if ran else 0
+        title = f"planetnav agents: {n} held-out seeds ({first}..{first + n - 1}), paired on the same seeds"
+    table = Table(title=title)
+    head = list(TABLE_HEAD)
+    ref = _reference_name(results)
+    if ref:
+        head[2] = f"Δ vs {ref} km [95% CI]"
+    for i, h in enumerate(head):
+        table.add_column(h, justify="left" if i == 0 else "right", no_wrap=True)
     for row in rows:
         table.add_row(*row)
     console = Console()
     if not console.is_terminal:
         # Logs and pipes: rich would assume 80 columns and truncate the agent names.
-        console = Console(width=160)
+        console = Console(width=200)
     console.print(table)
 
 
@@ -470,6 +629,8 @@ def write_plots(results: Sequence[EvalResult], out_dir: Path, step_s: float) -> 
     ):
         fig, ax = plt.subplots(figsize=(8, 4.5))
         for r in results:
+            if not r.ran:
+                continue
             curve = getattr(r, attr)
             hours = (np.arange(len(curve)) + 1) * step_s / 3600.0
             ax.plot(hours, curve, label=r.name, lw=1.2)
@@ -524,13 +685,15 @@ def write_report(
     training_plot = write_training_plot(train_stats["episodes"], out_dir) if train_stats else None
     with open(out_dir / "eval.json", "w") as fh:
         json.dump(results_json(results), fh, indent=2)
-    m0 = results[0].metrics
+    ran = [r for r in results if r.ran]
+    m0 = ran[0].metrics if ran else {"episodes": 0, "seed": 0}
     lines = [
         f"# {title}",
         "",
         f"Scenario `{env_cfg.scenario}`, planets {', '.join(env_cfg.planets)}, action mode "
         f"`{env_cfg.action_mode}`, {env_cfg.episode_steps} steps of {env_cfg.step_s:g} s, "
-        f"{m0['episodes']} held-out episodes (seeds {m0['seed']}..{m0['seed'] + m0['episodes'] - 1}).",
+        f"{m0['episodes']} held-out episodes (seeds {m0['seed']}..{m0['seed'] + m0['episodes'] - 1}), "
+        "the same seeds for every agent.",
         "",
     ]
     if train_stats and tc:
@@ -543,10 +706,14 @@ def write_report(
     lines += [
         markdown_table(results),
         "",
-        "Mean err: per-step position error averaged over the episode, then over episodes; final: at the "
-        "last step (mean over episodes). Final 1σ: sqrt(trace P_rr) of the filter at the last step. Vel err: "
-        "mean velocity error. Measured: fraction of steps with a camera "
-        "measurement. Slews: target changes per episode. Return: the environment's reward summed.",
+        "Mean err: per-step true position error averaged over the episode, then over episodes, with the "
+        "95 % Student-t interval over the episodes. Δ vs ref: mean over seeds of (agent - reference) of the "
+        "episode's mean error, with the paired 95 % t-interval (an interval containing 0 means the "
+        "difference is inside the seed-to-seed noise); ratio: the agent's mean / the reference's. Final: "
+        "at the last step (mean over episodes). Final 1σ: sqrt(trace P_rr) of the filter at the last step. "
+        "Measured: fraction of steps with a camera measurement. Slews: target changes per episode. "
+        "s/episode: wall time per episode including the agent's own computation. eval.json has the "
+        "per-episode values, the velocity error and the return.",
         "",
     ]
     lines += [f"![{p}]({p})" for p in plots]
@@ -611,8 +778,14 @@ def cmd_train(args: argparse.Namespace) -> int:
     # The trained policy twice: its argmax (the usual deterministic evaluation) and its sampled actions,
     # which on this problem can differ a lot (docs/training.md).
     specs = [str(model_path), f"{model_path}@sampled", *tc.eval.agents]
-    results = compare_agents(specs, env_cfg, tc.eval.episodes, tc.eval.seed, progress)
+    t0 = time.perf_counter()
+    results = compare_agents(specs, env_cfg, tc.eval.episodes, tc.eval.seed, progress, tc.eval.reference)
+    stats["eval_seconds"] = time.perf_counter() - t0
     print_table(results)
+    print(
+        f"wall time: training {stats['seconds']:.0f} s + evaluation {stats['eval_seconds']:.0f} s = "
+        f"{(stats['seconds'] + stats['eval_seconds']) / 60:.1f} min"
+    )
     report = write_report(run_dir, results, env_cfg, f"Run `{tc.name}`", stats, tc)
     print(f"report: {report}")
     return 0
@@ -634,13 +807,56 @@ def cmd_compare(args: argparse.Namespace) -> int:
     env_cfg, ev = _eval_env_config(args, args.agents)
     episodes = args.episodes or ev.episodes
     seed = ev.seed if args.seed is None else args.seed
-    results = compare_agents(args.agents, env_cfg, episodes, seed, progress=not args.no_progress)
+    reference = args.reference or ev.reference
+    results = compare_agents(args.agents, env_cfg, episodes, seed, not args.no_progress, reference)
     print_table(results)
     if args.json:
         Path(args.json).parent.mkdir(parents=True, exist_ok=True)
         Path(args.json).write_text(json.dumps(results_json(results), indent=2))
     if args.report:
         print(f"report: {write_report(Path(args.report), results, env_cfg, 'Agent comparison')}")
+    return 0
+
+
+DEFAULT_SWEEP_PERIODS = (10, 20, 30, 60, 120, 240)
+DEFAULT_SWEEP_CYCLES = ("0-1", "0-2", "1-2", "0-1-2", "0-2-1")
+
+
+def sweep_periodic(
+    env_cfg: EnvConfig,
+    periods: Sequence[int],
+    cycles: Sequence[str],
+    episodes: int,
+    seed: int,
+    progress: bool = True,
+) -> list[EvalResult]:
+    """Every ``periodic:period=P,cycle=C`` on the same seeds, best (lowest mean error) first, with paired
+    differences against the best."""
+    specs = [f"periodic:period={p},cycle={c}" for c in cycles for p in periods]
+    results = [evaluate_agent(s, env_cfg, episodes, seed, progress) for s in specs]
+    results.sort(key=lambda r: r.metrics["mean_pos_err_km"])
+    add_paired(results, results[0].name)
+    return results
+
+
+def cmd_sweep_periodic(args: argparse.Namespace) -> int:
+    env_cfg, _ = _eval_env_config(args, [])
+    if env_cfg.action_mode != "target":
+        raise ConfigError("sweep-periodic runs in action_mode 'target' (use a target-mode --config)")
+    episodes = args.episodes or EVAL_EPISODES
+    seed = SWEEP_SEED if args.seed is None else args.seed
+    t0 = time.perf_counter()
+    results = sweep_periodic(env_cfg, args.periods, args.cycles, episodes, seed, not args.no_progress)
+    print_table(
+        results,
+        title=f"periodic schedules: {episodes} seeds ({seed}..{seed + episodes - 1}), paired with the best",
+    )
+    best = results[0]
+    print(f"best: {best.name} (mean err {best.metrics['mean_pos_err_km']:.1f} km); "
+          f"{len(results)} settings in {time.perf_counter() - t0:.0f} s")  # fmt: skip
+    if args.json:
+        Path(args.json).parent.mkdir(parents=True, exist_ok=True)
+        Path(args.json).write_text(json.dumps({**results_json(results), "best": best.name}, indent=2))
     return 0
 
 
@@ -681,17 +897,33 @@ def build_parser() -> argparse.ArgumentParser:
         sp.add_argument("--json", help="write the metrics as JSON here")
 
     e = sub.add_parser("evaluate", help="evaluate one agent (name or SB3 model path)")
-    e.add_argument("--agent", required=True, help="baseline, greedy, random, idle, ... or a model path")
+    e.add_argument(
+        "--agent", required=True, help="planner, greedy, periodic:period=60,cycle=0-1-2, ... or a model path"
+    )
     common(e)
     e.set_defaults(func=cmd_evaluate)
 
     c = sub.add_parser("compare", help="evaluate several agents on the same seeds and print one table")
     c.add_argument("--agents", nargs="+", default=list(DEFAULT_AGENTS), help="names and/or model paths")
     c.add_argument("--report", help="also write report.md, plots and eval.json into this directory")
+    c.add_argument("--reference", help=f"paired differences against this agent (default {REFERENCE})")
     common(c)
     c.set_defaults(func=cmd_compare)
 
-    for sp in (t, e, c, tn):
+    w = sub.add_parser(
+        "sweep-periodic",
+        help=f"every periodic schedule of a grid on seeds {SWEEP_SEED}.. (not the evaluation seeds)",
+    )
+    w.add_argument(
+        "--periods", nargs="+", type=int, default=list(DEFAULT_SWEEP_PERIODS), help="steps per planet"
+    )
+    w.add_argument(
+        "--cycles", nargs="+", default=list(DEFAULT_SWEEP_CYCLES), help="planet cycles, e.g. 0-1-2"
+    )
+    common(w)
+    w.set_defaults(func=cmd_sweep_periodic)
+
+    for sp in (t, e, c, w, tn):
         sp.add_argument("--no-progress", action="store_true", help="no progress bars")
     return p
 

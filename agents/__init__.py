@@ -9,34 +9,50 @@ baseline       the thesis's rule: the nearest planet by the filter's estimate (:
 baseline-size  the same rule ranking by estimated apparent diameter
 greedy         the planet whose measurements shrink the position covariance most, slew time counted
 random         a uniformly random action each step
-idle           never measures (needs ``idle_action=True``)
+idle           never measures (needs ``idle_action=True``, so ``action_mode="target"`` only)
+periodic       fixed schedule: the planets of a cycle in turn, ``period`` steps each (:mod:`agents.periodic`)
+planner        non-myopic rollout planner on copies of the environment, scored by the filter's
+               covariance (:mod:`agents.planner`)
 PATH           a saved SB3 model (``.zip`` or a ``runs/<name>/`` directory), deterministic actions
 PATH           an RLlib checkpoint (a ``runs/<name>/`` directory of ``algo: rllib_ppo``, or the checkpoint
                directory itself; needs the ``[ray]`` extra), the policy's mode (:mod:`agents.rllib`)
 PATH@sampled   the same model, actions sampled from the policy (seeded by ``reset(seed)``)
 ============== ==========================================================================================
+
+Parameters follow the name: ``NAME:key=value,key=value`` (``periodic:period=60,cycle=0-1-2``,
+``greedy:horizon=5``, ``planner:horizon=120,replan=10``). Values are read as integers, floats,
+``true``/``false`` or text; an unknown key or a bad value raises ``ValueError`` naming it and the keys the
+agent accepts. :func:`not_applicable` says why an agent cannot run in an environment (``idle`` outside
+``target`` mode); the evaluation harness skips such agents with that note.
 """
 
 from __future__ import annotations
 
+import functools
+import inspect
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
 
-from agents.base import Agent, ParsedObservation, TargetAgent, parse_observation
+from agents.base import Agent, NotApplicableError, ParsedObservation, TargetAgent, parse_observation
 from agents.baseline import BaselineAgent
 from agents.greedy import GreedyAgent
+from agents.periodic import PeriodicAgent
+from agents.planner import PlannerAgent
 from agents.rllib import RLlibAgent
 from agents.rllib import find_checkpoint as find_rllib_checkpoint
 from agents.sb3 import SB3Agent
 from agents.simple import IdleAgent, RandomAgent
+from planetnav_env.config import EnvConfig
 
 AGENTS: dict[str, Callable[..., Agent]] = {
-    "baseline": lambda env, **kw: BaselineAgent(env, criterion="distance", **kw),
-    "baseline-size": lambda env, **kw: BaselineAgent(env, criterion="size", **kw),
+    "baseline": functools.partial(BaselineAgent, criterion="distance"),
+    "baseline-size": functools.partial(BaselineAgent, criterion="size"),
     "greedy": GreedyAgent,
+    "periodic": PeriodicAgent,
+    "planner": PlannerAgent,
     "random": RandomAgent,
     "idle": IdleAgent,
 }
@@ -55,9 +71,73 @@ def strip_sampled(spec: str) -> str:
     return s[: -len(SAMPLED_SUFFIX)] if s.endswith(SAMPLED_SUFFIX) else s
 
 
+def _convert(text: str) -> Any:
+    """A spec value: int, float, bool (``true``/``false``) or the text itself."""
+    low = text.lower()
+    if low in ("true", "false"):
+        return low == "true"
+    for kind in (int, float):
+        try:
+            return kind(text)
+        except ValueError:
+            pass
+    return text
+
+
+def _accepted_keys(factory: Callable[..., Agent]) -> list[str]:
+    """Keyword parameters a registered agent's constructor accepts (besides ``env``, minus fixed ones)."""
+    fixed: set[str] = set()
+    target = factory
+    if isinstance(factory, functools.partial):
+        fixed, target = set(factory.keywords), factory.func
+    params = inspect.signature(target).parameters
+    return [k for k in params if k not in {"self", "env", *fixed}]
+
+
+def parse_spec(spec: str | Path) -> tuple[str, dict[str, Any]]:
+    """``"NAME:key=value,..."`` -> (NAME, {key: value}) for a registered NAME; anything else (a model
+    path, ``PATH@sampled``) -> (spec, {}).
+
+    Raises ``ValueError`` naming a malformed, unknown or repeated key.
+    """
+    text = str(spec)
+    name, sep, rest = text.partition(":")
+    if not sep or name not in AGENTS:
+        return text, {}
+    accepted = _accepted_keys(AGENTS[name])
+    params: dict[str, Any] = {}
+    for item in filter(None, (p.strip() for p in rest.split(","))):
+        key, eq, value = item.partition("=")
+        key = key.strip()
+        if not eq or not key or not value.strip():
+            raise ValueError(f"agent spec {text!r}: {item!r} is not key=value")
+        if key not in accepted:
+            raise ValueError(f"agent spec {text!r}: unknown parameter {key!r}; {name} accepts {accepted}")
+        if key in params:
+            raise ValueError(f"agent spec {text!r}: parameter {key!r} given twice")
+        params[key] = _convert(value.strip())
+    return name, params
+
+
 def requires_idle_action(name_or_path: str) -> bool:
     """Whether the agent ``name_or_path`` needs an environment with ``idle_action=True``."""
-    return str(name_or_path) in NEEDS_IDLE_ACTION
+    return parse_spec(name_or_path)[0] in NEEDS_IDLE_ACTION
+
+
+def not_applicable(name_or_path: str, config: EnvConfig) -> str | None:
+    """Why agent ``name_or_path`` cannot act in an environment of ``config``, or None when it can.
+
+    Only what is known before building the agent: ``idle`` needs the discrete "camera off" action, which
+    exists in ``target`` mode only. (A saved model whose spaces do not match raises
+    :class:`NotApplicableError` when it is built.)
+    """
+    name, _ = parse_spec(name_or_path)
+    if name in NEEDS_IDLE_ACTION and config.action_mode != "target":
+        return (
+            f"{name} needs the discrete 'camera off' action, which only action_mode 'target' has "
+            f"(this environment: {config.action_mode!r})"
+        )
+    return None
 
 
 def make_agent(name_or_path: str | Path, env: gym.Env, **kwargs: Any) -> Agent:
@@ -66,7 +146,12 @@ def make_agent(name_or_path: str | Path, env: gym.Env, **kwargs: Any) -> Agent:
     ``kwargs`` go to the agent's constructor (e.g. ``horizon=60`` for ``greedy``, ``algo="ppo"`` for a
     model). Raises ``ValueError`` naming the known agents when the name is neither registered nor a path.
     """
-    key = str(name_or_path)
+    key, params = parse_spec(name_or_path)
+    if params:
+        try:
+            return AGENTS[key](env, **params, **kwargs)
+        except TypeError as exc:  # e.g. a keyword given both in the spec and in kwargs
+            raise ValueError(f"agent spec {name_or_path!r}: {exc}") from None
     if key.endswith(SAMPLED_SUFFIX):
         # "PATH@sampled": the saved policy's actions are sampled, not its argmax (seeded by reset(seed)).
         key = key[: -len(SAMPLED_SUFFIX)]
@@ -88,13 +173,18 @@ __all__ = [
     "BaselineAgent",
     "GreedyAgent",
     "IdleAgent",
+    "NotApplicableError",
     "ParsedObservation",
+    "PeriodicAgent",
+    "PlannerAgent",
     "RLlibAgent",
     "RandomAgent",
     "SB3Agent",
     "TargetAgent",
     "make_agent",
+    "not_applicable",
     "parse_observation",
+    "parse_spec",
     "requires_idle_action",
     "strip_sampled",
 ]

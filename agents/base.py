@@ -101,6 +101,11 @@ def parse_observation(observation: Any, env: gym.Env) -> ParsedObservation:
     )
 
 
+class NotApplicableError(ValueError):
+    """The agent cannot act in this environment (e.g. a model trained for another action space); the
+    evaluation harness skips it with the message as a note instead of stopping."""
+
+
 class Agent:
     """The interface every agent implements.
 
@@ -162,7 +167,10 @@ class TargetAgent(Agent):
 
     def act(self, observation: Any, info: dict[str, Any]) -> Any:
         obs = parse_observation(observation, self.env)
-        idx = int(self.choose_target(obs, info))
+        return self.encode(obs, info, int(self.choose_target(obs, info)))
+
+    def encode(self, obs: ParsedObservation, info: dict[str, Any], idx: int) -> Any:
+        """The action that points at target ``idx`` in this environment's action mode (class docstring)."""
         mode = self.config.action_mode
         if mode == "target":
             return idx

@@ -114,22 +114,37 @@ class GreedyAgent(TargetAgent):
         p_new = p - np.outer(ph, ph) / (h @ ph + self._psr_sigma[j] ** 2)
         return float(np.trace(p_new[:3, :3]))
 
-    def choose_target(self, obs: ParsedObservation, info: dict[str, Any]) -> int:
+    def _planet_scores(self, obs: ParsedObservation, info: dict[str, Any]) -> np.ndarray:
+        """(P,) reduction of trace(P_rr) per step over the horizon [km^2/step], -inf if not observable."""
         x = self.estimate(obs, info)
         p = np.asarray(info["filter"]["P"], dtype=float)
-        n_p = self.n_planets
         planets = obs.planet_positions(x)
         u = obs.planet_los_inertial
-        boresight = obs.boresight_inertial
-        angle = np.arccos(np.clip(u @ boresight, -1.0, 1.0))
+        angle = np.arccos(np.clip(u @ obs.boresight_inertial, -1.0, 1.0))
         lost = self.lost_steps(angle)
+        trace0 = float(np.trace(p[:3, :3]))
+        scores = np.full(self.n_planets, -np.inf)
+        for i in np.flatnonzero(obs.planet_observable):
+            n = self.horizon - int(lost[i])
+            scores[i] = (trace0 - self.predicted_trace(x, p, planets[i], int(i), n)) / self.horizon
+        return scores
+
+    def planet_gains(self, obs: ParsedObservation, info: dict[str, Any]) -> np.ndarray:
+        """(P,) the planets' scores relative to the current trace(P_rr) (0..1 per step), -1 if not
+        observable: the ``gain`` observation feature (:mod:`agents.features`)."""
+        trace0 = float(np.trace(np.asarray(info["filter"]["P"], dtype=float)[:3, :3]))
+        scores = self._planet_scores(obs, info)
+        return np.where(np.isfinite(scores), scores / max(trace0, 1e-30), -1.0)
+
+    def choose_target(self, obs: ParsedObservation, info: dict[str, Any]) -> int:
+        p = np.asarray(info["filter"]["P"], dtype=float)
+        n_p = self.n_planets
+        boresight = obs.boresight_inertial
         trace0 = float(np.trace(p[:3, :3]))
         # Scores are covariance reductions per step of the option's own cycle, so that a planet
         # (``horizon`` steps of images) and a pulsar (one phase per integration window) compare.
         scores = np.full(self.n_targets, -np.inf)
-        for i in np.flatnonzero(obs.planet_observable):
-            n = self.horizon - int(lost[i])
-            scores[i] = (trace0 - self.predicted_trace(x, p, planets[i], int(i), n)) / self.horizon
+        scores[:n_p] = self._planet_scores(obs, info)
         if obs.pulsars.shape[0]:
             # An integration already under way is finished: leaving loses it.
             if obs.target >= n_p and 0.0 < obs.pulsars[obs.target - n_p, 3] < 1.0:

@@ -13,7 +13,8 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from agents.base import Agent
+from agents.base import Agent, NotApplicableError
+from agents.features import FeatureState
 
 #: Lower-case names -> SB3 classes (imported lazily: SB3 and torch take seconds to import).
 ALGORITHMS = ("ppo", "a2c", "dqn", "sac", "td3", "ddpg")
@@ -41,15 +42,20 @@ def resolve_model_path(path: str | Path) -> Path:
     return p
 
 
-def _algo_from_sidecar(model_path: Path) -> str | None:
+def _sidecar(model_path: Path) -> dict[str, Any]:
+    """The run's ``config.yaml`` next to the model (empty when there is none)."""
     cfg = model_path.parent / "config.yaml"
     if not cfg.is_file():
-        return None
+        return {}
     import yaml
 
     with open(cfg) as fh:
         data = yaml.safe_load(fh) or {}
-    algo = data.get("algo") if isinstance(data, dict) else None
+    return data if isinstance(data, dict) else {}
+
+
+def _algo_from_sidecar(model_path: Path) -> str | None:
+    algo = _sidecar(model_path).get("algo")
     return str(algo).lower() if algo else None
 
 
@@ -83,6 +89,7 @@ class SB3Agent(Agent):
         env: gym.Env | None = None,
         algo: str | None = None,
         deterministic: bool = True,
+        features: list[str] | None = None,
     ) -> None:
         self.path = resolve_model_path(path)
         self.deterministic = bool(deterministic)
@@ -91,27 +98,39 @@ class SB3Agent(Agent):
         self.name = f"{type(self.model).__name__.lower()}:{stem}" + (
             "" if self.deterministic else ":stochastic"
         )
+        # Observation features the policy was trained with (config key ``features``), rebuilt here so the
+        # policy sees the same inputs; ``features`` overrides the run's config.yaml.
+        names = features if features is not None else _sidecar(self.path).get("features") or []
+        self.features = FeatureState(env, names) if (names and env is not None) else None
+        if names and env is None:
+            raise ValueError(f"{self.path}: a policy with observation features needs the environment")
         if env is not None:
             for what in ("observation_space", "action_space"):
                 mine, theirs = getattr(self.model, what), getattr(env, what)
+                if what == "observation_space" and self.features is not None:
+                    theirs = self.features.observation_space(theirs)
                 if mine.shape != theirs.shape or type(mine) is not type(theirs):
-                    raise ValueError(
+                    raise NotApplicableError(
                         f"{self.path}: the model's {what} {mine} does not match the environment's {theirs}"
                     )
             n = getattr(env.action_space, "n", None)
             if n is not None and getattr(self.model.action_space, "n", None) != n:
-                raise ValueError(
+                raise NotApplicableError(
                     f"{self.path}: the model has {self.model.action_space} actions, the environment "
                     f"{env.action_space} (was it trained with other planets or idle_action?)"
                 )
 
     def reset(self, seed: int | None = None) -> None:
+        if self.features is not None:
+            self.features.reset()
         if not self.deterministic and seed is not None:
             import torch
 
             torch.manual_seed(seed)
 
     def act(self, observation: Any, info: dict[str, Any]) -> Any:
+        if self.features is not None:
+            observation = self.features.augment(observation, info)
         action, _ = self.model.predict(observation, deterministic=self.deterministic)
         if np.ndim(action) == 0 or getattr(self.model.action_space, "n", None) is not None:
             return int(np.asarray(action).reshape(-1)[0])

@@ -29,8 +29,7 @@ INFO_KEYS = ("pos_err_km", "pos_sigma_km", "measured", "target")
 class PlanetNavSB3VecEnv(VecEnv):
     """``num_envs`` planetnav rows as an SB3 ``VecEnv`` (one compiled step for all rows).
 
-    Episode statistics for SB3's logger (``infos[i]["episode"] = {"r", "l"}``) are kept here, as
-    ``VecMonitor`` would.
+    Wrap it in SB3's ``VecMonitor`` for episode statistics (``train.py`` does).
     """
 
     def __init__(
@@ -40,8 +39,6 @@ class PlanetNavSB3VecEnv(VecEnv):
         super().__init__(num_envs, self.venv.single_observation_space, self.venv.single_action_space)
         self._seed = seed
         self._actions: np.ndarray | None = None
-        self._ep_return = np.zeros(num_envs)
-        self._ep_len = np.zeros(num_envs, dtype=np.int64)
 
     @property
     def config(self) -> EnvConfig:
@@ -51,8 +48,6 @@ class PlanetNavSB3VecEnv(VecEnv):
         seed = self._seed
         self._seed = None  # SB3 seeds once (VecEnv.seed), later resets continue the streams
         obs, _ = self.venv.reset(seed=seed)
-        self._ep_return[:] = 0.0
-        self._ep_len[:] = 0
         self.reset_infos = [{} for _ in range(self.num_envs)]
         return obs
 
@@ -65,8 +60,6 @@ class PlanetNavSB3VecEnv(VecEnv):
         obs, reward, terminated, truncated, info = self.venv.step(self._actions)
         self._actions = None
         done = terminated | truncated
-        self._ep_return += reward
-        self._ep_len += 1
         infos: list[dict[str, Any]] = [{} for _ in range(self.num_envs)]
         for k in INFO_KEYS:
             vals = info[k]
@@ -75,10 +68,7 @@ class PlanetNavSB3VecEnv(VecEnv):
         for r in np.flatnonzero(done):
             infos[r]["terminal_observation"] = info["final_obs"][r]
             infos[r]["TimeLimit.truncated"] = bool(truncated[r] and not terminated[r])
-            infos[r]["episode"] = {"r": float(self._ep_return[r]), "l": int(self._ep_len[r])}
             infos[r].update({k: info["final_info"][r][k] for k in INFO_KEYS})
-            self._ep_return[r] = 0.0
-            self._ep_len[r] = 0
         return obs, reward.astype(np.float32), done, infos
 
     def close(self) -> None:

@@ -8,7 +8,9 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
+import yaml
 
 ROOT = Path(__file__).resolve().parents[1]
 METRIC_KEYS = {
@@ -54,6 +56,7 @@ def test_smoke_training_writes_the_run(smoke_run: Path) -> None:
     data = json.loads((smoke_run / "eval.json").read_text())
     # The trained policy appears twice: argmax and sampled actions.
     assert set(data["agents"]) == {"ppo:smoke", "ppo:smoke:stochastic", "baseline", "random"}
+    assert data["skipped"] == {}
 
 
 def test_evaluate_json_schema(tmp_path: Path, smoke_run: Path) -> None:
@@ -64,10 +67,13 @@ def test_evaluate_json_schema(tmp_path: Path, smoke_run: Path) -> None:
     )  # fmt: skip
     assert rc == 0
     data = json.loads(out.read_text())
-    assert list(data) == ["agents"] and list(data["agents"]) == ["greedy"]
+    assert list(data) == ["agents", "skipped"] and list(data["agents"]) == ["greedy"]
     metrics = data["agents"]["greedy"]
     assert METRIC_KEYS <= set(metrics)
     assert metrics["episodes"] == 2 and 0.0 <= metrics["measured_fraction"] <= 1.0
+    low, high = metrics["mean_pos_err_ci95_km"]
+    assert low < metrics["mean_pos_err_km"] < high
+    assert len(metrics["per_episode_mean_pos_err_km"]) == 2
     # A saved model by its run directory: the env comes from the run's config.yaml (120-step episodes).
     out2 = tmp_path / "model.json"
     assert (
@@ -124,3 +130,78 @@ def test_shipped_configs_parse() -> None:
         tc.env_config()
         train.algo_kwargs(tc)
     assert train.load_config(ROOT / "configs" / "cruise_ppo.yaml").name == "cruise_ppo"
+
+
+def test_compare_pairs_with_greedy_and_skips_what_does_not_apply(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Torque mode: idle has no 'camera off' action there, so it is skipped with a note, not a crash; the
+    others are paired with greedy on the same seeds."""
+    cfg = tmp_path / "torque.yaml"
+    cfg.write_text("env_id: planetnav/Cruise-Torque-v0\n")
+    out = tmp_path / "c.json"
+    rc = train.main(
+        ["compare", "--agents", "planner:horizon=4,replan=2", "greedy", "periodic", "baseline", "random",
+         "idle", "--config", str(cfg), "--episodes", "3", "--episode-steps", "8", "--json", str(out),
+         "--no-progress"]
+    )  # fmt: skip
+    assert rc == 0
+    printed = capsys.readouterr().out
+    assert "skipped" in printed and "Δ vs greedy" in printed
+    data = json.loads(out.read_text())
+    assert set(data["skipped"]) == {"idle"} and "action_mode 'target'" in data["skipped"]["idle"]
+    greedy = data["agents"]["greedy"]["per_episode_mean_pos_err_km"]
+    for name, m in data["agents"].items():
+        vs = m["vs_reference"]
+        assert vs["reference"] == "greedy"
+        diffs = np.subtract(m["per_episode_mean_pos_err_km"], greedy)
+        assert vs["mean_diff_km"] == pytest.approx(np.mean(diffs), rel=1e-9, abs=1e-9), name
+
+
+def test_sweep_periodic_prints_the_best(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / "sweep.json"
+    rc = train.main(
+        ["sweep-periodic", "--periods", "2", "5", "--cycles", "0-1", "0-1-2", "--episodes", "2",
+         "--episode-steps", "12", "--json", str(out), "--no-progress"]
+    )  # fmt: skip
+    assert rc == 0
+    data = json.loads(out.read_text())
+    means = {k: v["mean_pos_err_km"] for k, v in data["agents"].items()}
+    assert len(means) == 4 and data["best"] == min(means, key=means.get)
+    assert f"best: {data['best']}" in capsys.readouterr().out
+
+
+def _smoke_version(path: Path, tmp_path: Path) -> Path:
+    """``path`` cut to a smoke run: a few hundred steps, 30-step episodes, 2 evaluation seeds."""
+    data = yaml.safe_load(path.read_text())
+    data["n_timesteps"] = 256
+    data["n_envs"] = 2
+    hp = dict(data.get("hyperparams") or {})
+    if data.get("algo", "ppo") in ("ppo", "a2c"):
+        hp.update(n_steps=64, batch_size=64, n_epochs=1)
+    else:
+        hp.update(learning_starts=64, batch_size=64, buffer_size=1000)
+    data["hyperparams"] = hp
+    data["env"] = {**(data.get("env") or {}), "episode_steps": 30}
+    ev = dict(data.get("eval") or {})
+    # The shipped agent list, with the planner's rollouts shortened to keep the test quick.
+    agents = [("planner:horizon=4,replan=2" if a == "planner" else a) for a in ev.get("agents", [])]
+    data["eval"] = {**ev, "episodes": 2, "agents": agents}
+    out = tmp_path / path.name
+    out.write_text(yaml.safe_dump(data))
+    return out
+
+
+@pytest.mark.parametrize("name", sorted(p.name for p in (ROOT / "configs").glob("*.yaml")))
+def test_every_shipped_config_trains_and_evaluates(tmp_path: Path, name: str) -> None:
+    """CI smoke test of each shipped training config, evaluation and report included (torque modes too)."""
+    cfg = _smoke_version(ROOT / "configs" / name, tmp_path)
+    run_dir = tmp_path / "run"
+    rc = train.main(["train", "--config", str(cfg), "--run-dir", str(run_dir), "--no-progress"])
+    assert rc == 0
+    data = json.loads((run_dir / "eval.json").read_text())
+    tc = train.load_config(cfg)
+    ran = set(data["agents"]) | set(data["skipped"])
+    assert len(ran) == 2 + len(tc.eval.agents)  # the trained policy (argmax, sampled) + the config's agents
+    assert all(m["episodes"] == 2 for m in data["agents"].values())
+    assert (run_dir / "report.md").read_text().count("|") > 10

@@ -218,7 +218,9 @@ def test_sb3_adapter_trains_and_reports_terminal_observations() -> None:
 
     from planetnav_env.sb3_vec import PlanetNavSB3VecEnv
 
-    vec = PlanetNavSB3VecEnv(4, seed=0, episode_steps=16)
+    from stable_baselines3.common.vec_env import VecMonitor
+
+    vec = VecMonitor(PlanetNavSB3VecEnv(4, seed=0, episode_steps=16))
     obs = vec.reset()
     assert obs.shape == (4, vec.observation_space.shape[0])
     dones_seen = 0

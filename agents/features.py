@@ -1,0 +1,112 @@
+"""Extra observation features for learned policies, computed from what the spacecraft knows.
+
+One implementation serves training and evaluation: :class:`FeatureState` appends the features to the
+environment's box observation; :class:`NavFeatures` is the Gymnasium wrapper ``train.py`` puts around each
+training environment (config key ``features``), and :class:`agents.sb3.SB3Agent` rebuilds the same state
+from the run's ``config.yaml`` so that a saved policy sees identical inputs when it is evaluated.
+
+========================== ===========================================================================
+feature                    values appended (``P`` planets), each in [0, 1] unless stated
+========================== ===========================================================================
+``since_measured``         per planet: ``log1p(steps since it was last measured) / log1p(episode_steps)``
+                           (1 when never measured this episode), from ``info["measured"]`` and
+                           ``info["target"]``. Lets a feed-forward policy time its switches, which the
+                           base observation (a snapshot of the filter) cannot express.
+``gain``                   per planet: the greedy agent's predicted relative reduction of trace(P_rr)
+                           per step over its horizon, slew time counted
+                           (:meth:`agents.greedy.GreedyAgent.planet_gains`), -1 if not observable. Costs
+                           the greedy computation (~1.3 ms per step).
+========================== ===========================================================================
+
+These are inputs, not rewards: the reward stays the environment's navigation error.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+
+from agents.base import parse_observation, unwrapped_config
+
+FEATURES = ("since_measured", "gain")
+
+
+def check_features(features: Sequence[str]) -> tuple[str, ...]:
+    """The feature names, validated (``ValueError`` naming an unknown or repeated one)."""
+    out = tuple(str(f) for f in features)
+    for f in out:
+        if f not in FEATURES:
+            raise ValueError(f"unknown observation feature {f!r}; choose from {list(FEATURES)}")
+    if len(set(out)) != len(out):
+        raise ValueError(f"observation features repeat: {list(out)}")
+    return out
+
+
+class FeatureState:
+    """Per-episode state of the features of ``env`` (a planetnav environment, box observation).
+
+    Call :meth:`reset` at the start of each episode, then :meth:`augment` with every observation and the
+    ``info`` returned with it (including the first one, from ``env.reset``).
+    """
+
+    def __init__(self, env: gym.Env, features: Sequence[str]) -> None:
+        cfg = unwrapped_config(env)
+        if cfg.observation != "box":
+            raise ValueError("observation features need observation='box'")
+        self.env = env
+        self.features = check_features(features)
+        self.planets = cfg.planets
+        self.n_planets = cfg.n_planets
+        self._log_episode = math.log1p(cfg.episode_steps)
+        self._greedy = None
+        if "gain" in self.features:
+            from agents.greedy import GreedyAgent
+
+            self._greedy = GreedyAgent(env)
+        self.n_extra = self.n_planets * len(self.features)
+        self.reset()
+
+    def reset(self) -> None:
+        self._since = np.full(self.n_planets, np.inf)  # steps since last measured
+
+    def observation_space(self, base: spaces.Box) -> spaces.Box:
+        """``base`` with :attr:`n_extra` more entries."""
+        return spaces.Box(-np.inf, np.inf, (base.shape[0] + self.n_extra,), dtype=np.float32)
+
+    def augment(self, observation: np.ndarray, info: dict[str, Any]) -> np.ndarray:
+        """The observation with the features appended (float32); advances the per-episode state."""
+        self._since += 1.0
+        if info.get("measured") and info.get("target") in self.planets:
+            self._since[self.planets.index(info["target"])] = 0.0
+        parts = [np.asarray(observation, dtype=np.float32).reshape(-1)]
+        for f in self.features:
+            if f == "since_measured":
+                s = np.where(np.isfinite(self._since), np.log1p(self._since) / self._log_episode, 1.0)
+                parts.append(np.minimum(s, 1.0).astype(np.float32))
+            elif f == "gain":
+                parsed = parse_observation(observation, self.env)
+                parts.append(self._greedy.planet_gains(parsed, info).astype(np.float32))
+        return np.concatenate(parts)
+
+
+class NavFeatures(gym.Wrapper):
+    """Appends :class:`FeatureState`'s features to a planetnav environment's box observation."""
+
+    def __init__(self, env: gym.Env, features: Sequence[str]) -> None:
+        super().__init__(env)
+        self.state = FeatureState(env, features)
+        self.observation_space = self.state.observation_space(env.observation_space)
+
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        obs, info = self.env.reset(seed=seed, options=options)
+        self.state.reset()
+        return self.state.augment(obs, info), info
+
+    def step(self, action: Any):
+        obs, reward, terminated, truncated, info = self.env.step(action)
+        return self.state.augment(obs, info), reward, terminated, truncated, info
