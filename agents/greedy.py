@@ -4,10 +4,9 @@ Each step, for every planet the camera could see if pointed at it (the observati
 pointed at" flag), the agent predicts the filter's position covariance after looking at that planet for
 a short horizon and picks the largest reduction of ``trace(P_rr)`` per step:
 
-1. Jacobian: ``MeasurementModel(config.measurement_model).evaluate`` at the estimate ``info["filter"]["x"]``
-   with the line-of-sight basis of the predicted direction (:func:`los_basis`), and the noise the
-   environment's filter uses: ``sigma_dir = hypot(camera direction noise, star-tracker sigma)``,
-   ``sigma_size = camera.sigma_alpha_rad``.
+1. Prediction: the environment core's own measurement model, noise and update
+   (:func:`planetnav_env.core.kernels.predicted_planet_trace` on copies of ``info["filter"]``), with the
+   line-of-sight basis of the predicted direction; no second implementation of the Kalman update.
 2. Slew time lost: the angle between the current boresight (star-tracker quaternion x body +x) and the
    planet's estimated direction gives a bang-bang (trapezoidal: torque limit, wheel momentum cap) slew time
    at the mean moment of inertia, stretched by :data:`PD_SLOWDOWN` because the PD law is slower than
@@ -42,12 +41,10 @@ import gymnasium as gym
 import numpy as np
 
 from agents.base import ParsedObservation, TargetAgent
-from planetnav_env.estimation.measurements import MeasurementModel, los_basis
-from planetnav_env.sensors import pulsar as psr
+from planetnav_env.core.kernels import predicted_planet_trace, predicted_pulsar_trace
 
 #: Ratio of the PD law's slew time to the bang-bang minimum, calibrated on the environment (see docstring).
 PD_SLOWDOWN = 1.6
-_ARCSEC = math.pi / 648_000.0
 
 
 def bang_bang_time(angle_rad: np.ndarray, accel: float, rate_max: float) -> np.ndarray:
@@ -72,15 +69,8 @@ class GreedyAgent(TargetAgent):
         self.horizon = int(horizon)
         self.pd_slowdown = float(pd_slowdown)
         cfg = self.config
-        # The environment's filter noise, rebuilt from the public config (its own model is private).
-        sigma_dir = math.hypot(cfg.camera.sigma_direction_rad, cfg.star_tracker_sigma_arcsec * _ARCSEC)
-        self.model = MeasurementModel(
-            cfg.measurement_model, sigma_dir=sigma_dir, sigma_size=cfg.camera.sigma_alpha_rad
-        )
-        self.diameters = 2.0 * self.radii
-        # Pulsar timing (sensor tasking): wavelength [km] and phase noise [cycles] of each catalogue entry.
-        self._psr_lambda = np.array([psr.pulsar(n).wavelength_km for n in cfg.pulsars])
-        self._psr_sigma = np.array([psr.phase_sigma_cycles(n, cfg.detector) for n in cfg.pulsars])
+        # The environment's own parameter record: the what-if updates use the core's model and noise.
+        self._params = env.unwrapped.core.params
         self._integration_steps = max(1, math.ceil(cfg.detector.integration_time_s / cfg.step_s - 1e-9))
         j_mean = float(np.mean(cfg.attitude.inertia))
         self._accel = cfg.attitude.wheel_torque_limit / j_mean
@@ -93,26 +83,16 @@ class GreedyAgent(TargetAgent):
         return np.maximum(np.ceil(t / self.config.step_s) - 1.0, 0.0)
 
     def predicted_trace(self, x: np.ndarray, p: np.ndarray, planet: np.ndarray, i: int, n: int) -> float:
-        """``trace(P_rr)`` after ``n`` measurements of planet ``i`` (at ``planet``) from estimate ``x``."""
+        """``trace(P_rr)`` after ``n`` measurements of planet ``i`` (at ``planet``) from estimate ``x``:
+        the environment core's own measurement model and update (``core.kernels.predicted_planet_trace``)."""
         if n <= 0:
             return float(np.trace(p[:3, :3]))
-        d = planet - x[:3]
-        basis = los_basis((d / np.linalg.norm(d))[None]) if self.model.kind.startswith("los") else None
-        _, h, r = self.model.evaluate(x[:3], planet, float(self.diameters[i]), basis)
-        h, r = h[0], r[0] / n
-        ph = p @ h.T
-        s = h @ ph + r
-        p_new = p - ph @ np.linalg.solve(s, ph.T)
-        return float(np.trace(p_new[:3, :3]))
+        return float(predicted_planet_trace(self._params, x, p, np.asarray(planet, float), int(i), float(n)))
 
     def pulsar_trace(self, p: np.ndarray, n_dir: np.ndarray, j: int) -> float:
-        """``trace(P_rr)`` after one phase of pulsar ``j`` (direction ``n_dir``): a scalar update with
-        ``H = n / lambda`` on the position and ``R = sigma_phase^2``."""
-        h = np.zeros(6)
-        h[:3] = n_dir / self._psr_lambda[j]
-        ph = p @ h
-        p_new = p - np.outer(ph, ph) / (h @ ph + self._psr_sigma[j] ** 2)
-        return float(np.trace(p_new[:3, :3]))
+        """``trace(P_rr)`` after one phase of pulsar ``j``: the core's scalar update
+        (``core.kernels.predicted_pulsar_trace``; ``H = n / lambda``, ``R = sigma_phase^2``)."""
+        return float(predicted_pulsar_trace(self._params, np.ascontiguousarray(p, dtype=float), int(j)))
 
     def _planet_scores(self, obs: ParsedObservation, info: dict[str, Any]) -> np.ndarray:
         """(P,) reduction of trace(P_rr) per step over the horizon [km^2/step], -inf if not observable."""

@@ -23,7 +23,7 @@ from planetnav_env.vector_env import PlanetNavVectorEnv
 
 #: Keys of the single environment's info copied into SB3's per-row info dicts (SB3's Monitor-like
 #: callbacks read these); the full set is ``vec.info_row(i)``.
-INFO_KEYS = ("pos_err_km", "pos_sigma_km", "measured", "target")
+INFO_KEYS = ("pos_err_km", "pos_sigma_km", "measured")
 
 
 class PlanetNavSB3VecEnv(VecEnv):

@@ -10,7 +10,9 @@ returns its first observation with reward 0; ``"same_step"``: a row that ends is
 step, its last observation in ``info["final_obs"]`` and its last info in ``info["final_info"]`` (what
 Stable-Baselines3 expects; :class:`planetnav_env.sb3_vec.PlanetNavSB3VecEnv` uses it).
 
-``info`` is a dict of arrays over the rows (Gymnasium's vector convention, with the ``_key`` masks).
+``info`` is a dict of numeric arrays over the rows (Gymnasium's vector convention, with the ``_key``
+masks; see :meth:`BatchCore.info_batch`); :meth:`PlanetNavVectorEnv.info_row` gives one row's info in the
+single environment's form and :meth:`PlanetNavVectorEnv.filter_state` the filters.
 Bad actions (wrong shape, NaN in a row, out of range) raise before any row is stepped, naming the row.
 A row whose filter diverges terminates alone.
 """
@@ -85,6 +87,8 @@ class PlanetNavVectorEnv(VectorEnv):
         self._targets = np.full(n, -1, dtype=np.int64)
         self._torques = np.zeros((n, 3))
         self._rows = np.arange(n, dtype=np.int64)
+        self._all_rows = np.ones(n, dtype=bool)
+        self._all_rows.flags.writeable = False
 
     # ------------------------------------------------------------------------------------------
     def reset(
@@ -168,8 +172,12 @@ class PlanetNavVectorEnv(VectorEnv):
     def _infos(self) -> dict[str, Any]:
         info = self.core.info_batch()
         for k in list(info):
-            info["_" + k] = np.ones(self.num_envs, dtype=bool)
+            info["_" + k] = self._all_rows  # every key holds a value for every row
         return info
+
+    def filter_state(self) -> tuple[np.ndarray, np.ndarray]:
+        """Every row's filter estimate (N, 6) and covariance (N, 6, 6) (copies)."""
+        return self.core.filter_state()
 
     def decode_observation(self, observation: Any) -> dict[str, Any]:
         """One row's observation in physical units (see :meth:`PlanetNavEnv.decode_observation`)."""

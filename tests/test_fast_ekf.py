@@ -150,3 +150,46 @@ def test_navigation_harness_engines_agree(kind):
     np.testing.assert_allclose(b.x_est, a.x_est, rtol=1e-10)
     np.testing.assert_allclose(b.P, a.P, rtol=1e-6, atol=1e-9 * np.abs(a.P).max())
     np.testing.assert_array_equal(b.accepted, a.accepted)
+
+
+def test_core_what_if_updates_equal_the_numpy_kalman_update():
+    """The planning agents' what-if (core.kernels.predicted_*_trace: the core's model and Joseph update on
+    copies, R / n, zero innovation) equals the standard-form update P - P H^T S^-1 H P of the numpy
+    measurement model (the oracle) for every measurement model and pulsar."""
+    import math
+
+    from planetnav_env.core.kernels import predicted_planet_trace, predicted_pulsar_trace
+    from planetnav_env.env import PlanetNavEnv
+    from planetnav_env.estimation.measurements import MeasurementModel, los_basis
+    from planetnav_env.sensors import pulsar as psr
+
+    rng = np.random.default_rng(5)
+    for model in ("direction", "direction+size", "los", "los+size"):
+        env = PlanetNavEnv(measurement_model=model, pulsars=("B0531+21",))
+        _, info = env.reset(seed=1)
+        cfg = env.config
+        prm = env.core.params
+        x, p = info["filter"]["x"], info["filter"]["P"]
+        sigma_dir = math.hypot(
+            cfg.camera.sigma_direction_rad, cfg.star_tracker_sigma_arcsec * math.pi / 648000
+        )
+        mm = MeasurementModel(model, sigma_dir=sigma_dir, sigma_size=cfg.camera.sigma_alpha_rad)
+        for _ in range(10):
+            i = int(rng.integers(0, 3))
+            planet = x[:3] + rng.normal(size=3) * 1e8
+            n = int(rng.integers(1, 5))
+            d = planet - x[:3]
+            basis = los_basis((d / np.linalg.norm(d))[None]) if model.startswith("los") else None
+            _, h, r = mm.evaluate(x[:3], planet, 2.0 * prm.radii[i], basis)
+            h, r = h[0], r[0] / n
+            ph = p @ h.T
+            want = np.trace((p - ph @ np.linalg.solve(h @ ph + r, ph.T))[:3, :3])
+            got = predicted_planet_trace(prm, x, p, planet, i, float(n))
+            assert got == pytest.approx(want, rel=1e-9)
+        pul = psr.pulsar("B0531+21")
+        hrow = np.zeros(6)
+        hrow[:3] = pul.direction / pul.wavelength_km
+        ph = p @ hrow
+        sig = psr.phase_sigma_cycles(pul, cfg.detector)
+        want = np.trace((p - np.outer(ph, ph) / (hrow @ ph + sig**2))[:3, :3])
+        assert predicted_pulsar_trace(prm, p, 0) == pytest.approx(want, rel=1e-9)

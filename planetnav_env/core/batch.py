@@ -203,27 +203,28 @@ class BatchCore:
         }
 
     def info_batch(self) -> dict[str, np.ndarray]:
-        """The same quantities as arrays over the rows (the vector environment's ``info``)."""
+        """Per-row quantities as arrays (the vector environment's ``info``): numbers only, so that a step
+        of 4096 rows does not build thousands of Python objects. ``target_index`` indexes
+        ``config.planets + config.pulsars`` (-1: none); ``visibility_code`` indexes
+        :data:`planetnav_env.core.layout.REASONS`. The filter's estimate and covariance are
+        :meth:`filter_state` (copying 4096 covariances every step would cost more than the step)."""
         f, i = self.f, self.i
-        cfg = self.config
-        names = np.array([*cfg.planets, *cfg.pulsars, ""], dtype=object)
-        tgt = i[:, L.I_TARGET]
         return {
             "pos_err_km": f[:, L.F_POS_ERR].copy(),
             "vel_err_km_s": f[:, L.F_VEL_ERR].copy(),
             "nees": f[:, L.F_NEES].copy(),
             "pos_sigma_km": f[:, L.F_POS_SIGMA].copy(),
-            "measured": i[:, L.I_MEASURED].astype(bool),
-            "rejected": i[:, L.I_REJECTED].astype(bool),
-            "target_index": tgt.copy(),
-            "target": names[tgt],
-            "visibility": np.array(L.REASONS, dtype=object)[i[:, L.I_REASON]],
-            "slewing": i[:, L.I_SLEWING].astype(bool),
-            "attitude_err_arcsec": f[:, L.F_ATT_ERR] / K_ARCSEC,
-            "time_s": f[:, L.F_T0] + i[:, L.I_K] * cfg.step_s,
-            "filter_x": f[:, L.F_XE : L.F_XE + 6].copy(),
-            "filter_P": self.p.copy(),
+            "measured": i[:, L.I_MEASURED] != 0,
+            "rejected": i[:, L.I_REJECTED] != 0,
+            "target_index": i[:, L.I_TARGET].copy(),
+            "visibility_code": i[:, L.I_REASON].copy(),
+            "slewing": i[:, L.I_SLEWING] != 0,
+            "time_s": f[:, L.F_T0] + i[:, L.I_K] * self.config.step_s,
         }
+
+    def filter_state(self) -> tuple[np.ndarray, np.ndarray]:
+        """Copies of every row's filter estimate (N, 6) [km, km/s] and covariance (N, 6, 6)."""
+        return self.f[:, L.F_XE : L.F_XE + 6].copy(), self.p.copy()
 
     def truth_row(self, row: int) -> dict[str, np.ndarray]:
         f = self.f[row]

@@ -269,6 +269,28 @@ def _perturbers(prm, eph, f, n, t, dt, out) -> bool:  # pragma: no cover - compi
 
 
 @njit(cache=True, nogil=True)
+def los_basis_kernel(planet, x_est, basis) -> None:  # pragma: no cover - compiled
+    """Rows of ``basis`` (2, 3): ``e1 = d x (axis least aligned with d)``, ``e2 = d x e1`` for the predicted
+    line of sight ``d`` from ``x_est`` to ``planet`` (``measurements.los_basis`` is its numpy oracle)."""
+    d0, d1, d2 = planet[0] - x_est[0], planet[1] - x_est[1], planet[2] - x_est[2]
+    dn = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+    d0, d1, d2 = d0 / dn, d1 / dn, d2 / dn
+    k = 0
+    smallest = abs(d0)
+    if abs(d1) < smallest:
+        k = 1
+        smallest = abs(d1)
+    if abs(d2) < smallest:
+        k = 2
+    a0, a1, a2 = (1.0 if k == 0 else 0.0), (1.0 if k == 1 else 0.0), (1.0 if k == 2 else 0.0)
+    e10, e11, e12 = d1 * a2 - d2 * a1, d2 * a0 - d0 * a2, d0 * a1 - d1 * a0
+    en = math.sqrt(e10 * e10 + e11 * e11 + e12 * e12)
+    e10, e11, e12 = e10 / en, e11 / en, e12 / en
+    basis[0, 0], basis[0, 1], basis[0, 2] = e10, e11, e12
+    basis[1, 0], basis[1, 1], basis[1, 2] = d1 * e12 - d2 * e11, d2 * e10 - d0 * e12, d0 * e11 - d1 * e10
+
+
+@njit(cache=True, nogil=True)
 def measurement_vector_kernel(los_body, alpha, q_est, planet, x_est, kind, z, basis, r):  # pragma: no cover
     """Filter measurement ``z`` from a body-frame line of sight rotated to inertial by the *star-tracker*
     attitude ``q_est`` (what a real filter does: it never sees the true attitude).
@@ -287,25 +309,9 @@ def measurement_vector_kernel(los_body, alpha, q_est, planet, x_est, kind, z, ba
         z[0] = math.asin(min(max(u2, -1.0), 1.0))
         z[1] = math.atan2(u1, u0)
     else:
-        d0, d1, d2 = planet[0] - x_est[0], planet[1] - x_est[1], planet[2] - x_est[2]
-        dn = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
-        d0, d1, d2 = d0 / dn, d1 / dn, d2 / dn
-        k = 0
-        smallest = abs(d0)
-        if abs(d1) < smallest:
-            k = 1
-            smallest = abs(d1)
-        if abs(d2) < smallest:
-            k = 2
-        a0, a1, a2 = (1.0 if k == 0 else 0.0), (1.0 if k == 1 else 0.0), (1.0 if k == 2 else 0.0)
-        e10, e11, e12 = d1 * a2 - d2 * a1, d2 * a0 - d0 * a2, d0 * a1 - d1 * a0
-        en = math.sqrt(e10 * e10 + e11 * e11 + e12 * e12)
-        e10, e11, e12 = e10 / en, e11 / en, e12 / en
-        e20, e21, e22 = d1 * e12 - d2 * e11, d2 * e10 - d0 * e12, d0 * e11 - d1 * e10
-        basis[0, 0], basis[0, 1], basis[0, 2] = e10, e11, e12
-        basis[1, 0], basis[1, 1], basis[1, 2] = e20, e21, e22
-        z[0] = e10 * u0 + e11 * u1 + e12 * u2
-        z[1] = e20 * u0 + e21 * u1 + e22 * u2
+        los_basis_kernel(planet, x_est, basis)
+        z[0] = basis[0, 0] * u0 + basis[0, 1] * u1 + basis[0, 2] * u2
+        z[1] = basis[1, 0] * u0 + basis[1, 1] * u1 + basis[1, 2] * u2
     if kind == 1 or kind == 3:
         z[2] = alpha
         return 3
@@ -845,3 +851,48 @@ def reset_rows(prm, f, p, i, rng, eph, obs, rows) -> None:  # pragma: no cover -
     sc = make_scratch(prm)
     for r in range(rows.shape[0]):
         reset_row(prm, f, p, i, rng, eph, obs, rows[r], sc)
+
+
+# ------------------------------------------------------------------------------------------------
+# What-if updates for planning agents (the core's own model and update on copies)
+# ------------------------------------------------------------------------------------------------
+@njit(cache=True)
+def predicted_planet_trace(prm, x, p, planet, idx, n_meas) -> float:  # pragma: no cover - compiled
+    """``trace(P_rr)`` [km^2] after ``n_meas`` images of planet ``idx`` (at ``planet``, the filter's frame)
+    from estimate ``x`` (6,) and covariance ``p`` (6, 6), neither modified: the core's measurement model
+    and Joseph update, with R / n_meas (n identical measurements of a nearly static state equal one with
+    R / n) and zero innovation (the covariance does not depend on it). Ungated."""
+    s = prm.s
+    kind = prm.n[N_KIND]
+    xc = x.copy()
+    pc = p.copy()
+    basis = np.zeros((2, 3))
+    if kind >= 2:
+        los_basis_kernel(planet, xc, basis)
+    h = np.empty(3)
+    jac = np.empty((3, 6))
+    rcov = np.empty((3, 3))
+    m = planet_model_kernel(
+        xc[:3], planet, 2.0 * prm.radii[idx], kind, s[S_SIG_DIR], s[S_SIG_SIZE], basis, h, jac, rcov
+    )
+    for a in range(m):
+        for c in range(m):
+            rcov[a, c] /= n_meas
+    update_kernel(xc, pc, h.copy(), h, jac, rcov, m, 1 if kind <= 1 else -1, np.inf, np.empty((5, 6, 6)))
+    return pc[0, 0] + pc[1, 1] + pc[2, 2]
+
+
+@njit(cache=True)
+def predicted_pulsar_trace(prm, p, j) -> float:  # pragma: no cover - compiled
+    """``trace(P_rr)`` [km^2] after one phase of pulsar ``j`` (``H = n / lambda`` on the position,
+    ``R = sigma_phase^2``): the core's scalar update on a copy of ``p``."""
+    pc = p.copy()
+    x = np.zeros(6)
+    jac = np.zeros((3, 6))
+    for k in range(3):
+        jac[0, k] = prm.psr[j, k] / prm.psr[j, 3]
+    rcov = np.zeros((3, 3))
+    rcov[0, 0] = prm.psr[j, 4] ** 2
+    h = np.zeros(3)
+    update_kernel(x, pc, h.copy(), h, jac, rcov, 1, -1, np.inf, np.empty((5, 6, 6)))
+    return pc[0, 0] + pc[1, 1] + pc[2, 2]
