@@ -27,8 +27,8 @@ In the default cruise this alternates between Venus and the other planets: the d
 triangulate the position, which staring at one planet (the baseline) cannot.
 
 With a pulsar detector (``MarsApproach-Tasking``), each observable pulsar whose cycle count the filter
-can trust (predicted 3 sigma < half a cycle) is scored by the reduction of one phase update
-(``H = n / lambda``, ``R = sigma_phase^2``) divided by its cycle (slew + integration steps); a planet's
+can trust (``ambiguity_k_sigma`` predicted sigmas < half a cycle) is scored by the reduction of one phase
+update (``H = n / lambda``, ``R = sigma_phase^2``) divided by its cycle (slew + integration steps); a planet's
 score is divided by the horizon. An integration under way is always finished.
 """
 
@@ -42,6 +42,7 @@ import numpy as np
 
 from agents.base import ParsedObservation, TargetAgent
 from planetnav_env.core.kernels import predicted_planet_trace, predicted_pulsar_trace
+from planetnav_env.sensors.pulsar import ambiguity_resolvable_kernel
 
 #: Ratio of the PD law's slew time to the bang-bang minimum, calibrated on the environment (see docstring).
 PD_SLOWDOWN = 1.6
@@ -132,7 +133,8 @@ class GreedyAgent(TargetAgent):
                 return obs.target
             n_dirs = obs.pulsar_los_inertial
             psr_lost = self.lost_steps(np.arccos(np.clip(n_dirs @ boresight, -1.0, 1.0)))
-            resolvable = 3.0 * 10.0 ** obs.pulsars[:, 4] < 0.5  # the filter can trust the cycle count
+            # The environment's own trust rule and its configured k (the filter skips untrusted phases).
+            resolvable = ambiguity_resolvable_kernel(10.0 ** obs.pulsars[:, 4], self.config.ambiguity_k_sigma)
             for j in np.flatnonzero((obs.pulsars[:, 5] > 0.5) & resolvable):
                 cycle = self._integration_steps + int(psr_lost[j])
                 scores[n_p + j] = (trace0 - self.pulsar_trace(p, n_dirs[j], int(j))) / cycle

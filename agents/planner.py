@@ -104,13 +104,13 @@ class PlannerAgent(TargetAgent):
             self._choice = int(candidates[0])
             return self._choice
         base = copy.deepcopy(self.env.unwrapped)
-        raw_obs = base._observation()  # the copy's current observation (the one the agent was given)
+        raw_obs = base.current_observation()  # the copy's observation (the one the agent was given)
         noise_seed = int(self._rng.integers(2**63))
         scores: dict[int, float] = {}
         for c in candidates:
             sim = copy.deepcopy(base)
             # Own noise stream, identical for all candidates: no replay of the real environment's noise.
-            sim.np_random = np.random.default_rng(noise_seed)
+            sim.reseed_noise(noise_seed)
             scores[int(c)] = self._rollout(sim, int(c), raw_obs, info)
         self.last_scores = scores
         best = min(scores.values())

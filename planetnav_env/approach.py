@@ -47,6 +47,7 @@ from planetnav_env.dynamics.orbit import GravityModel, rk4_step
 from planetnav_env.ephemeris import DEEphemeris
 from planetnav_env.errors import InvalidParameterError, require_finite, require_positive
 from planetnav_env.estimation.ekf import BatchEKF, FilterConfig
+from planetnav_env.estimation.fast import nees_batch_kernel
 from planetnav_env.estimation.image_plane import (
     boresight_camera_to_inertial,
     image_plane_coordinates,
@@ -455,7 +456,9 @@ def run_methods(
         pos_err[k] = e[:, :3]
         vel_err[k] = e[:, 3:]
         sigma_pos[k] = np.sqrt(np.trace(ekf.P[:, :3, :3], axis1=1, axis2=2))
-        nees[k] = np.einsum("ni,ni->n", e, np.linalg.solve(ekf.P, e[..., None])[..., 0])
+        nees_batch_kernel(
+            ekf.x, np.broadcast_to(x_true[k], ekf.x.shape), np.ascontiguousarray(ekf.P), nees[k]
+        )
 
     n_opt = np.zeros(nb, int)
     n_psr = np.zeros(nb, int)

@@ -36,6 +36,7 @@ import numpy as np
 from planetnav_env.config import EnvConfig
 from planetnav_env.core import layout as L
 from planetnav_env.core.batch import BatchCore
+from planetnav_env.core.rng import seed_state
 from planetnav_env.core.layout import TARGET_FEATURES, ObservationLayout
 from planetnav_env.errors import InvalidParameterError
 from planetnav_env.spaces import (
@@ -201,6 +202,15 @@ class PlanetNavEnv(gym.Env):
     def target_index(self) -> int:
         """Index of the current target (planets, then pulsars) or -1."""
         return int(self.core.i[0, L.I_TARGET])
+
+    def current_observation(self) -> Any:
+        """The observation of the current state (what the last ``reset``/``step`` returned)."""
+        return format_observation(self.config, self.layout, self.core.obs[0])
+
+    def reseed_noise(self, seed: int) -> None:
+        """Replace the sensor-noise stream (star tracker, rates, camera, pulsars) by one seeded with
+        ``seed``: planners that roll out copies use it so that a copy never replays the real noise."""
+        self.core.rng[0] = seed_state(np.random.default_rng(seed))
 
     def body_positions(self) -> dict[str, np.ndarray]:
         """Heliocentric positions [km] of the central body and the planets now (from the episode's table)."""

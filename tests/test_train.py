@@ -124,8 +124,14 @@ def test_bad_config_key_is_named(
     assert named in err and "error:" in err
 
 
+def _sb3_configs() -> list[str]:
+    """The shipped SB3 training configs; the Ray ones (rllib_*, sweep*) need the [ray] extra and are
+    smoke-tested by tests/test_ray.py in the Ray virtual environment (make test-ray)."""
+    return sorted(p.name for p in (ROOT / "configs").glob("*.yaml") if not p.name.startswith(("rllib", "sweep")))
+
+
 def test_shipped_configs_parse() -> None:
-    for path in sorted((ROOT / "configs").glob("*.yaml")):
+    for path in sorted((ROOT / "configs") / name for name in _sb3_configs()):
         tc = train.load_config(path)
         tc.env_config()
         train.algo_kwargs(tc)
@@ -192,7 +198,7 @@ def _smoke_version(path: Path, tmp_path: Path) -> Path:
     return out
 
 
-@pytest.mark.parametrize("name", sorted(p.name for p in (ROOT / "configs").glob("*.yaml")))
+@pytest.mark.parametrize("name", _sb3_configs())
 def test_every_shipped_config_trains_and_evaluates(tmp_path: Path, name: str) -> None:
     """CI smoke test of each shipped training config, evaluation and report included (torque modes too)."""
     cfg = _smoke_version(ROOT / "configs" / name, tmp_path)
