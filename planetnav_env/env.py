@@ -36,8 +36,8 @@ import numpy as np
 from planetnav_env.config import EnvConfig
 from planetnav_env.core import layout as L
 from planetnav_env.core.batch import BatchCore
-from planetnav_env.core.rng import seed_state
 from planetnav_env.core.layout import TARGET_FEATURES, ObservationLayout
+from planetnav_env.core.rng import seed_state
 from planetnav_env.errors import InvalidParameterError
 from planetnav_env.spaces import (
     action_space,

@@ -127,7 +127,8 @@ def test_bad_config_key_is_named(
 def _sb3_configs() -> list[str]:
     """The shipped SB3 training configs; the Ray ones (rllib_*, sweep*) need the [ray] extra and are
     smoke-tested by tests/test_ray.py in the Ray virtual environment (make test-ray)."""
-    return sorted(p.name for p in (ROOT / "configs").glob("*.yaml") if not p.name.startswith(("rllib", "sweep")))
+    names = (p.name for p in (ROOT / "configs").glob("*.yaml"))
+    return sorted(n for n in names if not n.startswith(("rllib", "sweep")))
 
 
 def test_shipped_configs_parse() -> None:
