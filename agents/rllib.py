@@ -71,8 +71,10 @@ class RLlibAgent(Agent):
         if env is not None:
             for what in ("observation_space", "action_space"):
                 mine, theirs = getattr(self, what), getattr(env, what)
-                if mine.shape != theirs.shape or type(mine) is not type(theirs) or (
-                    getattr(mine, "n", None) != getattr(theirs, "n", None)
+                if (
+                    mine.shape != theirs.shape
+                    or type(mine) is not type(theirs)
+                    or (getattr(mine, "n", None) != getattr(theirs, "n", None))
                 ):
                     raise ValueError(
                         f"{ckpt}: the policy's {what} {mine} does not match the environment's {theirs}"
