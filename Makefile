@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: run test reproduce bench clean
+.PHONY: run test test-ray reproduce bench bench-ray clean
 
 $(STAMP): pyproject.toml
 	$(PY) -m venv $(VENV)
@@ -13,6 +13,19 @@ $(STAMP): pyproject.toml
 	$(BIN)/python -m pip install -q torch==2.13.0
 	$(BIN)/python -m pip install -q -e ".[dev]"
 	touch $(STAMP)
+
+# Second environment with the [ray] extra (RLlib + Tune). RLlib pins gymnasium (1.2.2 for ray 2.60), so
+# this one also checks planetnav under that gymnasium, while .venv keeps the default (newest) one.
+RAY_VENV := .venv-ray
+RAY_BIN := $(RAY_VENV)/bin
+RAY_STAMP := $(RAY_VENV)/.installed
+
+$(RAY_STAMP): pyproject.toml
+	$(PY) -m venv $(RAY_VENV)
+	$(RAY_BIN)/python -m pip install -q --upgrade pip
+	$(RAY_BIN)/python -m pip install -q torch==2.13.0
+	$(RAY_BIN)/python -m pip install -q -e ".[dev,ray]"
+	touch $(RAY_STAMP)
 
 run: $(STAMP)
 	$(BIN)/python train.py
@@ -26,6 +39,14 @@ test: $(STAMP)
 	$(BIN)/ruff check .
 	$(BIN)/python -m pytest
 
+# The whole suite under the [ray] extra's gymnasium, including the Ray tests (two-node loopback clusters,
+# RLlib training, Tune sweeps, node loss) that the default environment skips.
+test-ray: $(RAY_STAMP)
+	RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER=0 $(RAY_BIN)/python -m pytest
+
+bench-ray: $(RAY_STAMP)
+	RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER=0 $(RAY_BIN)/python benchmarks/bench_ray.py
+
 bench: $(STAMP)
 	$(BIN)/python benchmarks/bench_core.py
 	$(BIN)/python benchmarks/bench_env.py
@@ -33,4 +54,4 @@ bench: $(STAMP)
 	$(BIN)/python benchmarks/bench_gnss.py
 
 clean:
-	rm -rf $(VENV) results runs
+	rm -rf $(VENV) $(RAY_VENV) results runs

@@ -25,7 +25,7 @@ def require_ray(what: str) -> None:
 
     if importlib.util.find_spec("ray") is None:
         raise ConfigError(
-            f"{what} needs Ray (RLlib and Tune), which is not installed: pip install -e \".[ray]\" "
+            f'{what} needs Ray (RLlib and Tune), which is not installed: pip install -e ".[ray]" '
             "(or make test-ray, which builds .venv-ray)"
         )
 

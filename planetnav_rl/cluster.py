@@ -23,10 +23,29 @@ CONNECT_TIMEOUT_S = 3.0
 
 
 def loopback_environment() -> None:
-    """Keep Ray on 127.0.0.1: without this variable Ray on Linux replaces a loopback node address by the
-    machine's interface address (measured with ray 2.60); set before Ray starts any process so that the
-    processes it spawns inherit it."""
+    """Keep Ray on 127.0.0.1: without this variable Ray on Linux replaces a loopback address by the
+    machine's interface address (measured with ray 2.60), both for a node's own address and for the address
+    a driver connects to. Set before Ray starts any process, so that the processes it spawns inherit it.
+
+    Ray reads the variable once, when ``ray`` is first imported; if that already happened in this process
+    (a test module importing ``ray`` first), its module-level flag is set to match as well.
+    """
+    import sys
+
     os.environ["RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER"] = "0"
+    constants = sys.modules.get("ray._private.ray_constants")
+    if constants is not None:
+        constants.ENABLE_RAY_CLUSTER = False
+
+
+def is_loopback(host: str) -> bool:
+    """Whether ``host`` names this machine's loopback interface (no DNS lookup)."""
+    if host == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return False
 
 
 def parse_address(address: str) -> tuple[str, str, int]:
@@ -84,13 +103,17 @@ def init_ray(address: str | None = None, num_cpus: int | None = None, **kwargs: 
     from planetnav_rl import require_ray
 
     require_ray("Ray training and sweeps")
-    loopback_environment()
+    checked = check_address(address) if address else None
+    if checked is None or is_loopback(parse_address(checked)[1]):
+        # A local Ray, or a cluster on this machine's loopback: every address stays 127.0.0.1. Not for a
+        # remote cluster: its nodes must reach this driver at the machine's real address.
+        loopback_environment()
     import ray
 
     if ray.is_initialized():
         return {"address": ray.get_runtime_context().gcs_address, "started": False}
     if address:
-        ctx = ray.init(address=check_address(address), log_to_driver=False, **kwargs)
+        ctx = ray.init(address=checked, log_to_driver=False, **kwargs)
     else:
         ctx = ray.init(
             address="local",
@@ -120,3 +143,30 @@ def node_label() -> dict[str, str]:
         "node_ip": ray.util.get_node_ip_address(),
         "hostname": socket.gethostname(),
     }
+
+
+def loopback_cluster(num_nodes: int = 2, cpus_per_node: int = 1, connect: bool = True) -> Any:
+    """A ``ray.cluster_utils.Cluster`` of ``num_nodes`` nodes on 127.0.0.1 with ``cpus_per_node`` CPUs each,
+    this process connected to it (``connect``). For tests and benchmarks of multi-node behaviour on one
+    machine: end it with ``ray.shutdown()`` then ``cluster.shutdown()``, which ends exactly the processes
+    it started (unlike ``ray stop``, which ends every Ray process on the machine by name)."""
+    from planetnav_rl import require_ray
+
+    require_ray("a loopback test cluster")
+    loopback_environment()  # before any Ray process starts: they inherit it
+    import ray
+    from ray.cluster_utils import Cluster
+
+    cluster = Cluster(
+        initialize_head=True,
+        head_node_args={"num_cpus": cpus_per_node, "node_ip_address": LOOPBACK, "include_dashboard": False},
+    )
+    try:
+        for _ in range(num_nodes - 1):
+            cluster.add_node(num_cpus=cpus_per_node, node_ip_address=LOOPBACK)
+        if connect:
+            ray.init(address=cluster.address, log_to_driver=False)
+    except BaseException:
+        cluster.shutdown()
+        raise
+    return cluster

@@ -40,7 +40,7 @@ import math
 import sys
 import tempfile
 import time
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import ModuleType
@@ -282,9 +282,18 @@ class _RLlibLearner:
         self.algo.stop()
 
 
-def run_trial(params: dict[str, Any], base: dict[str, Any], settings: dict[str, Any]) -> None:
+def run_trial(
+    params: dict[str, Any],
+    base: dict[str, Any],
+    settings: dict[str, Any],
+    report: Callable[[dict[str, Any]], None] | None = None,
+) -> None:
     """One Tune trial: train ``base`` with ``params`` in ``settings["iterations"]`` chunks, evaluating on
-    held-out seeds after each and reporting the metrics, the node, and a checkpoint to resume from."""
+    held-out seeds after each and reporting the metrics, the node, and a checkpoint to resume from.
+
+    ``report``: where the metrics go instead of ``tune.report`` (then no checkpoint is read or written):
+    runs the same trial outside a sweep, e.g. to check that it is reproducible.
+    """
     from ray import tune
 
     from planetnav_rl.cluster import node_label
@@ -297,7 +306,7 @@ def run_trial(params: dict[str, Any], base: dict[str, Any], settings: dict[str, 
     if ev.get("episode_steps"):
         env_cfg = train.EnvConfig.from_dict(env_cfg.to_dict(), episode_steps=ev["episode_steps"])
     node = node_label()
-    checkpoint = tune.get_checkpoint()
+    checkpoint = tune.get_checkpoint() if report is None else None
     start = 0
     with tempfile.TemporaryDirectory() as restore_dir:
         restore = None
@@ -324,7 +333,10 @@ def run_trial(params: dict[str, Any], base: dict[str, Any], settings: dict[str, 
                 "train_seconds": time.perf_counter() - t0,
                 **node,
             }
-            tune.report(metrics, checkpoint=tune.Checkpoint.from_directory(tmp))
+            if report is None:
+                tune.report(metrics, checkpoint=tune.Checkpoint.from_directory(tmp))
+            else:
+                report(metrics)
     learner.close()
 
 
@@ -365,9 +377,12 @@ def _trainable(sc: SweepConfig) -> Any:
     return tune.with_resources(fn, {"cpu": sc.cpus_per_trial})
 
 
-def run_sweep(sc: SweepConfig, run_dir: Path, resume: bool = False) -> dict[str, Any]:
+def run_sweep(
+    sc: SweepConfig, run_dir: Path, resume: bool = False, callbacks: list[Any] | None = None
+) -> dict[str, Any]:
     """Run (or with ``resume`` continue) the sweep into ``run_dir``; Ray must be initialised. Returns the
-    summary that :func:`write_outputs` wrote (rows, best row, file paths)."""
+    summary that :func:`write_outputs` wrote (rows, best row, file paths). ``callbacks``: extra
+    ``ray.tune.Callback`` objects (tests use one to remove a node mid-sweep)."""
     from ray import tune
 
     run_dir = Path(run_dir).resolve()
@@ -395,6 +410,7 @@ def run_sweep(sc: SweepConfig, run_dir: Path, resume: bool = False) -> dict[str,
                 storage_path=str(run_dir),
                 failure_config=tune.FailureConfig(max_failures=sc.max_failures),
                 checkpoint_config=tune.CheckpointConfig(num_to_keep=1),
+                callbacks=callbacks,
                 verbose=1,
             ),
         )
@@ -421,6 +437,14 @@ def _rows(sc: SweepConfig, grid: Any) -> list[dict[str, Any]]:
         row["node_id"] = (m.get("node_id") or "")[:12]
         row["node_ip"] = m.get("node_ip", "")
         row["hostname"] = m.get("hostname", "")
+        # Every node the trial reported from, in order: more than one when it was retried after a failure.
+        hist = r.metrics_dataframe
+        seen: list[str] = []
+        if hist is not None and "node_id" in getattr(hist, "columns", ()):
+            for n in hist["node_id"].dropna():
+                if str(n)[:12] not in seen:
+                    seen.append(str(n)[:12])
+        row["nodes_seen"] = " ".join(seen) or row["node_id"]
         row["error"] = (str(r.error).strip().splitlines() or [""])[0][:160] if r.error else ""
         row["_path"] = r.path
         row["_history"] = r.metrics_dataframe
@@ -470,12 +494,15 @@ def write_outputs(sc: SweepConfig, run_dir: Path, grid: Any, seconds: float) -> 
     fig.savefig(run_dir / "metric_per_trial.png", dpi=110)
     plt.close(fig)
     nodes = sorted({(r["node_id"], r["node_ip"], r["hostname"]) for r in rows if r["node_id"]})
+    all_seen = {n for r in rows for n in r["nodes_seen"].split()}
     lines = [
         f"# Sweep `{sc.name}`",
         "",
         f"{len(rows)} trials of `{sc.base}` ({sc.base_config.get('algo')}), search {sc.search}, scheduler "
         f"{(sc.scheduler or {}).get('type', 'asha')}, {sc.iterations} iterations per trial; metric "
-        f"`{sc.metric}` on held-out seeds (minimised), wall time {seconds:.0f} s on {len(nodes)} node(s).",
+        f"`{sc.metric}` on held-out seeds (minimised), wall time {seconds:.0f} s on {len(all_seen)} "
+        "node(s). `node_id`: where the trial finished; `nodes_seen`: every node it reported from (two "
+        "after a retry).",
         "",
         "| " + " | ".join(cols) + " |",
         "|" + "|".join("---" for _ in cols) + "|",
