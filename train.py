@@ -38,7 +38,7 @@ import numpy as np
 import yaml
 
 from agents import NotApplicableError, make_agent, not_applicable, requires_idle_action, strip_sampled
-from agents.features import NavFeatures, check_features
+from agents.features import ActionRepeat, NavFeatures, RelativeTargets, check_features
 from agents.sb3 import ALGORITHMS, algorithm_class, resolve_model_path
 from agents.shaping import SHAPINGS, PointingShaping
 from agents.stats import MeanCI, mean_ci, paired_difference
@@ -88,6 +88,8 @@ class TrainConfig:
     eval: EvalSettings = field(default_factory=EvalSettings)
     features: list[str] = field(default_factory=list)  # extra observation features (agents/features.py)
     shaping: dict[str, float] = field(default_factory=dict)  # potential-based, training only (agents/shaping)
+    action_repeat: int = 1  # environment steps per policy decision (agents.features.ActionRepeat)
+    relative_actions: bool = False  # target mode: "stay" / "move k places" (agents.features.RelativeTargets)
 
     def env_config(self) -> EnvConfig:
         """The environment configuration: the ``env_id``'s defaults overridden by ``env``."""
@@ -134,7 +136,7 @@ def parse_config(data: Mapping[str, Any] | None, name: str = "run") -> TrainConf
     tc.algo = str(tc.algo).lower()
     if tc.algo not in ALGORITHMS:
         raise ConfigError(f"config: algo {tc.algo!r} is not one of {list(ALGORITHMS)}")
-    for key in ("n_timesteps", "n_envs", "torch_threads"):
+    for key in ("n_timesteps", "n_envs", "torch_threads", "action_repeat"):
         value = getattr(tc, key)
         if not isinstance(value, int) or isinstance(value, bool) or value < 1:
             raise ConfigError(f"config: {key} must be a positive integer, got {value!r}")
@@ -146,6 +148,8 @@ def parse_config(data: Mapping[str, Any] | None, name: str = "run") -> TrainConf
         tc.features = list(check_features(tc.features or []))
     except ValueError as exc:
         raise ConfigError(f"config: features: {exc}") from None
+    if not isinstance(tc.relative_actions, bool):
+        raise ConfigError(f"config: relative_actions must be true or false, got {tc.relative_actions!r}")
     tc.shaping = dict(tc.shaping or {})
     _check_keys(tc.shaping, set(SHAPINGS), "config.shaping")
     for key, weight in tc.shaping.items():
@@ -266,7 +270,12 @@ def make_training_env(tc: TrainConfig, monitor_dir: Path | None) -> Any:
         env = PlanetNavEnv(env_cfg)
         if pointing:  # the shaping reads the raw observation: inside the feature wrapper
             env = PointingShaping(env, pointing, gamma)
-        return NavFeatures(env, features) if features else env
+        if features:
+            env = NavFeatures(env, features)
+        if tc.action_repeat > 1:
+            env = ActionRepeat(env, tc.action_repeat)
+        # Outside the repeat: a relative choice is made once per decision, then its absolute target held.
+        return RelativeTargets(env) if tc.relative_actions else env
 
     return make_vec_env(
         make_env,
@@ -304,10 +313,13 @@ def train(tc: TrainConfig, run_dir: Path, progress: bool = True) -> tuple[Path, 
     model_path = run_dir / "model.zip"
     model.save(model_path)
     venv.close()
+    # With action_repeat, SB3's timesteps are decisions; the environment ran ``action_repeat`` steps each.
+    env_steps = int(model.num_timesteps) * tc.action_repeat
     stats = {
         "timesteps": int(model.num_timesteps),
+        "env_steps": env_steps,
         "seconds": elapsed,
-        "steps_per_s": model.num_timesteps / max(elapsed, 1e-9),
+        "steps_per_s": env_steps / max(elapsed, 1e-9),
         "episodes": callback.episodes,
     }
     return model_path, stats
@@ -672,9 +684,12 @@ def write_report(
     ]
     if train_stats and tc:
         lines += [
-            f"Training: {tc.algo.upper()} `{tc.policy}`, {train_stats['timesteps']} timesteps on {tc.n_envs} "
-            f"envs in {train_stats['seconds']:.0f} s ({train_stats['steps_per_s']:.0f} env steps/s, "
-            f"environment + learning), seed {tc.seed}.",
+            f"Training: {tc.algo.upper()} `{tc.policy}`, {train_stats['timesteps']} decisions "
+            f"({train_stats['env_steps']} environment steps, action_repeat {tc.action_repeat}) on "
+            f"{tc.n_envs} envs in {train_stats['seconds']:.0f} s "
+            f"({train_stats['steps_per_s']:.0f} env steps/s, environment + learning), seed {tc.seed}; "
+            f"features {tc.features or 'none'}; shaping "
+            f"{tc.shaping or 'none'}. Evaluation {train_stats.get('eval_seconds', 0):.0f} s.",
             "",
         ]
     lines += [
@@ -733,7 +748,8 @@ def cmd_train(args: argparse.Namespace) -> int:
     print(f"training {tc.algo.upper()} for {tc.n_timesteps} steps on {tc.n_envs} envs -> {run_dir}")
     model_path, stats = train(tc, run_dir, progress=progress)
     print(
-        f"trained {stats['timesteps']} steps in {stats['seconds']:.0f} s ({stats['steps_per_s']:.0f} steps/s)"
+        f"trained {stats['timesteps']} decisions = {stats['env_steps']} env steps in "
+        f"{stats['seconds']:.0f} s ({stats['steps_per_s']:.0f} env steps/s)"
     )
     if args.no_eval:
         return 0

@@ -110,3 +110,69 @@ class NavFeatures(gym.Wrapper):
     def step(self, action: Any):
         obs, reward, terminated, truncated, info = self.env.step(action)
         return self.state.augment(obs, info), reward, terminated, truncated, info
+
+
+class ActionRepeat(gym.Wrapper):
+    """Holds each action for ``repeat`` environment steps (rewards summed): one decision per ``repeat``
+    steps. The reward is still the navigation error, summed over the held steps; an episode that ends
+    inside a hold ends the decision there.
+
+    Why: the payoff of a target switch builds up over tens of steps, and a policy that decides every step
+    has to express "dwell ~10 steps" through its own timing; with one decision per dwell the best fixed
+    schedules (``periodic:period=10``) become a two-state rule the one-hot current target already
+    carries, and the credit-assignment horizon shrinks ``repeat`` times.
+    """
+
+    def __init__(self, env: gym.Env, repeat: int) -> None:
+        super().__init__(env)
+        if isinstance(repeat, bool) or not isinstance(repeat, int) or repeat < 1:
+            raise ValueError(f"action_repeat must be an integer >= 1, got {repeat!r}")
+        self.repeat = repeat
+
+    def step(self, action: Any):
+        total = 0.0
+        for _ in range(self.repeat):
+            obs, reward, terminated, truncated, info = self.env.step(action)
+            total += float(reward)
+            if terminated or truncated:
+                break
+        return obs, total, terminated, truncated, info
+
+
+def relative_to_absolute(action: int, current: int, n_targets: int) -> int:
+    """Target index of a *relative* action: 0 keeps the current target, ``k`` moves ``k`` places along
+    the planet order (``(current + k) mod n``). With no current target (``-1``, the first step) the
+    count starts from target 0, so action ``k`` picks target ``k``."""
+    a = int(action)
+    if not 0 <= a < n_targets:
+        raise ValueError(f"relative action must be in [0, {n_targets}), got {action!r}")
+    return (max(int(current), 0) + a) % n_targets
+
+
+class RelativeTargets(gym.Wrapper):
+    """Target mode with relative actions (:func:`relative_to_absolute`): "stay" or "move k places".
+
+    Why: a policy that finds switching worthwhile but cannot yet tell *when* spreads its probability
+    over the planets, and its argmax then stares at one (``docs/training.md``); in relative form the
+    same indifference has the argmax "switch", a periodic schedule. The environment, its reward and what
+    the camera can do are unchanged; only the encoding of the choice differs.
+    """
+
+    def __init__(self, env: gym.Env) -> None:
+        super().__init__(env)
+        cfg = unwrapped_config(env)
+        if cfg.action_mode != "target" or cfg.idle_action:
+            raise ValueError("relative target actions need action_mode 'target' without idle_action")
+        self.targets = (*cfg.planets, *cfg.pulsars)
+        self._current = -1
+
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        obs, info = self.env.reset(seed=seed, options=options)
+        self._current = -1
+        return obs, info
+
+    def step(self, action: Any):
+        target = relative_to_absolute(int(np.asarray(action).reshape(())), self._current, len(self.targets))
+        obs, reward, terminated, truncated, info = self.env.step(target)
+        self._current = target
+        return obs, reward, terminated, truncated, info
