@@ -538,7 +538,7 @@ def table_rows(results: Sequence[EvalResult]) -> list[list[str]]:
     rows = []
     for r in results:
         if not r.ran:
-            rows.append([r.name, f"skipped: {r.skipped}", *[""] * (len(TABLE_HEAD) - 2)])
+            rows.append([r.name, "skipped (note below)", *[""] * (len(TABLE_HEAD) - 2)])
             continue
         m = r.metrics
         ci = MeanCI(m["mean_pos_err_km"], *m["mean_pos_err_ci95_km"], m["episodes"], math.nan, 0.95)
@@ -572,7 +572,13 @@ def markdown_table(results: Sequence[EvalResult]) -> str:
         head[2] = f"Δ vs {ref} km [95% CI]"
     lines = ["| " + " | ".join(head) + " |", "|" + "|".join("---" for _ in head) + "|"]
     lines += ["| " + " | ".join(row) + " |" for row in table_rows(results)]
+    lines += [f"\nSkipped `{n}`: {why}" for n, why in skipped_notes(results)]
     return "\n".join(lines)
+
+
+def skipped_notes(results: Sequence[EvalResult]) -> list[tuple[str, str]]:
+    """(name, reason) of the agents that could not run in this environment."""
+    return [(r.name, str(r.skipped)) for r in results if not r.ran]
 
 
 def print_table(results: Sequence[EvalResult], title: str | None = None) -> None:
@@ -599,6 +605,8 @@ def print_table(results: Sequence[EvalResult], title: str | None = None) -> None
         # Logs and pipes: rich would assume 80 columns and truncate the agent names.
         console = Console(width=200)
     console.print(table)
+    for name, why in skipped_notes(results):
+        console.print(f"skipped {name}: {why}", highlight=False)
 
 
 def write_plots(results: Sequence[EvalResult], out_dir: Path, step_s: float) -> list[str]:

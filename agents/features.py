@@ -16,6 +16,11 @@ feature                    values appended (``P`` planets), each in [0, 1] unles
                            per step over its horizon, slew time counted
                            (:meth:`agents.greedy.GreedyAgent.planet_gains`), -1 if not observable. Costs
                            the greedy computation (~1.3 ms per step).
+``pd_torque``              per planet, 3 values in [-1, 1]: the wheel torque (fraction of the limit) of
+                           the agent-side PD law toward that planet's estimated direction
+                           (:meth:`agents.base.TargetAgent.torque_toward`, what ``baseline`` commands in
+                           torque mode). For torque modes: the policy chooses and blends pointing
+                           commands instead of rediscovering attitude control.
 ========================== ===========================================================================
 
 These are inputs, not rewards: the reward stays the environment's navigation error.
@@ -33,7 +38,9 @@ from gymnasium import spaces
 
 from agents.base import parse_observation, unwrapped_config
 
-FEATURES = ("since_measured", "gain")
+FEATURES = ("since_measured", "gain", "pd_torque")
+#: Values per planet of each feature.
+_WIDTH = {"since_measured": 1, "gain": 1, "pd_torque": 3}
 
 
 def check_features(features: Sequence[str]) -> tuple[str, ...]:
@@ -68,7 +75,12 @@ class FeatureState:
             from agents.greedy import GreedyAgent
 
             self._greedy = GreedyAgent(env)
-        self.n_extra = self.n_planets * len(self.features)
+        self._pointer = None
+        if "pd_torque" in self.features:
+            from agents.base import TargetAgent
+
+            self._pointer = TargetAgent(env)
+        self.n_extra = self.n_planets * sum(_WIDTH[f] for f in self.features)
         self.reset()
 
     def reset(self) -> None:
@@ -91,6 +103,10 @@ class FeatureState:
             elif f == "gain":
                 parsed = parse_observation(observation, self.env)
                 parts.append(self._greedy.planet_gains(parsed, info).astype(np.float32))
+            elif f == "pd_torque":
+                parsed = parse_observation(observation, self.env)
+                for i in range(self.n_planets):
+                    parts.append(self._pointer.torque_toward(parsed, info, i).astype(np.float32))
         return np.concatenate(parts)
 
 
@@ -149,8 +165,23 @@ def relative_to_absolute(action: int, current: int, n_targets: int) -> int:
     return (max(int(current), 0) + a) % n_targets
 
 
+def relative_action(action: Any, current: int, n_planets: int) -> tuple[Any, int]:
+    """(the environment's action, its target index) for a relative ``action``: an integer in ``target``
+    mode; in ``target+torque`` mode a Box action whose argmax over the first ``n_planets`` entries is the
+    relative choice (rewritten as +1 on the absolute target, -1 elsewhere; the residual torque kept)."""
+    a = np.asarray(action)
+    if a.ndim == 0 or a.size == 1:
+        target = relative_to_absolute(int(a.reshape(())), current, n_planets)
+        return target, target
+    target = relative_to_absolute(int(np.argmax(a[:n_planets])), current, n_planets)
+    out = np.array(a, dtype=np.float32, copy=True)
+    out[:n_planets] = -1.0
+    out[target] = 1.0
+    return out, target
+
+
 class RelativeTargets(gym.Wrapper):
-    """Target mode with relative actions (:func:`relative_to_absolute`): "stay" or "move k places".
+    """Target choice with relative actions (:func:`relative_action`): "stay" or "move k places".
 
     Why: a policy that finds switching worthwhile but cannot yet tell *when* spreads its probability
     over the planets, and its argmax then stares at one (``docs/training.md``); in relative form the
@@ -161,9 +192,12 @@ class RelativeTargets(gym.Wrapper):
     def __init__(self, env: gym.Env) -> None:
         super().__init__(env)
         cfg = unwrapped_config(env)
-        if cfg.action_mode != "target" or cfg.idle_action:
-            raise ValueError("relative target actions need action_mode 'target' without idle_action")
-        self.targets = (*cfg.planets, *cfg.pulsars)
+        if cfg.action_mode == "torque" or cfg.idle_action or cfg.n_pulsars:
+            raise ValueError(
+                "relative target actions need action_mode 'target' or 'target+torque', planets only, "
+                "without idle_action"
+            )
+        self.n_planets = cfg.n_planets
         self._current = -1
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
@@ -172,7 +206,6 @@ class RelativeTargets(gym.Wrapper):
         return obs, info
 
     def step(self, action: Any):
-        target = relative_to_absolute(int(np.asarray(action).reshape(())), self._current, len(self.targets))
-        obs, reward, terminated, truncated, info = self.env.step(target)
-        self._current = target
+        env_action, self._current = relative_action(action, self._current, self.n_planets)
+        obs, reward, terminated, truncated, info = self.env.step(env_action)
         return obs, reward, terminated, truncated, info

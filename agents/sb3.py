@@ -14,7 +14,7 @@ import gymnasium as gym
 import numpy as np
 
 from agents.base import Agent, NotApplicableError
-from agents.features import FeatureState, relative_to_absolute
+from agents.features import FeatureState, relative_action
 
 #: Lower-case names -> SB3 classes (imported lazily: SB3 and torch take seconds to import).
 ALGORITHMS = ("ppo", "a2c", "dqn", "sac", "td3", "ddpg")
@@ -114,6 +114,7 @@ class SB3Agent(Agent):
         # Relative target actions ("stay" / "move k places") as in training (features.RelativeTargets).
         self.relative = bool(sidecar.get("relative_actions", False))
         self._current = -1
+        self._n_planets = env.unwrapped.config.n_planets if env is not None else 0
         self.features = FeatureState(env, names) if (names and env is not None) else None
         if names and env is None:
             raise ValueError(f"{self.path}: a policy with observation features needs the environment")
@@ -151,9 +152,7 @@ class SB3Agent(Agent):
             return self._held
         self._held = self._decide(observation)
         if self.relative:
-            self._held = self._current = relative_to_absolute(
-                self._held, self._current, self.model.action_space.n
-            )
+            self._held, self._current = relative_action(self._held, self._current, self._n_planets)
         return self._held
 
     def _decide(self, observation: Any) -> Any:

@@ -214,7 +214,7 @@ def test_sb3_agent_holds_its_action_like_training(tmp_path: Path) -> None:
 def test_relative_target_actions(tmp_path: Path) -> None:
     from stable_baselines3 import PPO
 
-    from agents.features import ActionRepeat, RelativeTargets, relative_to_absolute
+    from agents.features import ActionRepeat, RelativeTargets, relative_action, relative_to_absolute
 
     assert [relative_to_absolute(a, -1, 3) for a in range(3)] == [0, 1, 2]
     assert relative_to_absolute(2, 1, 3) == 0 and relative_to_absolute(0, 2, 3) == 2
@@ -225,6 +225,12 @@ def test_relative_target_actions(tmp_path: Path) -> None:
     assert [env.step(a)[-1]["target"] for a in (1, 0, 2, 1)] == ["mars", "mars", "venus", "mars"]
     with pytest.raises(ValueError, match="action_mode 'target'"):
         RelativeTargets(PlanetNavEnv(episode_steps=5, action_mode="torque"))
+    # target+torque: the argmax of the first entries is the relative choice; the residual torque is kept.
+    box, target = relative_action(np.array([0.1, 0.9, 0.0, 0.2, -0.3, 0.4]), 2, 3)
+    assert target == 0 and box.tolist() == pytest.approx([1.0, -1.0, -1.0, 0.2, -0.3, 0.4])
+    tt = RelativeTargets(PlanetNavEnv(episode_steps=5, action_mode="target+torque"))
+    tt.reset(seed=0)
+    assert tt.step(np.array([0, 1, 0, 0, 0, 0], dtype=np.float32))[-1]["target"] == "mars"
     # A saved relative policy with a repeat acts, at evaluation, exactly as its training wrapper.
     train_env = RelativeTargets(ActionRepeat(PlanetNavEnv(episode_steps=30), 2))
     model = PPO("MlpPolicy", train_env, n_steps=32, batch_size=32, n_epochs=1, seed=0, device="cpu")
