@@ -43,7 +43,7 @@ import numpy as np
 import yaml
 
 from agents import NotApplicableError, make_agent, not_applicable, requires_idle_action, strip_sampled
-from agents.features import NavFeatures, check_features
+from agents.features import ActionRepeat, NavFeatures, RelativeTargets, check_features
 from agents.rllib import config_sidecar as rllib_config_sidecar
 from agents.sb3 import ALGORITHMS, algorithm_class, resolve_model_path
 from agents.shaping import SHAPINGS, PointingShaping
@@ -98,6 +98,8 @@ class TrainConfig:
     eval: EvalSettings = field(default_factory=EvalSettings)
     features: list[str] = field(default_factory=list)  # extra observation features (agents/features.py)
     shaping: dict[str, float] = field(default_factory=dict)  # potential-based, training only (agents/shaping)
+    action_repeat: int = 1  # environment steps per policy decision (agents.features.ActionRepeat)
+    relative_actions: bool = False  # target mode: "stay" / "move k places" (agents.features.RelativeTargets)
 
     def env_config(self) -> EnvConfig:
         """The environment configuration: the ``env_id``'s defaults overridden by ``env``."""
@@ -144,7 +146,7 @@ def parse_config(data: Mapping[str, Any] | None, name: str = "run") -> TrainConf
     tc.algo = str(tc.algo).lower()
     if tc.algo not in ALGORITHMS and not is_rllib_algo(tc.algo):
         raise ConfigError(f"config: algo {tc.algo!r} is not one of {[*ALGORITHMS, *RLLIB_ALGOS]}")
-    for key in ("n_timesteps", "n_envs", "torch_threads"):
+    for key in ("n_timesteps", "n_envs", "torch_threads", "action_repeat"):
         value = getattr(tc, key)
         if not isinstance(value, int) or isinstance(value, bool) or value < 1:
             raise ConfigError(f"config: {key} must be a positive integer, got {value!r}")
@@ -158,6 +160,8 @@ def parse_config(data: Mapping[str, Any] | None, name: str = "run") -> TrainConf
         tc.features = list(check_features(tc.features or []))
     except ValueError as exc:
         raise ConfigError(f"config: features: {exc}") from None
+    if not isinstance(tc.relative_actions, bool):
+        raise ConfigError(f"config: relative_actions must be true or false, got {tc.relative_actions!r}")
     tc.shaping = dict(tc.shaping or {})
     _check_keys(tc.shaping, set(SHAPINGS), "config.shaping")
     for key, weight in tc.shaping.items():
@@ -268,9 +272,10 @@ def _nav_callback_class() -> type:
 
 def make_training_env(tc: TrainConfig, monitor_dir: Path | None) -> Any:
     """The training VecEnv: ``n_envs`` rows of the native vector env (one compiled step for all rows,
-    :class:`planetnav_env.sb3_vec.PlanetNavSB3VecEnv`) under SB3's ``VecMonitor``. Observation features
-    and shaping are gymnasium wrappers of single environments: with either configured, ``n_envs``
-    wrapped single environments in a ``DummyVecEnv`` instead (``vec_env: dummy`` forces that path)."""
+    :class:`planetnav_env.sb3_vec.PlanetNavSB3VecEnv`) under SB3's ``VecMonitor``. Observation features,
+    shaping, action repeat and relative actions are gymnasium wrappers of single environments (from the
+    agents' experiments, issue 10; not yet in the core): with any configured, ``n_envs`` wrapped single
+    environments in a ``DummyVecEnv`` instead (``vec_env: dummy`` forces that path)."""
     from stable_baselines3.common.env_util import make_vec_env
     from stable_baselines3.common.vec_env import DummyVecEnv, VecMonitor
 
@@ -282,7 +287,8 @@ def make_training_env(tc: TrainConfig, monitor_dir: Path | None) -> Any:
     pointing = tc.shaping.get("pointing")
     gamma = float(tc.hyperparams.get("gamma", 0.99))
 
-    if not features and not pointing and tc.vec_env == "native":
+    wrapped = features or pointing or tc.action_repeat > 1 or tc.relative_actions
+    if not wrapped and tc.vec_env == "native":
         if monitor_dir is not None:
             monitor_dir.mkdir(parents=True, exist_ok=True)
         venv = PlanetNavSB3VecEnv(tc.n_envs, env_cfg, seed=tc.seed)
@@ -292,7 +298,12 @@ def make_training_env(tc: TrainConfig, monitor_dir: Path | None) -> Any:
         env = PlanetNavEnv(env_cfg)
         if pointing:  # the shaping reads the raw observation: inside the feature wrapper
             env = PointingShaping(env, pointing, gamma)
-        return NavFeatures(env, features) if features else env
+        if features:
+            env = NavFeatures(env, features)
+        if tc.action_repeat > 1:
+            env = ActionRepeat(env, tc.action_repeat)
+        # Outside the repeat: a relative choice is made once per decision, then its absolute target held.
+        return RelativeTargets(env) if tc.relative_actions else env
 
     return make_vec_env(
         make_env,
@@ -330,10 +341,13 @@ def train(tc: TrainConfig, run_dir: Path, progress: bool = True) -> tuple[Path, 
     model_path = run_dir / "model.zip"
     model.save(model_path)
     venv.close()
+    # With action_repeat, SB3's timesteps are decisions; the environment ran ``action_repeat`` steps each.
+    env_steps = int(model.num_timesteps) * tc.action_repeat
     stats = {
         "timesteps": int(model.num_timesteps),
+        "env_steps": env_steps,
         "seconds": elapsed,
-        "steps_per_s": model.num_timesteps / max(elapsed, 1e-9),
+        "steps_per_s": env_steps / max(elapsed, 1e-9),
         "episodes": callback.episodes,
     }
     return model_path, stats
@@ -552,7 +566,7 @@ def table_rows(results: Sequence[EvalResult]) -> list[list[str]]:
     rows = []
     for r in results:
         if not r.ran:
-            rows.append([r.name, f"skipped: {r.skipped}", *[""] * (len(TABLE_HEAD) - 2)])
+            rows.append([r.name, "skipped (note below)", *[""] * (len(TABLE_HEAD) - 2)])
             continue
         m = r.metrics
         ci = MeanCI(m["mean_pos_err_km"], *m["mean_pos_err_ci95_km"], m["episodes"], math.nan, 0.95)
@@ -586,7 +600,13 @@ def markdown_table(results: Sequence[EvalResult]) -> str:
         head[2] = f"Δ vs {ref} km [95% CI]"
     lines = ["| " + " | ".join(head) + " |", "|" + "|".join("---" for _ in head) + "|"]
     lines += ["| " + " | ".join(row) + " |" for row in table_rows(results)]
+    lines += [f"\nSkipped `{n}`: {why}" for n, why in skipped_notes(results)]
     return "\n".join(lines)
+
+
+def skipped_notes(results: Sequence[EvalResult]) -> list[tuple[str, str]]:
+    """(name, reason) of the agents that could not run in this environment."""
+    return [(r.name, str(r.skipped)) for r in results if not r.ran]
 
 
 def print_table(results: Sequence[EvalResult], title: str | None = None) -> None:
@@ -613,6 +633,8 @@ def print_table(results: Sequence[EvalResult], title: str | None = None) -> None
         # Logs and pipes: rich would assume 80 columns and truncate the agent names.
         console = Console(width=200)
     console.print(table)
+    for name, why in skipped_notes(results):
+        console.print(f"skipped {name}: {why}", highlight=False)
 
 
 def write_plots(results: Sequence[EvalResult], out_dir: Path, step_s: float) -> list[str]:
@@ -698,9 +720,12 @@ def write_report(
     ]
     if train_stats and tc:
         lines += [
-            f"Training: {tc.algo.upper()} `{tc.policy}`, {train_stats['timesteps']} timesteps on {tc.n_envs} "
-            f"envs in {train_stats['seconds']:.0f} s ({train_stats['steps_per_s']:.0f} env steps/s, "
-            f"environment + learning), seed {tc.seed}.",
+            f"Training: {tc.algo.upper()} `{tc.policy}`, {train_stats['timesteps']} decisions "
+            f"({train_stats['env_steps']} environment steps, action_repeat {tc.action_repeat}) on "
+            f"{tc.n_envs} envs in {train_stats['seconds']:.0f} s "
+            f"({train_stats['steps_per_s']:.0f} env steps/s, environment + learning), seed {tc.seed}; "
+            f"features {tc.features or 'none'}; shaping "
+            f"{tc.shaping or 'none'}. Evaluation {train_stats.get('eval_seconds', 0):.0f} s.",
             "",
         ]
     lines += [
@@ -768,7 +793,8 @@ def cmd_train(args: argparse.Namespace) -> int:
     else:
         model_path, stats = train(tc, run_dir, progress=progress)
     print(
-        f"trained {stats['timesteps']} steps in {stats['seconds']:.0f} s ({stats['steps_per_s']:.0f} steps/s)"
+        f"trained {stats['timesteps']} decisions = {stats['env_steps']} env steps in "
+        f"{stats['seconds']:.0f} s ({stats['steps_per_s']:.0f} env steps/s)"
     )
     if args.no_eval:
         return 0

@@ -16,6 +16,11 @@ feature                    values appended (``P`` planets), each in [0, 1] unles
                            per step over its horizon, slew time counted
                            (:meth:`agents.greedy.GreedyAgent.planet_gains`), -1 if not observable. Costs
                            the greedy computation (~1.3 ms per step).
+``pd_torque``              per planet, 3 values in [-1, 1]: the wheel torque (fraction of the limit) of
+                           the agent-side PD law toward that planet's estimated direction
+                           (:meth:`agents.base.TargetAgent.torque_toward`, what ``baseline`` commands in
+                           torque mode). For torque modes: the policy chooses and blends pointing
+                           commands instead of rediscovering attitude control.
 ========================== ===========================================================================
 
 These are inputs, not rewards: the reward stays the environment's navigation error.
@@ -33,7 +38,9 @@ from gymnasium import spaces
 
 from agents.base import parse_observation, unwrapped_config
 
-FEATURES = ("since_measured", "gain")
+FEATURES = ("since_measured", "gain", "pd_torque")
+#: Values per planet of each feature.
+_WIDTH = {"since_measured": 1, "gain": 1, "pd_torque": 3}
 
 
 def check_features(features: Sequence[str]) -> tuple[str, ...]:
@@ -68,7 +75,12 @@ class FeatureState:
             from agents.greedy import GreedyAgent
 
             self._greedy = GreedyAgent(env)
-        self.n_extra = self.n_planets * len(self.features)
+        self._pointer = None
+        if "pd_torque" in self.features:
+            from agents.base import TargetAgent
+
+            self._pointer = TargetAgent(env)
+        self.n_extra = self.n_planets * sum(_WIDTH[f] for f in self.features)
         self.reset()
 
     def reset(self) -> None:
@@ -91,6 +103,10 @@ class FeatureState:
             elif f == "gain":
                 parsed = parse_observation(observation, self.env)
                 parts.append(self._greedy.planet_gains(parsed, info).astype(np.float32))
+            elif f == "pd_torque":
+                parsed = parse_observation(observation, self.env)
+                for i in range(self.n_planets):
+                    parts.append(self._pointer.torque_toward(parsed, info, i).astype(np.float32))
         return np.concatenate(parts)
 
 
@@ -110,3 +126,86 @@ class NavFeatures(gym.Wrapper):
     def step(self, action: Any):
         obs, reward, terminated, truncated, info = self.env.step(action)
         return self.state.augment(obs, info), reward, terminated, truncated, info
+
+
+class ActionRepeat(gym.Wrapper):
+    """Holds each action for ``repeat`` environment steps (rewards summed): one decision per ``repeat``
+    steps. The reward is still the navigation error, summed over the held steps; an episode that ends
+    inside a hold ends the decision there.
+
+    Why: the payoff of a target switch builds up over tens of steps, and a policy that decides every step
+    has to express "dwell ~10 steps" through its own timing; with one decision per dwell the best fixed
+    schedules (``periodic:period=10``) become a two-state rule the one-hot current target already
+    carries, and the credit-assignment horizon shrinks ``repeat`` times.
+    """
+
+    def __init__(self, env: gym.Env, repeat: int) -> None:
+        super().__init__(env)
+        if isinstance(repeat, bool) or not isinstance(repeat, int) or repeat < 1:
+            raise ValueError(f"action_repeat must be an integer >= 1, got {repeat!r}")
+        self.repeat = repeat
+
+    def step(self, action: Any):
+        total = 0.0
+        for _ in range(self.repeat):
+            obs, reward, terminated, truncated, info = self.env.step(action)
+            total += float(reward)
+            if terminated or truncated:
+                break
+        return obs, total, terminated, truncated, info
+
+
+def relative_to_absolute(action: int, current: int, n_targets: int) -> int:
+    """Target index of a *relative* action: 0 keeps the current target, ``k`` moves ``k`` places along
+    the planet order (``(current + k) mod n``). With no current target (``-1``, the first step) the
+    count starts from target 0, so action ``k`` picks target ``k``."""
+    a = int(action)
+    if not 0 <= a < n_targets:
+        raise ValueError(f"relative action must be in [0, {n_targets}), got {action!r}")
+    return (max(int(current), 0) + a) % n_targets
+
+
+def relative_action(action: Any, current: int, n_planets: int) -> tuple[Any, int]:
+    """(the environment's action, its target index) for a relative ``action``: an integer in ``target``
+    mode; in ``target+torque`` mode a Box action whose argmax over the first ``n_planets`` entries is the
+    relative choice (rewritten as +1 on the absolute target, -1 elsewhere; the residual torque kept)."""
+    a = np.asarray(action)
+    if a.ndim == 0 or a.size == 1:
+        target = relative_to_absolute(int(a.reshape(())), current, n_planets)
+        return target, target
+    target = relative_to_absolute(int(np.argmax(a[:n_planets])), current, n_planets)
+    out = np.array(a, dtype=np.float32, copy=True)
+    out[:n_planets] = -1.0
+    out[target] = 1.0
+    return out, target
+
+
+class RelativeTargets(gym.Wrapper):
+    """Target choice with relative actions (:func:`relative_action`): "stay" or "move k places".
+
+    Why: a policy that finds switching worthwhile but cannot yet tell *when* spreads its probability
+    over the planets, and its argmax then stares at one (``docs/training.md``); in relative form the
+    same indifference has the argmax "switch", a periodic schedule. The environment, its reward and what
+    the camera can do are unchanged; only the encoding of the choice differs.
+    """
+
+    def __init__(self, env: gym.Env) -> None:
+        super().__init__(env)
+        cfg = unwrapped_config(env)
+        if cfg.action_mode == "torque" or cfg.idle_action or cfg.n_pulsars:
+            raise ValueError(
+                "relative target actions need action_mode 'target' or 'target+torque', planets only, "
+                "without idle_action"
+            )
+        self.n_planets = cfg.n_planets
+        self._current = -1
+
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        obs, info = self.env.reset(seed=seed, options=options)
+        self._current = -1
+        return obs, info
+
+    def step(self, action: Any):
+        env_action, self._current = relative_action(action, self._current, self.n_planets)
+        obs, reward, terminated, truncated, info = self.env.step(env_action)
+        return obs, reward, terminated, truncated, info

@@ -26,8 +26,8 @@ import numpy as np
 
 from agents.base import ParsedObservation, TargetAgent
 
-DEFAULT_PERIOD = 60
-DEFAULT_CYCLE = "0-1-2"
+DEFAULT_PERIOD = 10
+DEFAULT_CYCLE = "0-1"
 
 
 def parse_cycle(cycle: str | Sequence[int | str], planets: Sequence[str]) -> tuple[int, ...]:

@@ -14,7 +14,7 @@ import gymnasium as gym
 import numpy as np
 
 from agents.base import Agent, NotApplicableError
-from agents.features import FeatureState
+from agents.features import FeatureState, relative_action
 
 #: Lower-case names -> SB3 classes (imported lazily: SB3 and torch take seconds to import).
 ALGORITHMS = ("ppo", "a2c", "dqn", "sac", "td3", "ddpg")
@@ -90,6 +90,7 @@ class SB3Agent(Agent):
         algo: str | None = None,
         deterministic: bool = True,
         features: list[str] | None = None,
+        action_repeat: int | None = None,
     ) -> None:
         self.path = resolve_model_path(path)
         self.deterministic = bool(deterministic)
@@ -100,7 +101,20 @@ class SB3Agent(Agent):
         )
         # Observation features the policy was trained with (config key ``features``), rebuilt here so the
         # policy sees the same inputs; ``features`` overrides the run's config.yaml.
-        names = features if features is not None else _sidecar(self.path).get("features") or []
+        sidecar = _sidecar(self.path)
+        names = features if features is not None else sidecar.get("features") or []
+        # One decision per ``action_repeat`` steps, as in training (agents.features.ActionRepeat).
+        self.action_repeat = (
+            int(sidecar.get("action_repeat") or 1) if action_repeat is None else action_repeat
+        )
+        if self.action_repeat < 1:
+            raise ValueError(f"action_repeat must be >= 1, got {self.action_repeat!r}")
+        self._k = 0
+        self._held: Any = None
+        # Relative target actions ("stay" / "move k places") as in training (features.RelativeTargets).
+        self.relative = bool(sidecar.get("relative_actions", False))
+        self._current = -1
+        self._n_planets = env.unwrapped.config.n_planets if env is not None else 0
         self.features = FeatureState(env, names) if (names and env is not None) else None
         if names and env is None:
             raise ValueError(f"{self.path}: a policy with observation features needs the environment")
@@ -121,6 +135,8 @@ class SB3Agent(Agent):
                 )
 
     def reset(self, seed: int | None = None) -> None:
+        self._k = 0
+        self._current = -1
         if self.features is not None:
             self.features.reset()
         if not self.deterministic and seed is not None:
@@ -130,7 +146,16 @@ class SB3Agent(Agent):
 
     def act(self, observation: Any, info: dict[str, Any]) -> Any:
         if self.features is not None:
-            observation = self.features.augment(observation, info)
+            observation = self.features.augment(observation, info)  # every step: the features count steps
+        k, self._k = self._k, self._k + 1
+        if k % self.action_repeat:
+            return self._held
+        self._held = self._decide(observation)
+        if self.relative:
+            self._held, self._current = relative_action(self._held, self._current, self._n_planets)
+        return self._held
+
+    def _decide(self, observation: Any) -> Any:
         action, _ = self.model.predict(observation, deterministic=self.deterministic)
         if np.ndim(action) == 0 or getattr(self.model.action_space, "n", None) is not None:
             return int(np.asarray(action).reshape(-1)[0])

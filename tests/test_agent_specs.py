@@ -182,3 +182,74 @@ def test_pointing_shaping_is_potential_based() -> None:
     assert -1.0 <= phi0 <= 1.0
     with pytest.raises(ValueError, match="weight"):
         PointingShaping(PlanetNavEnv(episode_steps=5), weight=0.0, gamma=0.9)
+
+
+def test_sb3_agent_holds_its_action_like_training(tmp_path: Path) -> None:
+    """``action_repeat`` in the run's config: one decision per 3 steps, as the training wrapper did."""
+    from stable_baselines3 import PPO
+
+    from agents.features import ActionRepeat
+
+    train_env = ActionRepeat(PlanetNavEnv(episode_steps=30), 3)
+    model = PPO("MlpPolicy", train_env, n_steps=32, batch_size=32, n_epochs=1, seed=0, device="cpu")
+    model.learn(32)
+    run = tmp_path / "run"
+    run.mkdir()
+    model.save(run / "model.zip")
+    (run / "config.yaml").write_text(yaml.safe_dump({"algo": "ppo", "action_repeat": 3}))
+    env = PlanetNavEnv(episode_steps=30)
+    agent = make_agent(str(run), env)
+    agent.reset(seed=1)
+    obs, info = env.reset(seed=1)
+    for k in range(9):
+        action = agent.act(obs, info)
+        if k % 3 == 0:
+            decided = int(model.predict(obs, deterministic=True)[0])
+        assert action == decided
+        obs, _, _, _, info = env.step(action)
+    with pytest.raises(ValueError, match="action_repeat"):
+        ActionRepeat(env, 0)
+
+
+def test_relative_target_actions(tmp_path: Path) -> None:
+    from stable_baselines3 import PPO
+
+    from agents.features import ActionRepeat, RelativeTargets, relative_action, relative_to_absolute
+
+    assert [relative_to_absolute(a, -1, 3) for a in range(3)] == [0, 1, 2]
+    assert relative_to_absolute(2, 1, 3) == 0 and relative_to_absolute(0, 2, 3) == 2
+    with pytest.raises(ValueError, match="relative action"):
+        relative_to_absolute(3, 0, 3)
+    env = RelativeTargets(PlanetNavEnv(episode_steps=10))
+    env.reset(seed=0)
+    assert [env.step(a)[-1]["target"] for a in (1, 0, 2, 1)] == ["mars", "mars", "venus", "mars"]
+    with pytest.raises(ValueError, match="action_mode 'target'"):
+        RelativeTargets(PlanetNavEnv(episode_steps=5, action_mode="torque"))
+    # target+torque: the argmax of the first entries is the relative choice; the residual torque is kept.
+    box, target = relative_action(np.array([0.1, 0.9, 0.0, 0.2, -0.3, 0.4]), 2, 3)
+    assert target == 0 and box.tolist() == pytest.approx([1.0, -1.0, -1.0, 0.2, -0.3, 0.4])
+    tt = RelativeTargets(PlanetNavEnv(episode_steps=5, action_mode="target+torque"))
+    tt.reset(seed=0)
+    assert tt.step(np.array([0, 1, 0, 0, 0, 0], dtype=np.float32))[-1]["target"] == "mars"
+    # A saved relative policy with a repeat acts, at evaluation, exactly as its training wrapper.
+    train_env = RelativeTargets(ActionRepeat(PlanetNavEnv(episode_steps=30), 2))
+    model = PPO("MlpPolicy", train_env, n_steps=32, batch_size=32, n_epochs=1, seed=0, device="cpu")
+    model.learn(32)
+    run = tmp_path / "run"
+    run.mkdir()
+    model.save(run / "model.zip")
+    (run / "config.yaml").write_text(
+        yaml.safe_dump({"algo": "ppo", "action_repeat": 2, "relative_actions": True})
+    )
+    agent = make_agent(str(run), PlanetNavEnv(episode_steps=30))
+    agent.reset(seed=6)
+    obs_e, _ = train_env.reset(seed=6)
+    ref = PlanetNavEnv(episode_steps=30)
+    obs, info = ref.reset(seed=6)
+    for _ in range(4):  # decisions
+        rel = int(model.predict(obs_e, deterministic=True)[0])
+        obs_e, _, _, _, info_e = train_env.step(rel)
+        for _ in range(2):
+            obs, _, _, _, info = ref.step(agent.act(obs, info))
+        assert info["target"] == info_e["target"]
+        np.testing.assert_array_equal(obs, obs_e)
