@@ -793,7 +793,7 @@ def cmd_train(args: argparse.Namespace) -> int:
     else:
         model_path, stats = train(tc, run_dir, progress=progress)
     print(
-        f"trained {stats['timesteps']} decisions = {stats['env_steps']} env steps in "
+        f"trained {stats['timesteps']} decisions = {stats.get('env_steps', stats['timesteps'])} env steps in "
         f"{stats['seconds']:.0f} s ({stats['steps_per_s']:.0f} env steps/s)"
     )
     if args.no_eval:

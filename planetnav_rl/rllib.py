@@ -234,6 +234,7 @@ def train(
         shutdown_ray(ray_info)
     stats = {
         "timesteps": steps,
+        "env_steps": steps,  # RLlib acts every environment step (no action repeat)
         "seconds": elapsed,
         "steps_per_s": steps / max(elapsed, 1e-9),
         "episodes": episodes,
