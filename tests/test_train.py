@@ -119,7 +119,12 @@ def test_bad_config_key_is_named(
 
 
 def test_shipped_configs_parse() -> None:
+    has_ray = importlib.util.find_spec("ray") is not None
     for path in sorted((ROOT / "configs").glob("*.yaml")):
+        if path.name.startswith("sweep"):
+            continue  # Tune sweep configs, not training configs: tests/test_scaling.py loads them
+        if path.name.startswith("rllib") and not has_ray:
+            continue  # algo: rllib_ppo is validated against RLlib itself: the [ray] extra's venv checks them
         tc = train.load_config(path)
         tc.env_config()
         train.algo_kwargs(tc)
