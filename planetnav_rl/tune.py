@@ -434,6 +434,7 @@ def _rows(sc: SweepConfig, grid: Any) -> list[dict[str, Any]]:
         row[sc.metric] = m.get(sc.metric)
         row["iterations"] = m.get("training_iteration", 0)
         row["timesteps"] = m.get("timesteps")
+        row["seconds"] = m.get("time_total_s")  # the trial's own run time (all its chunks and evaluations)
         row["node_id"] = (m.get("node_id") or "")[:12]
         row["node_ip"] = m.get("node_ip", "")
         row["hostname"] = m.get("hostname", "")

@@ -1,17 +1,24 @@
 """Losing a worker node mid-sweep: the sweep finishes, the lost trials are retried or reported as failed,
-and nothing already finished is lost. Its own two-node loopback cluster (``tests/test_ray.py`` explains
-the set-up), so that removing a node disturbs no other test.
+and nothing already finished is lost (its own two-node loopback cluster, set up as in ``tests/test_ray.py``,
+so that removing a node disturbs no other test). An interrupted sweep resumes.
 """
 
 from __future__ import annotations
 
+import csv
 import dataclasses
+import json
 import os
+import signal
+import subprocess
+import sys
 import threading
+import time
 from pathlib import Path
 from typing import Any
 
 import pytest
+import yaml
 
 # Ray reads this once, at import: keep every Ray address on 127.0.0.1 (planetnav_rl.cluster explains).
 os.environ["RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER"] = "0"
@@ -101,3 +108,48 @@ def test_sweep_survives_losing_a_worker_node(tmp_path: Path) -> None:
         ray.shutdown()
         cluster.shutdown()
         _STATE.clear()
+
+
+def _finished_trials(exp_dir: Path, iterations: int) -> dict[str, float]:
+    """Trials whose result.json already holds their last iteration: trial id -> metric."""
+    out = {}
+    for f in exp_dir.glob("*/result.json"):
+        lines = [json.loads(x) for x in f.read_text().splitlines() if x.strip()]
+        if lines and lines[-1]["training_iteration"] >= iterations:
+            out[lines[-1]["trial_id"]] = lines[-1]["mean_pos_err_km"]
+    return out
+
+
+def test_interrupted_sweep_resumes(tmp_path: Path) -> None:
+    """Ctrl-C (SIGINT) after the first trial finished, then ``--resume``: every trial completes and the one
+    finished before the interruption is kept as it was, not run again."""
+    sweep = yaml.safe_load((CONFIGS / "sweep_smoke.yaml").read_text())
+    sweep.update(base=str(CONFIGS / "smoke.yaml"), scheduler={"type": "none"}, iterations=2)
+    cfg = tmp_path / "sweep.yaml"
+    cfg.write_text(yaml.safe_dump(sweep))
+    run_dir = tmp_path / "run"
+    cmd = [sys.executable, str(ROOT / "train.py"), "tune", "--config", str(cfg), "--run-dir", str(run_dir)]
+    env = {**os.environ, "RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER": "0"}
+    # One CPU: trials run one after another, so the interruption falls between the first and the last.
+    proc = subprocess.Popen([*cmd, "--num-cpus", "1"], cwd=ROOT, env=env)
+    try:
+        deadline = time.monotonic() + 240
+        while not (finished := _finished_trials(run_dir / "tune", 2)):
+            assert proc.poll() is None, "the sweep ended before it could be interrupted"
+            assert time.monotonic() < deadline, "no trial finished within 240 s"
+            time.sleep(0.5)
+        proc.send_signal(signal.SIGINT)
+        proc.wait(timeout=120)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    before = _finished_trials(run_dir / "tune", 2)
+    assert len(before) < 4, "every trial had finished: nothing was interrupted"
+    assert finished.items() <= before.items()
+    subprocess.run([*cmd, "--resume", "--num-cpus", "2"], cwd=ROOT, env=env, check=True, timeout=300)
+    with open(run_dir / "results.csv") as fh:
+        rows = {r["trial"]: r for r in csv.DictReader(fh)}
+    assert len(rows) == 4 and all(r["status"] == "TERMINATED" for r in rows.values()), rows
+    for tid, metric in before.items():  # kept, not retrained: the same metric to the last digit
+        assert float(rows[tid]["mean_pos_err_km"]) == metric
+    assert (run_dir / "best_config.yaml").is_file()

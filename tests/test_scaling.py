@@ -87,6 +87,13 @@ def _write_sweep(tmp_path: Path, **changes: object) -> Path:
     return path
 
 
+@pytest.mark.parametrize("name", ["sweep.yaml", "sweep_smoke.yaml"])
+def test_shipped_sweeps_load(name: str) -> None:
+    sc = load_sweep(CONFIGS / name)
+    assert sc.num_samples >= 4 and sc.metric == "mean_pos_err_km"
+    assert train.parse_config(sc.base_config).n_timesteps >= sc.iterations
+
+
 def test_smoke_sweep_loads_with_the_base_merged() -> None:
     sc = load_sweep(CONFIGS / "sweep_smoke.yaml")
     assert sc.num_samples == 4 and sc.iterations == 2

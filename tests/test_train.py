@@ -132,7 +132,12 @@ def _sb3_configs() -> list[str]:
 
 
 def test_shipped_configs_parse() -> None:
-    for path in sorted((ROOT / "configs") / name for name in _sb3_configs()):
+    has_ray = importlib.util.find_spec("ray") is not None
+    for path in sorted((ROOT / "configs").glob("*.yaml")):
+        if path.name.startswith("sweep"):
+            continue  # Tune sweep configs, not training configs: tests/test_scaling.py loads them
+        if path.name.startswith("rllib") and not has_ray:
+            continue  # algo: rllib_ppo is validated against RLlib itself: the [ray] extra's venv checks them
         tc = train.load_config(path)
         tc.env_config()
         train.algo_kwargs(tc)
