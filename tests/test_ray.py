@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import json
 import os
+import subprocess
+import sys
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -51,10 +53,10 @@ def test_cluster_is_two_loopback_nodes(cluster: Any) -> None:
 
 def test_rllib_training_on_cluster_writes_the_run_directory(cluster: Any, tmp_path: Path) -> None:
     run_dir = tmp_path / "rllib"
-    rc = train.main(
-        ["train", "--config", str(CONFIGS / "rllib_smoke.yaml"), "--run-dir", str(run_dir), "--no-progress"]
-        + ["--address", cluster.address]
-    )
+    # A separate driver process that joins the cluster through --address, as on a real cluster.
+    cmd = [sys.executable, str(ROOT / "train.py"), "train", "--config", str(CONFIGS / "rllib_smoke.yaml")]
+    cmd += ["--run-dir", str(run_dir), "--no-progress", "--address", cluster.address]
+    rc = subprocess.run(cmd, cwd=ROOT, timeout=300).returncode
     assert rc == 0
     assert (run_dir / "checkpoint" / "rllib_checkpoint.json").is_file()
     assert any((run_dir / "tb").rglob("events.out.tfevents*"))
@@ -136,6 +138,7 @@ def test_trial_is_reproducible_from_config_and_seed(cluster: Any) -> None:
     [
         (["--address", "nonsense:99999"], "nonsense:99999"),
         (["--address", "256.1.1.1:6379"], "256.1.1.1"),
+        (["--address", "127.0.0.1:1"], "127.0.0.1:1"),  # well-formed, nothing listening
     ],
 )
 def test_bad_address_fails_before_any_trial(
