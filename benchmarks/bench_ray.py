@@ -5,7 +5,7 @@ sweep on one loopback node against two, all in one run on this machine (the numb
     RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER=0 .venv-ray/bin/python benchmarks/bench_ray.py   # = make bench-ray
 
 Env steps/s count environment steps per second of training (sampling + learning, as train.py reports for
-SB3), after one warm-up iteration; the sampling-only rate is RLlib's own sampling timer. Same environment
+SB3), after two untimed warm-up iterations. Same environment
 (Cruise-Target, one-day episodes, covariance reward), same PPO batch (4096 steps, minibatch 512, 5 epochs),
 same 64x64 MLP, one torch thread for the learner. The machine is shared: rates vary by tens of percent
 between runs, so compare within one run.
@@ -44,22 +44,15 @@ def bench_rllib(num_env_runners: int, iterations: int) -> dict[str, float]:
         algo.train()  # warm-up: JIT, actor start, first rollout
         steps0 = iteration_summary(algo.train())["timesteps"]
         t0 = time.perf_counter()
-        sample_s = 0.0
         for _ in range(iterations):
             r = algo.train()
-            sample_s += float(r.get("timers", {}).get("env_runner_sampling_timer", float("nan")))
         elapsed = time.perf_counter() - t0
         steps = iteration_summary(r)["timesteps"] - steps0
         algo.stop()
     finally:
         shutdown_ray(info)
         assert not ray.is_initialized()
-    return {
-        "steps": steps,
-        "seconds": elapsed,
-        "steps_per_s": steps / elapsed,
-        "sample_steps_per_s": steps / sample_s,
-    }
+    return {"steps": steps, "seconds": elapsed, "steps_per_s": steps / elapsed}
 
 
 def bench_sb3(timesteps: int) -> dict[str, float]:
@@ -109,8 +102,7 @@ def main() -> int:
         rows.append((f"RLlib PPO, {n} env runner(s) x {4 // n} envs", r))
         print(
             f"{rows[-1][0]}: {r['steps_per_s']:.0f} env steps/s "
-            f"({r['steps']:.0f} steps in {r['seconds']:.1f} s; "
-            f"sampling alone {r['sample_steps_per_s']:.0f}/s)",
+            f"({r['steps']:.0f} steps in {r['seconds']:.1f} s)",
             flush=True,
         )
     r = bench_sb3(args.sb3_timesteps)

@@ -163,3 +163,28 @@ def test_bad_sweep_inputs_fail_before_any_trial(tmp_path: Path, capsys: pytest.C
     assert not (tmp_path / "out").exists()
     with pytest.raises(ConfigError, match="lr_typo"):
         train.parse_config({"algo": "rllib_ppo", "hyperparams": {"lr_typo": 1e-3}})
+
+
+def test_rllib_sweep_with_optuna_on_cluster(cluster: Any, tmp_path: Path) -> None:
+    """The other two paths of a sweep: RLlib trials (sampling in the trial's process) and Optuna search."""
+    import yaml
+
+    sweep = {
+        "name": "rllib_optuna",
+        "base": str(CONFIGS / "rllib_smoke.yaml"),
+        "space": {"hyperparams.lr": {"loguniform": [1e-4, 1e-3]}, "seed": {"choice": [0, 1]}},
+        "num_samples": 2,
+        "search": "optuna",
+        "iterations": 2,
+        "eval": {"episodes": 1, "seed": 10000},
+    }
+    path = tmp_path / "sweep.yaml"
+    path.write_text(yaml.safe_dump(sweep))
+    summary = run_sweep(load_sweep(path), tmp_path / "out")
+    rows = summary["rows"]
+    assert len(rows) == 2 and all(r["status"] in ("TERMINATED", "STOPPED") for r in rows), rows
+    assert all(0.0 < r["mean_pos_err_km"] < 1e5 and 1e-4 <= r["hyperparams.lr"] <= 1e-3 for r in rows)
+    best = train.load_config(summary["best_config"])
+    assert best.algo == "rllib_ppo" and best.hyperparams["lr"] == pytest.approx(
+        summary["best"]["hyperparams.lr"]
+    )
