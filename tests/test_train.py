@@ -125,7 +125,10 @@ def test_bad_config_key_is_named(
 
 
 def test_shipped_configs_parse() -> None:
-    for path in sorted((ROOT / "configs").glob("*.yaml")):
+    configs = ROOT / "configs"
+    paths = sorted(configs.glob("*.yaml")) + sorted((configs / "experiments").glob("*.yaml"))
+    assert len(paths) >= 9
+    for path in paths:
         tc = train.load_config(path)
         tc.env_config()
         train.algo_kwargs(tc)
