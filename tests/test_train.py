@@ -133,7 +133,10 @@ def _sb3_configs() -> list[str]:
 
 def test_shipped_configs_parse() -> None:
     has_ray = importlib.util.find_spec("ray") is not None
-    for path in sorted((ROOT / "configs").glob("*.yaml")):
+    configs = ROOT / "configs"
+    paths = sorted(configs.glob("*.yaml")) + sorted((configs / "experiments").glob("*.yaml"))
+    assert len(paths) >= 9
+    for path in paths:
         if path.name.startswith("sweep"):
             continue  # Tune sweep configs, not training configs: tests/test_scaling.py loads them
         if path.name.startswith("rllib") and not has_ray:
