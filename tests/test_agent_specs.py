@@ -269,5 +269,5 @@ def test_behaviour_cloning_copies_the_teacher() -> None:
     before = np.abs(model.predict(obs, deterministic=True)[0] - actions).mean()
     nll = clone(model, obs, actions, epochs=200)
     after = np.abs(model.predict(obs, deterministic=True)[0] - actions).mean()
-    # Measured: mean |error| 0.0061 before, 0.00096 after (the baseline's mean |torque| is 0.0049 of the limit).
+    # Measured: mean |error| 0.0061 before, 0.00096 after (baseline's mean |torque|: 0.0049 of the limit).
     assert np.isfinite(nll) and after < 0.5 * before
