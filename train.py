@@ -100,6 +100,9 @@ class TrainConfig:
     shaping: dict[str, float] = field(default_factory=dict)  # potential-based, training only (agents/shaping)
     action_repeat: int = 1  # environment steps per policy decision (agents.features.ActionRepeat)
     relative_actions: bool = False  # target mode: "stay" / "move k places" (agents.features.RelativeTargets)
+    pretrain: dict[str, Any] = field(
+        default_factory=dict
+    )  # behaviour-cloning warm start (agents/pretrain.py)
 
     def env_config(self) -> EnvConfig:
         """The environment configuration: the ``env_id``'s defaults overridden by ``env``."""
@@ -162,6 +165,17 @@ def parse_config(data: Mapping[str, Any] | None, name: str = "run") -> TrainConf
         raise ConfigError(f"config: features: {exc}") from None
     if not isinstance(tc.relative_actions, bool):
         raise ConfigError(f"config: relative_actions must be true or false, got {tc.relative_actions!r}")
+    tc.pretrain = dict(tc.pretrain or {})
+    if tc.pretrain:
+        _check_keys(tc.pretrain, {"teacher", "episodes", "epochs"}, "config.pretrain")
+        if "teacher" not in tc.pretrain:
+            raise ConfigError("config.pretrain: 'teacher' (an agent spec) is required")
+        for key, default in (("episodes", 4), ("epochs", 20)):
+            value = tc.pretrain.setdefault(key, default)
+            if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+                raise ConfigError(f"config.pretrain: {key} must be a positive integer, got {value!r}")
+        if tc.action_repeat != 1 or tc.relative_actions:
+            raise ConfigError("config.pretrain needs action_repeat 1 and relative_actions false")
     tc.shaping = dict(tc.shaping or {})
     _check_keys(tc.shaping, set(SHAPINGS), "config.shaping")
     for key, weight in tc.shaping.items():
@@ -334,8 +348,18 @@ def train(tc: TrainConfig, run_dir: Path, progress: bool = True) -> tuple[Path, 
         verbose=0,
         **algo_kwargs(tc),
     )
-    callback = _nav_callback_class()()
     t0 = time.perf_counter()
+    pretrain_stats: dict[str, Any] = {}
+    if tc.pretrain:
+        from agents.pretrain import clone, demonstrations
+
+        obs, actions = demonstrations(
+            tc.env_config(), tc.pretrain["teacher"], tc.pretrain["episodes"], tc.features
+        )
+        nll = clone(model, obs, actions, tc.pretrain["epochs"])
+        pretrain_stats = {"samples": len(obs), "nll": nll, "seconds": time.perf_counter() - t0}
+        print(f"pretrained on {len(obs)} steps of {tc.pretrain['teacher']} (final NLL {nll:.2f})")
+    callback = _nav_callback_class()()
     model.learn(total_timesteps=tc.n_timesteps, callback=callback, progress_bar=progress, tb_log_name=tc.algo)
     elapsed = time.perf_counter() - t0
     model_path = run_dir / "model.zip"
@@ -349,6 +373,7 @@ def train(tc: TrainConfig, run_dir: Path, progress: bool = True) -> tuple[Path, 
         "seconds": elapsed,
         "steps_per_s": env_steps / max(elapsed, 1e-9),
         "episodes": callback.episodes,
+        "pretrain": pretrain_stats,
     }
     return model_path, stats
 

@@ -8,8 +8,8 @@ from the run's ``config.yaml`` so that a saved policy sees identical inputs when
 ========================== ===========================================================================
 feature                    values appended (``P`` planets), each in [0, 1] unless stated
 ========================== ===========================================================================
-``since_measured``         per planet: ``log1p(steps since it was last measured) / log1p(episode_steps)``
-                           (1 when never measured this episode), from ``info["measured"]`` and
+``since_measured``         per planet: ``log1p(steps since it was last measured) / log1p(1440)``, capped
+                           at 1 (1 when never measured this episode), from ``info["measured"]`` and
                            ``info["target"]``. Lets a feed-forward policy time its switches, which the
                            base observation (a snapshot of the filter) cannot express.
 ``gain``                   per planet: the greedy agent's predicted relative reduction of trace(P_rr)
@@ -39,6 +39,9 @@ from gymnasium import spaces
 from agents.base import parse_observation, unwrapped_config
 
 FEATURES = ("since_measured", "gain", "pd_torque")
+#: Scale of ``since_measured`` [steps]: a constant (one cruise day of 60-s steps), not the episode length,
+#: so that a policy evaluated on shorter episodes than it was trained on sees the same values.
+SINCE_SCALE_STEPS = 1440
 #: Values per planet of each feature.
 _WIDTH = {"since_measured": 1, "gain": 1, "pd_torque": 3}
 
@@ -69,7 +72,7 @@ class FeatureState:
         self.features = check_features(features)
         self.planets = cfg.planets
         self.n_planets = cfg.n_planets
-        self._log_episode = math.log1p(cfg.episode_steps)
+        self._log_scale = math.log1p(SINCE_SCALE_STEPS)
         self._greedy = None
         if "gain" in self.features:
             from agents.greedy import GreedyAgent
@@ -98,7 +101,7 @@ class FeatureState:
         parts = [np.asarray(observation, dtype=np.float32).reshape(-1)]
         for f in self.features:
             if f == "since_measured":
-                s = np.where(np.isfinite(self._since), np.log1p(self._since) / self._log_episode, 1.0)
+                s = np.where(np.isfinite(self._since), np.log1p(self._since) / self._log_scale, 1.0)
                 parts.append(np.minimum(s, 1.0).astype(np.float32))
             elif f == "gain":
                 parsed = parse_observation(observation, self.env)

@@ -67,8 +67,13 @@ class PlannerAgent(TargetAgent):
         self._rng = np.random.default_rng(self._seed)
         self._k = 0
         self._choice = 0
+        self._raw_obs: Any = None
         self.last_scores: dict[int, float] = {}
         self.rollout_steps = 0  # simulated environment steps since reset (cost bookkeeping)
+
+    def act(self, observation: Any, info: dict[str, Any]) -> Any:
+        self._raw_obs = observation  # the rollouts start from the observation the agent was given
+        return super().act(observation, info)
 
     def reset(self, seed: int | None = None) -> None:
         self._rng = np.random.default_rng(self._seed if seed is None else seed)
@@ -104,7 +109,7 @@ class PlannerAgent(TargetAgent):
             self._choice = int(candidates[0])
             return self._choice
         base = copy.deepcopy(self.env.unwrapped)
-        raw_obs = base.current_observation()  # the copy's observation (the one the agent was given)
+        raw_obs = self._raw_obs
         noise_seed = int(self._rng.integers(2**63))
         scores: dict[int, float] = {}
         for c in candidates:
