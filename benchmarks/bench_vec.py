@@ -36,12 +36,17 @@ def _actions(mode: str, stream: str, n: int, k: int, rng: np.random.Generator) -
     return rng.uniform(-1, 1, (n, 3))
 
 
-def vector_rate(n: int, mode: str, stream: str, row_steps: int) -> float:
+def _prepared(n: int, mode: str, stream: str, row_steps: int):
+    """A reset vector env of n rows, the action stream, and the number of timed steps."""
     env = PlanetNavVectorEnv(n, action_mode=mode, episode_steps=100_000)
     env.reset(seed=0)
     rng = np.random.default_rng(0)
     steps = max(3, row_steps // n)
-    acts = [_actions(mode, stream, n, k, rng) for k in range(steps + 2)]
+    return env, [_actions(mode, stream, n, k, rng) for k in range(steps + 2)], steps
+
+
+def vector_rate(n: int, mode: str, stream: str, row_steps: int) -> float:
+    env, acts, steps = _prepared(n, mode, stream, row_steps)
     env.step(acts[0])
     t = time.perf_counter()
     for k in range(steps):
@@ -51,12 +56,8 @@ def vector_rate(n: int, mode: str, stream: str, row_steps: int) -> float:
 
 def ceiling_per_core(n: int, mode: str, stream: str, row_steps: int) -> float:
     """Row-steps/s of the compiled step alone, on one thread (``step_batch``), per core."""
-    env = PlanetNavVectorEnv(n, action_mode=mode, episode_steps=100_000)
-    env.reset(seed=0)
+    env, acts, steps = _prepared(n, mode, stream, row_steps)
     core = env.core
-    rng = np.random.default_rng(0)
-    steps = max(3, row_steps // n)
-    acts = [_actions(mode, stream, n, k, rng) for k in range(steps + 2)]
     active = np.ones(n, dtype=bool)
 
     def decoded(a):

@@ -36,7 +36,7 @@ import numpy as np
 from planetnav_env.config import EnvConfig
 from planetnav_env.core import layout as L
 from planetnav_env.core.batch import BatchCore
-from planetnav_env.core.layout import TARGET_FEATURES, ObservationLayout
+from planetnav_env.core.layout import ObservationLayout
 from planetnav_env.core.rng import seed_state
 from planetnav_env.errors import InvalidParameterError
 from planetnav_env.spaces import (
@@ -47,9 +47,6 @@ from planetnav_env.spaces import (
     format_observation,
     observation_space,
 )
-
-#: Per-target observation block width (kept under its old name for callers).
-PLANET_FEATURES = TARGET_FEATURES
 
 
 def resolve_config(config: EnvConfig | dict | None, overrides: dict[str, Any]) -> EnvConfig:

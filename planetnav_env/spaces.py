@@ -113,11 +113,8 @@ def decode_observation(cfg: EnvConfig, layout: ObservationLayout, observation: A
     velocity_km_s (relative to the central body), log_sigma (6,), q (star tracker), rates_rad_s,
     wheel_fraction, planets (P, 7) and pulsars (Q, 7) as in the layout, target (index or -1), elapsed."""
     if isinstance(observation, dict):
-        obs = dict(observation)
-        if "pulsars" not in obs and layout.n_pulsars == 0:
-            obs.pop("pulsars", None)
         try:
-            flat = layout.from_dict(obs)
+            flat = layout.from_dict(observation)
         except (KeyError, ValueError) as exc:
             raise InvalidParameterError(
                 f"observation does not match this environment's layout: {exc}"

@@ -235,3 +235,31 @@ def test_sb3_adapter_trains_and_reports_terminal_observations() -> None:
                 n_epochs=1, seed=0, device="cpu")  # fmt: skip
     model.learn(64)
     assert model.num_timesteps >= 64
+
+
+def test_core_pulsar_visibility_equals_the_numpy_rule() -> None:
+    """The core's per-row pulsar visibility (Sun avoidance, occultation by the central body) is held to
+    ``sensors.pulsar.pulsar_visibility`` (its numpy oracle) at random geometries near Mars."""
+    from planetnav_env.core.kernels import pulsar_visibility_row
+    from planetnav_env.sensors import pulsar as psr
+
+    rng = np.random.default_rng(7)
+    det = psr.DEFAULT_DETECTOR
+    names = ("B0531+21", "B1937+21", "B1821-24")
+    dirs = np.array([psr.pulsar(n).direction for n in names])
+    mars = np.array([2.0e8, 0.5e8, 0.1e8])
+    radius = psr.mars_radius_km()
+    codes = {L.REASON_VISIBLE: 0, L.REASON_SUN_EXCLUSION: 0, L.REASON_OCCULTED: 0}
+    for _ in range(400):
+        r = mars + rng.normal(size=3) * rng.choice([5e3, 5e4, 5e8])
+        want = psr.pulsar_visibility(r, names, det, mars, radius)
+        for j in range(len(names)):
+            got = pulsar_visibility_row(r, dirs[j], np.radians(det.sun_avoidance_deg), mars, radius, True)
+            expect = (
+                L.REASON_SUN_EXCLUSION
+                if want.sun_blocked[0, j]
+                else (L.REASON_OCCULTED if want.occulted[0, j] else L.REASON_VISIBLE)
+            )
+            assert got == expect
+            codes[got] += 1
+    assert all(v > 0 for v in codes.values())  # every branch was exercised

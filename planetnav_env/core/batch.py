@@ -26,7 +26,7 @@ from planetnav_env.core import kernels as K
 from planetnav_env.core import layout as L
 from planetnav_env.core import rng as crng
 from planetnav_env.core.ephemeris_table import SEGMENT_S, TableSpec, fit_table
-from planetnav_env.core.params import ChannelPlan, build_params, episode_duration_s
+from planetnav_env.core.params import ARCSEC, ChannelPlan, build_params, episode_duration_s
 from planetnav_env.dynamics.orbit import GravityModel
 from planetnav_env.ephemeris import DEEphemeris
 from planetnav_env.errors import NonFiniteError, PlanetNavError
@@ -197,7 +197,7 @@ class BatchCore:
             "ambiguous_skipped": int(i[L.I_SKIPPED]),
             "visibility": L.REASONS[int(i[L.I_REASON])],
             "slewing": bool(i[L.I_SLEWING]),
-            "attitude_err_arcsec": float(att) / K_ARCSEC if math.isfinite(att) else float("nan"),
+            "attitude_err_arcsec": float(att) / ARCSEC if math.isfinite(att) else float("nan"),
             "time_s": self.time_s(row),
             "filter": {"x": f[L.F_XE : L.F_XE + 6].copy(), "P": self.p[row].copy()},
         }
@@ -235,7 +235,7 @@ class BatchCore:
             "h_w": f[L.F_HW : L.F_HW + 3].copy(),
         }
 
-    def body_positions(self, row: int, half_index: int | None = None) -> dict[str, np.ndarray]:
+    def body_positions(self, row: int) -> dict[str, np.ndarray]:
         """Heliocentric positions [km] of the central body and the planets at the row's current time
         (for rendering and analysis), from the row's table."""
         from planetnav_env.core.ephemeris_table import evaluate
@@ -252,6 +252,3 @@ class BatchCore:
         state = self.__dict__.copy()
         state["_pool"] = None  # threads are not state: a copy starts its own
         return state
-
-
-K_ARCSEC = math.pi / 648_000.0

@@ -144,7 +144,7 @@ from planetnav_env.sensors.camera import (
     visibility_row_kernel,
 )
 from planetnav_env.sensors.pulsar import ambiguity_resolvable_kernel, resolve_cycle_kernel
-from planetnav_env.sensors.star_tracker import FIX_WORK_SHAPE, select_stars, star_fix
+from planetnav_env.sensors.star_tracker import FIX_WORK_SHAPE, error_angle_kernel, select_stars, star_fix
 
 
 class CoreParams(NamedTuple):
@@ -361,11 +361,7 @@ def _apply_bias(prm, q, q_fix, qe, err) -> float:  # pragma: no cover - compiled
     qe[1] = a0 * b[1] + a1 * b[0] + a2 * b[3] - a3 * b[2]
     qe[2] = a0 * b[2] - a1 * b[3] + a2 * b[0] + a3 * b[1]
     qe[3] = a0 * b[3] + a1 * b[2] - a2 * b[1] + a3 * b[0]
-    s0 = q[0] * qe[0] + q[1] * qe[1] + q[2] * qe[2] + q[3] * qe[3]
-    d1 = q[0] * qe[1] - q[1] * qe[0] - q[2] * qe[3] + q[3] * qe[2]
-    d2 = q[0] * qe[2] + q[1] * qe[3] - q[2] * qe[0] - q[3] * qe[1]
-    d3 = q[0] * qe[3] - q[1] * qe[2] + q[2] * qe[1] - q[3] * qe[0]
-    return 2.0 * math.atan2(math.sqrt(d1 * d1 + d2 * d2 + d3 * d3), abs(s0))
+    return error_angle_kernel(q, qe)
 
 
 @njit(cache=True, nogil=True)
@@ -818,7 +814,6 @@ def reset_row(prm, f, p, i, rng, eph, obs, n, sc) -> None:  # pragma: no cover -
         f[n, F_QE + j] = f[n, F_Q + j]  # a stale fix to keep if the first one fails
     _star_fix(prm, f, i, rng, n, sc)
     _rate_measurement(prm, f, rng, n)
-    sc.zero3[:] = 0.0
     _score(prm, f, p, i, n, sc.zero3, sc)
     i[n, I_TERMINATED] = 0
     i[n, I_TRUNCATED] = 0

@@ -102,7 +102,6 @@ def build_params(cfg: EnvConfig, plan: ChannelPlan, mu_central: float, mus: np.n
         s[L.S_GATE1 + m - 1] = cfg.filter.gate_threshold(m)
     s[L.S_RATE_NOISE] = math.radians(att.rate_noise_deg_s)
     s[L.S_COS_HALF_DIAG] = math.cos(cam.half_fov_diagonal_rad)
-    s[L.S_SIN_HALF_FOV] = math.sin(min(cam.half_fov_rad))
     s[L.S_ALPHA_MAX] = 2.0 * min(cam.half_fov_rad)
     s[L.S_SIGMA_ALPHA] = cam.sigma_alpha_rad
     s[L.S_PSR_INT_S] = cfg.detector.integration_time_s
@@ -134,7 +133,6 @@ def build_params(cfg: EnvConfig, plan: ChannelPlan, mu_central: float, mus: np.n
     n[L.N_N_PERT] = len(plan.perturbers)
     n[L.N_CH_SSB] = plan.ssb
     n[L.N_APPROACH] = approach
-    n[L.N_OBS_DIM] = layout.size
     n[L.N_OBS_PLANETS] = layout.planets_start
     n[L.N_OBS_PULSARS] = layout.pulsars_start
     n[L.N_OBS_TARGET] = layout.target_start
@@ -147,8 +145,6 @@ def build_params(cfg: EnvConfig, plan: ChannelPlan, mu_central: float, mus: np.n
         fov_deg=float(np.degrees(2.0 * min(cam.half_fov_rad))),
     )
     tables = star_fix_tables(tracker)
-    n[L.N_MIN_STARS] = tables.min_stars
-    n[L.N_MAX_STARS] = tables.max_stars
     pulsars = [psr.pulsar(name) for name in cfg.pulsars]
     psr_rows = np.array(
         [[*p.direction, p.wavelength_km, psr.phase_sigma_cycles(p, cfg.detector)] for p in pulsars]

@@ -40,6 +40,7 @@ from numba import njit
 
 from planetnav_env import quaternion as qt
 from planetnav_env.bodies import body
+from planetnav_env.dynamics.attitude import dcm_body_to_inertial_kernel
 from planetnav_env.errors import (
     InvalidParameterError,
     NonFiniteError,
@@ -470,8 +471,8 @@ def _camera_los(
 
     Fills ``m`` (3, 3) = camera <- inertial rotation ``C^T R(q)^T`` (its row 2 is the boresight in inertial
     components) and ``u`` (6,) = unit LOS in inertial (0:3) and camera (3:6) components. Returns the distance
-    L [km] and a status code. R(q) mirrors :func:`planetnav_env.quaternion.dcm_body_to_inertial` for the
-    normalised q (every entry is quadratic in q, so dividing by |q|^2 normalises).
+    L [km] and a status code. R(q) is ``dcm_body_to_inertial_kernel`` divided by |q|^2 (every entry is
+    quadratic in q), i.e. the rotation of the normalised q.
     """
     q0, q1, q2, q3 = q[i, 0], q[i, 1], q[i, 2], q[i, 3]
     dx, dy, dz = t[i, 0] - r[i, 0], t[i, 1] - r[i, 1], t[i, 2] - r[i, 2]
@@ -483,15 +484,10 @@ def _camera_los(
     if n2 == 0.0:
         return 0.0, _ERR_ZERO_Q
     s = 1.0 / n2
-    r00 = (q0 * q0 + q1 * q1 - q2 * q2 - q3 * q3) * s
-    r01 = 2.0 * (q1 * q2 - q0 * q3) * s
-    r02 = 2.0 * (q1 * q3 + q0 * q2) * s
-    r10 = 2.0 * (q1 * q2 + q0 * q3) * s
-    r11 = (q0 * q0 - q1 * q1 + q2 * q2 - q3 * q3) * s
-    r12 = 2.0 * (q2 * q3 - q0 * q1) * s
-    r20 = 2.0 * (q1 * q3 - q0 * q2) * s
-    r21 = 2.0 * (q2 * q3 + q0 * q1) * s
-    r22 = (q0 * q0 - q1 * q1 - q2 * q2 + q3 * q3) * s
+    dcm_body_to_inertial_kernel(q0, q1, q2, q3, m)  # R(q) into m for a moment; m is rewritten below
+    r00, r01, r02 = m[0, 0] * s, m[0, 1] * s, m[0, 2] * s
+    r10, r11, r12 = m[1, 0] * s, m[1, 1] * s, m[1, 2] * s
+    r20, r21, r22 = m[2, 0] * s, m[2, 1] * s, m[2, 2] * s
     # m[j, k] = sum_l C[l, j] R[k, l]: camera axis j expressed in inertial components.
     for j in range(3):
         c0, c1, c2 = c2b[0, j], c2b[1, j], c2b[2, j]

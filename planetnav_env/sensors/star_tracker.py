@@ -683,12 +683,18 @@ def fix_kernel(q, rot, dirs, idx, n, noise, work, q_out):  # pragma: no cover - 
     q_out[1] = e1 * nq
     q_out[2] = e2 * nq
     q_out[3] = e3 * nq
-    # Error rotation conj(q) * q_est; 2 atan2(|vec|, |scalar|) as in wahba.attitude_error_angle.
-    s0 = q[0] * q_out[0] + q[1] * q_out[1] + q[2] * q_out[2] + q[3] * q_out[3]
-    d1 = q[0] * q_out[1] - q[1] * q_out[0] - q[2] * q_out[3] + q[3] * q_out[2]
-    d2 = q[0] * q_out[2] + q[1] * q_out[3] - q[2] * q_out[0] - q[3] * q_out[1]
-    d3 = q[0] * q_out[3] - q[1] * q_out[2] + q[2] * q_out[1] - q[3] * q_out[0]
-    return 2.0 * math.atan2(math.sqrt(d1 * d1 + d2 * d2 + d3 * d3), abs(s0)), ok
+    return error_angle_kernel(q, q_out), ok
+
+
+@numba.njit(cache=True)
+def error_angle_kernel(q, q_est):  # pragma: no cover - compiled
+    """Angle [rad] of the error rotation ``conj(q) * q_est``: ``2 atan2(|vec|, |scalar|)``, as
+    ``wahba.attitude_error_angle`` (its numpy oracle)."""
+    s0 = q[0] * q_est[0] + q[1] * q_est[1] + q[2] * q_est[2] + q[3] * q_est[3]
+    d1 = q[0] * q_est[1] - q[1] * q_est[0] - q[2] * q_est[3] + q[3] * q_est[2]
+    d2 = q[0] * q_est[2] + q[1] * q_est[3] - q[2] * q_est[0] - q[3] * q_est[1]
+    d3 = q[0] * q_est[3] - q[1] * q_est[2] + q[2] * q_est[1] - q[3] * q_est[0]
+    return 2.0 * math.atan2(math.sqrt(d1 * d1 + d2 * d2 + d3 * d3), abs(s0))
 
 
 @numba.njit(cache=True, error_model=_ERROR_MODEL)
