@@ -90,8 +90,8 @@ class TrainConfig:
     n_envs: int = 4
     seed: int = 0
     torch_threads: int = 1
-    # "native": n_envs rows of the compiled vector env (planetnav_env.sb3_vec); "dummy": n_envs single
-    # environments in SB3's DummyVecEnv (the path for observation features and shaping wrappers).
+    # "native": n_envs rows of the compiled vector env (agents.vec_training); "dummy": n_envs single
+    # environments in SB3's DummyVecEnv (the path for the gain / pd_torque features and shaping).
     vec_env: str = "native"
     hyperparams: dict[str, Any] = field(default_factory=dict)
     env: dict[str, Any] = field(default_factory=dict)
@@ -285,27 +285,31 @@ def _nav_callback_class() -> type:
 
 
 def make_training_env(tc: TrainConfig, monitor_dir: Path | None) -> Any:
-    """The training VecEnv: ``n_envs`` rows of the native vector env (one compiled step for all rows,
-    :class:`planetnav_env.sb3_vec.PlanetNavSB3VecEnv`) under SB3's ``VecMonitor``. Observation features,
-    shaping, action repeat and relative actions are gymnasium wrappers of single environments (from the
-    agents' experiments, issue 10; not yet in the core): with any configured, ``n_envs`` wrapped single
-    environments in a ``DummyVecEnv`` instead (``vec_env: dummy`` forces that path)."""
+    """The training VecEnv: ``n_envs`` rows of the native vector env (one compiled step for all rows)
+    under SB3's ``VecMonitor``, with ``since_measured``, action repeat and relative actions computed on
+    arrays (:class:`agents.vec_training.NavTrainingVecEnv`). Features that need a per-environment agent
+    (``gain``, ``pd_torque``) and reward shaping are gymnasium wrappers of single environments: with any
+    of those configured, ``n_envs`` wrapped single environments run in SB3's ``DummyVecEnv`` instead
+    (``vec_env: dummy`` forces that path; both paths are the same MDP, ``tests/test_vec_training.py``)."""
     from stable_baselines3.common.env_util import make_vec_env
     from stable_baselines3.common.vec_env import DummyVecEnv, VecMonitor
 
+    from agents.vec_training import NATIVE_FEATURES, NavTrainingVecEnv
     from planetnav_env.env import PlanetNavEnv
-    from planetnav_env.sb3_vec import PlanetNavSB3VecEnv
 
     env_cfg = tc.env_config()
     features = tuple(tc.features)
     pointing = tc.shaping.get("pointing")
     gamma = float(tc.hyperparams.get("gamma", 0.99))
 
-    wrapped = features or pointing or tc.action_repeat > 1 or tc.relative_actions
-    if not wrapped and tc.vec_env == "native":
+    native = tc.vec_env == "native" and not pointing and set(features) <= set(NATIVE_FEATURES)
+    if native:
         if monitor_dir is not None:
             monitor_dir.mkdir(parents=True, exist_ok=True)
-        venv = PlanetNavSB3VecEnv(tc.n_envs, env_cfg, seed=tc.seed)
+        venv = NavTrainingVecEnv(
+            tc.n_envs, env_cfg, seed=tc.seed, features=features, action_repeat=tc.action_repeat,
+            relative_actions=tc.relative_actions,
+        )  # fmt: skip
         return VecMonitor(venv, filename=str(monitor_dir / "vec") if monitor_dir is not None else None)
 
     def make_env() -> Any:

@@ -42,6 +42,7 @@ FEATURES = ("since_measured", "gain", "pd_torque")
 #: Scale of ``since_measured`` [steps]: a constant (one cruise day of 60-s steps), not the episode length,
 #: so that a policy evaluated on shorter episodes than it was trained on sees the same values.
 SINCE_SCALE_STEPS = 1440
+_SINCE_LOG_SCALE = math.log1p(SINCE_SCALE_STEPS)
 #: Values per planet of each feature.
 _WIDTH = {"since_measured": 1, "gain": 1, "pd_torque": 3}
 
@@ -55,6 +56,28 @@ def check_features(features: Sequence[str]) -> tuple[str, ...]:
     if len(set(out)) != len(out):
         raise ValueError(f"observation features repeat: {list(out)}")
     return out
+
+
+def advance_since_measured(since: np.ndarray, measured: np.ndarray, target_index: np.ndarray) -> None:
+    """Advance the steps since each planet was last measured by one environment step, in place.
+
+    since: (N, P) float counts (``inf``: not measured this episode). measured: (N,) bool, the step's
+    ``info["measured"]``. target_index: (N,) int, the index in ``config.planets`` of what was measured
+    (anything outside ``0 .. P - 1``, e.g. -1 or a pulsar, resets nothing). The one formula for the
+    single-env wrapper (:class:`FeatureState`, N = 1) and the vector training env (``agents.vec_training``).
+    """
+    since += 1.0
+    n_planets = since.shape[1]
+    target_index = np.asarray(target_index)
+    rows = np.flatnonzero(np.asarray(measured, dtype=bool) & (target_index >= 0) & (target_index < n_planets))
+    since[rows, target_index[rows]] = 0.0
+
+
+def since_measured_values(since: np.ndarray) -> np.ndarray:
+    """The ``since_measured`` feature (float32, same shape as ``since``): ``log1p(steps) /
+    log1p(SINCE_SCALE_STEPS)`` capped at 1, and 1 for a planet not measured this episode."""
+    scaled = np.log1p(np.where(np.isfinite(since), since, 0.0)) / _SINCE_LOG_SCALE
+    return np.where(np.isfinite(since), np.minimum(scaled, 1.0), 1.0).astype(np.float32)
 
 
 class FeatureState:
@@ -72,7 +95,6 @@ class FeatureState:
         self.features = check_features(features)
         self.planets = cfg.planets
         self.n_planets = cfg.n_planets
-        self._log_scale = math.log1p(SINCE_SCALE_STEPS)
         self._greedy = None
         if "gain" in self.features:
             from agents.greedy import GreedyAgent
@@ -87,7 +109,7 @@ class FeatureState:
         self.reset()
 
     def reset(self) -> None:
-        self._since = np.full(self.n_planets, np.inf)  # steps since last measured
+        self._since = np.full((1, self.n_planets), np.inf)  # steps since last measured
 
     def observation_space(self, base: spaces.Box) -> spaces.Box:
         """``base`` with :attr:`n_extra` more entries."""
@@ -95,14 +117,13 @@ class FeatureState:
 
     def augment(self, observation: np.ndarray, info: dict[str, Any]) -> np.ndarray:
         """The observation with the features appended (float32); advances the per-episode state."""
-        self._since += 1.0
-        if info.get("measured") and info.get("target") in self.planets:
-            self._since[self.planets.index(info["target"])] = 0.0
+        target = info.get("target")
+        index = self.planets.index(target) if target in self.planets else -1
+        advance_since_measured(self._since, np.array([bool(info.get("measured"))]), np.array([index]))
         parts = [np.asarray(observation, dtype=np.float32).reshape(-1)]
         for f in self.features:
             if f == "since_measured":
-                s = np.where(np.isfinite(self._since), np.log1p(self._since) / self._log_scale, 1.0)
-                parts.append(np.minimum(s, 1.0).astype(np.float32))
+                parts.append(since_measured_values(self._since)[0])
             elif f == "gain":
                 parsed = parse_observation(observation, self.env)
                 parts.append(self._greedy.planet_gains(parsed, info).astype(np.float32))
@@ -158,29 +179,59 @@ class ActionRepeat(gym.Wrapper):
         return obs, total, terminated, truncated, info
 
 
+def relative_targets(actions: np.ndarray, current: np.ndarray, n_targets: int) -> np.ndarray:
+    """Target indices (N,) of *relative* actions (N,): 0 keeps the current target, ``k`` moves ``k``
+    places along the planet order (``(current + k) mod n``). With no current target (``-1``, the first
+    step) the count starts from target 0, so action ``k`` picks target ``k``. ``ValueError`` naming the
+    row and the value for an action outside ``0 .. n_targets - 1``."""
+    a = np.asarray(actions).reshape(-1)
+    ok = np.isfinite(a) & (a == np.round(a)) & (a >= 0) & (a < n_targets)
+    if not ok.all():
+        r = int(np.flatnonzero(~ok)[0])
+        raise ValueError(f"relative action of row {r} must be in [0, {n_targets}), got {a[r].item()!r}")
+    return (np.maximum(np.asarray(current, dtype=np.int64), 0) + a.astype(np.int64)) % n_targets
+
+
 def relative_to_absolute(action: int, current: int, n_targets: int) -> int:
-    """Target index of a *relative* action: 0 keeps the current target, ``k`` moves ``k`` places along
-    the planet order (``(current + k) mod n``). With no current target (``-1``, the first step) the
-    count starts from target 0, so action ``k`` picks target ``k``."""
-    a = int(action)
-    if not 0 <= a < n_targets:
-        raise ValueError(f"relative action must be in [0, {n_targets}), got {action!r}")
-    return (max(int(current), 0) + a) % n_targets
+    """:func:`relative_targets` for one action."""
+    return int(relative_targets(np.array([action]), np.array([current]), n_targets)[0])
+
+
+def relative_actions_batch(
+    actions: np.ndarray, current: np.ndarray, n_planets: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """(the environment's actions, their target indices) for relative ``actions`` of N rows: integers
+    (N,) in ``target`` mode; in ``target+torque`` mode Box actions (N, D) whose argmax over the first
+    ``n_planets`` entries is the relative choice (rewritten as +1 on the absolute target, -1 elsewhere;
+    the residual torque kept)."""
+    a = np.asarray(actions)
+    if a.ndim <= 1:
+        targets = relative_targets(a, current, n_planets)
+        return targets, targets
+    targets = relative_targets(np.argmax(a[:, :n_planets], axis=1), current, n_planets)
+    out = np.array(a, dtype=np.float32, copy=True)
+    out[:, :n_planets] = -1.0
+    out[np.arange(a.shape[0]), targets] = 1.0
+    return out, targets
 
 
 def relative_action(action: Any, current: int, n_planets: int) -> tuple[Any, int]:
-    """(the environment's action, its target index) for a relative ``action``: an integer in ``target``
-    mode; in ``target+torque`` mode a Box action whose argmax over the first ``n_planets`` entries is the
-    relative choice (rewritten as +1 on the absolute target, -1 elsewhere; the residual torque kept)."""
+    """:func:`relative_actions_batch` for one action: an integer, or a Box action (D,)."""
     a = np.asarray(action)
     if a.ndim == 0 or a.size == 1:
         target = relative_to_absolute(int(a.reshape(())), current, n_planets)
         return target, target
-    target = relative_to_absolute(int(np.argmax(a[:n_planets])), current, n_planets)
-    out = np.array(a, dtype=np.float32, copy=True)
-    out[:n_planets] = -1.0
-    out[target] = 1.0
-    return out, target
+    out, targets = relative_actions_batch(a.reshape(1, -1), np.array([current]), n_planets)
+    return out[0], int(targets[0])
+
+
+def check_relative_config(cfg: Any) -> None:
+    """``ValueError`` unless relative target actions apply to the configuration ``cfg``."""
+    if cfg.action_mode == "torque" or cfg.idle_action or cfg.n_pulsars:
+        raise ValueError(
+            "relative target actions need action_mode 'target' or 'target+torque', planets only, "
+            "without idle_action"
+        )
 
 
 class RelativeTargets(gym.Wrapper):
@@ -195,11 +246,7 @@ class RelativeTargets(gym.Wrapper):
     def __init__(self, env: gym.Env) -> None:
         super().__init__(env)
         cfg = unwrapped_config(env)
-        if cfg.action_mode == "torque" or cfg.idle_action or cfg.n_pulsars:
-            raise ValueError(
-                "relative target actions need action_mode 'target' or 'target+torque', planets only, "
-                "without idle_action"
-            )
+        check_relative_config(cfg)
         self.n_planets = cfg.n_planets
         self._current = -1
 

@@ -119,18 +119,38 @@ class PlanetNavVectorEnv(VectorEnv):
         rows = self._rows[mask]
         self.core.reset_rows(rows, [self._generators[r] for r in rows])
         self._needs_reset[mask] = False
-        return self._observations(), self._infos()
+        return self.observations(), self._infos()
 
-    def step(self, actions: Any):
+    def _decode(self, actions: Any) -> tuple[np.ndarray, np.ndarray]:
         if self._generators is None:
             raise RuntimeError("call reset() before step()")
+        cfg, n = self.config, self.num_envs
+        if cfg.action_mode == "target":
+            return decode_target_actions(cfg, self.single_action_space.n, actions, n), self._torques
+        return decode_box_actions(cfg, self.single_action_space.shape, actions, n)
+
+    def step_rows(self, actions: Any, active: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Advance only the ``active`` rows (bool (N,)) by one step, with no autoreset: the building block
+        of wrappers that run their own loop over steps (one policy decision held for several steps,
+        ``agents.vec_training``). Returns ``(reward, terminated, truncated)``, zero / False for the rows
+        not stepped. The caller resets finished rows (``reset(options={"reset_mask": ...})``, which
+        continues each row's generator) before stepping them again; the whole ``actions`` batch is
+        validated, inactive rows included."""
+        targets, torques = self._decode(actions)
+        active = np.asarray(active, dtype=bool)
+        if active.shape != (self.num_envs,):
+            raise InvalidParameterError(f"active must have shape ({self.num_envs},), got {active.shape}")
+        core = self.core
+        core.step(targets, torques, active)
+        reward = np.where(active, core.f[:, L.F_REWARD], 0.0)
+        terminated = active & (core.i[:, L.I_TERMINATED] != 0)
+        truncated = active & (core.i[:, L.I_TRUNCATED] != 0)
+        return reward, terminated, truncated
+
+    def step(self, actions: Any):
         cfg = self.config
         n = self.num_envs
-        if cfg.action_mode == "target":
-            targets = decode_target_actions(cfg, self.single_action_space.n, actions, n)
-            torques = self._torques
-        else:
-            targets, torques = decode_box_actions(cfg, self.single_action_space.shape, actions, n)
+        targets, torques = self._decode(actions)
         core = self.core
         if self.autoreset_mode == AutoresetMode.NEXT_STEP and self._needs_reset.any():
             rows = np.flatnonzero(self._needs_reset)
@@ -152,7 +172,7 @@ class PlanetNavVectorEnv(VectorEnv):
                 rows = np.flatnonzero(done)
                 infos["final_obs"] = np.array([None] * n, dtype=object)
                 infos["final_info"] = np.array([None] * n, dtype=object)
-                obs_now = self._observations()
+                obs_now = self.observations()
                 for r in rows:
                     infos["final_obs"][r] = (
                         obs_now[r] if cfg.observation == "box" else {k: v[r] for k, v in obs_now.items()}
@@ -163,10 +183,11 @@ class PlanetNavVectorEnv(VectorEnv):
                 core.reset_rows(rows, [self._generators[r] for r in rows])
         else:
             self._needs_reset = done.copy()
-        return self._observations(), reward, terminated, truncated, infos
+        return self.observations(), reward, terminated, truncated, infos
 
     # ------------------------------------------------------------------------------------------
-    def _observations(self) -> Any:
+    def observations(self) -> Any:
+        """Every row's current observation (a copy), as ``reset`` and ``step`` return them."""
         return format_observation(self.config, self.layout, self.core.obs)
 
     def _infos(self) -> dict[str, Any]:
