@@ -274,12 +274,14 @@ def substeps_kernel(
 
 
 @njit(cache=True)
-def _propagate_pointing_batch(
+def propagate_batch_kernel(
     q: np.ndarray,
     omega: np.ndarray,
     h_w: np.ndarray,
+    use_pd: bool,
     direction: np.ndarray,
     roll_ref: np.ndarray,
+    u_bias: np.ndarray,
     u_ext: np.ndarray,
     dt: float,
     n_substeps: int,
@@ -293,13 +295,17 @@ def _propagate_pointing_batch(
     w_out: np.ndarray,
     h_out: np.ndarray,
 ) -> int:
-    """PD law -> wheel limits -> RK4 at every sub-step of every row; returns a status code."""
+    """:func:`substeps_kernel` for every row ``b`` of a batch: the PD law toward ``direction[b]`` (if
+    ``use_pd``; ``direction`` and ``roll_ref`` are then ignored otherwise) plus the constant command
+    ``u_bias[b]`` -> wheel limits -> RK4. Serves both :func:`propagate_pointing` (closed loop) and
+    :func:`planetnav_env.dynamics.attitude.propagate_attitude` (open loop). Returns a status code."""
     if not (
         all_finite_kernel(q)
         and all_finite_kernel(omega)
         and all_finite_kernel(h_w)
         and all_finite_kernel(direction)
         and all_finite_kernel(roll_ref)
+        and all_finite_kernel(u_bias)
         and all_finite_kernel(u_ext)
     ):
         return STATUS_NONFINITE_INPUT
@@ -311,15 +317,14 @@ def _propagate_pointing_batch(
     h = np.empty(3)
     u_cmd = np.empty(3)
     u = np.empty(3)
-    zero = np.zeros(3)
     for b in range(q.shape[0]):
         if not load_state_kernel(q[b], omega[b], y):
             return STATUS_ZERO_Q
-        if not frame_kernel(direction[b], roll_ref[b], frame):
+        if use_pd and not frame_kernel(direction[b], roll_ref[b], frame):
             return STATUS_ZERO_DIRECTION
         h[:] = h_w[b]
         substeps_kernel(
-            y, h, True, frame, zero, u_ext[b], n_substeps, dt, jm, jinv, tau_max, h_max, k_a, k_w,
+            y, h, use_pd, frame, u_bias[b], u_ext[b], n_substeps, dt, jm, jinv, tau_max, h_max, k_a, k_w,
             work, rq, a, u_cmd, u,
         )  # fmt: skip
         if not store_state_kernel(y, h, q_out[b], w_out[b], h_out[b]):
@@ -497,8 +502,8 @@ def propagate_pointing(
     w_out = np.empty_like(wa)
     h_out = np.empty_like(ha)
     wheels = config.wheels
-    status = _propagate_pointing_batch(
-        qa, wa, ha, pa, xa, ea, dt, n, config.inertia_matrix, config.inertia_inverse,
+    status = propagate_batch_kernel(
+        qa, wa, ha, True, pa, xa, np.zeros_like(ea), ea, dt, n, config.inertia_matrix, config.inertia_inverse,
         wheels.torque_limit_array, wheels.momentum_capacity_array, k_a, k_w, q_out, w_out, h_out,
     )  # fmt: skip
     if status:
