@@ -159,6 +159,7 @@ class TargetAgent(Agent):
         self._k_a = j_mean / (2.0 * t * t)
         self._k_w = 1.5 * j_mean / t
         self._tau_max = att.wheel_torque_limit
+        self._torque_scale = cfg.torque_action_scale
         self._h_max = att.wheel_momentum_capacity
 
     def choose_target(self, obs: ParsedObservation, info: dict[str, Any]) -> int:
@@ -189,7 +190,8 @@ class TargetAgent(Agent):
         return np.concatenate([obs.position_km, obs.velocity_km_s])
 
     def torque_toward(self, obs: ParsedObservation, info: dict[str, Any], idx: int) -> np.ndarray:
-        """Wheel torque fraction (3,) in [-1, 1] of the PD law toward planet ``idx``'s estimated direction."""
+        """Torque action (3,) in [-1, 1] of the PD law toward planet ``idx``'s estimated direction: the
+        wheel torque as a fraction of the limit, divided by ``config.torque_action_scale``, clipped."""
         x_est = self.estimate(obs, info)
         direction = obs.planet_los_inertial[idx]
         u = pd_torque(
@@ -202,4 +204,4 @@ class TargetAgent(Agent):
             k_a=self._k_a,
             k_w=self._k_w,
         )
-        return np.clip(u / self._tau_max, -1.0, 1.0).astype(np.float32)
+        return np.clip(u / (self._tau_max * self._torque_scale), -1.0, 1.0).astype(np.float32)

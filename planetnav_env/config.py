@@ -77,6 +77,11 @@ class EnvConfig:
     reward: ``truth`` (-|r_est - r_true| / reward_scale_km, privileged) or ``covariance``
         (-sqrt(trace P_rr) / reward_scale_km, computable on board); torque_penalty multiplies
         the squared commanded torque fraction.
+    torque_action_scale: the fraction of each wheel's torque limit that a torque action of 1 commands
+        (``torque`` and ``target+torque`` modes), in (0, 1]. The agent's torque is held for a whole
+        step, so a pointing law needs torques of ~1e-3 of the limit while a slew needs ~1e-1: a
+        smaller scale gives a learner's [-1, 1] outputs that resolution, at the cost of slower slews
+        (0.02: a 90-degree slew takes ~10 steps). Agents convert with it (``TargetAgent.torque_toward``).
     divergence_km: the episode terminates when the true position error exceeds it.
     observation: ``box`` (flat float32) or ``dict``.
     idle_action: add a last discrete action "camera off" (for the idle floor agent).
@@ -101,6 +106,7 @@ class EnvConfig:
     reward: str = "truth"
     reward_scale_km: float = 1000.0
     torque_penalty: float = 0.0
+    torque_action_scale: float = 1.0
     divergence_km: float = 1.0e5
     observation: str = "box"
     idle_action: bool = False
@@ -156,6 +162,9 @@ class EnvConfig:
             raise ConfigError(f"reward must be one of {REWARDS}, got {self.reward!r}")
         if not (math.isfinite(self.torque_penalty) and self.torque_penalty >= 0):
             raise ConfigError(f"torque_penalty must be >= 0, got {self.torque_penalty!r}")
+        scale = self.torque_action_scale
+        if isinstance(scale, bool) or not isinstance(scale, (int, float)) or not (0.0 < scale <= 1.0):
+            raise ConfigError(f"torque_action_scale must be in (0, 1], got {scale!r}")
         if self.observation not in ("box", "dict"):
             raise ConfigError(f"observation must be 'box' or 'dict', got {self.observation!r}")
         if self.star_tracker not in ("qmethod", "ideal"):

@@ -66,12 +66,13 @@ class PlanetNavEnv(gym.Env):
     ============== ======================================== ==========================================
     target         ``Discrete(n_planets)``                  planet index (order of ``planets``); the
                    (``+1`` "camera off" if ``idle_action``)  thesis's PD law slews to it
-    torque         ``Box(-1, 1, (3,))``                     wheel torque / torque limit, body axes;
+    torque         ``Box(-1, 1, (3,))``                     wheel torque / (torque_action_scale x
+                                                            torque limit), body axes;
                                                             the camera measures the visible planet
                                                             nearest its boresight
     target+torque  ``Box(-1, 1, (n_planets + 3,))``         ``argmax(a[:n])`` picks the target (PD law
                                                             slews to it); ``a[n:]`` is a residual torque
-                                                            (fraction of the limit) added to the PD
+                                                            (same units as ``torque``) added to the PD
                                                             command. A Box because Stable-Baselines3
                                                             rejects Dict and Tuple action spaces.
     ============== ======================================== ==========================================

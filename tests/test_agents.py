@@ -132,10 +132,11 @@ def test_random_agent_is_reproducible() -> None:
     assert [a.act(None, {}) for _ in range(10)] == [b.act(None, {}) for _ in range(10)]
 
 
-@pytest.mark.parametrize("mode", ["torque", "target+torque"])
-def test_baseline_in_torque_modes_acquires_and_tracks(mode: str) -> None:
-    """The agent-side PD law (deadbeat gains for a held torque) reaches Venus and keeps measuring."""
-    env = PlanetNavEnv(action_mode=mode, episode_steps=40)
+@pytest.mark.parametrize(("mode", "scale"), [("torque", 1.0), ("target+torque", 1.0), ("torque", 0.05)])
+def test_baseline_in_torque_modes_acquires_and_tracks(mode: str, scale: float) -> None:
+    """The agent-side PD law (deadbeat gains for a held torque) reaches Venus and keeps measuring, also
+    with a torque action scaled to 5 % of the wheel limit (the agent converts with the scale)."""
+    env = PlanetNavEnv(action_mode=mode, episode_steps=40, torque_action_scale=scale)
     agent = make_agent("baseline", env)
     agent.reset(seed=10_000)
     obs, info = env.reset(seed=10_000)

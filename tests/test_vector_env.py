@@ -14,7 +14,7 @@ import planetnav_env  # noqa: F401  (registers the ids)
 from planetnav_env.core import layout as L
 from planetnav_env.core.batch import PARALLEL_MIN_ROWS
 from planetnav_env.env import PlanetNavEnv
-from planetnav_env.errors import InvalidParameterError, NonFiniteError
+from planetnav_env.errors import ConfigError, InvalidParameterError, NonFiniteError
 from planetnav_env.registration import ENV_IDS
 from planetnav_env.vector_env import PlanetNavVectorEnv
 
@@ -263,3 +263,27 @@ def test_core_pulsar_visibility_equals_the_numpy_rule() -> None:
             assert got == expect
             codes[got] += 1
     assert all(v > 0 for v in codes.values())  # every branch was exercised
+
+
+def test_torque_action_scale_multiplies_the_commanded_torque():
+    """Action a under torque_action_scale 0.5 is action a / 2 under scale 1 (powers of two: exact), in both
+    torque modes; the penalty is on the commanded fraction of the limit. Bad scales name the value."""
+    rng = np.random.default_rng(4)
+    for mode in ("torque", "target+torque"):
+        half = PlanetNavVectorEnv(
+            2, action_mode=mode, episode_steps=30, torque_action_scale=0.5, torque_penalty=1.0
+        )
+        full = PlanetNavVectorEnv(2, action_mode=mode, episode_steps=30, torque_penalty=1.0)
+        oh, _ = half.reset(seed=8)
+        of, _ = full.reset(seed=8)
+        for _ in range(25):
+            a = rng.uniform(-1, 1, half.action_space.shape)
+            b = a.copy()
+            b[:, -3:] *= 0.5
+            oh, rh, *_ = half.step(a)
+            of, rf, *_ = full.step(b)
+            np.testing.assert_array_equal(oh, of)
+            np.testing.assert_array_equal(rh, rf)
+    for bad in (0.0, 1.5, float("nan"), True):
+        with pytest.raises(ConfigError, match="torque_action_scale"):
+            PlanetNavVectorEnv(1, action_mode="torque", torque_action_scale=bad)

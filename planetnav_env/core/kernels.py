@@ -120,6 +120,7 @@ from planetnav_env.core.layout import (
     S_SUBSTEP_S,
     S_SUN_AVOID,
     S_TORQUE_PENALTY,
+    S_TORQUE_SCALE,
     S_VEL_SCALE,
     SENSOR_CAMERA,
     SENSOR_NONE,
@@ -421,8 +422,9 @@ def step_row(prm, f, p, i, rng, eph, n, target, torque, sc) -> None:  # pragma: 
         for j in range(3):
             sc.roll[j] = xe[j] + sc.central[j]  # roll reference: the estimated heliocentric position
         frame_kernel(sc.dirv, sc.roll, sc.frame)
+    scale = s[S_TORQUE_SCALE]
     for j in range(3):
-        sc.bias[j] = torque[j] * prm.tau_max[j] if mode != MODE_TARGET else 0.0
+        sc.bias[j] = torque[j] * scale * prm.tau_max[j] if mode != MODE_TARGET else 0.0
     slewing = use_pd and target != prev and prev >= 0
     if target != prev:
         f[n, F_INTEGRATED] = 0.0  # an X-ray integration is lost when the detector leaves its pulsar
@@ -670,7 +672,7 @@ def _score(prm, f, p, i, n, torque, sc) -> None:  # pragma: no cover - compiled
     err = pos_err if prm.n[N_REWARD_TRUTH] else sig
     r = -err / s[S_REWARD_SCALE]
     if prm.n[N_MODE] != MODE_TARGET and s[S_TORQUE_PENALTY] > 0.0:
-        r -= s[S_TORQUE_PENALTY] * (torque[0] ** 2 + torque[1] ** 2 + torque[2] ** 2)
+        r -= s[S_TORQUE_PENALTY] * s[S_TORQUE_SCALE] ** 2 * (torque[0] ** 2 + torque[1] ** 2 + torque[2] ** 2)
     f[n, F_REWARD] = r if math.isfinite(r) else -s[S_DIVERGENCE] / s[S_REWARD_SCALE]
 
 

@@ -111,6 +111,7 @@ def build_params(cfg: EnvConfig, plan: ChannelPlan, mu_central: float, mus: np.n
     s[L.S_CENTRAL_RADIUS] = body(plan.central_body).radius
     s[L.S_REWARD_SCALE] = cfg.reward_scale_km
     s[L.S_TORQUE_PENALTY] = cfg.torque_penalty
+    s[L.S_TORQUE_SCALE] = cfg.torque_action_scale
     s[L.S_DIVERGENCE] = cfg.divergence_km
     s[L.S_POS_SCALE], s[L.S_VEL_SCALE] = L.observation_scales(cfg.scenario)
     s[L.S_SEGMENT_S] = SEGMENT_S
