@@ -34,6 +34,7 @@ from agents.features import (
     since_measured_values,
 )
 from planetnav_env.config import EnvConfig
+from planetnav_env.core import layout as L
 from planetnav_env.sb3_vec import INFO_KEYS, PlanetNavSB3VecEnv
 
 #: Observation features the vector training env computes on arrays.
@@ -89,10 +90,12 @@ class NavTrainingVecEnv(PlanetNavSB3VecEnv):
     def _advance_features(self, stepped: np.ndarray) -> None:
         if not self.features:
             return
+        # The two columns the feature reads, not info_batch(): that copies every info array, and this
+        # runs once per environment step of a held decision.
         core = self.venv.core
-        info = core.info_batch()
         since = self._since[stepped]
-        advance_since_measured(since, info["measured"][stepped], info["target_index"][stepped])
+        measured = core.i[stepped, L.I_MEASURED] != 0
+        advance_since_measured(since, measured, core.i[stepped, L.I_TARGET])
         self._since[stepped] = since
 
     def reset(self) -> Any:

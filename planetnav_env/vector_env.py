@@ -140,11 +140,22 @@ class PlanetNavVectorEnv(VectorEnv):
         active = np.asarray(active, dtype=bool)
         if active.shape != (self.num_envs,):
             raise InvalidParameterError(f"active must have shape ({self.num_envs},), got {active.shape}")
+        return self._advance(targets, torques, active)
+
+    def _advance(
+        self, targets: np.ndarray, torques: np.ndarray, active: np.ndarray | None = None
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Step the ``active`` rows (all when None) with decoded actions; (reward, terminated, truncated),
+        zero / False for the rows not stepped."""
         core = self.core
         core.step(targets, torques, active)
-        reward = np.where(active, core.f[:, L.F_REWARD], 0.0)
-        terminated = active & (core.i[:, L.I_TERMINATED] != 0)
-        truncated = active & (core.i[:, L.I_TRUNCATED] != 0)
+        reward = core.f[:, L.F_REWARD].copy()
+        terminated = core.i[:, L.I_TERMINATED] != 0
+        truncated = core.i[:, L.I_TRUNCATED] != 0
+        if active is not None:
+            reward[~active] = 0.0
+            terminated &= active
+            truncated &= active
         return reward, terminated, truncated
 
     def step(self, actions: Any):
@@ -155,16 +166,9 @@ class PlanetNavVectorEnv(VectorEnv):
         if self.autoreset_mode == AutoresetMode.NEXT_STEP and self._needs_reset.any():
             rows = np.flatnonzero(self._needs_reset)
             core.reset_rows(rows, [self._generators[r] for r in rows])
-            active = ~self._needs_reset
-            core.step(targets, torques, active)
-            reward = np.where(active, core.f[:, L.F_REWARD], 0.0)
-            terminated = np.where(active, core.i[:, L.I_TERMINATED] != 0, False)
-            truncated = np.where(active, core.i[:, L.I_TRUNCATED] != 0, False)
+            reward, terminated, truncated = self._advance(targets, torques, ~self._needs_reset)
         else:
-            core.step(targets, torques)
-            reward = core.f[:, L.F_REWARD].copy()
-            terminated = core.i[:, L.I_TERMINATED] != 0
-            truncated = core.i[:, L.I_TRUNCATED] != 0
+            reward, terminated, truncated = self._advance(targets, torques)
         done = terminated | truncated
         infos = self._infos()
         if self.autoreset_mode == AutoresetMode.SAME_STEP:
