@@ -174,8 +174,6 @@ def parse_config(data: Mapping[str, Any] | None, name: str = "run") -> TrainConf
             value = tc.pretrain.setdefault(key, default)
             if isinstance(value, bool) or not isinstance(value, int) or value < 1:
                 raise ConfigError(f"config.pretrain: {key} must be a positive integer, got {value!r}")
-        if tc.action_repeat != 1 or tc.relative_actions:
-            raise ConfigError("config.pretrain needs action_repeat 1 and relative_actions false")
     tc.shaping = dict(tc.shaping or {})
     _check_keys(tc.shaping, set(SHAPINGS), "config.shaping")
     for key, weight in tc.shaping.items():
@@ -287,8 +285,9 @@ def _nav_callback_class() -> type:
 def make_training_env(tc: TrainConfig, monitor_dir: Path | None) -> Any:
     """The training VecEnv: ``n_envs`` rows of the native vector env (one compiled step for all rows)
     under SB3's ``VecMonitor``, with ``since_measured``, action repeat and relative actions computed on
-    arrays (:class:`agents.vec_training.NavTrainingVecEnv`). Features that need a per-environment agent
-    (``gain``, ``pd_torque``) and reward shaping are gymnasium wrappers of single environments: with any
+    arrays (:class:`agents.vec_training.NavTrainingVecEnv`, the ``gain`` feature included). The feature that
+    needs a per-environment agent (``pd_torque``) and reward shaping are gymnasium wrappers of single
+    environments: with any
     of those configured, ``n_envs`` wrapped single environments run in SB3's ``DummyVecEnv`` instead
     (``vec_env: dummy`` forces that path; both paths are the same MDP, ``tests/test_vec_training.py``)."""
     from stable_baselines3.common.env_util import make_vec_env
@@ -358,8 +357,9 @@ def train(tc: TrainConfig, run_dir: Path, progress: bool = True) -> tuple[Path, 
         from agents.pretrain import clone, demonstrations
 
         obs, actions = demonstrations(
-            tc.env_config(), tc.pretrain["teacher"], tc.pretrain["episodes"], tc.features
-        )
+            tc.env_config(), tc.pretrain["teacher"], tc.pretrain["episodes"], tc.features,
+            action_repeat=tc.action_repeat, relative_actions=tc.relative_actions,
+        )  # fmt: skip
         nll = clone(model, obs, actions, tc.pretrain["epochs"])
         pretrain_stats = {"samples": len(obs), "nll": nll, "seconds": time.perf_counter() - t0}
         print(f"pretrained on {len(obs)} steps of {tc.pretrain['teacher']} (final NLL {nll:.2f})")

@@ -41,20 +41,9 @@ import gymnasium as gym
 import numpy as np
 
 from agents.base import ParsedObservation, TargetAgent
+from agents.gain import DEFAULT_HORIZON, PD_SLOWDOWN, SlewModel, lost_steps, planet_scores
 from planetnav_env.core.kernels import predicted_planet_trace, predicted_pulsar_trace
 from planetnav_env.sensors.pulsar import ambiguity_resolvable_kernel
-
-#: Ratio of the PD law's slew time to the bang-bang minimum, calibrated on the environment (see docstring).
-PD_SLOWDOWN = 1.6
-
-
-def bang_bang_time(angle_rad: np.ndarray, accel: float, rate_max: float) -> np.ndarray:
-    """Minimum rest-to-rest slew time [s] through ``angle_rad`` with a bounded accel and rate (trapezoid)."""
-    angle = np.abs(np.asarray(angle_rad, dtype=float))
-    # Triangle profile while the peak rate sqrt(angle * accel) stays under the cap, trapezoid beyond.
-    tri = 2.0 * np.sqrt(angle / accel)
-    trap = angle / rate_max + rate_max / accel
-    return np.where(angle * accel <= rate_max * rate_max, tri, trap)
 
 
 class GreedyAgent(TargetAgent):
@@ -63,7 +52,9 @@ class GreedyAgent(TargetAgent):
     name = "greedy"
     requires_idle_action = False
 
-    def __init__(self, env: gym.Env, horizon: int = 3, pd_slowdown: float = PD_SLOWDOWN) -> None:
+    def __init__(
+        self, env: gym.Env, horizon: int = DEFAULT_HORIZON, pd_slowdown: float = PD_SLOWDOWN
+    ) -> None:
         super().__init__(env)
         if horizon < 1:
             raise ValueError(f"horizon must be >= 1 step, got {horizon}")
@@ -73,15 +64,13 @@ class GreedyAgent(TargetAgent):
         # The environment's own parameter record: the what-if updates use the core's model and noise.
         self._params = env.unwrapped.core.params
         self._integration_steps = max(1, math.ceil(cfg.detector.integration_time_s / cfg.step_s - 1e-9))
-        j_mean = float(np.mean(cfg.attitude.inertia))
-        self._accel = cfg.attitude.wheel_torque_limit / j_mean
-        self._rate_max = cfg.attitude.wheel_momentum_capacity / j_mean
+        self.slew = SlewModel.from_config(cfg, pd_slowdown)
         self.last_scores: np.ndarray = np.zeros(cfg.n_targets)
 
     def lost_steps(self, angle_rad: np.ndarray) -> np.ndarray:
         """Predicted steps without a measurement while slewing through ``angle_rad``."""
-        t = self.pd_slowdown * bang_bang_time(angle_rad, self._accel, self._rate_max)
-        return np.maximum(np.ceil(t / self.config.step_s) - 1.0, 0.0)
+        s = self.slew
+        return lost_steps(np.asarray(angle_rad, dtype=float), s.accel, s.rate_max, s.pd_slowdown, s.step_s)
 
     def predicted_trace(self, x: np.ndarray, p: np.ndarray, planet: np.ndarray, i: int, n: int) -> float:
         """``trace(P_rr)`` after ``n`` measurements of planet ``i`` (at ``planet``) from estimate ``x``:
@@ -96,26 +85,16 @@ class GreedyAgent(TargetAgent):
         return float(predicted_pulsar_trace(self._params, np.ascontiguousarray(p, dtype=float), int(j)))
 
     def _planet_scores(self, obs: ParsedObservation, info: dict[str, Any]) -> np.ndarray:
-        """(P,) reduction of trace(P_rr) per step over the horizon [km^2/step], -inf if not observable."""
-        x = self.estimate(obs, info)
-        p = np.asarray(info["filter"]["P"], dtype=float)
-        planets = obs.planet_positions(x)
-        u = obs.planet_los_inertial
-        angle = np.arccos(np.clip(u @ obs.boresight_inertial, -1.0, 1.0))
-        lost = self.lost_steps(angle)
-        trace0 = float(np.trace(p[:3, :3]))
-        scores = np.full(self.n_planets, -np.inf)
-        for i in np.flatnonzero(obs.planet_observable):
-            n = self.horizon - int(lost[i])
-            scores[i] = (trace0 - self.predicted_trace(x, p, planets[i], int(i), n)) / self.horizon
-        return scores
-
-    def planet_gains(self, obs: ParsedObservation, info: dict[str, Any]) -> np.ndarray:
-        """(P,) the planets' scores relative to the current trace(P_rr) (0..1 per step), -1 if not
-        observable: the ``gain`` observation feature (:mod:`agents.features`)."""
-        trace0 = float(np.trace(np.asarray(info["filter"]["P"], dtype=float)[:3, :3]))
-        scores = self._planet_scores(obs, info)
-        return np.where(np.isfinite(scores), scores / max(trace0, 1e-30), -1.0)
+        """(P,) reduction of trace(P_rr) per step over the horizon [km^2/step], -inf if not observable
+        (:func:`agents.gain.planet_scores`, the one formula)."""
+        x = np.ascontiguousarray(self.estimate(obs, info), dtype=float)
+        p = np.ascontiguousarray(info["filter"]["P"], dtype=float)
+        out = np.empty((1, self.n_planets))
+        planet_scores(
+            self._params, self.slew, self.horizon, obs.q[None], np.ascontiguousarray(obs.planets[None]),
+            x[None], p[None], out,
+        )
+        return out[0]
 
     def choose_target(self, obs: ParsedObservation, info: dict[str, Any]) -> int:
         p = np.asarray(info["filter"]["P"], dtype=float)

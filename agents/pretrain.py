@@ -8,7 +8,11 @@ data, before the RL algorithm trains as usual on the environment's reward. Why: 
 nor SAC found the first measurement on their own (``docs/training.md``, T1-T4); cloning the baseline's PD
 pointing gives the RL stage a policy that measures, which it may then improve.
 
-Only for ``action_repeat: 1`` without relative actions (the demonstrations are per-step env actions).
+The demonstrations are recorded in the training MDP: with ``action_repeat`` the teacher decides once per
+held decision (its choice held, as the policy's will be), and with ``relative_actions`` its absolute
+target is encoded as "stay" / "move k places" (:func:`agents.features.absolute_to_relative`). With the
+``gain`` feature, a greedy teacher's decision is the argmax of an input, which a clone can fit; without
+it, the clone of a teacher that switches ~10 times a day learns "stay" (``docs/training.md``, R2).
 """
 
 from __future__ import annotations
@@ -22,16 +26,32 @@ DEMO_SEED = 50_000
 
 
 def demonstrations(
-    env_config: Any, teacher: str, episodes: int, features: Sequence[str]
+    env_config: Any,
+    teacher: str,
+    episodes: int,
+    features: Sequence[str],
+    action_repeat: int = 1,
+    relative_actions: bool = False,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """(observations with ``features`` appended, teacher actions) over ``episodes`` demonstration episodes."""
+    """(observations with ``features`` appended, teacher actions as the policy emits them) at each
+    decision of ``episodes`` demonstration episodes (seeds :data:`DEMO_SEED` ..)."""
     from agents import make_agent
-    from agents.features import FeatureState
+    from agents.features import FeatureState, absolute_to_relative, check_relative_config
     from planetnav_env.env import PlanetNavEnv
 
+    if isinstance(action_repeat, bool) or not isinstance(action_repeat, int) or action_repeat < 1:
+        raise ValueError(f"action_repeat must be an integer >= 1, got {action_repeat!r}")
     env = PlanetNavEnv(env_config)
+    if relative_actions:
+        check_relative_config(env.config)
     agent = make_agent(teacher, env)
     state = FeatureState(env, features) if features else None
+    n_planets = env.config.n_planets
+
+    def observed(obs: Any, info: dict[str, Any]) -> np.ndarray:
+        # Every environment step advances the features (since_measured counts steps), held ones too.
+        return state.augment(obs, info) if state is not None else np.asarray(obs, np.float32)
+
     obs_out, act_out = [], []
     for ep in range(episodes):
         seed = DEMO_SEED + ep
@@ -39,13 +59,22 @@ def demonstrations(
         if state is not None:
             state.reset()
         obs, info = env.reset(seed=seed)
-        done = False
+        seen = observed(obs, info)
+        current, done = -1, False
         while not done:
             action = agent.act(obs, info)
-            obs_out.append(state.augment(obs, info) if state is not None else np.asarray(obs, np.float32))
-            act_out.append(np.asarray(action))
-            obs, _, terminated, truncated, info = env.step(action)
-            done = terminated or truncated
+            obs_out.append(seen)
+            if relative_actions:
+                encoded, current = absolute_to_relative(action, current, n_planets)
+                act_out.append(np.asarray(encoded))
+            else:
+                act_out.append(np.asarray(action))
+            for _ in range(action_repeat):
+                obs, _, terminated, truncated, info = env.step(action)
+                seen = observed(obs, info)
+                done = terminated or truncated
+                if done:
+                    break
     env.close()
     return np.asarray(obs_out, dtype=np.float32), np.asarray(act_out)
 

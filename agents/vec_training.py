@@ -14,8 +14,10 @@ environment as a Stable-Baselines3 ``VecEnv``) plus the three options of the def
 It is the same MDP as ``n_envs`` single environments wrapped in :class:`agents.features.NavFeatures`,
 :class:`~agents.features.ActionRepeat` and :class:`~agents.features.RelativeTargets` in SB3's
 ``DummyVecEnv`` (``tests/test_vec_training.py`` holds the two to equal observations, rewards and
-dones), at the vector environment's speed. Features that need a per-environment agent (``gain``,
-``pd_torque``) and reward shaping stay on the ``DummyVecEnv`` path (:data:`NATIVE_FEATURES`).
+dones), at the vector environment's speed. The ``gain`` feature is computed for all rows by the same
+compiled function as the single-env feature (:func:`agents.gain.planet_gains`), once per decision. The
+``pd_torque`` feature (a per-environment agent) and reward shaping stay on the ``DummyVecEnv`` path
+(:data:`NATIVE_FEATURES`).
 """
 
 from __future__ import annotations
@@ -27,6 +29,7 @@ import numpy as np
 from gymnasium import spaces
 
 from agents.features import (
+    GainFeature,
     advance_since_measured,
     check_features,
     check_relative_config,
@@ -38,7 +41,7 @@ from planetnav_env.core import layout as L
 from planetnav_env.sb3_vec import INFO_KEYS, PlanetNavSB3VecEnv
 
 #: Observation features the vector training env computes on arrays.
-NATIVE_FEATURES = ("since_measured",)
+NATIVE_FEATURES = ("since_measured", "gain")
 
 
 class NavTrainingVecEnv(PlanetNavSB3VecEnv):
@@ -76,16 +79,25 @@ class NavTrainingVecEnv(PlanetNavSB3VecEnv):
         n = self.num_envs
         self._since = np.full((n, self.n_planets), np.inf)
         self._current = np.full(n, -1, dtype=np.int64)
+        self._gain = GainFeature(cfg, self.venv.core.params) if "gain" in self.features else None
         if self.features:
             base = self.observation_space
             self.observation_space = spaces.Box(
-                -np.inf, np.inf, (base.shape[0] + self.n_planets,), dtype=np.float32
+                -np.inf, np.inf, (base.shape[0] + len(self.features) * self.n_planets,), dtype=np.float32
             )
 
     def _augment(self, obs: np.ndarray) -> np.ndarray:
+        """``obs`` with the features appended, in the configured order (as :class:`FeatureState`); the
+        ``gain`` feature reads the filter state of the rows as they are now."""
         if not self.features:
             return obs
-        return np.concatenate([np.asarray(obs, dtype=np.float32), since_measured_values(self._since)], axis=1)
+        parts = [np.asarray(obs, dtype=np.float32)]
+        for f in self.features:
+            if f == "since_measured":
+                parts.append(since_measured_values(self._since))
+            else:
+                parts.append(self._gain(obs, *self.venv.core.filter_state()))
+        return np.concatenate(parts, axis=1)
 
     def _advance_features(self, stepped: np.ndarray) -> None:
         if not self.features:

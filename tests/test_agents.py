@@ -37,7 +37,7 @@ from agents import (
     make_agent,
     parse_observation,
 )
-from agents.greedy import bang_bang_time
+from agents.gain import bang_bang_time
 from planetnav_env.env import PlanetNavEnv
 from planetnav_env.ephemeris import DEEphemeris
 
@@ -179,6 +179,32 @@ def test_baseline_size_option_and_greedy_parts() -> None:
     t1, t10 = g.predicted_trace(x, p, planet, 0, 1), g.predicted_trace(x, p, planet, 0, 10)
     assert t10 < t1 < t0
     assert g.predicted_trace(x, p, planet, 0, 0) == pytest.approx(t0)
+    # The trapezoid beyond the rate cap: angle / rate + rate / accel.
+    assert bang_bang_time(3.0, 1e-3, 0.01) == pytest.approx(3.0 / 0.01 + 0.01 / 1e-3)
+
+
+def test_gain_feature_is_greedys_score_relative_to_the_trace() -> None:
+    """The ``gain`` feature (agents.gain.planet_gains on the flat observation) and greedy's scores (its
+    parsed observation) are one formula: score / best score, -1 where the planet is not observable, and
+    greedy picks the planet whose gain is 1."""
+    from agents.features import FeatureState
+
+    env = PlanetNavEnv(scenario="random-cruise", episode_steps=80)
+    g = GreedyAgent(env)
+    features = FeatureState(env, ["gain"])
+    obs, info = env.reset(seed=7)
+    for _ in range(80):
+        action = g.act(obs, info)
+        gain = features.augment(obs, info)[-3:]
+        finite = np.isfinite(g.last_scores)
+        best = g.last_scores[finite].max()
+        np.testing.assert_allclose(gain[finite], g.last_scores[finite] / best, rtol=1e-5)
+        np.testing.assert_array_equal(gain[~finite], -1.0)
+        assert int(np.argmax(gain)) == action and gain[action] == 1.0
+        assert np.all(gain[finite] >= 0.0)
+        obs, _, terminated, truncated, info = env.step(action)
+        if terminated or truncated:
+            break
 
 
 def test_sb3_loader_round_trip(tmp_path: Path) -> None:

@@ -31,11 +31,16 @@ def _dummy(cfg: EnvConfig, n: int, features, repeat: int, relative: bool) -> Dum
         ("target", [], 1, False),
         ("target+torque", ["since_measured"], 2, True),
         ("torque", ["since_measured"], 4, False),
+        ("target", ["gain", "since_measured"], 3, True),  # the random-cruise recipe
+        ("target", ["gain"], 1, False),
     ],
 )
-def test_native_training_env_equals_wrapped_single_envs(mode, features, repeat, relative):
+@pytest.mark.parametrize("scenario", ["cruise", "random-cruise"])
+def test_native_training_env_equals_wrapped_single_envs(mode, features, repeat, relative, scenario):
+    if scenario == "random-cruise" and "gain" not in features:
+        pytest.skip("the recipes without gain are covered on the fixed cruise")
     n, seed, decisions = 3, 11, 40
-    cfg = EnvConfig(action_mode=mode, episode_steps=20)
+    cfg = EnvConfig(action_mode=mode, episode_steps=20, scenario=scenario)
     native = NavTrainingVecEnv(
         n, cfg, seed=seed, features=features, action_repeat=repeat, relative_actions=relative
     )
@@ -67,8 +72,8 @@ def test_native_training_env_equals_wrapped_single_envs(mode, features, repeat, 
 
 
 def test_native_training_env_rejects_what_it_cannot_compute():
-    with pytest.raises(ValueError, match="gain"):
-        NavTrainingVecEnv(2, EnvConfig(), features=["gain"])
+    with pytest.raises(ValueError, match="pd_torque"):
+        NavTrainingVecEnv(2, EnvConfig(action_mode="torque"), features=["pd_torque"])
     with pytest.raises(ValueError, match="unknown observation feature 'clock'"):
         NavTrainingVecEnv(2, EnvConfig(), features=["clock"])
     with pytest.raises(ValueError, match="relative target actions"):
