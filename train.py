@@ -167,9 +167,22 @@ def parse_config(data: Mapping[str, Any] | None, name: str = "run") -> TrainConf
         raise ConfigError(f"config: relative_actions must be true or false, got {tc.relative_actions!r}")
     tc.pretrain = dict(tc.pretrain or {})
     if tc.pretrain:
-        _check_keys(tc.pretrain, {"teacher", "episodes", "epochs"}, "config.pretrain")
-        if "teacher" not in tc.pretrain:
-            raise ConfigError("config.pretrain: 'teacher' (an agent spec) is required")
+        _check_keys(
+            tc.pretrain, {"teacher", "teacher_config", "episodes", "epochs", "keep_std"}, "config.pretrain"
+        )
+        if not isinstance(tc.pretrain.setdefault("keep_std", False), bool):
+            raise ConfigError(
+                f"config.pretrain: keep_std must be true or false, got {tc.pretrain['keep_std']!r}"
+            )
+        if ("teacher" in tc.pretrain) == ("teacher_config" in tc.pretrain):
+            raise ConfigError(
+                "config.pretrain: give either 'teacher' (an agent spec) or 'teacher_config' (a training "
+                "YAML to train first), not both or neither"
+            )
+        if "teacher_config" in tc.pretrain:
+            given = tc.pretrain["teacher_config"]
+            if not _config_path(given).is_file():
+                raise ConfigError(f"config.pretrain: teacher_config {given!r} not found")
         for key, default in (("episodes", 4), ("epochs", 20)):
             value = tc.pretrain.setdefault(key, default)
             if isinstance(value, bool) or not isinstance(value, int) or value < 1:
@@ -180,6 +193,12 @@ def parse_config(data: Mapping[str, Any] | None, name: str = "run") -> TrainConf
         if isinstance(weight, bool) or not isinstance(weight, int | float) or not weight > 0:
             raise ConfigError(f"config.shaping: {key} must be a positive weight, got {weight!r}")
     return tc
+
+
+def _config_path(path: str | Path) -> Path:
+    """A config path as given, or relative to the repository root (``configs/X.yaml`` from anywhere)."""
+    p = Path(path)
+    return p if p.is_absolute() or p.is_file() else ROOT / p
 
 
 def load_config(path: str | Path) -> TrainConfig:
@@ -356,13 +375,22 @@ def train(tc: TrainConfig, run_dir: Path, progress: bool = True) -> tuple[Path, 
     if tc.pretrain:
         from agents.pretrain import clone, demonstrations
 
+        teacher = tc.pretrain.get("teacher")
+        if "teacher_config" in tc.pretrain:
+            # Two stages: the teacher's own config trains first (e.g. the target-mode policy, which is then
+            # distilled into the target+torque action space); its time counts in this run's.
+            teacher_tc = load_config(_config_path(tc.pretrain["teacher_config"]))
+            print(f"training the teacher {teacher_tc.name} ({tc.pretrain['teacher_config']}) first")
+            teacher_path, teacher_stats = train(teacher_tc, run_dir / "teacher", progress=progress)
+            teacher = str(teacher_path)
+            pretrain_stats["teacher"] = {k: teacher_stats[k] for k in ("timesteps", "env_steps", "seconds")}
         obs, actions = demonstrations(
-            tc.env_config(), tc.pretrain["teacher"], tc.pretrain["episodes"], tc.features,
+            tc.env_config(), teacher, tc.pretrain["episodes"], tc.features,
             action_repeat=tc.action_repeat, relative_actions=tc.relative_actions,
         )  # fmt: skip
-        nll = clone(model, obs, actions, tc.pretrain["epochs"])
-        pretrain_stats = {"samples": len(obs), "nll": nll, "seconds": time.perf_counter() - t0}
-        print(f"pretrained on {len(obs)} steps of {tc.pretrain['teacher']} (final NLL {nll:.2f})")
+        nll = clone(model, obs, actions, tc.pretrain["epochs"], keep_std=tc.pretrain["keep_std"])
+        pretrain_stats.update(samples=len(obs), nll=nll, seconds=time.perf_counter() - t0)
+        print(f"pretrained on {len(obs)} decisions of {teacher} (final NLL {nll:.2f})")
     callback = _nav_callback_class()()
     model.learn(total_timesteps=tc.n_timesteps, callback=callback, progress_bar=progress, tb_log_name=tc.algo)
     elapsed = time.perf_counter() - t0

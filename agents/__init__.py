@@ -149,9 +149,13 @@ def make_agent(name_or_path: str | Path, env: gym.Env, **kwargs: Any) -> Agent:
     key, params = parse_spec(name_or_path)
     if params:
         try:
-            return AGENTS[key](env, **params, **kwargs)
+            agent = AGENTS[key](env, **params, **kwargs)
         except TypeError as exc:  # e.g. a keyword given both in the spec and in kwargs
             raise ValueError(f"agent spec {name_or_path!r}: {exc}") from None
+        if agent.name == key:
+            # Reports key results by name: "greedy:horizon=10" must not read as (or overwrite) "greedy".
+            agent.name = str(name_or_path)
+        return agent
     if key.endswith(SAMPLED_SUFFIX):
         # "PATH@sampled": the saved policy's actions are sampled, not its argmax (seeded by reset(seed)).
         key = key[: -len(SAMPLED_SUFFIX)]

@@ -101,6 +101,15 @@ def parse_observation(observation: Any, env: gym.Env) -> ParsedObservation:
     )
 
 
+def target_torque_action(idx: int, n_planets: int) -> np.ndarray:
+    """The ``target+torque`` action (P + 3,) that picks planet ``idx`` with no residual torque: +1 on it,
+    -1 on the other planets, 0 torque."""
+    a = -np.ones(n_planets + 3, dtype=np.float32)
+    a[idx] = 1.0
+    a[n_planets:] = 0.0
+    return a
+
+
 class NotApplicableError(ValueError):
     """The agent cannot act in this environment (e.g. a model trained for another action space); the
     evaluation harness skips it with the message as a note instead of stopping."""
@@ -176,10 +185,7 @@ class TargetAgent(Agent):
         if mode == "target":
             return idx
         if mode == "target+torque":
-            a = -np.ones(self.n_planets + 3, dtype=np.float32)
-            a[idx] = 1.0
-            a[self.n_planets :] = 0.0
-            return a
+            return target_torque_action(idx, self.n_planets)
         return self.torque_toward(obs, info, idx)
 
     def estimate(self, obs: ParsedObservation, info: dict[str, Any]) -> np.ndarray:

@@ -8,8 +8,10 @@ data, before the RL algorithm trains as usual on the environment's reward. Why: 
 nor SAC found the first measurement on their own (``docs/training.md``, T1-T4); cloning the baseline's PD
 pointing gives the RL stage a policy that measures, which it may then improve.
 
-The demonstrations are recorded in the training MDP: with ``action_repeat`` the teacher decides once per
-held decision (its choice held, as the policy's will be), and with ``relative_actions`` its absolute
+The demonstrations are recorded in the training MDP: with ``action_repeat`` the teacher's choice at each
+decision point is recorded and held for the decision, as the policy's will be (the teacher still sees
+every step, so a teacher with its own features or decision clock, e.g. a saved policy, runs as in
+evaluation), and with ``relative_actions`` its absolute
 target is encoded as "stay" / "move k places" (:func:`agents.features.absolute_to_relative`). With the
 ``gain`` feature, a greedy teacher's decision is the argmax of an input, which a clone can fit; without
 it, the clone of a teacher that switches ~10 times a day learns "stay" (``docs/training.md``, R2).
@@ -60,33 +62,47 @@ def demonstrations(
             state.reset()
         obs, info = env.reset(seed=seed)
         seen = observed(obs, info)
-        current, done = -1, False
+        current, held, k, done = -1, None, 0, False
         while not done:
+            # The teacher sees every step (its own features and decision clock advance, as in evaluation);
+            # its choice at a decision point is recorded and held for the decision.
             action = agent.act(obs, info)
-            obs_out.append(seen)
-            if relative_actions:
-                encoded, current = absolute_to_relative(action, current, n_planets)
-                act_out.append(np.asarray(encoded))
-            else:
-                act_out.append(np.asarray(action))
-            for _ in range(action_repeat):
-                obs, _, terminated, truncated, info = env.step(action)
-                seen = observed(obs, info)
-                done = terminated or truncated
-                if done:
-                    break
+            if k % action_repeat == 0:
+                held = action
+                obs_out.append(seen)
+                if relative_actions:
+                    encoded, current = absolute_to_relative(action, current, n_planets)
+                    act_out.append(np.asarray(encoded))
+                else:
+                    act_out.append(np.asarray(action))
+            obs, _, terminated, truncated, info = env.step(held)
+            seen = observed(obs, info)
+            k += 1
+            done = terminated or truncated
     env.close()
     return np.asarray(obs_out, dtype=np.float32), np.asarray(act_out)
 
 
 def clone(
-    model: Any, obs: np.ndarray, actions: np.ndarray, epochs: int, lr: float = 1e-3, batch: int = 256
+    model: Any,
+    obs: np.ndarray,
+    actions: np.ndarray,
+    epochs: int,
+    lr: float = 1e-3,
+    batch: int = 256,
+    keep_std: bool = False,
 ) -> float:
     """Fits ``model.policy`` to (obs, actions) by maximum likelihood; returns the last epoch's mean
-    negative log-likelihood."""
+    negative log-likelihood.
+
+    ``keep_std``: a Gaussian policy's state-independent ``log_std`` is put back to its value before the
+    fit. Maximum likelihood on a deterministic teacher shrinks it towards zero (NLL ~ -6), and PPO then
+    has no exploration left to improve on the clone; with ``keep_std`` only the mean is the clone's."""
     import torch
 
     policy = model.policy
+    log_std = getattr(policy, "log_std", None)
+    saved = log_std.detach().clone() if (keep_std and log_std is not None) else None
     opt = torch.optim.Adam(policy.parameters(), lr=lr)
     o = torch.as_tensor(obs)
     a = torch.as_tensor(actions)
@@ -105,5 +121,8 @@ def clone(
             opt.step()
             losses.append(float(loss.detach()))
         nll = float(np.mean(losses))
+    if saved is not None:
+        with torch.no_grad():
+            log_std.copy_(saved)
     policy.set_training_mode(False)
     return nll

@@ -13,7 +13,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from agents.base import Agent, NotApplicableError
+from agents.base import Agent, NotApplicableError, target_torque_action
 from agents.features import FeatureState, relative_action
 
 #: Lower-case names -> SB3 classes (imported lazily: SB3 and torch take seconds to import).
@@ -118,8 +118,17 @@ class SB3Agent(Agent):
         self.features = FeatureState(env, names) if (names and env is not None) else None
         if names and env is None:
             raise ValueError(f"{self.path}: a policy with observation features needs the environment")
+        # A target-choice policy (Discrete over the planets) in a target+torque environment picks the planet
+        # with zero residual torque (agents.base.target_torque_action): the target-mode action is a subset.
+        self._as_target_torque = (
+            env is not None
+            and env.unwrapped.config.action_mode == "target+torque"
+            and getattr(self.model.action_space, "n", None) == self._n_planets
+        )
         if env is not None:
             for what in ("observation_space", "action_space"):
+                if what == "action_space" and self._as_target_torque:
+                    continue
                 mine, theirs = getattr(self.model, what), getattr(env, what)
                 if what == "observation_space" and self.features is not None:
                     theirs = self.features.observation_space(theirs)
@@ -153,6 +162,8 @@ class SB3Agent(Agent):
         self._held = self._decide(observation)
         if self.relative:
             self._held, self._current = relative_action(self._held, self._current, self._n_planets)
+        if self._as_target_torque:
+            self._held = target_torque_action(int(self._held), self._n_planets)
         return self._held
 
     def _decide(self, observation: Any) -> Any:

@@ -117,6 +117,9 @@ def test_planner_parameters_are_validated() -> None:
     with pytest.raises(ValueError, match="horizon"):
         make_agent("planner:horizon=0", env)
     assert make_agent("planner:horizon=20,replan=5", env).name.startswith("planner:horizon=20,replan=5")
+    # Agents with parameters are named by their spec, so two settings never share a row of a report.
+    assert make_agent("greedy:horizon=10", env).name == "greedy:horizon=10"
+    assert make_agent("greedy", env).name == "greedy"
 
 
 def test_features_state_and_wrapper() -> None:
@@ -304,3 +307,35 @@ def test_demonstrations_are_recorded_in_the_training_mdp(mode: str) -> None:
             assert t == target and relative_action(enc, current, 3)[1] == target
     with pytest.raises(ValueError, match="absolute target must be in"):
         absolute_to_relative(3, 0, 3)
+
+
+def test_target_policy_acts_in_target_torque_and_keep_std(tmp_path: Path) -> None:
+    """A target-mode policy picks planets in a target+torque env (+1 on its choice, zero residual), as the
+    teacher of the distilled target+torque config; ``keep_std`` clones the mean only."""
+    import torch
+    from stable_baselines3 import PPO
+
+    from agents.pretrain import clone
+
+    target_env = PlanetNavEnv(episode_steps=20)
+    model = PPO("MlpPolicy", target_env, n_steps=32, batch_size=32, n_epochs=1, seed=0, device="cpu")
+    model.save(tmp_path / "target.zip")
+    tt_env = PlanetNavEnv(episode_steps=20, action_mode="target+torque")
+    agent = make_agent(str(tmp_path / "target.zip"), tt_env)
+    obs, info = tt_env.reset(seed=0)
+    chosen = int(model.predict(obs, deterministic=True)[0])
+    action = agent.act(obs, info)
+    assert action.shape == (6,) and int(np.argmax(action[:3])) == chosen
+    np.testing.assert_array_equal(action[3:], 0.0)
+    assert tt_env.action_space.contains(action)
+    # keep_std: the Gaussian's log std is the one before the fit; the mean moved to the teacher's actions.
+    student = PPO("MlpPolicy", tt_env, n_steps=32, batch_size=32, seed=0, device="cpu")
+    before = student.policy.log_std.detach().clone()
+    demo_obs = np.repeat(obs[None].astype(np.float32), 64, axis=0)
+    demo_act = np.repeat(action[None], 64, axis=0)
+    clone(student, demo_obs, demo_act, epochs=50, keep_std=True)
+    assert torch.equal(student.policy.log_std.detach(), before)
+    mean = student.predict(obs, deterministic=True)[0]
+    assert int(np.argmax(mean[:3])) == chosen and np.abs(mean[3:]).max() < 0.2
+    clone(student, demo_obs, demo_act, epochs=50)
+    assert float(student.policy.log_std.detach().max()) < float(before.max())

@@ -112,6 +112,11 @@ def test_compare_prints_one_table(tmp_path: Path, capsys: pytest.CaptureFixture[
         ("hyperparams: {n_step: 10}\n", "n_step"),
         ("eval: {episode: 1}\n", "episode"),
         ("algo: ppo2\n", "ppo2"),
+        ("pretrain: {teacher: greedy, epoch: 3}\n", "epoch"),
+        ("pretrain: {episodes: 3}\n", "teacher_config"),  # neither teacher nor teacher_config
+        ("pretrain: {teacher: greedy, teacher_config: configs/cruise_ppo.yaml}\n", "not both"),
+        ("pretrain: {teacher_config: configs/nope.yaml}\n", "nope.yaml"),
+        ("pretrain: {teacher: greedy, keep_std: 2}\n", "keep_std"),
     ],
 )
 def test_bad_config_key_is_named(
@@ -202,6 +207,11 @@ def _smoke_version(path: Path, tmp_path: Path) -> Path:
     # The shipped agent list, with the planner's rollouts shortened to keep the test quick.
     agents = [("planner:horizon=4,replan=2" if a == "planner" else a) for a in ev.get("agents", [])]
     data["eval"] = {**ev, "episodes": 2, "agents": agents}
+    pre = dict(data.get("pretrain") or {})
+    if "teacher_config" in pre:  # a two-stage config: the teacher trains first, as a smoke run too
+        (tmp_path / "teacher").mkdir(exist_ok=True)
+        pre["teacher_config"] = str(_smoke_version(ROOT / pre["teacher_config"], tmp_path / "teacher"))
+        data["pretrain"] = {**pre, "episodes": 2}
     out = tmp_path / path.name
     out.write_text(yaml.safe_dump(data))
     return out
