@@ -838,6 +838,10 @@ def cmd_train(args: argparse.Namespace) -> int:
     tc = load_config(args.config)
     if args.timesteps:
         tc.n_timesteps = args.timesteps
+    if args.seed is not None:
+        if args.seed < 0:
+            raise ConfigError(f"--seed must be >= 0, got {args.seed}")
+        tc.seed = args.seed
     run_dir = Path(args.run_dir) if args.run_dir else ROOT / "runs" / tc.name
     progress = not args.no_progress
     print(f"training {tc.algo.upper()} for {tc.n_timesteps} steps on {tc.n_envs} envs -> {run_dir}")
@@ -953,6 +957,7 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--config", default=str(DEFAULT_CONFIG), help="training YAML (default %(default)s)")
     t.add_argument("--run-dir", help="output directory (default runs/<name>)")
     t.add_argument("--timesteps", type=int, help="override n_timesteps")
+    t.add_argument("--seed", type=int, help="override the config's training seed (spread across training runs)")
     t.add_argument("--no-eval", action="store_true", help="skip the evaluation and report")
     t.add_argument("--address", help="RLlib only: join the Ray cluster at HOST:PORT (default: a local Ray)")
     t.set_defaults(func=cmd_train)

@@ -230,3 +230,13 @@ def test_every_shipped_config_trains_and_evaluates(tmp_path: Path, name: str) ->
     assert len(ran) == 2 + len(tc.eval.agents)  # the trained policy (argmax, sampled) + the config's agents
     assert all(m["episodes"] == 2 for m in data["agents"].values())
     assert (run_dir / "report.md").read_text().count("|") > 10
+
+
+def test_seed_override(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """``--seed`` trains another seed of a config (the spread across training runs in docs/training.md)."""
+    run_dir = tmp_path / "s3"
+    args = ["train", "--config", str(ROOT / "configs" / "smoke.yaml"), "--run-dir", str(run_dir)]
+    assert train.main([*args, "--seed", "3", "--no-eval", "--no-progress"]) == 0
+    assert yaml.safe_load((run_dir / "config.yaml").read_text())["seed"] == 3
+    assert train.main([*args, "--seed", "-1", "--no-eval", "--no-progress"]) == 2
+    assert "--seed must be >= 0, got -1" in capsys.readouterr().err
