@@ -957,7 +957,7 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--config", default=str(DEFAULT_CONFIG), help="training YAML (default %(default)s)")
     t.add_argument("--run-dir", help="output directory (default runs/<name>)")
     t.add_argument("--timesteps", type=int, help="override n_timesteps")
-    t.add_argument("--seed", type=int, help="override the config's training seed (spread across training runs)")
+    t.add_argument("--seed", type=int, help="override the config's training seed (spread across runs)")
     t.add_argument("--no-eval", action="store_true", help="skip the evaluation and report")
     t.add_argument("--address", help="RLlib only: join the Ray cluster at HOST:PORT (default: a local Ray)")
     t.set_defaults(func=cmd_train)
