@@ -399,11 +399,14 @@ def train(tc: TrainConfig, run_dir: Path, progress: bool = True) -> tuple[Path, 
     venv.close()
     # With action_repeat, SB3's timesteps are decisions; the environment ran ``action_repeat`` steps each.
     env_steps = int(model.num_timesteps) * tc.action_repeat
+    # A teacher trained by this run (pretrain.teacher_config) is part of its time and its steps.
+    teacher_steps = int(pretrain_stats.get("teacher", {}).get("env_steps", 0))
     stats = {
         "timesteps": int(model.num_timesteps),
         "env_steps": env_steps,
+        "teacher_env_steps": teacher_steps,
         "seconds": elapsed,
-        "steps_per_s": env_steps / max(elapsed, 1e-9),
+        "steps_per_s": (env_steps + teacher_steps) / max(elapsed, 1e-9),
         "episodes": callback.episodes,
         "pretrain": pretrain_stats,
     }
@@ -854,8 +857,9 @@ def cmd_train(args: argparse.Namespace) -> int:
     else:
         model_path, stats = train(tc, run_dir, progress=progress)
     print(
-        f"trained {stats['timesteps']} decisions = {stats.get('env_steps', stats['timesteps'])} env steps in "
-        f"{stats['seconds']:.0f} s ({stats['steps_per_s']:.0f} env steps/s)"
+        f"trained {stats['timesteps']} decisions = {stats.get('env_steps', stats['timesteps'])} env steps"
+        + (f" + the teacher's {stats['teacher_env_steps']}" if stats.get("teacher_env_steps") else "")
+        + f" in {stats['seconds']:.0f} s ({stats['steps_per_s']:.0f} env steps/s)"
     )
     if args.no_eval:
         return 0
