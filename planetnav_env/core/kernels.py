@@ -134,7 +134,7 @@ from planetnav_env.estimation.fast import (
     nees_kernel,
     planet_model_kernel,
     predict_kernel,
-    rk4_stm_kernel,
+    rk4_kernel,
     update_kernel,
 )
 from planetnav_env.sensors.camera import (
@@ -453,11 +453,10 @@ def step_row(prm, f, p, i, rng, eph, n, target, torque, sc) -> None:  # pragma: 
         return
     i[n, I_SETTLED] = 1 if (use_pd and mode == MODE_TARGET and _pointing_settled(prm, f, n, sc)) else 0
 
-    # --- orbit truth and filter prediction (same dynamics, perturbers from the row's table) ---
+    # --- orbit truth (state only: it needs no STM) and filter prediction (same dynamics, perturbers from
+    # the row's table) ---
     _perturbers(prm, eph, f, n, t, dt, sc.pert)
-    rk4_stm_kernel(
-        x, dt, s[S_MU], sc.pert[0], sc.pert[1], sc.pert[2], prm.mus, sc.x_new, sc.phi, sc.w6, sc.v6
-    )
+    rk4_kernel(x, dt, s[S_MU], sc.pert[0], sc.pert[1], sc.pert[2], prm.mus, sc.x_new, sc.w6, sc.v6)
     for j in range(6):
         x[j] = sc.x_new[j]
     predict_kernel(
