@@ -137,6 +137,7 @@ from planetnav_env.estimation.fast import (
     rk4_kernel,
     update_kernel,
 )
+from planetnav_env.jit import row_kernel
 from planetnav_env.sensors.camera import (
     N_VIS_SLOTS,
     V_ALPHA,
@@ -238,12 +239,12 @@ def make_scratch(prm: CoreParams) -> Scratch:  # pragma: no cover - compiled
 # ------------------------------------------------------------------------------------------------
 # Small helpers
 # ------------------------------------------------------------------------------------------------
-@njit(cache=True, nogil=True)
+@row_kernel
 def _time(prm, f, i, n):  # pragma: no cover - compiled
     return f[n, F_T0] + i[n, I_K] * prm.s[S_STEP_S]
 
 
-@njit(cache=True, nogil=True)
+@row_kernel
 def _eval(prm, eph, f, n, t, channel, out) -> bool:  # pragma: no cover - compiled
     if channel < 0:
         out[0] = out[1] = out[2] = 0.0
@@ -251,13 +252,13 @@ def _eval(prm, eph, f, n, t, channel, out) -> bool:  # pragma: no cover - compil
     return position_kernel(eph[n], f[n, F_T0], prm.s[S_SEGMENT_S], t, channel, out)
 
 
-@njit(cache=True, nogil=True)
+@row_kernel
 def _planets_at(prm, eph, f, n, t, out) -> bool:  # pragma: no cover - compiled
     c0 = prm.n[N_CH_PLANET0]
     return positions_kernel(eph[n], f[n, F_T0], prm.s[S_SEGMENT_S], t, c0, c0 + prm.n[N_NP], out)
 
 
-@njit(cache=True, nogil=True)
+@row_kernel
 def _perturbers(prm, eph, f, n, t, dt, out) -> bool:  # pragma: no cover - compiled
     k = prm.n[N_N_PERT]
     if k == 0:
@@ -269,7 +270,7 @@ def _perturbers(prm, eph, f, n, t, dt, out) -> bool:  # pragma: no cover - compi
     return ok and positions_kernel(eph[n], f[n, F_T0], seg, t + dt, c0, c0 + k, out[2])
 
 
-@njit(cache=True, nogil=True)
+@row_kernel
 def los_basis_kernel(planet, x_est, basis) -> None:  # pragma: no cover - compiled
     """Rows of ``basis`` (2, 3): ``e1 = d x (axis least aligned with d)``, ``e2 = d x e1`` for the predicted
     line of sight ``d`` from ``x_est`` to ``planet`` (``measurements.los_basis`` is its numpy oracle)."""
@@ -291,7 +292,7 @@ def los_basis_kernel(planet, x_est, basis) -> None:  # pragma: no cover - compil
     basis[1, 0], basis[1, 1], basis[1, 2] = d1 * e12 - d2 * e11, d2 * e10 - d0 * e12, d0 * e11 - d1 * e10
 
 
-@njit(cache=True, nogil=True)
+@row_kernel
 def measurement_vector_kernel(los_body, alpha, q_est, planet, x_est, kind, z, basis, r):  # pragma: no cover
     """Filter measurement ``z`` from a body-frame line of sight rotated to inertial by the *star-tracker*
     attitude ``q_est`` (what a real filter does: it never sees the true attitude).
@@ -319,7 +320,7 @@ def measurement_vector_kernel(los_body, alpha, q_est, planet, x_est, kind, z, ba
     return 2
 
 
-@njit(cache=True, nogil=True)
+@row_kernel
 def _star_fix(prm, f, i, rng, n, sc):  # pragma: no cover - compiled
     """Star-tracker attitude into QE: q-method on the stars in the camera's own field, their directions
     perturbed by the row's random stream. With too few stars or a degenerate field the last fix is kept
@@ -348,7 +349,7 @@ def _star_fix(prm, f, i, rng, n, sc):  # pragma: no cover - compiled
         f[n, F_ATT_ERR] = np.nan
 
 
-@njit(cache=True, nogil=True)
+@row_kernel
 def _apply_bias(prm, q, q_fix, qe, err) -> float:  # pragma: no cover - compiled
     """qe = q_fix * q_bias (Hamilton product, scalar first; ``quaternion.multiply`` is its oracle in the
     tests); returns the error angle [rad] of the biased fix (``err`` when there is no bias)."""
@@ -365,14 +366,14 @@ def _apply_bias(prm, q, q_fix, qe, err) -> float:  # pragma: no cover - compiled
     return error_angle_kernel(q, qe)
 
 
-@njit(cache=True, nogil=True)
+@row_kernel
 def _rate_measurement(prm, f, rng, n):  # pragma: no cover - compiled
     sig = prm.s[S_RATE_NOISE]
     for j in range(3):
         f[n, F_WM + j] = f[n, F_W + j] + sig * crng.standard_normal(rng[n])
 
 
-@njit(cache=True, nogil=True)
+@row_kernel
 def _pointing_settled(prm, f, n, sc) -> bool:  # pragma: no cover - compiled
     """The boresight is within SETTLE_ANGLE of the PD frame's axis and the rates below SETTLE_RATE:
     the closed loop is then near its equilibrium, and coarse sub-steps integrate it accurately."""
@@ -392,7 +393,7 @@ def _pointing_settled(prm, f, n, sc) -> bool:  # pragma: no cover - compiled
 # ------------------------------------------------------------------------------------------------
 # One step of one row
 # ------------------------------------------------------------------------------------------------
-@njit(cache=True, nogil=True)
+@row_kernel
 def step_row(prm, f, p, i, rng, eph, n, target, torque, sc) -> None:  # pragma: no cover - compiled
     """Advance row ``n`` by one step with the decoded action: ``target`` (planet/pulsar index, -1 for
     none) and ``torque`` (3,) as a fraction of the wheel limit (ignored in ``target`` mode)."""
@@ -514,7 +515,7 @@ def step_row(prm, f, p, i, rng, eph, n, target, torque, sc) -> None:  # pragma: 
     _score(prm, f, p, i, n, torque, sc)
 
 
-@njit(cache=True, nogil=True)
+@row_kernel
 def _nearest_in_view(prm, sc) -> int:  # pragma: no cover - compiled
     """Index of the planet nearest the boresight by the true geometry (what the image shows), or -1."""
     q = sc.q1[0]
@@ -536,7 +537,7 @@ def _nearest_in_view(prm, sc) -> int:  # pragma: no cover - compiled
     return idx if best > prm.s[S_COS_HALF_DIAG] else -1
 
 
-@njit(cache=True, nogil=True)
+@row_kernel
 def _measure_planet(prm, f, p, rng, n, idx, sc):  # pragma: no cover - compiled
     """Camera measurement of planet ``idx`` (visible), rotated to inertial with the star-tracker attitude;
     EKF update. Returns (measured, rejected)."""
@@ -568,7 +569,7 @@ def _measure_planet(prm, f, p, rng, n, idx, sc):  # pragma: no cover - compiled
     return True, not ok
 
 
-@njit(cache=True, nogil=True)
+@row_kernel
 def pulsar_visibility_row(
     r_helio, nvec, sun_avoid, central, central_radius, approach
 ) -> int:  # pragma: no cover
@@ -588,7 +589,7 @@ def pulsar_visibility_row(
     return REASON_VISIBLE
 
 
-@njit(cache=True, nogil=True)
+@row_kernel
 def _time_pulsar(prm, f, p, i, rng, eph, n, j, t, sc):  # pragma: no cover - compiled
     """Accumulate X-ray photons from pulsar ``j`` while the detector points at it; after the integration
     time a phase (range along the pulsar's direction from the barycentre) updates the filter, with the
@@ -649,7 +650,7 @@ def _time_pulsar(prm, f, p, i, rng, eph, n, j, t, sc):  # pragma: no cover - com
     return True, not ok, REASON_VISIBLE
 
 
-@njit(cache=True, nogil=True)
+@row_kernel
 def _score(prm, f, p, i, n, torque, sc) -> None:  # pragma: no cover - compiled
     """Errors, NEES, 1-sigma, reward, termination and truncation of row ``n`` after its step."""
     s = prm.s
@@ -678,7 +679,7 @@ def _score(prm, f, p, i, n, torque, sc) -> None:  # pragma: no cover - compiled
 # ------------------------------------------------------------------------------------------------
 # Observation of one row
 # ------------------------------------------------------------------------------------------------
-@njit(cache=True, nogil=True)
+@row_kernel
 def observe_row(prm, f, p, i, eph, obs, n, sc) -> None:  # pragma: no cover - compiled
     """Write row ``n``'s observation (layout: :class:`planetnav_env.core.layout.ObservationLayout`) from
     what the spacecraft knows: the filter, the star tracker, the reported rates, wheels, ephemerides."""
@@ -717,7 +718,7 @@ def observe_row(prm, f, p, i, eph, obs, n, sc) -> None:  # pragma: no cover - co
     o[nn[N_OBS_ELAPSED]] = i[n, I_K] / nn[N_EPISODE_STEPS]
 
 
-@njit(cache=True, nogil=True)
+@row_kernel
 def _planet_features(prm, r_est, qe, pm, sc) -> None:  # pragma: no cover - compiled
     """Per-planet block from the estimate: direction in body axes (3), log10(distance / AU), apparent
     diameter / sigma_alpha, observable if pointed at (the camera's own rules for the attitude that
@@ -763,7 +764,7 @@ def _planet_features(prm, r_est, qe, pm, sc) -> None:  # pragma: no cover - comp
         out[a, 4] = alpha / s[S_SIGMA_ALPHA]
 
 
-@njit(cache=True, nogil=True)
+@row_kernel
 def _pulsar_features(prm, f, p, i, n, qe, sc, o, base) -> None:  # pragma: no cover - compiled
     """Per-pulsar block: direction in body axes (star-tracker attitude), integration progress (current
     target only), log10 predicted phase 1-sigma [cycles], observable from the estimate (Sun, occultation),
@@ -794,7 +795,7 @@ def _pulsar_features(prm, f, p, i, n, qe, sc, o, base) -> None:  # pragma: no co
 # ------------------------------------------------------------------------------------------------
 # Reset of one row (after the Python side drew the episode and the initial state)
 # ------------------------------------------------------------------------------------------------
-@njit(cache=True, nogil=True)
+@row_kernel
 def reset_row(prm, f, p, i, rng, eph, obs, n, sc) -> None:  # pragma: no cover - compiled
     """First star fix, rate measurement, errors and observation of a freshly drawn row."""
     i[n, I_K] = 0

@@ -22,11 +22,12 @@ from planetnav_env.dynamics.orbit import GravityModel, PerturberFn
 from planetnav_env.errors import InvalidParameterError, NonFiniteError, require_finite, require_positive
 from planetnav_env.estimation.ekf import FilterConfig, process_noise, validate_initial
 from planetnav_env.estimation.measurements import MeasurementModel
+from planetnav_env.jit import row_kernel
 
 KIND_CODES = {"direction": 0, "direction+size": 1, "los": 2, "los+size": 3}
 
 
-@njit(cache=True)
+@row_kernel
 def _accel_grad(r, mu, pert, mus, a, g, grad=True):
     """a = central + third-body acceleration at r; g = its gradient (3x3). pert (K,3) rel. to centre.
 
@@ -62,7 +63,7 @@ def _accel_grad(r, mu, pert, mus, a, g, grad=True):
                 g[i, i] -= mus[k] * si3
 
 
-@njit(cache=True)
+@row_kernel
 def _stage(x, phi, mu, pert, mus, dx, dphi, a, g, stm):
     """Derivative of the state (dx) and, if ``stm``, of Phi (dphi = F Phi with F = [[0, I], [G, 0]])."""
     _accel_grad(x[:3], mu, pert, mus, a, g, stm)
@@ -76,7 +77,7 @@ def _stage(x, phi, mu, pert, mus, dx, dphi, a, g, stm):
                 dphi[3 + i, j] = g[i, 0] * phi[0, j] + g[i, 1] * phi[1, j] + g[i, 2] * phi[2, j]
 
 
-@njit(cache=True)
+@row_kernel
 def _rk4(x, dt, mu, p0, p1, p2, mus, x_out, phi_out, w6, v6, stm):
     """RK4 of the state over dt and, if ``stm``, of the variational equations (Phi into ``phi_out``).
 
@@ -110,7 +111,7 @@ def _rk4(x, dt, mu, p0, p1, p2, mus, x_out, phi_out, w6, v6, stm):
                     ps[i, j] = (1.0 if i == j else 0.0) + nxt * dphi[i, j]
 
 
-@njit(cache=True)
+@row_kernel
 def rk4_stm_kernel(x, dt, mu, p0, p1, p2, mus, x_out, phi_out, w6, v6):
     """RK4 of state and variational equations over dt; p0/p1/p2 perturbers at t, t+dt/2, t+dt.
 
@@ -120,7 +121,7 @@ def rk4_stm_kernel(x, dt, mu, p0, p1, p2, mus, x_out, phi_out, w6, v6):
     _rk4(x, dt, mu, p0, p1, p2, mus, x_out, phi_out, w6, v6, True)
 
 
-@njit(cache=True)
+@row_kernel
 def rk4_kernel(x, dt, mu, p0, p1, p2, mus, x_out, w6, v6):
     """:func:`rk4_stm_kernel` without the STM (the truth propagator): the same ``x_out``, bit for bit.
 
@@ -129,7 +130,7 @@ def rk4_kernel(x, dt, mu, p0, p1, p2, mus, x_out, w6, v6):
     _rk4(x, dt, mu, p0, p1, p2, mus, x_out, w6[2], w6, v6, False)
 
 
-@njit(cache=True)
+@row_kernel
 def predict_kernel(x, p, dt, mu, p0, p1, p2, mus, q, euler_stm, w6, v6, phi, tmp):
     """In place: x <- RK4(x); P <- Phi P Phi^T + Q (symmetric by construction).
 
@@ -165,12 +166,12 @@ def predict_kernel(x, p, dt, mu, p0, p1, p2, mus, q, euler_stm, w6, v6, phi, tmp
             p[j, i] = p[i, j]
 
 
-@njit(cache=True)
+@row_kernel
 def _wrap(a):
     return np.pi - np.remainder(np.pi - a, 2.0 * np.pi)
 
 
-@njit(cache=True)
+@row_kernel
 def planet_model_kernel(r, planet, diameter, kind, sig_dir, sig_size, basis, h, jac, rcov):
     """Predicted measurement, Jacobian (m x 6) and R for one planet; returns m."""
     d0 = planet[0] - r[0]
@@ -217,7 +218,7 @@ def planet_model_kernel(r, planet, diameter, kind, sig_dir, sig_size, basis, h, 
     return m
 
 
-@njit(cache=True)
+@row_kernel
 def update_kernel(x, p, z, h, jac, rcov, m, wrap_index, gate, uw):
     """Joseph-form update in place for an m-dimensional measurement; returns (nis, accepted).
 
@@ -293,7 +294,7 @@ def update_kernel(x, p, z, h, jac, rcov, m, wrap_index, gate, uw):
     return nis, True
 
 
-@njit(cache=True)
+@row_kernel
 def _inv_small(s, m, out):
     """Inverse of a symmetric positive-definite m x m (m <= 3) matrix by cofactors, into ``out``."""
     if m == 1:
@@ -454,7 +455,7 @@ def cycle_batch_kernel(
     )
 
 
-@njit(cache=True, nogil=True)
+@row_kernel
 def nees_kernel(x_est, x_true, p, lo, y):  # pragma: no cover - compiled
     """NEES ``e^T P^-1 e`` with ``e = x_est - x_true`` (6,), by Cholesky of the symmetric positive-definite
     ``P`` (6, 6); NaN if the factorisation fails. ``lo`` (6, 6) and ``y`` (6,) are scratch (no allocation).
