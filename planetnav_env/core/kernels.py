@@ -394,9 +394,12 @@ def _pointing_settled(prm, f, n, sc) -> bool:  # pragma: no cover - compiled
 # One step of one row
 # ------------------------------------------------------------------------------------------------
 @row_kernel
-def step_row(prm, f, p, i, rng, eph, n, target, torque, sc) -> None:  # pragma: no cover - compiled
+def step_row(prm, f, p, i, rng, eph, n, target, torque, sc) -> bool:  # pragma: no cover - compiled
     """Advance row ``n`` by one step with the decoded action: ``target`` (planet/pulsar index, -1 for
-    none) and ``torque`` (3,) as a fraction of the wheel limit (ignored in ``target`` mode)."""
+    none) and ``torque`` (3,) as a fraction of the wheel limit (ignored in ``target`` mode).
+
+    Returns True when ``sc.central`` and ``sc.planets`` hold the bodies at the row's new time (the
+    camera branch evaluated them), so that :func:`observe_row` need not evaluate them again."""
     s, nn = prm.s, prm.n
     mode = nn[N_MODE]
     dt = s[S_STEP_S]
@@ -451,7 +454,7 @@ def step_row(prm, f, p, i, rng, eph, n, target, torque, sc) -> None:  # pragma: 
     if not store_state_kernel(sc.y, hw, q, w, hw):
         i[n, I_STATUS] = STATUS_ATTITUDE_NONFINITE
         i[n, I_TERMINATED] = 1
-        return
+        return False
     i[n, I_SETTLED] = 1 if (use_pd and mode == MODE_TARGET and _pointing_settled(prm, f, n, sc)) else 0
 
     # --- orbit truth (state only: it needs no STM) and filter prediction (same dynamics, perturbers from
@@ -499,7 +502,7 @@ def step_row(prm, f, p, i, rng, eph, n, target, torque, sc) -> None:  # pragma: 
             if st != 0:
                 i[n, I_STATUS] = STATUS_CAMERA
                 i[n, I_TERMINATED] = 1
-                return
+                return False
             reason = int(sc.vals[V_REASON])
             # A disk wider than the sensor's field gives neither its centre nor its diameter.
             if reason == REASON_VISIBLE and sc.vals[V_ALPHA] > s[S_ALPHA_MAX]:
@@ -513,6 +516,7 @@ def step_row(prm, f, p, i, rng, eph, n, target, torque, sc) -> None:  # pragma: 
     i[n, I_SLEWING] = slewing
     i[n, I_SENSOR] = sensor
     _score(prm, f, p, i, n, torque, sc)
+    return target < n_p  # the camera branch evaluated the planets at t (the pulsar branch does not)
 
 
 @row_kernel
@@ -680,9 +684,12 @@ def _score(prm, f, p, i, n, torque, sc) -> None:  # pragma: no cover - compiled
 # Observation of one row
 # ------------------------------------------------------------------------------------------------
 @row_kernel
-def observe_row(prm, f, p, i, eph, obs, n, sc) -> None:  # pragma: no cover - compiled
+def observe_row(prm, f, p, i, eph, obs, n, sc, bodies_ready) -> None:  # pragma: no cover - compiled
     """Write row ``n``'s observation (layout: :class:`planetnav_env.core.layout.ObservationLayout`) from
-    what the spacecraft knows: the filter, the star tracker, the reported rates, wheels, ephemerides."""
+    what the spacecraft knows: the filter, the star tracker, the reported rates, wheels, ephemerides.
+
+    ``bodies_ready``: ``sc.central`` and ``sc.planets`` already hold the bodies at the row's current
+    time (what :func:`step_row` returns); they are evaluated here otherwise."""
     s, nn = prm.s, prm.n
     o = obs[n]
     xe = f[n, F_XE : F_XE + 6]
@@ -697,9 +704,10 @@ def observe_row(prm, f, p, i, eph, obs, n, sc) -> None:  # pragma: no cover - co
         o[19 + j] = f[n, F_HW + j] / prm.h_max[j]
     for j in range(4):
         o[12 + j] = qe[j]
-    t = _time(prm, f, i, n)
-    _eval(prm, eph, f, n, t, nn[N_CH_CENTRAL], sc.central)
-    _planets_at(prm, eph, f, n, t, sc.planets)
+    if not bodies_ready:
+        t = _time(prm, f, i, n)
+        _eval(prm, eph, f, n, t, nn[N_CH_CENTRAL], sc.central)
+        _planets_at(prm, eph, f, n, t, sc.planets)
     for j in range(3):
         sc.dirv[j] = xe[j] + sc.central[j]  # estimated heliocentric position
     _planet_features(prm, sc.dirv, qe, pm, sc)
@@ -820,7 +828,7 @@ def reset_row(prm, f, p, i, rng, eph, obs, n, sc) -> None:  # pragma: no cover -
     i[n, I_TERMINATED] = 0
     i[n, I_TRUNCATED] = 0
     f[n, F_REWARD] = 0.0
-    observe_row(prm, f, p, i, eph, obs, n, sc)
+    observe_row(prm, f, p, i, eph, obs, n, sc, False)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -832,9 +840,9 @@ def step_range(prm, f, p, i, rng, eph, obs, targets, torques, active, lo, hi) ->
     sc = make_scratch(prm)
     for n in range(lo, hi):
         if active[n]:
-            step_row(prm, f, p, i, rng, eph, n, targets[n], torques[n], sc)
+            bodies_ready = step_row(prm, f, p, i, rng, eph, n, targets[n], torques[n], sc)
             if i[n, I_STATUS] == STATUS_OK:
-                observe_row(prm, f, p, i, eph, obs, n, sc)
+                observe_row(prm, f, p, i, eph, obs, n, sc, bodies_ready)
 
 
 @njit(cache=True, nogil=True)
