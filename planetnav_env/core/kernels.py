@@ -834,15 +834,21 @@ def reset_row(prm, f, p, i, rng, eph, obs, n, sc) -> None:  # pragma: no cover -
 # ------------------------------------------------------------------------------------------------
 # Batch loops
 # ------------------------------------------------------------------------------------------------
-@njit(cache=True, nogil=True)
-def step_range(prm, f, p, i, rng, eph, obs, targets, torques, active, lo, hi) -> None:  # pragma: no cover
-    """Step the ``active`` rows ``lo .. hi - 1`` (releases the GIL: chunks run on Python threads)."""
-    sc = make_scratch(prm)
+@row_kernel
+def _step_rows(prm, f, p, i, rng, eph, obs, targets, torques, active, lo, hi, sc) -> None:  # pragma: no cover
+    # The row loop itself is a row kernel: with reference counting, taking the view torques[n] would
+    # touch the count of the torques array, shared by every thread, twice per row.
     for n in range(lo, hi):
         if active[n]:
             bodies_ready = step_row(prm, f, p, i, rng, eph, n, targets[n], torques[n], sc)
             if i[n, I_STATUS] == STATUS_OK:
                 observe_row(prm, f, p, i, eph, obs, n, sc, bodies_ready)
+
+
+@njit(cache=True, nogil=True)
+def step_range(prm, f, p, i, rng, eph, obs, targets, torques, active, lo, hi) -> None:  # pragma: no cover
+    """Step the ``active`` rows ``lo .. hi - 1`` (releases the GIL: chunks run on Python threads)."""
+    _step_rows(prm, f, p, i, rng, eph, obs, targets, torques, active, lo, hi, make_scratch(prm))
 
 
 @njit(cache=True, nogil=True)
