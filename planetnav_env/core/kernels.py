@@ -10,7 +10,9 @@ the result does not depend on the batch size, the chunking or the thread, and th
 
 No Python objects and no allocation inside the row kernels (scratch space is allocated once per chunk
 and passed down as :class:`Scratch`): the same row kernels could run one row per GPU thread
-(docs/architecture.md says how).
+(docs/architecture.md says how). They are compiled with :data:`planetnav_env.jit.row_kernel`, without
+numba's reference counting (the module says why); only ``step_range`` and ``reset_rows``, which
+allocate the scratch, keep it.
 
 The physics is not written here: each stage calls the module that owns the formula (attitude
 sub-steps: :mod:`planetnav_env.attitude.pointing`; orbit RK4, STM and the EKF:
