@@ -93,6 +93,7 @@ from planetnav_env.dynamics.attitude import (
     wheel_torque_kernel,
 )
 from planetnav_env.errors import InvalidParameterError, require_finite, require_positive
+from planetnav_env.jit import row_kernel
 
 __all__ = [
     "BORESIGHT_BODY",
@@ -118,7 +119,7 @@ DEGENERATE_SIN = 1e-8
 # ---------------------------------------------------------------------------------------------------------
 
 
-@njit(cache=True)
+@row_kernel
 def frame_kernel(p: np.ndarray, x: np.ndarray, out: np.ndarray) -> bool:
     """Rows P, P_n, P_tau of the reference frame for direction ``p`` and roll reference ``x``.
 
@@ -157,7 +158,7 @@ def frame_kernel(p: np.ndarray, x: np.ndarray, out: np.ndarray) -> bool:
     return True
 
 
-@njit(cache=True)
+@row_kernel
 def error_matrix_kernel(q: np.ndarray, frame: np.ndarray, rq: np.ndarray, out: np.ndarray) -> None:
     """A = R(q)^T B^T (reference -> body) for unit ``q`` and frame rows ``B``; ``rq`` is (3, 3) scratch."""
     dcm_body_to_inertial_kernel(q[0], q[1], q[2], q[3], rq)
@@ -166,7 +167,7 @@ def error_matrix_kernel(q: np.ndarray, frame: np.ndarray, rq: np.ndarray, out: n
             out[i, j] = rq[0, i] * frame[j, 0] + rq[1, i] * frame[j, 1] + rq[2, i] * frame[j, 2]
 
 
-@njit(cache=True)
+@row_kernel
 def pd_torque_kernel(
     q: np.ndarray,
     w: np.ndarray,
@@ -235,7 +236,7 @@ def _pd_torque_batch(
     return STATUS_OK
 
 
-@njit(cache=True)
+@row_kernel
 def substeps_kernel(
     y: np.ndarray,
     h: np.ndarray,

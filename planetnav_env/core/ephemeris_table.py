@@ -52,6 +52,7 @@ import numpy as np
 from numba import njit
 
 from planetnav_env.errors import InvalidParameterError, NonFiniteError
+from planetnav_env.jit import row_kernel
 
 #: Default segment length [s]: 5 days (see the module docstring for the accuracy it gives).
 SEGMENT_S = 5.0 * 86400.0
@@ -270,7 +271,7 @@ def body_positions(ephemeris, channels: Sequence[tuple[str, str]]) -> Callable[[
 # --------------------------------------------------------------------------------------------------------
 # Compiled evaluation
 # --------------------------------------------------------------------------------------------------------
-@njit(cache=True, nogil=True)
+@row_kernel
 def _locate(t0, segment_s, n_segments, t):
     """Segment index and local coordinate x of ``t``; index -1 if ``t`` is outside the span (or NaN)."""
     dt = t - t0  # exact (Sterbenz) when t and t0 are within a factor 2, as epochs of one episode are
@@ -285,7 +286,7 @@ def _locate(t0, segment_s, n_segments, t):
     return i, 2.0 * ((dt - i * segment_s) / segment_s) - 1.0
 
 
-@njit(cache=True, nogil=True)
+@row_kernel
 def _clenshaw3(c, x, out):
     """``out[k] = sum_j c[k, j] T_j(x)`` for k = 0, 1, 2 by Clenshaw's recurrence (stable, one pass).
 
@@ -308,7 +309,7 @@ def _clenshaw3(c, x, out):
     out[2] = c[2, 0] + x * d1 - d2
 
 
-@njit(cache=True, nogil=True)
+@row_kernel
 def position_kernel(coeffs_row, t0, segment_s, t, channel, out):
     """Position [km] of ``channel`` at ``t`` [TDB s] into ``out`` (3,), from one row's ``coeffs_row``
     ``(S, C, 3, D + 1)`` with epoch ``t0`` and segment length ``segment_s`` [s].
@@ -325,7 +326,7 @@ def position_kernel(coeffs_row, t0, segment_s, t, channel, out):
     return True
 
 
-@njit(cache=True, nogil=True)
+@row_kernel
 def positions_kernel(coeffs_row, t0, segment_s, t, c_lo, c_hi, out):
     """Positions [km] of channels ``c_lo .. c_hi - 1`` at ``t`` into ``out`` ``(c_hi - c_lo, 3)``.
 

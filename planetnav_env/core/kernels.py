@@ -10,7 +10,9 @@ the result does not depend on the batch size, the chunking or the thread, and th
 
 No Python objects and no allocation inside the row kernels (scratch space is allocated once per chunk
 and passed down as :class:`Scratch`): the same row kernels could run one row per GPU thread
-(docs/architecture.md says how).
+(docs/architecture.md says how). They are compiled with :data:`planetnav_env.jit.row_kernel`, without
+numba's reference counting (the module says why); only ``step_range`` and ``reset_rows``, which
+allocate the scratch, keep it.
 
 The physics is not written here: each stage calls the module that owns the formula (attitude
 sub-steps: :mod:`planetnav_env.attitude.pointing`; orbit RK4, STM and the EKF:
@@ -134,9 +136,10 @@ from planetnav_env.estimation.fast import (
     nees_kernel,
     planet_model_kernel,
     predict_kernel,
-    rk4_stm_kernel,
+    rk4_kernel,
     update_kernel,
 )
+from planetnav_env.jit import row_kernel
 from planetnav_env.sensors.camera import (
     N_VIS_SLOTS,
     V_ALPHA,
@@ -238,12 +241,12 @@ def make_scratch(prm: CoreParams) -> Scratch:  # pragma: no cover - compiled
 # ------------------------------------------------------------------------------------------------
 # Small helpers
 # ------------------------------------------------------------------------------------------------
-@njit(cache=True, nogil=True)
+@row_kernel
 def _time(prm, f, i, n):  # pragma: no cover - compiled
     return f[n, F_T0] + i[n, I_K] * prm.s[S_STEP_S]
 
 
-@njit(cache=True, nogil=True)
+@row_kernel
 def _eval(prm, eph, f, n, t, channel, out) -> bool:  # pragma: no cover - compiled
     if channel < 0:
         out[0] = out[1] = out[2] = 0.0
@@ -251,13 +254,13 @@ def _eval(prm, eph, f, n, t, channel, out) -> bool:  # pragma: no cover - compil
     return position_kernel(eph[n], f[n, F_T0], prm.s[S_SEGMENT_S], t, channel, out)
 
 
-@njit(cache=True, nogil=True)
+@row_kernel
 def _planets_at(prm, eph, f, n, t, out) -> bool:  # pragma: no cover - compiled
     c0 = prm.n[N_CH_PLANET0]
     return positions_kernel(eph[n], f[n, F_T0], prm.s[S_SEGMENT_S], t, c0, c0 + prm.n[N_NP], out)
 
 
-@njit(cache=True, nogil=True)
+@row_kernel
 def _perturbers(prm, eph, f, n, t, dt, out) -> bool:  # pragma: no cover - compiled
     k = prm.n[N_N_PERT]
     if k == 0:
@@ -269,7 +272,7 @@ def _perturbers(prm, eph, f, n, t, dt, out) -> bool:  # pragma: no cover - compi
     return ok and positions_kernel(eph[n], f[n, F_T0], seg, t + dt, c0, c0 + k, out[2])
 
 
-@njit(cache=True, nogil=True)
+@row_kernel
 def los_basis_kernel(planet, x_est, basis) -> None:  # pragma: no cover - compiled
     """Rows of ``basis`` (2, 3): ``e1 = d x (axis least aligned with d)``, ``e2 = d x e1`` for the predicted
     line of sight ``d`` from ``x_est`` to ``planet`` (``measurements.los_basis`` is its numpy oracle)."""
@@ -291,7 +294,7 @@ def los_basis_kernel(planet, x_est, basis) -> None:  # pragma: no cover - compil
     basis[1, 0], basis[1, 1], basis[1, 2] = d1 * e12 - d2 * e11, d2 * e10 - d0 * e12, d0 * e11 - d1 * e10
 
 
-@njit(cache=True, nogil=True)
+@row_kernel
 def measurement_vector_kernel(los_body, alpha, q_est, planet, x_est, kind, z, basis, r):  # pragma: no cover
     """Filter measurement ``z`` from a body-frame line of sight rotated to inertial by the *star-tracker*
     attitude ``q_est`` (what a real filter does: it never sees the true attitude).
@@ -319,7 +322,7 @@ def measurement_vector_kernel(los_body, alpha, q_est, planet, x_est, kind, z, ba
     return 2
 
 
-@njit(cache=True, nogil=True)
+@row_kernel
 def _star_fix(prm, f, i, rng, n, sc):  # pragma: no cover - compiled
     """Star-tracker attitude into QE: q-method on the stars in the camera's own field, their directions
     perturbed by the row's random stream. With too few stars or a degenerate field the last fix is kept
@@ -348,7 +351,7 @@ def _star_fix(prm, f, i, rng, n, sc):  # pragma: no cover - compiled
         f[n, F_ATT_ERR] = np.nan
 
 
-@njit(cache=True, nogil=True)
+@row_kernel
 def _apply_bias(prm, q, q_fix, qe, err) -> float:  # pragma: no cover - compiled
     """qe = q_fix * q_bias (Hamilton product, scalar first; ``quaternion.multiply`` is its oracle in the
     tests); returns the error angle [rad] of the biased fix (``err`` when there is no bias)."""
@@ -365,14 +368,14 @@ def _apply_bias(prm, q, q_fix, qe, err) -> float:  # pragma: no cover - compiled
     return error_angle_kernel(q, qe)
 
 
-@njit(cache=True, nogil=True)
+@row_kernel
 def _rate_measurement(prm, f, rng, n):  # pragma: no cover - compiled
     sig = prm.s[S_RATE_NOISE]
     for j in range(3):
         f[n, F_WM + j] = f[n, F_W + j] + sig * crng.standard_normal(rng[n])
 
 
-@njit(cache=True, nogil=True)
+@row_kernel
 def _pointing_settled(prm, f, n, sc) -> bool:  # pragma: no cover - compiled
     """The boresight is within SETTLE_ANGLE of the PD frame's axis and the rates below SETTLE_RATE:
     the closed loop is then near its equilibrium, and coarse sub-steps integrate it accurately."""
@@ -392,10 +395,13 @@ def _pointing_settled(prm, f, n, sc) -> bool:  # pragma: no cover - compiled
 # ------------------------------------------------------------------------------------------------
 # One step of one row
 # ------------------------------------------------------------------------------------------------
-@njit(cache=True, nogil=True)
-def step_row(prm, f, p, i, rng, eph, n, target, torque, sc) -> None:  # pragma: no cover - compiled
+@row_kernel
+def step_row(prm, f, p, i, rng, eph, n, target, torque, sc) -> bool:  # pragma: no cover - compiled
     """Advance row ``n`` by one step with the decoded action: ``target`` (planet/pulsar index, -1 for
-    none) and ``torque`` (3,) as a fraction of the wheel limit (ignored in ``target`` mode)."""
+    none) and ``torque`` (3,) as a fraction of the wheel limit (ignored in ``target`` mode).
+
+    Returns True when ``sc.central`` and ``sc.planets`` hold the bodies at the row's new time (the
+    camera branch evaluated them), so that :func:`observe_row` need not evaluate them again."""
     s, nn = prm.s, prm.n
     mode = nn[N_MODE]
     dt = s[S_STEP_S]
@@ -450,14 +456,13 @@ def step_row(prm, f, p, i, rng, eph, n, target, torque, sc) -> None:  # pragma: 
     if not store_state_kernel(sc.y, hw, q, w, hw):
         i[n, I_STATUS] = STATUS_ATTITUDE_NONFINITE
         i[n, I_TERMINATED] = 1
-        return
+        return False
     i[n, I_SETTLED] = 1 if (use_pd and mode == MODE_TARGET and _pointing_settled(prm, f, n, sc)) else 0
 
-    # --- orbit truth and filter prediction (same dynamics, perturbers from the row's table) ---
+    # --- orbit truth (state only: it needs no STM) and filter prediction (same dynamics, perturbers from
+    # the row's table) ---
     _perturbers(prm, eph, f, n, t, dt, sc.pert)
-    rk4_stm_kernel(
-        x, dt, s[S_MU], sc.pert[0], sc.pert[1], sc.pert[2], prm.mus, sc.x_new, sc.phi, sc.w6, sc.v6
-    )
+    rk4_kernel(x, dt, s[S_MU], sc.pert[0], sc.pert[1], sc.pert[2], prm.mus, sc.x_new, sc.w6, sc.v6)
     for j in range(6):
         x[j] = sc.x_new[j]
     predict_kernel(
@@ -499,7 +504,7 @@ def step_row(prm, f, p, i, rng, eph, n, target, torque, sc) -> None:  # pragma: 
             if st != 0:
                 i[n, I_STATUS] = STATUS_CAMERA
                 i[n, I_TERMINATED] = 1
-                return
+                return False
             reason = int(sc.vals[V_REASON])
             # A disk wider than the sensor's field gives neither its centre nor its diameter.
             if reason == REASON_VISIBLE and sc.vals[V_ALPHA] > s[S_ALPHA_MAX]:
@@ -513,9 +518,10 @@ def step_row(prm, f, p, i, rng, eph, n, target, torque, sc) -> None:  # pragma: 
     i[n, I_SLEWING] = slewing
     i[n, I_SENSOR] = sensor
     _score(prm, f, p, i, n, torque, sc)
+    return target < n_p  # the camera branch evaluated the planets at t (the pulsar branch does not)
 
 
-@njit(cache=True, nogil=True)
+@row_kernel
 def _nearest_in_view(prm, sc) -> int:  # pragma: no cover - compiled
     """Index of the planet nearest the boresight by the true geometry (what the image shows), or -1."""
     q = sc.q1[0]
@@ -537,7 +543,7 @@ def _nearest_in_view(prm, sc) -> int:  # pragma: no cover - compiled
     return idx if best > prm.s[S_COS_HALF_DIAG] else -1
 
 
-@njit(cache=True, nogil=True)
+@row_kernel
 def _measure_planet(prm, f, p, rng, n, idx, sc):  # pragma: no cover - compiled
     """Camera measurement of planet ``idx`` (visible), rotated to inertial with the star-tracker attitude;
     EKF update. Returns (measured, rejected)."""
@@ -569,7 +575,7 @@ def _measure_planet(prm, f, p, rng, n, idx, sc):  # pragma: no cover - compiled
     return True, not ok
 
 
-@njit(cache=True, nogil=True)
+@row_kernel
 def pulsar_visibility_row(
     r_helio, nvec, sun_avoid, central, central_radius, approach
 ) -> int:  # pragma: no cover
@@ -589,7 +595,7 @@ def pulsar_visibility_row(
     return REASON_VISIBLE
 
 
-@njit(cache=True, nogil=True)
+@row_kernel
 def _time_pulsar(prm, f, p, i, rng, eph, n, j, t, sc):  # pragma: no cover - compiled
     """Accumulate X-ray photons from pulsar ``j`` while the detector points at it; after the integration
     time a phase (range along the pulsar's direction from the barycentre) updates the filter, with the
@@ -650,7 +656,7 @@ def _time_pulsar(prm, f, p, i, rng, eph, n, j, t, sc):  # pragma: no cover - com
     return True, not ok, REASON_VISIBLE
 
 
-@njit(cache=True, nogil=True)
+@row_kernel
 def _score(prm, f, p, i, n, torque, sc) -> None:  # pragma: no cover - compiled
     """Errors, NEES, 1-sigma, reward, termination and truncation of row ``n`` after its step."""
     s = prm.s
@@ -679,10 +685,13 @@ def _score(prm, f, p, i, n, torque, sc) -> None:  # pragma: no cover - compiled
 # ------------------------------------------------------------------------------------------------
 # Observation of one row
 # ------------------------------------------------------------------------------------------------
-@njit(cache=True, nogil=True)
-def observe_row(prm, f, p, i, eph, obs, n, sc) -> None:  # pragma: no cover - compiled
+@row_kernel
+def observe_row(prm, f, p, i, eph, obs, n, sc, bodies_ready) -> None:  # pragma: no cover - compiled
     """Write row ``n``'s observation (layout: :class:`planetnav_env.core.layout.ObservationLayout`) from
-    what the spacecraft knows: the filter, the star tracker, the reported rates, wheels, ephemerides."""
+    what the spacecraft knows: the filter, the star tracker, the reported rates, wheels, ephemerides.
+
+    ``bodies_ready``: ``sc.central`` and ``sc.planets`` already hold the bodies at the row's current
+    time (what :func:`step_row` returns); they are evaluated here otherwise."""
     s, nn = prm.s, prm.n
     o = obs[n]
     xe = f[n, F_XE : F_XE + 6]
@@ -697,9 +706,10 @@ def observe_row(prm, f, p, i, eph, obs, n, sc) -> None:  # pragma: no cover - co
         o[19 + j] = f[n, F_HW + j] / prm.h_max[j]
     for j in range(4):
         o[12 + j] = qe[j]
-    t = _time(prm, f, i, n)
-    _eval(prm, eph, f, n, t, nn[N_CH_CENTRAL], sc.central)
-    _planets_at(prm, eph, f, n, t, sc.planets)
+    if not bodies_ready:
+        t = _time(prm, f, i, n)
+        _eval(prm, eph, f, n, t, nn[N_CH_CENTRAL], sc.central)
+        _planets_at(prm, eph, f, n, t, sc.planets)
     for j in range(3):
         sc.dirv[j] = xe[j] + sc.central[j]  # estimated heliocentric position
     _planet_features(prm, sc.dirv, qe, pm, sc)
@@ -718,7 +728,7 @@ def observe_row(prm, f, p, i, eph, obs, n, sc) -> None:  # pragma: no cover - co
     o[nn[N_OBS_ELAPSED]] = i[n, I_K] / nn[N_EPISODE_STEPS]
 
 
-@njit(cache=True, nogil=True)
+@row_kernel
 def _planet_features(prm, r_est, qe, pm, sc) -> None:  # pragma: no cover - compiled
     """Per-planet block from the estimate: direction in body axes (3), log10(distance / AU), apparent
     diameter / sigma_alpha, observable if pointed at (the camera's own rules for the attitude that
@@ -764,7 +774,7 @@ def _planet_features(prm, r_est, qe, pm, sc) -> None:  # pragma: no cover - comp
         out[a, 4] = alpha / s[S_SIGMA_ALPHA]
 
 
-@njit(cache=True, nogil=True)
+@row_kernel
 def _pulsar_features(prm, f, p, i, n, qe, sc, o, base) -> None:  # pragma: no cover - compiled
     """Per-pulsar block: direction in body axes (star-tracker attitude), integration progress (current
     target only), log10 predicted phase 1-sigma [cycles], observable from the estimate (Sun, occultation),
@@ -795,7 +805,7 @@ def _pulsar_features(prm, f, p, i, n, qe, sc, o, base) -> None:  # pragma: no co
 # ------------------------------------------------------------------------------------------------
 # Reset of one row (after the Python side drew the episode and the initial state)
 # ------------------------------------------------------------------------------------------------
-@njit(cache=True, nogil=True)
+@row_kernel
 def reset_row(prm, f, p, i, rng, eph, obs, n, sc) -> None:  # pragma: no cover - compiled
     """First star fix, rate measurement, errors and observation of a freshly drawn row."""
     i[n, I_K] = 0
@@ -820,21 +830,27 @@ def reset_row(prm, f, p, i, rng, eph, obs, n, sc) -> None:  # pragma: no cover -
     i[n, I_TERMINATED] = 0
     i[n, I_TRUNCATED] = 0
     f[n, F_REWARD] = 0.0
-    observe_row(prm, f, p, i, eph, obs, n, sc)
+    observe_row(prm, f, p, i, eph, obs, n, sc, False)
 
 
 # ------------------------------------------------------------------------------------------------
 # Batch loops
 # ------------------------------------------------------------------------------------------------
+@row_kernel
+def _step_rows(prm, f, p, i, rng, eph, obs, targets, torques, active, lo, hi, sc) -> None:  # pragma: no cover
+    # The row loop itself is a row kernel: with reference counting, taking the view torques[n] would
+    # touch the count of the torques array, shared by every thread, twice per row.
+    for n in range(lo, hi):
+        if active[n]:
+            bodies_ready = step_row(prm, f, p, i, rng, eph, n, targets[n], torques[n], sc)
+            if i[n, I_STATUS] == STATUS_OK:
+                observe_row(prm, f, p, i, eph, obs, n, sc, bodies_ready)
+
+
 @njit(cache=True, nogil=True)
 def step_range(prm, f, p, i, rng, eph, obs, targets, torques, active, lo, hi) -> None:  # pragma: no cover
     """Step the ``active`` rows ``lo .. hi - 1`` (releases the GIL: chunks run on Python threads)."""
-    sc = make_scratch(prm)
-    for n in range(lo, hi):
-        if active[n]:
-            step_row(prm, f, p, i, rng, eph, n, targets[n], torques[n], sc)
-            if i[n, I_STATUS] == STATUS_OK:
-                observe_row(prm, f, p, i, eph, obs, n, sc)
+    _step_rows(prm, f, p, i, rng, eph, obs, targets, torques, active, lo, hi, make_scratch(prm))
 
 
 @njit(cache=True, nogil=True)

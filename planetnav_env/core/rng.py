@@ -35,6 +35,7 @@ import numpy as np
 from numba import njit
 
 from planetnav_env.errors import InvalidParameterError
+from planetnav_env.jit import row_kernel
 
 #: Number of uint64 words in one row's state.
 STATE_WORDS = 4
@@ -84,7 +85,7 @@ def _rotl(x, k):
     return (x << k) | (x >> (_U64 - k))
 
 
-@njit(cache=True, nogil=True)
+@row_kernel
 def next_u64(s):
     """Next 64-bit output (uint64) of the xoshiro256** stream in ``s`` (4,) uint64, advanced in place."""
     s0 = s[0]
@@ -106,14 +107,14 @@ def next_u64(s):
     return result
 
 
-@njit(cache=True, nogil=True)
+@row_kernel
 def uniform(s):
     """A float64 uniform on [0, 1): the top 53 bits of one output times 2^-53 (the low bits of xoshiro
     outputs are the weakest, so they are the ones dropped)."""
     return float(next_u64(s) >> _U11) * _TWO_M53
 
 
-@njit(cache=True, nogil=True)
+@row_kernel
 def _box_muller(s):
     # 1 - u is in (0, 1]: log() is finite. The angle uses the second draw.
     r = math.sqrt(-2.0 * math.log(1.0 - uniform(s)))
@@ -121,7 +122,7 @@ def _box_muller(s):
     return r * math.cos(a), r * math.sin(a)
 
 
-@njit(cache=True, nogil=True)
+@row_kernel
 def standard_normal(s):
     """A N(0, 1) float64 (Box-Muller, cosine branch; exactly two state steps per call)."""
     z0, _ = _box_muller(s)

@@ -59,6 +59,7 @@ from numba import njit
 
 from planetnav_env import quaternion as qt
 from planetnav_env.errors import InvalidParameterError, NonFiniteError, require_finite, require_positive
+from planetnav_env.jit import row_kernel
 
 __all__ = [
     "AttitudeConfig",
@@ -204,7 +205,7 @@ class AttitudeConfig:
 # ---------------------------------------------------------------------------------------------------------
 
 
-@njit(cache=True)
+@row_kernel
 def dcm_body_to_inertial_kernel(q0: float, q1: float, q2: float, q3: float, out: np.ndarray) -> None:
     """R(q) into ``out`` (3, 3); numba mirror of :func:`planetnav_env.quaternion.dcm_body_to_inertial`."""
     out[0, 0] = q0 * q0 + q1 * q1 - q2 * q2 - q3 * q3
@@ -218,7 +219,7 @@ def dcm_body_to_inertial_kernel(q0: float, q1: float, q2: float, q3: float, out:
     out[2, 2] = q0 * q0 - q1 * q1 - q2 * q2 + q3 * q3
 
 
-@njit(cache=True)
+@row_kernel
 def wheel_torque_kernel(
     u_cmd: np.ndarray, h_w: np.ndarray, dt: float, tau_max: np.ndarray, h_max: np.ndarray, out: np.ndarray
 ) -> None:
@@ -231,7 +232,7 @@ def wheel_torque_kernel(
         out[i] = min(max(u_cmd[i], lo), hi)
 
 
-@njit(cache=True)
+@row_kernel
 def _rates(
     y: np.ndarray, h: np.ndarray, m: np.ndarray, jm: np.ndarray, jinv: np.ndarray, dy: np.ndarray
 ) -> None:
@@ -254,7 +255,7 @@ def _rates(
     dy[6] = jinv[2, 0] * rx + jinv[2, 1] * ry + jinv[2, 2] * rz
 
 
-@njit(cache=True)
+@row_kernel
 def rk4_substep_kernel(
     y: np.ndarray,
     h_w: np.ndarray,
@@ -299,7 +300,7 @@ def rk4_substep_kernel(
         h_w[i] = hs[i]
 
 
-@njit(cache=True)
+@row_kernel
 def all_finite_kernel(a: np.ndarray) -> bool:
     """True if every entry of the 2-D array ``a`` is finite."""
     for i in range(a.shape[0]):
@@ -309,7 +310,7 @@ def all_finite_kernel(a: np.ndarray) -> bool:
     return True
 
 
-@njit(cache=True)
+@row_kernel
 def normalize_quaternion_kernel(q: np.ndarray, out: np.ndarray) -> bool:
     """out[:4] = q / |q|; False (out untouched) for a zero quaternion."""
     n = math.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
@@ -320,7 +321,7 @@ def normalize_quaternion_kernel(q: np.ndarray, out: np.ndarray) -> bool:
     return True
 
 
-@njit(cache=True)
+@row_kernel
 def load_state_kernel(q: np.ndarray, omega: np.ndarray, y: np.ndarray) -> bool:
     """y = (q / |q|, omega); False (y undefined) for a zero quaternion."""
     if not normalize_quaternion_kernel(q, y):
@@ -330,7 +331,7 @@ def load_state_kernel(q: np.ndarray, omega: np.ndarray, y: np.ndarray) -> bool:
     return True
 
 
-@njit(cache=True)
+@row_kernel
 def store_state_kernel(
     y: np.ndarray, h: np.ndarray, q_out: np.ndarray, w_out: np.ndarray, h_out: np.ndarray
 ) -> bool:

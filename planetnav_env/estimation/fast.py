@@ -22,22 +22,28 @@ from planetnav_env.dynamics.orbit import GravityModel, PerturberFn
 from planetnav_env.errors import InvalidParameterError, NonFiniteError, require_finite, require_positive
 from planetnav_env.estimation.ekf import FilterConfig, process_noise, validate_initial
 from planetnav_env.estimation.measurements import MeasurementModel
+from planetnav_env.jit import row_kernel
 
 KIND_CODES = {"direction": 0, "direction+size": 1, "los": 2, "los+size": 3}
 
 
-@njit(cache=True)
-def _accel_grad(r, mu, pert, mus, a, g):
-    """a = central + third-body acceleration at r; g = its gradient (3x3). pert (K,3) rel. to centre."""
+@row_kernel
+def _accel_grad(r, mu, pert, mus, a, g, grad=True):
+    """a = central + third-body acceleration at r; g = its gradient (3x3). pert (K,3) rel. to centre.
+
+    ``grad=False`` skips the gradient (``g`` untouched): the acceleration is computed by the same
+    operations either way, so it is bit for bit the same.
+    """
     r2 = r[0] * r[0] + r[1] * r[1] + r[2] * r[2]
     rn = np.sqrt(r2)
     inv3 = 1.0 / (r2 * rn)
     inv5 = inv3 / r2
     for i in range(3):
         a[i] = -mu * r[i] * inv3
-        for j in range(3):
-            g[i, j] = mu * 3.0 * r[i] * r[j] * inv5
-        g[i, i] -= mu * inv3
+        if grad:
+            for j in range(3):
+                g[i, j] = mu * 3.0 * r[i] * r[j] * inv5
+            g[i, i] -= mu * inv3
     for k in range(pert.shape[0]):
         s0 = r[0] - pert[k, 0]
         s1 = r[1] - pert[k, 1]
@@ -51,30 +57,32 @@ def _accel_grad(r, mu, pert, mus, a, g):
         s = (s0, s1, s2)
         for i in range(3):
             a[i] += -mus[k] * s[i] * si3 - mus[k] * pert[k, i] * ki3
-            for j in range(3):
-                g[i, j] += mus[k] * 3.0 * s[i] * s[j] * si5
-            g[i, i] -= mus[k] * si3
+            if grad:
+                for j in range(3):
+                    g[i, j] += mus[k] * 3.0 * s[i] * s[j] * si5
+                g[i, i] -= mus[k] * si3
 
 
-@njit(cache=True)
-def _stage(x, phi, mu, pert, mus, dx, dphi, a, g):
-    """Derivative of the state (dx) and of Phi (dphi = F Phi with F = [[0, I], [G, 0]])."""
-    _accel_grad(x[:3], mu, pert, mus, a, g)
+@row_kernel
+def _stage(x, phi, mu, pert, mus, dx, dphi, a, g, stm):
+    """Derivative of the state (dx) and, if ``stm``, of Phi (dphi = F Phi with F = [[0, I], [G, 0]])."""
+    _accel_grad(x[:3], mu, pert, mus, a, g, stm)
     for i in range(3):
         dx[i] = x[3 + i]
         dx[3 + i] = a[i]
-    for j in range(6):
-        for i in range(3):
-            dphi[i, j] = phi[3 + i, j]
-            dphi[3 + i, j] = g[i, 0] * phi[0, j] + g[i, 1] * phi[1, j] + g[i, 2] * phi[2, j]
+    if stm:
+        for j in range(6):
+            for i in range(3):
+                dphi[i, j] = phi[3 + i, j]
+                dphi[3 + i, j] = g[i, 0] * phi[0, j] + g[i, 1] * phi[1, j] + g[i, 2] * phi[2, j]
 
 
-@njit(cache=True)
-def rk4_stm_kernel(x, dt, mu, p0, p1, p2, mus, x_out, phi_out, w6, v6):
-    """RK4 of state and variational equations over dt; p0/p1/p2 perturbers at t, t+dt/2, t+dt.
+@row_kernel
+def _rk4(x, dt, mu, p0, p1, p2, mus, x_out, phi_out, w6, v6, stm):
+    """RK4 of the state over dt and, if ``stm``, of the variational equations (Phi into ``phi_out``).
 
-    ``w6`` (3, 6, 6) and ``v6`` (3, 6) are scratch space: the kernel allocates nothing, because
-    an allocation costs about as much as the arithmetic of a stage.
+    The state's stages never read Phi, so ``stm=False`` gives the same ``x_out`` bit for bit with about a
+    third of the work (the truth needs no STM; the filter does).
     """
     ps, dphi = w6[0], w6[1]
     g = w6[2, :3, :3]
@@ -84,24 +92,45 @@ def rk4_stm_kernel(x, dt, mu, p0, p1, p2, mus, x_out, phi_out, w6, v6):
     for i in range(6):
         xs[i] = x[i]
         x_out[i] = x[i]
-        for j in range(6):
-            ps[i, j] = 1.0 if i == j else 0.0
-            phi_out[i, j] = ps[i, j]
+        if stm:
+            for j in range(6):
+                ps[i, j] = 1.0 if i == j else 0.0
+                phi_out[i, j] = ps[i, j]
     # Stages 1..4: evaluate at (xs, ps), accumulate with weights 1,2,2,1, form the next stage point.
     for stage in range(4):
         pert = p0 if stage == 0 else (p1 if stage < 3 else p2)
-        _stage(xs, ps, mu, pert, mus, dx, dphi, a, g)
+        _stage(xs, ps, mu, pert, mus, dx, dphi, a, g, stm)
         wgt = h6 if (stage == 0 or stage == 3) else 2.0 * h6
         nxt = 0.5 * dt if stage < 2 else dt
         for i in range(6):
             x_out[i] += wgt * dx[i]
             xs[i] = x[i] + nxt * dx[i]
-            for j in range(6):
-                phi_out[i, j] += wgt * dphi[i, j]
-                ps[i, j] = (1.0 if i == j else 0.0) + nxt * dphi[i, j]
+            if stm:
+                for j in range(6):
+                    phi_out[i, j] += wgt * dphi[i, j]
+                    ps[i, j] = (1.0 if i == j else 0.0) + nxt * dphi[i, j]
 
 
-@njit(cache=True)
+@row_kernel
+def rk4_stm_kernel(x, dt, mu, p0, p1, p2, mus, x_out, phi_out, w6, v6):
+    """RK4 of state and variational equations over dt; p0/p1/p2 perturbers at t, t+dt/2, t+dt.
+
+    ``w6`` (3, 6, 6) and ``v6`` (3, 6) are scratch space: the kernel allocates nothing, because
+    an allocation costs about as much as the arithmetic of a stage.
+    """
+    _rk4(x, dt, mu, p0, p1, p2, mus, x_out, phi_out, w6, v6, True)
+
+
+@row_kernel
+def rk4_kernel(x, dt, mu, p0, p1, p2, mus, x_out, w6, v6):
+    """:func:`rk4_stm_kernel` without the STM (the truth propagator): the same ``x_out``, bit for bit.
+
+    ``w6`` (3, 6, 6) and ``v6`` (3, 6) are scratch as there (only ``v6`` and ``w6[2]`` are touched).
+    """
+    _rk4(x, dt, mu, p0, p1, p2, mus, x_out, w6[2], w6, v6, False)
+
+
+@row_kernel
 def predict_kernel(x, p, dt, mu, p0, p1, p2, mus, q, euler_stm, w6, v6, phi, tmp):
     """In place: x <- RK4(x); P <- Phi P Phi^T + Q (symmetric by construction).
 
@@ -137,12 +166,12 @@ def predict_kernel(x, p, dt, mu, p0, p1, p2, mus, q, euler_stm, w6, v6, phi, tmp
             p[j, i] = p[i, j]
 
 
-@njit(cache=True)
+@row_kernel
 def _wrap(a):
     return np.pi - np.remainder(np.pi - a, 2.0 * np.pi)
 
 
-@njit(cache=True)
+@row_kernel
 def planet_model_kernel(r, planet, diameter, kind, sig_dir, sig_size, basis, h, jac, rcov):
     """Predicted measurement, Jacobian (m x 6) and R for one planet; returns m."""
     d0 = planet[0] - r[0]
@@ -189,7 +218,7 @@ def planet_model_kernel(r, planet, diameter, kind, sig_dir, sig_size, basis, h, 
     return m
 
 
-@njit(cache=True)
+@row_kernel
 def update_kernel(x, p, z, h, jac, rcov, m, wrap_index, gate, uw):
     """Joseph-form update in place for an m-dimensional measurement; returns (nis, accepted).
 
@@ -265,7 +294,7 @@ def update_kernel(x, p, z, h, jac, rcov, m, wrap_index, gate, uw):
     return nis, True
 
 
-@njit(cache=True)
+@row_kernel
 def _inv_small(s, m, out):
     """Inverse of a symmetric positive-definite m x m (m <= 3) matrix by cofactors, into ``out``."""
     if m == 1:
@@ -350,10 +379,9 @@ def rk4_batch_kernel(x, dt, mu, p0, p1, p2, mus):
     """RK4 state step of N trajectories in place (the truth propagator; same stages as the filter)."""
     w6 = np.empty((3, 6, 6))
     v6 = np.empty((4, 6))
-    phi = np.empty((6, 6))
     x_new = np.empty(6)
     for n in range(x.shape[0]):
-        rk4_stm_kernel(x[n], dt, mu, p0, p1, p2, mus, x_new, phi, w6, v6)
+        rk4_kernel(x[n], dt, mu, p0, p1, p2, mus, x_new, w6, v6)
         x[n, :] = x_new
 
 
@@ -427,7 +455,7 @@ def cycle_batch_kernel(
     )
 
 
-@njit(cache=True, nogil=True)
+@row_kernel
 def nees_kernel(x_est, x_true, p, lo, y):  # pragma: no cover - compiled
     """NEES ``e^T P^-1 e`` with ``e = x_est - x_true`` (6,), by Cholesky of the symmetric positive-definite
     ``P`` (6, 6); NaN if the factorisation fails. ``lo`` (6, 6) and ``y`` (6,) are scratch (no allocation).

@@ -47,6 +47,7 @@ from planetnav_env.errors import (
     NotVisibleError,
     require_finite,
 )
+from planetnav_env.jit import row_kernel
 
 __all__ = [
     "ARCSEC_RAD",
@@ -454,7 +455,7 @@ _P_FPX, _P_CX, _P_CY, _P_W, _P_H, _P_EXCL, _P_MINPX, _P_SDIR, _P_SALPHA, _P_FMM,
 _OK, _ERR_NONFINITE, _ERR_ZERO_Q, _ERR_RADIUS, _ERR_INSIDE_TARGET, _ERR_INSIDE_OCC, _ERR_OCC_RADIUS = range(7)
 
 
-@njit(cache=True, nogil=True)
+@row_kernel
 def _angle(ax: float, ay: float, az: float, bx: float, by: float, bz: float) -> float:
     """Angle between two vectors [rad], atan2(|a x b|, a.b): accurate for small and near-pi angles alike."""
     cx = ay * bz - az * by
@@ -463,7 +464,7 @@ def _angle(ax: float, ay: float, az: float, bx: float, by: float, bz: float) -> 
     return math.atan2(math.sqrt(cx * cx + cy * cy + cz * cz), ax * bx + ay * by + az * bz)
 
 
-@njit(cache=True, nogil=True)
+@row_kernel
 def _camera_los(
     r: np.ndarray, q: np.ndarray, t: np.ndarray, i: int, c2b: np.ndarray, m: np.ndarray, u: np.ndarray
 ) -> tuple[float, int]:
@@ -511,7 +512,7 @@ V_REASON, V_IN_FOV, V_SUN_EX, V_OCCULTED, V_SMALL, V_OCCULTER, V_ALPHA, V_ANG_B,
 N_VIS_SLOTS = 11
 
 
-@njit(cache=True, nogil=True)
+@row_kernel
 def visibility_row_kernel(
     r: np.ndarray,
     q: np.ndarray,
@@ -660,7 +661,7 @@ def _visibility_kernel(
     return _OK, -1, res
 
 
-@njit(cache=True, nogil=True)
+@row_kernel
 def measure_row_kernel(
     r: np.ndarray,
     q: np.ndarray,

@@ -64,6 +64,7 @@ from planetnav_env.errors import (
     NotVisibleError,
     require_finite,
 )
+from planetnav_env.jit import ROW_KERNEL_OPTIONS, row_kernel
 
 ARCSEC = np.pi / (180.0 * 3600.0)
 
@@ -454,7 +455,7 @@ def star_fix_tables(config: StarTrackerConfig, grid_n: int | None = None) -> Sta
     )
 
 
-@numba.njit(cache=True, error_model=_ERROR_MODEL)
+@numba.njit(**ROW_KERNEL_OPTIONS, error_model=_ERROR_MODEL)
 def _grid_index(r: float, grid_n: int) -> int:  # pragma: no cover - compiled
     """Equal-angle cell index in [0, grid_n) of the in-face coordinate ``r = tan(angle)``, r in [-1, 1]."""
     f = (math.atan(r) * (4.0 / math.pi) + 1.0) * 0.5 * grid_n
@@ -466,7 +467,7 @@ def _grid_index(r: float, grid_n: int) -> int:  # pragma: no cover - compiled
     return 0
 
 
-@numba.njit(cache=True, error_model=_ERROR_MODEL)
+@numba.njit(**ROW_KERNEL_OPTIONS, error_model=_ERROR_MODEL)
 def sky_cell_kernel(x: float, y: float, z: float, grid_n: int) -> int:  # pragma: no cover - compiled
     """Cell index in [0, 6 grid_n^2) of direction (x, y, z) (any length) in the equal-angle cube map.
 
@@ -484,7 +485,7 @@ def sky_cell_kernel(x: float, y: float, z: float, grid_n: int) -> int:  # pragma
     return (face * grid_n + _grid_index(u / m, grid_n)) * grid_n + _grid_index(v / m, grid_n)
 
 
-@numba.njit(cache=True, error_model=_ERROR_MODEL)
+@numba.njit(**ROW_KERNEL_OPTIONS, error_model=_ERROR_MODEL)
 def select_stars_kernel(
     q, boresight_body, dirs, cos_half, cell_start, cell_stars, grid_n, rot_out, idx_out
 ):  # pragma: no cover - compiled
@@ -521,7 +522,7 @@ def select_stars_kernel(
     return n
 
 
-@numba.njit(cache=True, error_model=_ERROR_MODEL)
+@numba.njit(**ROW_KERNEL_OPTIONS, error_model=_ERROR_MODEL)
 def sym_eig4_kernel(a, v):  # pragma: no cover - compiled
     """Cyclic Jacobi eigen-decomposition of a symmetric 4x4 matrix, in place; returns the sweeps used.
 
@@ -583,7 +584,7 @@ def sym_eig4_kernel(a, v):  # pragma: no cover - compiled
     return JACOBI_MAX_SWEEPS
 
 
-@numba.njit(cache=True, error_model=_ERROR_MODEL)
+@numba.njit(**ROW_KERNEL_OPTIONS, error_model=_ERROR_MODEL)
 def fix_kernel(q, rot, dirs, idx, n, noise, work, q_out):  # pragma: no cover - compiled
     """q-method attitude fix from the ``n`` stars ``dirs[idx[:n]]``; returns ``(error_angle_rad, ok)``.
 
@@ -686,7 +687,7 @@ def fix_kernel(q, rot, dirs, idx, n, noise, work, q_out):  # pragma: no cover - 
     return error_angle_kernel(q, q_out), ok
 
 
-@numba.njit(cache=True)
+@row_kernel
 def error_angle_kernel(q, q_est):  # pragma: no cover - compiled
     """Angle [rad] of the error rotation ``conj(q) * q_est``: ``2 atan2(|vec|, |scalar|)``, as
     ``wahba.attitude_error_angle`` (its numpy oracle)."""
@@ -697,7 +698,7 @@ def error_angle_kernel(q, q_est):  # pragma: no cover - compiled
     return 2.0 * math.atan2(math.sqrt(d1 * d1 + d2 * d2 + d3 * d3), abs(s0))
 
 
-@numba.njit(cache=True, error_model=_ERROR_MODEL)
+@numba.njit(**ROW_KERNEL_OPTIONS, error_model=_ERROR_MODEL)
 def select_stars(tables, q, rot_out, idx_out):  # pragma: no cover - compiled
     """:func:`select_stars_kernel` with its catalogue and grid from a :class:`StarFixTables`."""
     return select_stars_kernel(
@@ -713,7 +714,7 @@ def select_stars(tables, q, rot_out, idx_out):  # pragma: no cover - compiled
     )
 
 
-@numba.njit(cache=True, error_model=_ERROR_MODEL)
+@numba.njit(**ROW_KERNEL_OPTIONS, error_model=_ERROR_MODEL)
 def star_fix(tables, q, rot, idx, n, noise, work, q_out):  # pragma: no cover - compiled
     """:func:`fix_kernel` with the catalogue from a :class:`StarFixTables`; returns ``(error_rad, ok)``.
 
