@@ -141,7 +141,7 @@ def main() -> None:
     print()
     print("| mode | actions | single env | SyncVectorEnv N=16 | " + " | ".join(f"native N={n}" for n in sizes)
           + " | best / single | ceiling per core | best / (ceiling x cores) |")  # fmt: skip
-    print("|---" * (6 + len(sizes)) + "|")
+    print("|---" * (7 + len(sizes)) + "|")
     for mode in ("target", "torque"):
         for stream in ("held", "random"):
             one = single[mode, stream]
