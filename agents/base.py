@@ -101,13 +101,18 @@ def parse_observation(observation: Any, env: gym.Env) -> ParsedObservation:
     )
 
 
+def with_planet_choice(actions: np.ndarray, choice: np.ndarray, n_planets: int) -> np.ndarray:
+    """Copies (float32) of ``target+torque`` Box actions (N, P + 3) whose planet entries pick ``choice``
+    (N,): +1 on it, -1 on the other planets; the residual torque is kept."""
+    out = np.array(actions, dtype=np.float32, copy=True)
+    out[:, :n_planets] = -1.0
+    out[np.arange(out.shape[0]), np.asarray(choice, dtype=np.int64)] = 1.0
+    return out
+
+
 def target_torque_action(idx: int, n_planets: int) -> np.ndarray:
-    """The ``target+torque`` action (P + 3,) that picks planet ``idx`` with no residual torque: +1 on it,
-    -1 on the other planets, 0 torque."""
-    a = -np.ones(n_planets + 3, dtype=np.float32)
-    a[idx] = 1.0
-    a[n_planets:] = 0.0
-    return a
+    """The ``target+torque`` action (P + 3,) that picks planet ``idx`` with no residual torque."""
+    return with_planet_choice(np.zeros((1, n_planets + 3)), np.array([idx]), n_planets)[0]
 
 
 class NotApplicableError(ValueError):

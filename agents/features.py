@@ -37,7 +37,8 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from agents.base import parse_observation, unwrapped_config
+from agents.base import parse_observation, unwrapped_config, with_planet_choice
+from agents.gain import DEFAULT_HORIZON, SlewModel, planet_gains
 
 FEATURES = ("since_measured", "gain", "pd_torque")
 #: Scale of ``since_measured`` [steps]: a constant (one cruise day of 60-s steps), not the episode length,
@@ -53,16 +54,12 @@ class GainFeature:
     slew model, for rows of box observations and the filter states that go with them."""
 
     def __init__(self, cfg: Any, params: Any) -> None:
-        from agents.gain import SlewModel
-
         self.params = params
         self.slew = SlewModel.from_config(cfg)
         self.n_planets = cfg.n_planets
 
     def __call__(self, observations: np.ndarray, x: np.ndarray, p: np.ndarray) -> np.ndarray:
         """(N, P) float32 for observations (N, D), estimates (N, 6) and covariances (N, 6, 6)."""
-        from agents.gain import DEFAULT_HORIZON, planet_gains
-
         return planet_gains(self.params, self.slew, DEFAULT_HORIZON, observations, x, p, self.n_planets)
 
 
@@ -227,10 +224,7 @@ def relative_actions_batch(
         targets = relative_targets(a, current, n_planets)
         return targets, targets
     targets = relative_targets(np.argmax(a[:, :n_planets], axis=1), current, n_planets)
-    out = np.array(a, dtype=np.float32, copy=True)
-    out[:, :n_planets] = -1.0
-    out[np.arange(a.shape[0]), targets] = 1.0
-    return out, targets
+    return with_planet_choice(a, targets, n_planets), targets
 
 
 def relative_action(action: Any, current: int, n_planets: int) -> tuple[Any, int]:
@@ -255,10 +249,7 @@ def absolute_to_relative(action: Any, current: int, n_planets: int) -> tuple[Any
     k = (target - max(int(current), 0)) % n_planets
     if a.size == 1:
         return k, target
-    out = np.array(a, dtype=np.float32, copy=True).reshape(-1)
-    out[:n_planets] = -1.0
-    out[k] = 1.0
-    return out, target
+    return with_planet_choice(a.reshape(1, -1), np.array([k]), n_planets)[0], target
 
 
 def check_relative_config(cfg: Any) -> None:

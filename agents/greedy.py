@@ -59,7 +59,6 @@ class GreedyAgent(TargetAgent):
         if horizon < 1:
             raise ValueError(f"horizon must be >= 1 step, got {horizon}")
         self.horizon = int(horizon)
-        self.pd_slowdown = float(pd_slowdown)
         cfg = self.config
         # The environment's own parameter record: the what-if updates use the core's model and noise.
         self._params = env.unwrapped.core.params
