@@ -168,7 +168,9 @@ def parse_config(data: Mapping[str, Any] | None, name: str = "run") -> TrainConf
     tc.pretrain = dict(tc.pretrain or {})
     if tc.pretrain:
         _check_keys(
-            tc.pretrain, {"teacher", "teacher_config", "episodes", "epochs", "keep_std"}, "config.pretrain"
+            tc.pretrain,
+            {"teacher", "teacher_config", "episodes", "epochs", "keep_std", "dagger_rounds"},
+            "config.pretrain",
         )
         if not isinstance(tc.pretrain.setdefault("keep_std", False), bool):
             raise ConfigError(
@@ -183,10 +185,10 @@ def parse_config(data: Mapping[str, Any] | None, name: str = "run") -> TrainConf
             given = tc.pretrain["teacher_config"]
             if not _config_path(given).is_file():
                 raise ConfigError(f"config.pretrain: teacher_config {given!r} not found")
-        for key, default in (("episodes", 4), ("epochs", 20)):
+        for key, default, least in (("episodes", 4, 1), ("epochs", 20, 1), ("dagger_rounds", 0, 0)):
             value = tc.pretrain.setdefault(key, default)
-            if isinstance(value, bool) or not isinstance(value, int) or value < 1:
-                raise ConfigError(f"config.pretrain: {key} must be a positive integer, got {value!r}")
+            if isinstance(value, bool) or not isinstance(value, int) or value < least:
+                raise ConfigError(f"config.pretrain: {key} must be an integer >= {least}, got {value!r}")
     tc.shaping = dict(tc.shaping or {})
     _check_keys(tc.shaping, set(SHAPINGS), "config.shaping")
     for key, weight in tc.shaping.items():
@@ -373,7 +375,7 @@ def train(tc: TrainConfig, run_dir: Path, progress: bool = True) -> tuple[Path, 
     t0 = time.perf_counter()
     pretrain_stats: dict[str, Any] = {}
     if tc.pretrain:
-        from agents.pretrain import clone, demonstrations
+        from agents.pretrain import clone, dagger, demonstrations
 
         teacher = tc.pretrain.get("teacher")
         if "teacher_config" in tc.pretrain:
@@ -389,6 +391,12 @@ def train(tc: TrainConfig, run_dir: Path, progress: bool = True) -> tuple[Path, 
             action_repeat=tc.action_repeat, relative_actions=tc.relative_actions,
         )  # fmt: skip
         nll = clone(model, obs, actions, tc.pretrain["epochs"], keep_std=tc.pretrain["keep_std"])
+        if tc.pretrain["dagger_rounds"]:
+            obs, actions, nll = dagger(
+                model, tc.env_config(), teacher, tc.pretrain["dagger_rounds"], tc.pretrain["episodes"],
+                tc.pretrain["epochs"], tc.features, (obs, actions), action_repeat=tc.action_repeat,
+                relative_actions=tc.relative_actions, keep_std=tc.pretrain["keep_std"],
+            )  # fmt: skip
         pretrain_stats.update(samples=len(obs), nll=nll, seconds=time.perf_counter() - t0)
         print(f"pretrained on {len(obs)} decisions of {teacher} (final NLL {nll:.2f})")
     callback = _nav_callback_class()()
@@ -909,6 +917,39 @@ def cmd_compare(args: argparse.Namespace) -> int:
     return 0
 
 
+def _evaluation_entry(given: str) -> tuple[str, dict[str, Any]]:
+    """``FILE:AGENT`` (an ``eval.json`` or a ``--json`` output and one of its agents) -> (agent, metrics)."""
+    # Agent names hold colons (ppo:run, periodic:period=10): the file is the shortest prefix that exists.
+    cuts = [i for i, ch in enumerate(given) if ch == ":" and Path(given[:i]).is_file()]
+    if not cuts or cuts[0] == len(given) - 1:
+        raise ConfigError(f"paired: expected FILE:AGENT with an existing evaluation file, got {given!r}")
+    path, agent = given[: cuts[0]], given[cuts[0] + 1 :]
+    try:
+        agents = json.loads(Path(path).read_text())["agents"]
+    except (ValueError, KeyError, TypeError):
+        raise ConfigError(f"paired: {path!r} is not an evaluation JSON (no 'agents')") from None
+    if agent not in agents:
+        raise ConfigError(f"paired: no agent {agent!r} in {path}; it has {sorted(agents)}")
+    return agent, agents[agent]
+
+
+def cmd_paired(args: argparse.Namespace) -> int:
+    """Paired difference of two evaluations on the same seeds, which may come from two environments (the
+    same policy in target and target+torque mode) or two runs of ``compare``."""
+    (name_a, a), (name_b, b) = _evaluation_entry(args.a), _evaluation_entry(args.b)
+    if (a["seed"], a["episodes"]) != (b["seed"], b["episodes"]):
+        raise ConfigError(
+            f"paired: the evaluations ran on different seeds: {args.a} on {a['episodes']} from {a['seed']}, "
+            f"{args.b} on {b['episodes']} from {b['seed']}"
+        )
+    diff = paired_difference(a["per_episode_mean_pos_err_km"], b["per_episode_mean_pos_err_km"])
+    print(
+        f"{name_a}: {a['mean_pos_err_km']:.1f} km, {name_b}: {b['mean_pos_err_km']:.1f} km; paired "
+        f"difference (first - second) {diff.format('{:+.1f}')} km on {a['episodes']} seeds from {a['seed']}"
+    )
+    return 0
+
+
 DEFAULT_SWEEP_PERIODS = (10, 20, 30, 60, 120, 240)
 DEFAULT_SWEEP_CYCLES = ("0-1", "0-2", "1-2", "0-1-2", "0-2-1")
 
@@ -1001,6 +1042,13 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--reference", help=f"paired differences against this agent (default {REFERENCE})")
     common(c)
     c.set_defaults(func=cmd_compare)
+
+    pr = sub.add_parser(
+        "paired", help="paired difference of two evaluation JSONs on the same seeds (e.g. two action modes)"
+    )
+    pr.add_argument("--a", required=True, help="FILE:AGENT, e.g. runs/x/eval.json:ppo:x")
+    pr.add_argument("--b", required=True, help="FILE:AGENT, subtracted from --a")
+    pr.set_defaults(func=cmd_paired)
 
     w = sub.add_parser(
         "sweep-periodic",

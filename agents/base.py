@@ -137,6 +137,11 @@ class Agent:
         """The action for this step, from the latest observation and ``info``."""
         raise NotImplementedError
 
+    def follow(self, target: int) -> None:
+        """Another actor holds planet ``target`` (an index, -1 for none) in this episode: the agent labels
+        states it does not drive (DAgger, ``agents.pretrain``). Agents whose actions are relative to their
+        own last choice resynchronise; the others ignore it."""
+
 
 def unwrapped_config(env: gym.Env) -> EnvConfig:
     """The :class:`EnvConfig` of a (possibly wrapped) planetnav environment."""

@@ -34,11 +34,17 @@ def demonstrations(
     features: Sequence[str],
     action_repeat: int = 1,
     relative_actions: bool = False,
+    student: Any = None,
+    first_seed: int = DEMO_SEED,
 ) -> tuple[np.ndarray, np.ndarray]:
     """(observations with ``features`` appended, teacher actions as the policy emits them) at each
-    decision of ``episodes`` demonstration episodes (seeds :data:`DEMO_SEED` ..)."""
+    decision of ``episodes`` demonstration episodes (seeds ``first_seed`` ..).
+
+    ``student``: an SB3 model whose deterministic decisions drive the episodes instead of the teacher's,
+    which only labels the states the student visits (DAgger's data collection, :func:`dagger`). The teacher
+    is told the target the student holds (:meth:`agents.base.Agent.follow`) before each decision."""
     from agents import make_agent
-    from agents.features import FeatureState, absolute_to_relative, check_relative_config
+    from agents.features import FeatureState, absolute_to_relative, check_relative_config, relative_action
     from planetnav_env.env import PlanetNavEnv
 
     if isinstance(action_repeat, bool) or not isinstance(action_repeat, int) or action_repeat < 1:
@@ -56,7 +62,7 @@ def demonstrations(
 
     obs_out, act_out = [], []
     for ep in range(episodes):
-        seed = DEMO_SEED + ep
+        seed = first_seed + ep
         agent.reset(seed=seed)
         if state is not None:
             state.reset()
@@ -64,23 +70,46 @@ def demonstrations(
         seen = observed(obs, info)
         current, held, k, done = -1, None, 0, False
         while not done:
+            decision = k % action_repeat == 0
+            if decision and student is not None:
+                agent.follow(current)
             # The teacher sees every step (its own features and decision clock advance, as in evaluation);
-            # its choice at a decision point is recorded and held for the decision.
+            # its choice at a decision point is recorded and, without a student, held for the decision.
             action = agent.act(obs, info)
-            if k % action_repeat == 0:
-                held = action
+            if decision:
                 obs_out.append(seen)
                 if relative_actions:
-                    encoded, current = absolute_to_relative(action, current, n_planets)
+                    encoded, target = absolute_to_relative(action, current, n_planets)
                     act_out.append(np.asarray(encoded))
                 else:
+                    target = _target_index(action, n_planets)
                     act_out.append(np.asarray(action))
+                if student is None:
+                    held, current = action, target
+                else:
+                    held, _ = student.predict(seen, deterministic=True)
+                    if relative_actions:
+                        held, current = relative_action(held, current, n_planets)
+                    else:
+                        current = _target_index(held, n_planets)
             obs, _, terminated, truncated, info = env.step(held)
             seen = observed(obs, info)
             k += 1
             done = terminated or truncated
     env.close()
     return np.asarray(obs_out, dtype=np.float32), np.asarray(act_out)
+
+
+def _target_index(action: Any, n_planets: int) -> int:
+    """The planet an absolute target-choice action points at (-1 for none: torque mode, idle, a pulsar)."""
+    a = np.asarray(action)
+    if a.size == 1:
+        idx = int(a.reshape(()))
+    elif a.size == n_planets + 3:  # target+torque: the argmax of the planet entries
+        idx = int(np.argmax(a[:n_planets]))
+    else:
+        return -1
+    return idx if 0 <= idx < n_planets else -1
 
 
 def clone(
@@ -126,3 +155,36 @@ def clone(
             log_std.copy_(saved)
     policy.set_training_mode(False)
     return nll
+
+
+def dagger(
+    model: Any,
+    env_config: Any,
+    teacher: str,
+    rounds: int,
+    episodes: int,
+    epochs: int,
+    features: Sequence[str],
+    data: tuple[np.ndarray, np.ndarray],
+    action_repeat: int = 1,
+    relative_actions: bool = False,
+    keep_std: bool = False,
+) -> tuple[np.ndarray, np.ndarray, float]:
+    """DAgger (Ross, Gordon & Bagnell 2011) after a first :func:`clone` on ``data``: ``rounds`` times, the
+    clone drives ``episodes`` new demonstration episodes, the teacher labels every decision it visits, and
+    the policy is refitted on all labels so far. Returns (observations, labels, the last fit's NLL).
+
+    Why: a clone fitted on the teacher's own states only drifts off them in closed loop, and there it has
+    no labels. Distilling the target-mode policy into the target+torque Box policy, the plain clone picked
+    another planet than its teacher at 4 % of its decisions and lost ~5 km (``docs/training.md``, TT7)."""
+    obs, actions = data
+    nll = float("nan")
+    for r in range(rounds):
+        new_obs, new_actions = demonstrations(
+            env_config, teacher, episodes, features, action_repeat=action_repeat,
+            relative_actions=relative_actions, student=model, first_seed=DEMO_SEED + (r + 1) * episodes,
+        )  # fmt: skip
+        obs = np.concatenate([obs, new_obs])
+        actions = np.concatenate([actions, new_actions])
+        nll = clone(model, obs, actions, epochs, keep_std=keep_std)
+    return obs, actions, nll

@@ -153,6 +153,9 @@ class SB3Agent(Agent):
 
             torch.manual_seed(seed)
 
+    def follow(self, target: int) -> None:
+        self._current = int(target)
+
     def act(self, observation: Any, info: dict[str, Any]) -> Any:
         if self.features is not None:
             observation = self.features.augment(observation, info)  # every step: the features count steps

@@ -18,6 +18,7 @@ from agents import (
     parse_spec,
     requires_idle_action,
 )
+from agents.base import with_planet_choice
 from agents.features import FeatureState, NavFeatures, check_features
 from agents.periodic import parse_cycle
 from agents.shaping import PointingShaping
@@ -307,6 +308,48 @@ def test_demonstrations_are_recorded_in_the_training_mdp(mode: str) -> None:
             assert t == target and relative_action(enc, current, 3)[1] == target
     with pytest.raises(ValueError, match="absolute target must be in"):
         absolute_to_relative(3, 0, 3)
+
+
+@pytest.mark.parametrize("mode", ["target", "target+torque"])
+def test_dagger_records_the_students_states_with_the_teachers_labels(mode: str) -> None:
+    """With a ``student``, the student's decisions drive the episode (replaying them in the training wrappers
+    reproduces the recorded observations) and each label is the teacher's target, encoded relative to the
+    target the student holds; ``dagger`` aggregates the rounds and refits."""
+    from stable_baselines3 import PPO
+
+    from agents.features import ActionRepeat, RelativeTargets, absolute_to_relative, relative_action
+    from agents.pretrain import DEMO_SEED, dagger, demonstrations
+
+    cfg = EnvConfig.from_dict({"action_mode": mode, "episode_steps": 25})
+    features = ["since_measured"]
+    env = RelativeTargets(ActionRepeat(NavFeatures(PlanetNavEnv(cfg), features), 3))
+    student = PPO("MlpPolicy", env, n_steps=32, batch_size=32, n_epochs=1, seed=3, device="cpu")
+    teacher = "periodic:period=4,skip_invisible=false"  # its choice depends on the step count only
+    obs, labels = demonstrations(
+        cfg, teacher, 1, features, action_repeat=3, relative_actions=True, student=student
+    )
+    assert len(obs) == len(labels) == 9
+    periodic = make_agent(teacher, PlanetNavEnv(cfg))
+    o, _ = env.reset(seed=DEMO_SEED)
+    current = -1
+    for k in range(len(obs)):
+        np.testing.assert_array_equal(o, obs[k])
+        chosen = periodic.cycle[periodic.scheduled(3 * k)]
+        expected, _ = absolute_to_relative(chosen, current, 3)
+        if mode == "target+torque":
+            expected = with_planet_choice(np.zeros((1, 6)), np.array([expected]), 3)[0]
+        np.testing.assert_array_equal(labels[k], expected)
+        action = student.predict(o, deterministic=True)[0]
+        _, current = relative_action(action, current, 3)
+        o, _, terminated, truncated, _ = env.step(action)
+    assert terminated or truncated
+    # The student's first decision is its own: it does not follow the teacher's.
+    assert not np.array_equal(obs, demonstrations(cfg, teacher, 1, features, 3, True)[0])
+    all_obs, all_labels, nll = dagger(
+        student, cfg, teacher, 2, 1, 5, features, (obs, labels), action_repeat=3, relative_actions=True
+    )
+    assert len(all_obs) == len(all_labels) == 27 and np.isfinite(nll)
+    np.testing.assert_array_equal(all_obs[:9], obs)
 
 
 def test_target_policy_acts_in_target_torque_and_keep_std(tmp_path: Path) -> None:

@@ -117,6 +117,7 @@ def test_compare_prints_one_table(tmp_path: Path, capsys: pytest.CaptureFixture[
         ("pretrain: {teacher: greedy, teacher_config: configs/cruise_ppo.yaml}\n", "not both"),
         ("pretrain: {teacher_config: configs/nope.yaml}\n", "nope.yaml"),
         ("pretrain: {teacher: greedy, keep_std: 2}\n", "keep_std"),
+        ("pretrain: {teacher: greedy, dagger_rounds: -1}\n", "dagger_rounds must be an integer >= 0, got -1"),
     ],
 )
 def test_bad_config_key_is_named(
@@ -240,3 +241,27 @@ def test_seed_override(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> No
     assert yaml.safe_load((run_dir / "config.yaml").read_text())["seed"] == 3
     assert train.main([*args, "--seed", "-1", "--no-eval", "--no-progress"]) == 2
     assert "--seed must be >= 0, got -1" in capsys.readouterr().err
+
+
+def test_paired_pairs_two_evaluation_files(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """``train.py paired`` pairs agents of two evaluation JSONs seed by seed and refuses other seeds."""
+
+    def write(name: str, agent: str, errors: list[float], seed: int = 10000) -> str:
+        entry = {"seed": seed, "episodes": len(errors), "mean_pos_err_km": float(np.mean(errors)),
+                 "per_episode_mean_pos_err_km": errors}  # fmt: skip
+        (tmp_path / name).write_text(json.dumps({"agents": {agent: entry}, "skipped": {}}))
+        return str(tmp_path / name)
+
+    a = write("a.json", "ppo:x", [10.0, 20.0, 30.0])
+    b = write("b.json", "periodic:period=10", [9.0, 18.0, 27.0])
+    assert train.main(["paired", "--a", f"{a}:ppo:x", "--b", f"{b}:periodic:period=10"]) == 0
+    out = capsys.readouterr().out
+    # differences 1, 2, 3: mean 2, t(0.975, 2) = 4.303 x sd 1 / sqrt(3) = 2.48
+    assert "paired difference (first - second) +2.0 [-0.5, +4.5] km on 3 seeds from 10000" in out
+    c = write("c.json", "greedy", [1.0, 2.0, 3.0], seed=20000)
+    assert train.main(["paired", "--a", f"{a}:ppo:x", "--b", f"{c}:greedy"]) == 2
+    assert "different seeds" in capsys.readouterr().err
+    assert train.main(["paired", "--a", f"{a}:nope", "--b", f"{c}:greedy"]) == 2
+    assert "no agent 'nope'" in capsys.readouterr().err
+    assert train.main(["paired", "--a", "missing.json:greedy", "--b", f"{c}:greedy"]) == 2
+    assert "FILE:AGENT" in capsys.readouterr().err
