@@ -947,6 +947,29 @@ def cmd_paired(args: argparse.Namespace) -> int:
         f"{name_a}: {a['mean_pos_err_km']:.1f} km, {name_b}: {b['mean_pos_err_km']:.1f} km; paired "
         f"difference (first - second) {diff.format('{:+.1f}')} km on {a['episodes']} seeds from {a['seed']}"
     )
+    per_seed = np.subtract(a["per_episode_mean_pos_err_km"], b["per_episode_mean_pos_err_km"])
+    q05, q50, q95 = np.percentile(per_seed, [5, 50, 95])
+    print(f"per seed: 5 % quantile {q05:+.1f} km, median {q50:+.1f} km, 95 % quantile {q95:+.1f} km")
+    return 0
+
+
+def cmd_agreement(args: argparse.Namespace) -> int:
+    """How often a trained policy picks another planet than a teacher on the policy's own states."""
+    from agents.pretrain import agreement
+
+    env_cfg, ev = _eval_env_config(args, [args.student])
+    episodes = args.episodes or 5
+    seed = ev.seed if args.seed is None else args.seed
+    try:
+        got = agreement(args.student, env_cfg, args.teacher, episodes, seed)
+    except ValueError as exc:
+        raise ConfigError(f"agreement: {exc}") from None
+    residual = got["mean_abs_residual"]
+    print(
+        f"{args.student} vs {args.teacher} on {episodes} episodes from seed {seed}: another planet at "
+        f"{100 * got['different']:.1f} % of {got['decisions']} decisions"
+        + (f"; mean |residual torque| {residual:.4f} of the action range" if math.isfinite(residual) else "")
+    )
     return 0
 
 
@@ -1050,6 +1073,14 @@ def build_parser() -> argparse.ArgumentParser:
     pr.add_argument("--b", required=True, help="FILE:AGENT, subtracted from --a")
     pr.set_defaults(func=cmd_paired)
 
+    ag = sub.add_parser(
+        "agreement", help="how often a trained policy picks another planet than a teacher, on its own states"
+    )
+    ag.add_argument("--student", required=True, help="a train.py run directory or model .zip")
+    ag.add_argument("--teacher", required=True, help="an agent spec or another run (it labels the states)")
+    common(ag)
+    ag.set_defaults(func=cmd_agreement)
+
     w = sub.add_parser(
         "sweep-periodic",
         help=f"every periodic schedule of a grid on seeds {SWEEP_SEED}.. (not the evaluation seeds)",
@@ -1063,7 +1094,7 @@ def build_parser() -> argparse.ArgumentParser:
     common(w)
     w.set_defaults(func=cmd_sweep_periodic)
 
-    for sp in (t, e, c, w, tn):
+    for sp in (t, e, c, w, tn, ag):
         sp.add_argument("--no-progress", action="store_true", help="no progress bars")
     return p
 

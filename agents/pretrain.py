@@ -188,3 +188,33 @@ def dagger(
         actions = np.concatenate([actions, new_actions])
         nll = clone(model, obs, actions, epochs, keep_std=keep_std)
     return obs, actions, nll
+
+
+def agreement(
+    student_path: str, env_config: Any, teacher: str, episodes: int, first_seed: int
+) -> dict[str, float]:
+    """How closely a trained student follows a teacher on the student's own states: the student (a saved
+    SB3 run) drives ``episodes`` episodes from ``first_seed``; at each of its decisions the teacher labels
+    the state (as in :func:`dagger`). Returns the number of decisions, the fraction where the student
+    picks another planet than the teacher, and (``target+torque``) the mean |residual torque| the student
+    commands, as a fraction of its action range."""
+    from agents.sb3 import SB3Agent
+    from planetnav_env.env import PlanetNavEnv
+
+    if env_config.action_mode == "torque":
+        raise ValueError("agreement compares planet choices: action_mode 'target' or 'target+torque' only")
+    loaded = SB3Agent(student_path, PlanetNavEnv(env_config))
+    features = list(loaded.features.features) if loaded.features is not None else []
+    obs, labels = demonstrations(
+        env_config, teacher, episodes, features, action_repeat=loaded.action_repeat,
+        relative_actions=loaded.relative, student=loaded.model, first_seed=first_seed,
+    )  # fmt: skip
+    actions, _ = loaded.model.predict(obs, deterministic=True)
+    n_planets = env_config.n_planets
+    if np.ndim(labels) == 1:
+        differ = np.asarray(actions).reshape(-1) != labels
+        residual = float("nan")
+    else:
+        differ = np.argmax(actions[:, :n_planets], axis=1) != np.argmax(labels[:, :n_planets], axis=1)
+        residual = float(np.mean(np.abs(actions[:, n_planets:]))) if actions.shape[1] > n_planets else np.nan
+    return {"decisions": len(obs), "different": float(np.mean(differ)), "mean_abs_residual": residual}

@@ -352,6 +352,42 @@ def test_dagger_records_the_students_states_with_the_teachers_labels(mode: str) 
     np.testing.assert_array_equal(all_obs[:9], obs)
 
 
+def test_agreement_of_a_policy_with_itself_and_with_another_teacher(tmp_path: Path) -> None:
+    """``agreement``: a relative-action policy labelled by itself (resynchronised to the target it holds
+    through ``Agent.follow``) never differs; labelled by a periodic schedule it differs at some decisions."""
+    from stable_baselines3 import PPO
+
+    from agents.features import ActionRepeat, RelativeTargets
+    from agents.pretrain import DEMO_SEED, agreement, demonstrations
+
+    cfg = EnvConfig.from_dict({"episode_steps": 40})
+    env = RelativeTargets(ActionRepeat(NavFeatures(PlanetNavEnv(cfg), ["since_measured"]), 4))
+    model = PPO("MlpPolicy", env, n_steps=32, batch_size=32, n_epochs=1, seed=1, device="cpu")
+    run = tmp_path / "run"
+    run.mkdir()
+    model.save(run / "model.zip")
+    sidecar = {"algo": "ppo", "features": ["since_measured"], "action_repeat": 4, "relative_actions": True}
+    (run / "config.yaml").write_text(yaml.safe_dump(sidecar))
+    itself = agreement(str(run), cfg, str(run), 2, DEMO_SEED)
+    assert itself["decisions"] == 20 and itself["different"] == 0.0
+    # Another policy labels the first one's states with its own relative choice there: it is told the
+    # target the driver holds, so its "move k places" counts from that target, not from its own last one.
+    other_model = PPO("MlpPolicy", env, n_steps=32, batch_size=32, n_epochs=1, seed=2, device="cpu")
+    run2 = tmp_path / "run2"
+    run2.mkdir()
+    other_model.save(run2 / "model.zip")
+    (run2 / "config.yaml").write_text(yaml.safe_dump(sidecar))
+    obs, labels = demonstrations(
+        cfg, str(run2), 3, ["since_measured"], action_repeat=4, relative_actions=True, student=model
+    )
+    np.testing.assert_array_equal(labels, other_model.predict(obs, deterministic=True)[0])
+    assert np.any(labels != model.predict(obs, deterministic=True)[0])
+    other = agreement(str(run), cfg, "periodic:period=8,skip_invisible=false", 2, DEMO_SEED)
+    assert 0.0 < other["different"] < 1.0
+    with pytest.raises(ValueError, match="planet choices"):
+        agreement(str(run), EnvConfig.from_dict({"action_mode": "torque"}), "baseline", 1, DEMO_SEED)
+
+
 def test_target_policy_acts_in_target_torque_and_keep_std(tmp_path: Path) -> None:
     """A target-mode policy picks planets in a target+torque env (+1 on its choice, zero residual), as the
     teacher of the distilled target+torque config; ``keep_std`` clones the mean only."""

@@ -258,6 +258,7 @@ def test_paired_pairs_two_evaluation_files(tmp_path: Path, capsys: pytest.Captur
     out = capsys.readouterr().out
     # differences 1, 2, 3: mean 2, t(0.975, 2) = 4.303 x sd 1 / sqrt(3) = 2.48
     assert "paired difference (first - second) +2.0 [-0.5, +4.5] km on 3 seeds from 10000" in out
+    assert "5 % quantile +1.1 km, median +2.0 km, 95 % quantile +2.9 km" in out  # linear interpolation
     c = write("c.json", "greedy", [1.0, 2.0, 3.0], seed=20000)
     assert train.main(["paired", "--a", f"{a}:ppo:x", "--b", f"{c}:greedy"]) == 2
     assert "different seeds" in capsys.readouterr().err
