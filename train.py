@@ -535,6 +535,9 @@ def evaluate_agent(
         "diverged": int(sum(r["diverged"] for r in runs)),
         "seconds_per_episode": float(np.mean([r["seconds"] for r in runs])),
         "per_episode_mean_pos_err_km": per_episode.tolist(),
+        # The filter's own 1-sigma varies far less from seed to seed than the error drawn around it, so
+        # paired differences of it resolve what the error's cannot (docs/training.md, 100-seed checks).
+        "per_episode_mean_pos_sigma_km": [float(np.mean(r["pos_sigma"])) for r in runs],
     }
     return EvalResult(
         name=name,
@@ -560,12 +563,17 @@ def add_paired(results: Sequence[EvalResult], reference: str) -> EvalResult | No
         if not r.ran or r.seeds != ref.seeds:
             continue
         d = paired_difference(r.episode_mean_err, ref.episode_mean_err)
+        ds = paired_difference(
+            r.metrics["per_episode_mean_pos_sigma_km"], ref.metrics["per_episode_mean_pos_sigma_km"]
+        )
         r.metrics["vs_reference"] = {
             "reference": ref.name,
             "mean_diff_km": d.mean,
             "ci95_km": [d.low, d.high],
             "ratio": r.metrics["mean_pos_err_km"] / ref.metrics["mean_pos_err_km"],
             "outside_noise": d.excludes_zero(),
+            "mean_sigma_diff_km": ds.mean,
+            "sigma_ci95_km": [ds.low, ds.high],
         }
     return ref
 
@@ -617,11 +625,22 @@ def _vs_reference(r: EvalResult) -> tuple[str, str]:
     return d.format("{:+.1f}"), f"{vs['ratio']:.2f}"
 
 
+def _sigma_vs_reference(r: EvalResult) -> str:
+    vs = r.metrics.get("vs_reference")
+    if vs is None:
+        return "-"
+    if vs["reference"] == r.name:
+        return "(reference)"
+    d = MeanCI(vs["mean_sigma_diff_km"], *vs["sigma_ci95_km"], r.metrics["episodes"], math.nan, 0.95)
+    return d.format("{:+.1f}")
+
+
 TABLE_HEAD = (
     "agent",
     "mean err km [95% CI]",
     "Δ vs ref km [95% CI]",
     "ratio",
+    "Δ 1σ vs ref km [95% CI]",
     "final err km",
     "final 1σ km",
     "measured",
@@ -645,6 +664,7 @@ def table_rows(results: Sequence[EvalResult]) -> list[list[str]]:
                 ci.format("{:.1f}"),
                 diff,
                 ratio,
+                _sigma_vs_reference(r),
                 f"{m['final_pos_err_km']:.1f}",
                 f"{m['final_pos_sigma_km']:.1f}",
                 f"{m['measured_fraction']:.2f}",
@@ -666,6 +686,7 @@ def markdown_table(results: Sequence[EvalResult]) -> str:
     ref = _reference_name(results)
     if ref:
         head[2] = f"Δ vs {ref} km [95% CI]"
+        head[4] = f"Δ 1σ vs {ref} km [95% CI]"
     lines = ["| " + " | ".join(head) + " |", "|" + "|".join("---" for _ in head) + "|"]
     lines += ["| " + " | ".join(row) + " |" for row in table_rows(results)]
     lines += [f"\nSkipped `{n}`: {why}" for n, why in skipped_notes(results)]
@@ -692,6 +713,7 @@ def print_table(results: Sequence[EvalResult], title: str | None = None) -> None
     ref = _reference_name(results)
     if ref:
         head[2] = f"Δ vs {ref} km [95% CI]"
+        head[4] = f"Δ 1σ vs {ref} km [95% CI]"
     for i, h in enumerate(head):
         table.add_column(h, justify="left" if i == 0 else "right", no_wrap=True)
     for row in rows:
@@ -802,7 +824,10 @@ def write_report(
         "Mean err: per-step true position error averaged over the episode, then over episodes, with the "
         "95 % Student-t interval over the episodes. Δ vs ref: mean over seeds of (agent - reference) of the "
         "episode's mean error, with the paired 95 % t-interval (an interval containing 0 means the "
-        "difference is inside the seed-to-seed noise); ratio: the agent's mean / the reference's. Final: "
+        "difference is inside the seed-to-seed noise); ratio: the agent's mean / the reference's. Δ 1σ vs "
+        "ref: the same paired difference for the filter's own position 1-sigma, sqrt(trace P_rr) averaged "
+        "over the episode (what the covariance reward measures; it varies far less from seed to seed than "
+        "the error drawn around it, so its interval resolves differences the error's cannot). Final: "
         "at the last step (mean over episodes). Final 1σ: sqrt(trace P_rr) of the filter at the last step. "
         "Measured: fraction of steps with a camera measurement. Slews: target changes per episode. "
         "s/episode: wall time per episode including the agent's own computation. eval.json has the "
@@ -950,6 +975,13 @@ def cmd_paired(args: argparse.Namespace) -> int:
     per_seed = np.subtract(a["per_episode_mean_pos_err_km"], b["per_episode_mean_pos_err_km"])
     q05, q50, q95 = np.percentile(per_seed, [5, 50, 95])
     print(f"per seed: 5 % quantile {q05:+.1f} km, median {q50:+.1f} km, 95 % quantile {q95:+.1f} km")
+    key = "per_episode_mean_pos_sigma_km"
+    if key in a and key in b:  # evaluation files written before this key have the error only
+        sig = paired_difference(a[key], b[key])
+        print(
+            f"filter 1-sigma (mean over the day): {a['mean_pos_sigma_km']:.1f} km vs "
+            f"{b['mean_pos_sigma_km']:.1f} km; paired difference {sig.format('{:+.1f}')} km"
+        )
     return 0
 
 

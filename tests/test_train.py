@@ -177,6 +177,13 @@ def test_compare_pairs_with_greedy_and_skips_what_does_not_apply(
         assert vs["reference"] == "greedy"
         diffs = np.subtract(m["per_episode_mean_pos_err_km"], greedy)
         assert vs["mean_diff_km"] == pytest.approx(np.mean(diffs), rel=1e-9, abs=1e-9), name
+        # The filter's 1-sigma, paired the same way; its per-seed values average to the reported mean.
+        sig = m["per_episode_mean_pos_sigma_km"]
+        assert len(sig) == 3 and np.mean(sig) == pytest.approx(m["mean_pos_sigma_km"], rel=1e-12), name
+        greedy_sig = data["agents"]["greedy"]["per_episode_mean_pos_sigma_km"]
+        low, high = vs["sigma_ci95_km"]
+        assert vs["mean_sigma_diff_km"] == pytest.approx(np.mean(np.subtract(sig, greedy_sig)), abs=1e-9)
+        assert low <= vs["mean_sigma_diff_km"] <= high or name == "greedy"
 
 
 def test_sweep_periodic_prints_the_best(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
@@ -247,8 +254,10 @@ def test_paired_pairs_two_evaluation_files(tmp_path: Path, capsys: pytest.Captur
     """``train.py paired`` pairs agents of two evaluation JSONs seed by seed and refuses other seeds."""
 
     def write(name: str, agent: str, errors: list[float], seed: int = 10000) -> str:
+        sigmas = [2 * e for e in errors]
         entry = {"seed": seed, "episodes": len(errors), "mean_pos_err_km": float(np.mean(errors)),
-                 "per_episode_mean_pos_err_km": errors}  # fmt: skip
+                 "per_episode_mean_pos_err_km": errors, "mean_pos_sigma_km": float(np.mean(sigmas)),
+                 "per_episode_mean_pos_sigma_km": sigmas}  # fmt: skip
         (tmp_path / name).write_text(json.dumps({"agents": {agent: entry}, "skipped": {}}))
         return str(tmp_path / name)
 
@@ -259,6 +268,8 @@ def test_paired_pairs_two_evaluation_files(tmp_path: Path, capsys: pytest.Captur
     # differences 1, 2, 3: mean 2, t(0.975, 2) = 4.303 x sd 1 / sqrt(3) = 2.48
     assert "paired difference (first - second) +2.0 [-0.5, +4.5] km on 3 seeds from 10000" in out
     assert "5 % quantile +1.1 km, median +2.0 km, 95 % quantile +2.9 km" in out  # linear interpolation
+    # sigma differences 2, 4, 6: mean 4, half-width 4.303 x 2 / sqrt(3) = 4.97
+    assert "1-sigma (mean over the day): 40.0 km vs 36.0 km; paired difference +4.0 [-1.0, +9.0] km" in out
     c = write("c.json", "greedy", [1.0, 2.0, 3.0], seed=20000)
     assert train.main(["paired", "--a", f"{a}:ppo:x", "--b", f"{c}:greedy"]) == 2
     assert "different seeds" in capsys.readouterr().err
