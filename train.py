@@ -615,24 +615,26 @@ def results_json(results: Sequence[EvalResult]) -> dict[str, Any]:
     return {"agents": out, "skipped": skipped}
 
 
-def _vs_reference(r: EvalResult) -> tuple[str, str]:
-    vs = r.metrics.get("vs_reference")
-    if vs is None:
-        return "-", "-"
-    if vs["reference"] == r.name:
-        return "(reference)", "1.00"
-    d = MeanCI(vs["mean_diff_km"], *vs["ci95_km"], r.metrics["episodes"], math.nan, 0.95)
-    return d.format("{:+.1f}"), f"{vs['ratio']:.2f}"
-
-
-def _sigma_vs_reference(r: EvalResult) -> str:
+def _paired_cell(r: EvalResult, mean_key: str, ci_key: str) -> str:
+    """A paired difference from ``metrics["vs_reference"]`` as ``"+d [lo, hi]"`` for the tables."""
     vs = r.metrics.get("vs_reference")
     if vs is None:
         return "-"
     if vs["reference"] == r.name:
         return "(reference)"
-    d = MeanCI(vs["mean_sigma_diff_km"], *vs["sigma_ci95_km"], r.metrics["episodes"], math.nan, 0.95)
-    return d.format("{:+.1f}")
+    return MeanCI(vs[mean_key], *vs[ci_key], r.metrics["episodes"], math.nan, 0.95).format("{:+.1f}")
+
+
+def _vs_reference(r: EvalResult) -> tuple[str, str]:
+    """(the paired difference of the mean error, the ratio of the means) against the reference."""
+    vs = r.metrics.get("vs_reference")
+    ratio = "-" if vs is None else ("1.00" if vs["reference"] == r.name else f"{vs['ratio']:.2f}")
+    return _paired_cell(r, "mean_diff_km", "ci95_km"), ratio
+
+
+def _sigma_vs_reference(r: EvalResult) -> str:
+    """The paired difference of the filter's mean 1-sigma against the reference."""
+    return _paired_cell(r, "mean_sigma_diff_km", "sigma_ci95_km")
 
 
 TABLE_HEAD = (
