@@ -517,6 +517,9 @@ def evaluate_agent(
     env.close()
     final = np.array([r["pos_err"][-1] for r in runs])
     per_episode = np.array([np.mean(r["pos_err"]) for r in runs])
+    # The filter's own 1-sigma varies far less from seed to seed than the error drawn around it, so
+    # paired differences of it resolve what the error's cannot (docs/training.md, 100-seed checks).
+    per_episode_sigma = [float(np.mean(r["pos_sigma"])) for r in runs]
     ci = mean_ci(per_episode)
     metrics = {
         "episodes": episodes,
@@ -527,7 +530,7 @@ def evaluate_agent(
         "final_pos_err_std_km": float(np.std(final)),
         "final_pos_err_ci95_km": [mean_ci(final).low, mean_ci(final).high],
         "final_pos_sigma_km": float(np.mean([r["pos_sigma"][-1] for r in runs])),
-        "mean_pos_sigma_km": float(np.mean([np.mean(r["pos_sigma"]) for r in runs])),
+        "mean_pos_sigma_km": float(np.mean(per_episode_sigma)),
         "mean_vel_err_km_s": float(np.mean([r["mean_vel_err_km_s"] for r in runs])),
         "measured_fraction": float(np.mean([r["measured_fraction"] for r in runs])),
         "slews": float(np.mean([r["slews"] for r in runs])),
@@ -535,9 +538,7 @@ def evaluate_agent(
         "diverged": int(sum(r["diverged"] for r in runs)),
         "seconds_per_episode": float(np.mean([r["seconds"] for r in runs])),
         "per_episode_mean_pos_err_km": per_episode.tolist(),
-        # The filter's own 1-sigma varies far less from seed to seed than the error drawn around it, so
-        # paired differences of it resolve what the error's cannot (docs/training.md, 100-seed checks).
-        "per_episode_mean_pos_sigma_km": [float(np.mean(r["pos_sigma"])) for r in runs],
+        "per_episode_mean_pos_sigma_km": per_episode_sigma,
     }
     return EvalResult(
         name=name,
@@ -683,12 +684,18 @@ def _reference_name(results: Sequence[EvalResult]) -> str | None:
     )
 
 
-def markdown_table(results: Sequence[EvalResult]) -> str:
+def table_head(results: Sequence[EvalResult]) -> list[str]:
+    """:data:`TABLE_HEAD` with the reference agent's name in the paired columns."""
     head = list(TABLE_HEAD)
     ref = _reference_name(results)
     if ref:
         head[2] = f"Δ vs {ref} km [95% CI]"
         head[4] = f"Δ 1σ vs {ref} km [95% CI]"
+    return head
+
+
+def markdown_table(results: Sequence[EvalResult]) -> str:
+    head = table_head(results)
     lines = ["| " + " | ".join(head) + " |", "|" + "|".join("---" for _ in head) + "|"]
     lines += ["| " + " | ".join(row) + " |" for row in table_rows(results)]
     lines += [f"\nSkipped `{n}`: {why}" for n, why in skipped_notes(results)]
@@ -711,12 +718,7 @@ def print_table(results: Sequence[EvalResult], title: str | None = None) -> None
         first = ran[0].metrics["seed"] if ran else 0
         title = f"planetnav agents: {n} held-out seeds ({first}..{first + n - 1}), paired on the same seeds"
     table = Table(title=title)
-    head = list(TABLE_HEAD)
-    ref = _reference_name(results)
-    if ref:
-        head[2] = f"Δ vs {ref} km [95% CI]"
-        head[4] = f"Δ 1σ vs {ref} km [95% CI]"
-    for i, h in enumerate(head):
+    for i, h in enumerate(table_head(results)):
         table.add_column(h, justify="left" if i == 0 else "right", no_wrap=True)
     for row in rows:
         table.add_row(*row)
@@ -917,6 +919,12 @@ def cmd_train(args: argparse.Namespace) -> int:
     return 0
 
 
+def _write_json(path: str, data: Any) -> None:
+    """``data`` as indented JSON at ``path`` (the ``--json`` option of the commands), folders created."""
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
+    Path(path).write_text(json.dumps(data, indent=2))
+
+
 def cmd_evaluate(args: argparse.Namespace) -> int:
     env_cfg, ev = _eval_env_config(args, [args.agent])
     episodes = args.episodes or ev.episodes
@@ -924,8 +932,7 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     result = evaluate_agent(args.agent, env_cfg, episodes, seed, progress=not args.no_progress)
     print_table([result])
     if args.json:
-        Path(args.json).parent.mkdir(parents=True, exist_ok=True)
-        Path(args.json).write_text(json.dumps(results_json([result]), indent=2))
+        _write_json(args.json, results_json([result]))
     return 0
 
 
@@ -937,8 +944,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
     results = compare_agents(args.agents, env_cfg, episodes, seed, not args.no_progress, reference)
     print_table(results)
     if args.json:
-        Path(args.json).parent.mkdir(parents=True, exist_ok=True)
-        Path(args.json).write_text(json.dumps(results_json(results), indent=2))
+        _write_json(args.json, results_json(results))
     if args.report:
         print(f"report: {write_report(Path(args.report), results, env_cfg, 'Agent comparison')}")
     return 0
@@ -1004,6 +1010,11 @@ def cmd_agreement(args: argparse.Namespace) -> int:
         f"{100 * got['different']:.1f} % of {got['decisions']} decisions"
         + (f"; mean |residual torque| {residual:.4f} of the action range" if math.isfinite(residual) else "")
     )
+    if args.json:
+        if not math.isfinite(residual):
+            got["mean_abs_residual"] = None  # target mode: no residual torque (JSON has no NaN)
+        _write_json(args.json, {"student": args.student, "teacher": args.teacher, "episodes": episodes,
+                                "seed": seed, **got})  # fmt: skip
     return 0
 
 
@@ -1044,8 +1055,7 @@ def cmd_sweep_periodic(args: argparse.Namespace) -> int:
     print(f"best: {best.name} (mean err {best.metrics['mean_pos_err_km']:.1f} km); "
           f"{len(results)} settings in {time.perf_counter() - t0:.0f} s")  # fmt: skip
     if args.json:
-        Path(args.json).parent.mkdir(parents=True, exist_ok=True)
-        Path(args.json).write_text(json.dumps({**results_json(results), "best": best.name}, indent=2))
+        _write_json(args.json, {**results_json(results), "best": best.name})
     return 0
 
 
@@ -1128,7 +1138,7 @@ def build_parser() -> argparse.ArgumentParser:
     common(w)
     w.set_defaults(func=cmd_sweep_periodic)
 
-    for sp in (t, e, c, w, tn, ag):
+    for sp in (t, e, c, w, tn):
         sp.add_argument("--no-progress", action="store_true", help="no progress bars")
     return p
 

@@ -237,15 +237,29 @@ def relative_action(action: Any, current: int, n_planets: int) -> tuple[Any, int
     return out[0], int(targets[0])
 
 
+def chosen_planet(action: Any, n_planets: int) -> int:
+    """The planet an absolute target-choice action picks: the integer itself, or (``target+torque`` Box
+    action of ``n_planets + 3`` entries) the argmax of its planet entries; -1 when it picks none (idle, a
+    pulsar, a torque-mode action)."""
+    a = np.asarray(action)
+    if a.size == 1:
+        idx = int(a.reshape(()))
+    elif a.size == n_planets + 3:
+        idx = int(np.argmax(a.reshape(-1)[:n_planets]))
+    else:
+        return -1
+    return idx if 0 <= idx < n_planets else -1
+
+
 def absolute_to_relative(action: Any, current: int, n_planets: int) -> tuple[Any, int]:
     """The relative action that makes :func:`relative_action` pick the target of the absolute ``action``
-    (an integer, or a Box action (D,) whose argmax over the first ``n_planets`` entries is the target),
+    (an integer, or a ``target+torque`` Box action whose argmax over the planet entries is the target),
     and that target. Its inverse: ``relative_action(absolute_to_relative(a, c, n)[0], c, n)`` chooses
     the target of ``a``. For teachers that act in absolute targets (``agents.pretrain``)."""
     a = np.asarray(action)
-    target = int(a.reshape(())) if a.size == 1 else int(np.argmax(a[:n_planets]))
-    if not 0 <= target < n_planets:
-        raise ValueError(f"absolute target must be in [0, {n_planets}), got {target}")
+    target = chosen_planet(a, n_planets)
+    if target < 0:
+        raise ValueError(f"absolute target must be in [0, {n_planets}), got {action!r}")
     k = (target - max(int(current), 0)) % n_planets
     if a.size == 1:
         return k, target

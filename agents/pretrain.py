@@ -44,7 +44,13 @@ def demonstrations(
     which only labels the states the student visits (DAgger's data collection, :func:`dagger`). The teacher
     is told the target the student holds (:meth:`agents.base.Agent.follow`) before each decision."""
     from agents import make_agent
-    from agents.features import FeatureState, absolute_to_relative, check_relative_config, relative_action
+    from agents.features import (
+        FeatureState,
+        absolute_to_relative,
+        check_relative_config,
+        chosen_planet,
+        relative_action,
+    )
     from planetnav_env.env import PlanetNavEnv
 
     if isinstance(action_repeat, bool) or not isinstance(action_repeat, int) or action_repeat < 1:
@@ -82,7 +88,7 @@ def demonstrations(
                     encoded, target = absolute_to_relative(action, current, n_planets)
                     act_out.append(np.asarray(encoded))
                 else:
-                    target = _target_index(action, n_planets)
+                    target = chosen_planet(action, n_planets)
                     act_out.append(np.asarray(action))
                 if student is None:
                     held, current = action, target
@@ -91,25 +97,13 @@ def demonstrations(
                     if relative_actions:
                         held, current = relative_action(held, current, n_planets)
                     else:
-                        current = _target_index(held, n_planets)
+                        current = chosen_planet(held, n_planets)
             obs, _, terminated, truncated, info = env.step(held)
             seen = observed(obs, info)
             k += 1
             done = terminated or truncated
     env.close()
     return np.asarray(obs_out, dtype=np.float32), np.asarray(act_out)
-
-
-def _target_index(action: Any, n_planets: int) -> int:
-    """The planet an absolute target-choice action points at (-1 for none: torque mode, idle, a pulsar)."""
-    a = np.asarray(action)
-    if a.size == 1:
-        idx = int(a.reshape(()))
-    elif a.size == n_planets + 3:  # target+torque: the argmax of the planet entries
-        idx = int(np.argmax(a[:n_planets]))
-    else:
-        return -1
-    return idx if 0 <= idx < n_planets else -1
 
 
 def clone(
