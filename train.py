@@ -48,7 +48,7 @@ from agents.rllib import config_sidecar as rllib_config_sidecar
 from agents.sb3 import ALGORITHMS, algorithm_class, resolve_model_path
 from agents.shaping import SHAPINGS, PointingShaping
 from agents.stats import MeanCI, mean_ci, paired_difference
-from planetnav_env.config import EnvConfig
+from planetnav_env.config import NOISE_STREAMS, EnvConfig
 from planetnav_env.errors import ConfigError
 from planetnav_env.registration import ENV_IDS
 from planetnav_rl import RLLIB_ALGOS, is_rllib_algo
@@ -75,6 +75,8 @@ class EvalSettings:
     seed: int = EVAL_SEED
     agents: tuple[str, ...] = DEFAULT_AGENTS
     episode_steps: int | None = None  # None: the env's own episode length
+    # None: the env's own; "per_step": common random numbers across the agents (EnvConfig.noise_streams)
+    noise_streams: str | None = None
     reference: str = REFERENCE  # paired differences are taken against this agent (if it ran)
 
 
@@ -157,6 +159,10 @@ def parse_config(data: Mapping[str, Any] | None, name: str = "run") -> TrainConf
         raise ConfigError(f"config: vec_env must be 'native' or 'dummy', got {tc.vec_env!r}")
     if eval_settings.episodes < 1:
         raise ConfigError(f"config.eval: episodes must be >= 1, got {eval_settings.episodes!r}")
+    if eval_settings.noise_streams is not None and eval_settings.noise_streams not in NOISE_STREAMS:
+        raise ConfigError(
+            f"config.eval: noise_streams must be one of {NOISE_STREAMS}, got {eval_settings.noise_streams!r}"
+        )
     _check_hyperparams(tc)
     tc.env_config()  # validate the env section now, not after training
     try:
@@ -809,7 +815,13 @@ def write_report(
         f"Scenario `{env_cfg.scenario}`, planets {', '.join(env_cfg.planets)}, action mode "
         f"`{env_cfg.action_mode}`, {env_cfg.episode_steps} steps of {env_cfg.step_s:g} s, "
         f"{m0['episodes']} held-out episodes (seeds {m0['seed']}..{m0['seed'] + m0['episodes'] - 1}), "
-        "the same seeds for every agent.",
+        "the same seeds for every agent"
+        + (
+            "; per-step noise streams (the same sensor noise for every agent wherever it makes the same "
+            "measurement at the same step)."
+            if env_cfg.noise_streams == "per_step"
+            else "."
+        ),
         "",
     ]
     if train_stats and tc:
@@ -867,11 +879,20 @@ def _eval_env_config(args: argparse.Namespace, specs: Sequence[str]) -> tuple[En
             if sidecar.is_file():
                 tc = load_config(sidecar)
                 break
-    env_cfg = tc.env_config()
     steps = args.episode_steps or tc.eval.episode_steps
-    if steps:
-        env_cfg = EnvConfig.from_dict(env_cfg.to_dict(), episode_steps=steps)
-    return env_cfg, tc.eval
+    noise = getattr(args, "noise_streams", None) or tc.eval.noise_streams
+    return evaluation_env(tc.env_config(), steps, noise), tc.eval
+
+
+def evaluation_env(env_cfg: EnvConfig, episode_steps: int | None, noise_streams: str | None) -> EnvConfig:
+    """``env_cfg`` with the evaluation's overrides of the episode length and the noise streams (None:
+    keep the env's own)."""
+    overrides: dict[str, Any] = {}
+    if episode_steps:
+        overrides["episode_steps"] = episode_steps
+    if noise_streams:
+        overrides["noise_streams"] = noise_streams
+    return EnvConfig.from_dict(env_cfg.to_dict(), **overrides) if overrides else env_cfg
 
 
 def cmd_train(args: argparse.Namespace) -> int:
@@ -900,9 +921,7 @@ def cmd_train(args: argparse.Namespace) -> int:
     )
     if args.no_eval:
         return 0
-    env_cfg = tc.env_config()
-    if tc.eval.episode_steps:
-        env_cfg = EnvConfig.from_dict(env_cfg.to_dict(), episode_steps=tc.eval.episode_steps)
+    env_cfg = evaluation_env(tc.env_config(), tc.eval.episode_steps, tc.eval.noise_streams)
     # The trained policy twice: its argmax (the usual deterministic evaluation) and its sampled actions,
     # which on this problem can differ a lot (docs/training.md).
     specs = [str(model_path), f"{model_path}@sampled", *tc.eval.agents]
@@ -1094,6 +1113,12 @@ def build_parser() -> argparse.ArgumentParser:
         sp.add_argument("--seed", type=int, help=f"first held-out seed (default {EVAL_SEED})")
         sp.add_argument("--config", help="YAML whose env (and eval) sections define the environment")
         sp.add_argument("--episode-steps", type=int, help="override the episode length")
+        sp.add_argument(
+            "--noise-streams",
+            choices=NOISE_STREAMS,
+            help="override the env's noise_streams: per_step gives every agent the same sensor noise "
+            "wherever it makes the same measurement (common random numbers; docs/training.md)",
+        )
         sp.add_argument("--json", help="write the metrics as JSON here")
 
     e = sub.add_parser("evaluate", help="evaluate one agent (name or SB3 model path)")

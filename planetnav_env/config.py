@@ -29,6 +29,7 @@ from planetnav_env.sensors.pulsar import XrayDetector, pulsar
 SCENARIOS = ("cruise", "random-cruise", "mars-approach")
 ACTION_MODES = ("target", "torque", "target+torque")
 REWARDS = ("truth", "covariance")
+NOISE_STREAMS = ("sequential", "per_step")
 
 
 @dataclass(frozen=True)
@@ -93,6 +94,13 @@ class EnvConfig:
     star_tracker_bias_arcsec: a fixed misalignment of the attitude fix, a small rotation vector in
         body axes [arcsec] composed with every fix (``q_est = q_fix * q_bias``); the filter does not know
         it. Zero by default; for studying how attitude errors reach navigation.
+    noise_streams: how sensor noise is drawn from the episode seed. ``sequential`` (default): one stream
+        per episode, consumed in the order the sensors ask. ``per_step``: each sensor's noise at step k
+        comes from its own stream keyed by (episode seed, k, sensor), independent of what happened
+        before (``planetnav_env.core.rng.substream``). The noise has the same distribution either way;
+        ``per_step`` gives common random numbers: two policies run on the same seed see the same noise
+        whenever they make the same measurement at the same step, so their paired difference measures
+        the policies rather than two noise draws (``train.py compare --noise-streams per_step``).
     """
 
     scenario: str = "cruise"
@@ -113,6 +121,7 @@ class EnvConfig:
     star_tracker: str = "qmethod"
     star_tracker_sigma_arcsec: float = 1.5
     star_tracker_bias_arcsec: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    noise_streams: str = "sequential"
     pulsars: tuple[str, ...] = ()
     detector_fov_deg: float = 2.0
     ambiguity_k_sigma: float = 3.0
@@ -167,6 +176,8 @@ class EnvConfig:
             raise ConfigError(f"torque_action_scale must be in (0, 1], got {scale!r}")
         if self.observation not in ("box", "dict"):
             raise ConfigError(f"observation must be 'box' or 'dict', got {self.observation!r}")
+        if self.noise_streams not in NOISE_STREAMS:
+            raise ConfigError(f"noise_streams must be one of {NOISE_STREAMS}, got {self.noise_streams!r}")
         if self.star_tracker not in ("qmethod", "ideal"):
             raise ConfigError(f"star_tracker must be 'qmethod' or 'ideal', got {self.star_tracker!r}")
         if not (math.isfinite(self.star_tracker_sigma_arcsec) and self.star_tracker_sigma_arcsec >= 0):

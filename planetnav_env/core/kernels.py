@@ -81,6 +81,7 @@ from planetnav_env.core.layout import (
     N_N_COARSE,
     N_N_PERT,
     N_N_SUB,
+    N_NOISE_PER_STEP,
     N_NP,
     N_NQ,
     N_NT,
@@ -219,6 +220,7 @@ class Scratch(NamedTuple):
     star_noise: np.ndarray  # (max_stars, 3) per-star direction noise [rad]
     star_work: np.ndarray  # FIX_WORK_SHAPE
     q_fix: np.ndarray  # (4,)
+    sub: np.ndarray  # (4,) uint64: a per-step noise stream (noise_streams "per_step")
 
 
 @njit(cache=True)
@@ -234,7 +236,7 @@ def make_scratch(prm: CoreParams) -> Scratch:  # pragma: no cover - compiled
         np.empty(2), np.empty(2), np.empty((1, 3)), np.empty((1, 4)), np.empty((1, 3)), np.empty(3),
         np.empty(3), np.empty(3), np.empty(3), np.empty((3, n_k, 3)), np.empty((n_p, 3)), np.empty((n_p, 3)),
         np.empty((n_p, 4)), np.empty((n_p, 7)), np.empty(3), np.empty(n_s, np.int64), np.empty((n_s, 3)),
-        np.empty(FIX_WORK_SHAPE), np.empty(4),
+        np.empty(FIX_WORK_SHAPE), np.empty(4), np.empty(crng.STATE_WORDS, np.uint64),
     )  # fmt: skip
 
 
@@ -244,6 +246,28 @@ def make_scratch(prm: CoreParams) -> Scratch:  # pragma: no cover - compiled
 @row_kernel
 def _time(prm, f, i, n):  # pragma: no cover - compiled
     return f[n, F_T0] + i[n, I_K] * prm.s[S_STEP_S]
+
+
+#: Stream ids of the per-step noise (``noise_streams: per_step``): one per sensor; pulsar j uses
+#: ``NOISE_PULSAR0 + j``.
+NOISE_STAR, NOISE_RATE, NOISE_CAMERA, NOISE_PULSAR0 = 1, 2, 3, 16
+
+
+@row_kernel
+def _noise_begin(prm, i, rng, n, stream, sc) -> None:  # pragma: no cover - compiled
+    """Start drawing sensor ``stream``'s noise at the row's current step. With per-step streams this
+    derives ``sc.sub`` from the row's key (``rng[n]``, then never advanced), the step index and the
+    stream id; with the sequential stream it does nothing (draws continue ``rng[n]``)."""
+    if prm.n[N_NOISE_PER_STEP]:
+        crng.substream(rng[n], i[n, I_K], stream, sc.sub)
+
+
+@row_kernel
+def _normal(prm, rng, n, sc) -> float:  # pragma: no cover - compiled
+    """The next N(0, 1) of the noise begun by :func:`_noise_begin`."""
+    if prm.n[N_NOISE_PER_STEP]:
+        return crng.standard_normal(sc.sub)
+    return crng.standard_normal(rng[n])
 
 
 @row_kernel
@@ -341,9 +365,10 @@ def _star_fix(prm, f, i, rng, n, sc):  # pragma: no cover - compiled
     if n_stars < tables.min_stars:
         f[n, F_ATT_ERR] = np.nan
         return
+    _noise_begin(prm, i, rng, n, NOISE_STAR, sc)
     for a in range(n_stars):  # row-major, as rng.normal(size=(n, 3)) draws them
         for c in range(3):
-            sc.star_noise[a, c] = tables.sigma_rad * crng.standard_normal(rng[n])
+            sc.star_noise[a, c] = tables.sigma_rad * _normal(prm, rng, n, sc)
     err, ok = star_fix(tables, q, sc.rq, sc.star_idx, n_stars, sc.star_noise, sc.star_work, sc.q_fix)
     if ok:
         f[n, F_ATT_ERR] = _apply_bias(prm, q, sc.q_fix, qe, err)
@@ -369,10 +394,11 @@ def _apply_bias(prm, q, q_fix, qe, err) -> float:  # pragma: no cover - compiled
 
 
 @row_kernel
-def _rate_measurement(prm, f, rng, n):  # pragma: no cover - compiled
+def _rate_measurement(prm, f, i, rng, n, sc):  # pragma: no cover - compiled
     sig = prm.s[S_RATE_NOISE]
+    _noise_begin(prm, i, rng, n, NOISE_RATE, sc)
     for j in range(3):
-        f[n, F_WM + j] = f[n, F_W + j] + sig * crng.standard_normal(rng[n])
+        f[n, F_WM + j] = f[n, F_W + j] + sig * _normal(prm, rng, n, sc)
 
 
 @row_kernel
@@ -475,7 +501,7 @@ def step_row(prm, f, p, i, rng, eph, n, target, torque, sc) -> bool:  # pragma: 
 
     # --- sensors ---
     _star_fix(prm, f, i, rng, n, sc)
-    _rate_measurement(prm, f, rng, n)
+    _rate_measurement(prm, f, i, rng, n, sc)
     measured = False
     rejected = False
     reason = REASON_NONE
@@ -510,7 +536,7 @@ def step_row(prm, f, p, i, rng, eph, n, target, torque, sc) -> bool:  # pragma: 
             if reason == REASON_VISIBLE and sc.vals[V_ALPHA] > s[S_ALPHA_MAX]:
                 reason = REASON_TOO_LARGE
             if reason == REASON_VISIBLE:
-                measured, rejected = _measure_planet(prm, f, p, rng, n, idx, sc)
+                measured, rejected = _measure_planet(prm, f, p, i, rng, n, idx, sc)
                 sensor = SENSOR_CAMERA
     i[n, I_MEASURED] = measured
     i[n, I_REJECTED] = rejected
@@ -544,12 +570,13 @@ def _nearest_in_view(prm, sc) -> int:  # pragma: no cover - compiled
 
 
 @row_kernel
-def _measure_planet(prm, f, p, rng, n, idx, sc):  # pragma: no cover - compiled
+def _measure_planet(prm, f, p, i, rng, n, idx, sc):  # pragma: no cover - compiled
     """Camera measurement of planet ``idx`` (visible), rotated to inertial with the star-tracker attitude;
     EKF update. Returns (measured, rejected)."""
     s = prm.s
+    _noise_begin(prm, i, rng, n, NOISE_CAMERA, sc)
     for j in range(3):
-        sc.noise3[j] = crng.standard_normal(rng[n])
+        sc.noise3[j] = _normal(prm, rng, n, sc)
     # visibility_row_kernel validated this geometry a moment ago: the status is OK.
     _, alpha, _ = measure_row_kernel(
         sc.r1, sc.q1, sc.t1, 0, prm.radii[idx], sc.noise3, prm.c2b, prm.cam, sc.m, sc.u6, sc.los,
@@ -635,7 +662,8 @@ def _time_pulsar(prm, f, p, i, rng, eph, n, j, t, sc):  # pragma: no cover - com
     for k in range(3):
         total += nvec[k] * (x[k] + sc.ssb[k])
         h += nvec[k] * (xe[k] + sc.ssb[k])
-    total = total / lam + sigma * crng.standard_normal(rng[n])
+    _noise_begin(prm, i, rng, n, NOISE_PULSAR0 + j, sc)
+    total = total / lam + sigma * _normal(prm, rng, n, sc)
     h /= lam
     frac = total - math.floor(total)  # what the detector delivers: the phase within a cycle
     for k in range(6):
@@ -825,7 +853,7 @@ def reset_row(prm, f, p, i, rng, eph, obs, n, sc) -> None:  # pragma: no cover -
     for j in range(4):
         f[n, F_QE + j] = f[n, F_Q + j]  # a stale fix to keep if the first one fails
     _star_fix(prm, f, i, rng, n, sc)
-    _rate_measurement(prm, f, rng, n)
+    _rate_measurement(prm, f, i, rng, n, sc)
     _score(prm, f, p, i, n, sc.zero3, sc)
     i[n, I_TERMINATED] = 0
     i[n, I_TRUNCATED] = 0

@@ -138,6 +138,7 @@ def build_params(cfg: EnvConfig, plan: ChannelPlan, mu_central: float, mus: np.n
     n[L.N_OBS_PULSARS] = layout.pulsars_start
     n[L.N_OBS_TARGET] = layout.target_start
     n[L.N_OBS_ELAPSED] = layout.elapsed_index
+    n[L.N_NOISE_PER_STEP] = cfg.noise_streams == "per_step"
     # The thesis's star camera is one instrument: the stars in the planet image give the attitude.
     # Sharing the boresight matters: a tracker's weak axis is roll about its own boresight, which would
     # swing a camera mounted elsewhere by ~14" (measured) instead of ~1.4".

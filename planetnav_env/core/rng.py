@@ -21,7 +21,19 @@ Kernels (``@njit(cache=True, nogil=True)``, no allocation, one row's state ``s``
 * :func:`normal_fill` - fills a 1-D or 2-D float64 array (row-major order) with N(0, 1) values, two per
   Box-Muller pair (cosine then sine branch), i.e. exactly ``2 * ceil(size / 2)`` steps. For size 1 it
   equals :func:`standard_normal`; for larger sizes it is *not* the same sequence as repeated calls of
-  :func:`standard_normal` (which discard the sine branch).
+  :func:`standard_normal` (which discard the sine branch);
+* :func:`substream` - a fresh state derived from a row's *key* (its 4 words, left unadvanced), a step
+  index and a stream id: the per-step noise streams (``EnvConfig.noise_streams = "per_step"``).
+
+Per-step streams (common random numbers). A sequential stream hands out numbers in the order they are
+asked for, so two policies run on the same seed share their sensor noise only until their first
+different choice: one more star in the field or one more camera measurement shifts every later draw. With
+per-step streams the noise of sensor ``stream`` at step ``k`` is drawn from :func:`substream` ``(key, k,
+stream)``, whatever happened before; two policies that make the same measurement at the same step see the
+same noise, which is what makes their paired difference small (common random numbers, a textbook
+variance reduction). The derivation is SplitMix64 (G. Steele, D. Lea, C. Flood, "Fast splittable
+pseudorandom number generators", 2014), the seeding the xoshiro authors recommend: the key words, ``k``
+and ``stream`` pass through its finaliser in a chain, then four SplitMix64 outputs make the state.
 
 The Box-Muller radius uses ``1 - uniform`` in (0, 1], so ``log`` never sees 0; the largest normal
 magnitude it can produce is ``sqrt(2 * 53 * ln 2) = 8.57`` (a truncation at 8.57 sigma, probability 1e-17).
@@ -51,6 +63,14 @@ _U64 = np.uint64(64)
 #: 2^-53: a 53-bit integer times this is a float64 in [0, 1), exactly representable.
 _TWO_M53 = 1.0 / 9007199254740992.0
 _TWO_PI = 2.0 * math.pi
+# SplitMix64 constants (the golden-ratio increment and the finaliser's two multipliers).
+_GOLDEN = np.uint64(0x9E3779B97F4A7C15)
+_MIX1 = np.uint64(0xBF58476D1CE4E5B9)
+_MIX2 = np.uint64(0x94D049BB133111EB)
+_U27 = np.uint64(27)
+_U30 = np.uint64(30)
+_U31 = np.uint64(31)
+_U40 = np.uint64(40)
 
 
 def seed_state(generator: np.random.Generator) -> np.ndarray:
@@ -146,6 +166,34 @@ def normal_fill(s, out):
         i += 2
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _mix64(z):
+    z = (z ^ (z >> _U30)) * _MIX1
+    z = (z ^ (z >> _U27)) * _MIX2
+    return z ^ (z >> _U31)
+
+
+@row_kernel
+def substream(key, k, stream, out):
+    """Fill ``out`` (4,) uint64 with the xoshiro state of sensor ``stream`` at step ``k`` of the row whose
+    key is ``key`` (4,) uint64 (read only). ``k`` in [0, 2^40), ``stream`` in [0, 2^24).
+
+    Same (key, k, stream): the same state; any other triple: an unrelated one (SplitMix64 chain, see the
+    module docstring). Callers draw from ``out`` as from any row state.
+    """
+    x = _mix64(key[3] ^ np.uint64(k) ^ (np.uint64(stream) << _U40))
+    x = _mix64(key[2] ^ x)
+    x = _mix64(key[1] ^ x)
+    x = key[0] ^ x
+    nonzero = False
+    for j in range(4):
+        x = x + _GOLDEN
+        out[j] = _mix64(x)
+        nonzero = nonzero or out[j] != np.uint64(0)
+    if not nonzero:  # xoshiro's one fixed point (probability 2^-256)
+        out[0] = np.uint64(1)
+
+
 __all__ = [
     "STATE_WORDS",
     "next_u64",
@@ -153,5 +201,6 @@ __all__ = [
     "seed_state",
     "seed_states",
     "standard_normal",
+    "substream",
     "uniform",
 ]
