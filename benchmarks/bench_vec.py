@@ -54,9 +54,9 @@ def _best_rate(step, acts: list, steps: int, rows: int) -> float:
     return best
 
 
-def _prepared(n: int, mode: str, stream: str, row_steps: int):
+def _prepared(n: int, mode: str, stream: str, row_steps: int, noise_streams: str = "sequential"):
     """A reset vector env of n rows, the action stream, and the number of timed steps per block."""
-    env = PlanetNavVectorEnv(n, action_mode=mode, episode_steps=100_000)
+    env = PlanetNavVectorEnv(n, action_mode=mode, episode_steps=100_000, noise_streams=noise_streams)
     env.reset(seed=0)
     rng = np.random.default_rng(0)
     steps = max(3, row_steps // n)
@@ -68,9 +68,11 @@ def vector_rate(n: int, mode: str, stream: str, row_steps: int) -> float:
     return _best_rate(env.step, acts, steps, n)
 
 
-def ceiling_per_core(n: int, mode: str, stream: str, row_steps: int) -> float:
+def ceiling_per_core(
+    n: int, mode: str, stream: str, row_steps: int, noise_streams: str = "sequential"
+) -> float:
     """Row-steps/s of the compiled step alone, on one thread (``step_batch``), per core."""
-    env, acts, steps = _prepared(n, mode, stream, row_steps)
+    env, acts, steps = _prepared(n, mode, stream, row_steps, noise_streams)
     core = env.core
     active = np.ones(n, dtype=bool)
 
@@ -155,6 +157,11 @@ def main() -> None:
             head = f"| {mode} | {stream} | {one:,.0f} | {sync:,.0f} | {cells} | {best / one:.1f}x"
             print(f"{head} | {ceil:,.0f} "
                   f"| {best / (ceil * threads):.2f} |")  # fmt: skip
+    print()
+    seq = ceiling_per_core(1024, "target", "held", row_steps)
+    per = ceiling_per_core(1024, "target", "held", row_steps, "per_step")
+    print(f"noise_streams per_step (one SplitMix64 derivation per sensor and step): ceiling per core "
+          f"{per:,.0f} against sequential {seq:,.0f} row-steps/s, ratio {per / seq:.2f} (target, held)")
     print()
     print("Targets (issue 8): native at N >= 1024 >= 10x single for held targets, >= 4x for random actions;")
     print("~150,000 env steps/s held on a quiet machine; single env within 12x of CartPole.")
