@@ -28,7 +28,7 @@ from numba import njit, vectorize
 from planetnav_env.bodies import AU_KM
 from planetnav_env.config import EnvConfig
 from planetnav_env.core import layout as L
-from planetnav_env.core.kernels import predicted_planet_trace
+from planetnav_env.core.kernels import coasted_position_trace, predicted_planet_trace
 from planetnav_env.dynamics.attitude import dcm_body_to_inertial_kernel
 
 #: Greedy's horizon [steps]: over it, the value of a new line of sight outweighs the slew (``agents.greedy``).
@@ -83,13 +83,14 @@ def lost_steps(  # pragma: no cover - compiled
 
 
 @njit(cache=True)
-def planet_scores(prm, slew, horizon, q, planets, x, p, out) -> None:  # pragma: no cover - compiled
+def planet_scores(prm, slew, horizon, q, planets, x, p, out, lookahead_s=0.0) -> None:  # pragma: no cover
     """Scores [km^2 per step] into ``out`` (N, P); ``-inf`` for a planet not observable if pointed at.
 
     prm: the environment's ``CoreParams``; slew: :class:`SlewModel`; horizon: steps (>= 1); q (N, 4):
     star-tracker quaternions from the observation (normalised here); planets (N, P, 7): the
     observation's planet blocks (body-axes direction, log10 distance / AU, size, observable flag, ...);
-    x (N, 6), p (N, 6, 6): the filter's estimate [km, km/s] and covariance.
+    x (N, 6), p (N, 6, 6): the filter's estimate [km, km/s] and covariance. lookahead_s [s]: score the
+    position covariance coasted that far ahead (``core.kernels.coasted_position_trace``; 0: as it is).
     """
     n_rows, n_planets = out.shape
     dcm = np.empty((3, 3))
@@ -97,7 +98,7 @@ def planet_scores(prm, slew, horizon, q, planets, x, p, out) -> None:  # pragma:
     for r in range(n_rows):
         norm = math.sqrt(q[r, 0] ** 2 + q[r, 1] ** 2 + q[r, 2] ** 2 + q[r, 3] ** 2)
         dcm_body_to_inertial_kernel(q[r, 0] / norm, q[r, 1] / norm, q[r, 2] / norm, q[r, 3] / norm, dcm)
-        trace0 = p[r, 0, 0] + p[r, 1, 1] + p[r, 2, 2]
+        trace0 = coasted_position_trace(p[r], lookahead_s)
         for i in range(n_planets):
             if planets[r, i, 5] <= 0.5:
                 out[r, i] = -np.inf
@@ -110,7 +111,7 @@ def planet_scores(prm, slew, horizon, q, planets, x, p, out) -> None:  # pragma:
                 cos_angle += u * dcm[a, 0]  # boresight = body +x in inertial axes: column 0 of R
             angle = math.acos(min(1.0, max(-1.0, cos_angle)))
             n = horizon - lost_steps(angle, slew.accel, slew.rate_max, slew.pd_slowdown, slew.step_s)
-            after = trace0 if n <= 0 else predicted_planet_trace(prm, x[r], p[r], planet, i, n)
+            after = trace0 if n <= 0 else predicted_planet_trace(prm, x[r], p[r], planet, i, n, lookahead_s)
             out[r, i] = (trace0 - after) / horizon
 
 

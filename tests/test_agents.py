@@ -181,6 +181,17 @@ def test_baseline_size_option_and_greedy_parts() -> None:
     assert g.predicted_trace(x, p, planet, 0, 0) == pytest.approx(t0)
     # The trapezoid beyond the rate cap: angle / rate + rate / accel.
     assert bang_bang_time(3.0, 1e-3, 0.01) == pytest.approx(3.0 / 0.01 + 0.01 / 1e-3)
+    # lookahead_s: the same what-if, coasted ahead (free flight) - larger than today's trace, and the
+    # difference grows with T; 0 is exactly the default.
+    ahead = GreedyAgent(env, lookahead_s=3600.0)
+    a = np.eye(6)
+    a[:3, 3:] = 3600.0 * np.eye(3)
+    assert ahead.predicted_trace(x, p, planet, 0, 0) == pytest.approx(np.trace((a @ p @ a.T)[:3, :3]))
+    assert ahead.predicted_trace(x, p, planet, 0, 10) > t10
+    assert GreedyAgent(env, lookahead_s=0).predicted_trace(x, p, planet, 0, 10) == t10
+    for bad in (-1.0, float("nan"), True, "1h"):
+        with pytest.raises(ValueError, match="lookahead_s"):
+            GreedyAgent(env, lookahead_s=bad)
 
 
 def test_gain_feature_is_greedys_score_relative_to_the_trace() -> None:

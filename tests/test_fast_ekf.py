@@ -183,9 +183,18 @@ def test_core_what_if_updates_equal_the_numpy_kalman_update():
             _, h, r = mm.evaluate(x[:3], planet, 2.0 * prm.radii[i], basis)
             h, r = h[0], r[0] / n
             ph = p @ h.T
-            want = np.trace((p - ph @ np.linalg.solve(h @ ph + r, ph.T))[:3, :3])
+            p_new = p - ph @ np.linalg.solve(h @ ph + r, ph.T)
+            want = np.trace(p_new[:3, :3])
             got = predicted_planet_trace(prm, x, p, planet, i, float(n))
             assert got == pytest.approx(want, rel=1e-9)
+            # greedy's lookahead: the updated covariance coasted T ahead in free flight, A P A^T with
+            # A = [[I, T I], [0, I]]
+            t = float(rng.uniform(600.0, 43200.0))
+            a = np.eye(6)
+            a[:3, 3:] = t * np.eye(3)
+            coasted = predicted_planet_trace(prm, x, p, planet, i, float(n), t)
+            assert coasted == pytest.approx(np.trace((a @ p_new @ a.T)[:3, :3]), rel=1e-9)
+            assert coasted > got
         pul = psr.pulsar("B0531+21")
         hrow = np.zeros(6)
         hrow[:3] = pul.direction / pul.wavelength_km
