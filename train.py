@@ -530,6 +530,7 @@ def evaluate_agent(
     metrics = {
         "episodes": episodes,
         "seed": seed,
+        "noise_streams": env_cfg.noise_streams,
         "mean_pos_err_km": ci.mean,
         "mean_pos_err_ci95_km": [ci.low, ci.high],
         "final_pos_err_km": float(np.mean(final)),
@@ -999,6 +1000,13 @@ def cmd_paired(args: argparse.Namespace) -> int:
         f"{name_a}: {a['mean_pos_err_km']:.1f} km, {name_b}: {b['mean_pos_err_km']:.1f} km; paired "
         f"difference (first - second) {diff.format('{:+.1f}')} km on {a['episodes']} seeds from {a['seed']}"
     )
+    # Files written before the key existed used the sequential stream.
+    streams = (a.get("noise_streams", "sequential"), b.get("noise_streams", "sequential"))
+    if streams[0] != streams[1]:
+        print(
+            f"note: {args.a} drew {streams[0]} noise, {args.b} {streams[1]}: the two share no sensor noise, "
+            "so the pairing is by seed only (docs/training.md, common random numbers)"
+        )
     per_seed = np.subtract(a["per_episode_mean_pos_err_km"], b["per_episode_mean_pos_err_km"])
     q05, q50, q95 = np.percentile(per_seed, [5, 50, 95])
     print(f"per seed: 5 % quantile {q05:+.1f} km, median {q50:+.1f} km, 95 % quantile {q95:+.1f} km")

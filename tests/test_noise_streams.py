@@ -229,3 +229,17 @@ def test_compare_with_per_step_noise_changes_the_draw_not_the_seeds(tmp_path: Pa
     assert seq["seed"] == crn["seed"] and seq["episodes"] == crn["episodes"] == 2
     assert seq["per_episode_mean_pos_err_km"] != crn["per_episode_mean_pos_err_km"]
     assert "per-step noise streams" in (tmp_path / "rep" / "report.md").read_text()
+    assert (seq["noise_streams"], crn["noise_streams"]) == ("sequential", "per_step")
+
+
+def test_paired_notes_evaluations_that_share_no_noise(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    entry = {"episodes": 2, "seed": 10000, "mean_pos_err_km": 1.0, "per_episode_mean_pos_err_km": [1.0, 1.0]}
+    (tmp_path / "a.json").write_text(json.dumps({"agents": {"x": {**entry, "noise_streams": "per_step"}}}))
+    (tmp_path / "b.json").write_text(json.dumps({"agents": {"x": entry}}))  # written before the key
+    (tmp_path / "c.json").write_text(json.dumps({"agents": {"x": {**entry, "noise_streams": "per_step"}}}))
+    assert train.main(["paired", "--a", f"{tmp_path / 'a.json'}:x", "--b", f"{tmp_path / 'b.json'}:x"]) == 0
+    assert "share no sensor noise" in capsys.readouterr().out
+    assert train.main(["paired", "--a", f"{tmp_path / 'a.json'}:x", "--b", f"{tmp_path / 'c.json'}:x"]) == 0
+    assert "share no sensor noise" not in capsys.readouterr().out
