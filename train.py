@@ -881,7 +881,7 @@ def _eval_env_config(args: argparse.Namespace, specs: Sequence[str]) -> tuple[En
                 tc = load_config(sidecar)
                 break
     steps = args.episode_steps or tc.eval.episode_steps
-    noise = getattr(args, "noise_streams", None) or tc.eval.noise_streams
+    noise = args.noise_streams or tc.eval.noise_streams
     return evaluation_env(tc.env_config(), steps, noise), tc.eval
 
 

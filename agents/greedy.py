@@ -84,11 +84,16 @@ class GreedyAgent(TargetAgent):
         s = self.slew
         return lost_steps(np.asarray(angle_rad, dtype=float), s.accel, s.rate_max, s.pd_slowdown, s.step_s)
 
+    def trace_now(self, p: np.ndarray) -> float:
+        """The score's ``trace(P_rr)`` [km^2] of covariance ``p`` with no measurement (coasted
+        ``lookahead_s`` ahead, ``core.kernels.coasted_position_trace``)."""
+        return float(coasted_position_trace(np.ascontiguousarray(p, dtype=float), self.lookahead_s))
+
     def predicted_trace(self, x: np.ndarray, p: np.ndarray, planet: np.ndarray, i: int, n: int) -> float:
         """``trace(P_rr)`` after ``n`` measurements of planet ``i`` (at ``planet``) from estimate ``x``:
         the environment core's own measurement model and update (``core.kernels.predicted_planet_trace``)."""
         if n <= 0:
-            return float(coasted_position_trace(np.ascontiguousarray(p, dtype=float), self.lookahead_s))
+            return self.trace_now(p)
         return float(
             predicted_planet_trace(
                 self._params, x, p, np.asarray(planet, float), int(i), float(n), self.lookahead_s
@@ -117,7 +122,7 @@ class GreedyAgent(TargetAgent):
         p = np.asarray(info["filter"]["P"], dtype=float)
         n_p = self.n_planets
         boresight = obs.boresight_inertial
-        trace0 = float(coasted_position_trace(np.ascontiguousarray(p, dtype=float), self.lookahead_s))
+        trace0 = self.trace_now(p)
         # Scores are covariance reductions per step of the option's own cycle, so that a planet
         # (``horizon`` steps of images) and a pulsar (one phase per integration window) compare.
         scores = np.full(self.n_targets, -np.inf)

@@ -5,14 +5,13 @@ option of ``train.py``."""
 
 from __future__ import annotations
 
-import importlib.util
 import json
-import sys
 from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
 import pytest
+from conftest import load_train
 from numba import njit
 from scipy import stats
 
@@ -24,7 +23,6 @@ from planetnav_env.env import PlanetNavEnv
 from planetnav_env.errors import ConfigError
 from planetnav_env.vector_env import PlanetNavVectorEnv
 
-ROOT = Path(__file__).resolve().parents[1]
 MASK = (1 << 64) - 1
 
 
@@ -191,15 +189,7 @@ def test_bad_noise_streams_name_the_value() -> None:
 # --------------------------------------------------------------------------------------------------------
 # train.py: the evaluation option
 # --------------------------------------------------------------------------------------------------------
-def _load_train():
-    spec = importlib.util.spec_from_file_location("planetnav_train_noise", ROOT / "train.py")
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module
-    spec.loader.exec_module(module)
-    return module
-
-
-train = _load_train()
+train = load_train()
 
 
 def test_evaluation_env_overrides_only_what_is_given() -> None:

@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
+from conftest import load_train
 
 ROOT = Path(__file__).resolve().parents[1]
 METRIC_KEYS = {
@@ -23,15 +24,7 @@ METRIC_KEYS = {
 }
 
 
-def _load_train():
-    spec = importlib.util.spec_from_file_location("planetnav_train", ROOT / "train.py")
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module  # dataclasses resolve annotations through sys.modules
-    spec.loader.exec_module(module)
-    return module
-
-
-train = _load_train()
+train = load_train()
 
 
 @pytest.fixture(scope="module")
