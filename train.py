@@ -18,8 +18,8 @@ loader reads ``algo`` from it), ``tb/`` (TensorBoard), ``monitor/`` (episode CSV
 ``training.png``. Configuration keys: ``configs/README.md``. Agents evaluate on 20 held-out seeds (default
 10_000 onwards; training environments use the config's ``seed`` onwards, far below), every agent on the
 same seeds; each mean comes with a 95 % t-interval and the paired difference from a reference agent
-(``greedy``) on the same seeds (:mod:`agents.stats`). Agents that cannot act in the environment's action
-mode (``idle`` outside ``target`` mode, a model trained for other spaces) are skipped with a note.
+(``greedy``) on the same seeds (:mod:`planetnav_agents.stats`). Agents that cannot act in the environment's
+action mode (``idle`` outside ``target`` mode, a model trained for other spaces) are skipped with a note.
 ``algo: rllib_ppo`` trains with RLlib instead (``planetnav_rl/rllib.py``; the run directory then holds
 ``checkpoint/`` in place of ``model.zip``, and ``evaluate``/``compare`` take it as an agent like a model
 path). Sweeps: ``planetnav_rl/tune.py``, docs/scaling.md.
@@ -42,12 +42,18 @@ from typing import Any
 import numpy as np
 import yaml
 
-from agents import NotApplicableError, make_agent, not_applicable, requires_idle_action, strip_sampled
-from agents.features import ActionRepeat, NavFeatures, RelativeTargets, check_features
-from agents.rllib import config_sidecar as rllib_config_sidecar
-from agents.sb3 import ALGORITHMS, algorithm_class, resolve_model_path
-from agents.shaping import SHAPINGS, PointingShaping
-from agents.stats import MeanCI, mean_ci, paired_difference
+from planetnav_agents import (
+    NotApplicableError,
+    make_agent,
+    not_applicable,
+    requires_idle_action,
+    strip_sampled,
+)
+from planetnav_agents.features import ActionRepeat, NavFeatures, RelativeTargets, check_features
+from planetnav_agents.rllib import config_sidecar as rllib_config_sidecar
+from planetnav_agents.sb3 import ALGORITHMS, algorithm_class, resolve_model_path
+from planetnav_agents.shaping import SHAPINGS, PointingShaping
+from planetnav_agents.stats import MeanCI, mean_ci, paired_difference
 from planetnav_env.config import NOISE_STREAMS, EnvConfig
 from planetnav_env.errors import ConfigError
 from planetnav_env.registration import ENV_IDS
@@ -92,7 +98,7 @@ class TrainConfig:
     n_envs: int = 4
     seed: int = 0
     torch_threads: int = 1
-    # "native": n_envs rows of the compiled vector env (agents.vec_training); "dummy": n_envs single
+    # "native": n_envs rows of the compiled vector env (planetnav_agents.vec_training); "dummy": n_envs single
     # environments in SB3's DummyVecEnv (the path for the gain / pd_torque features and shaping).
     vec_env: str = "native"
     hyperparams: dict[str, Any] = field(default_factory=dict)
@@ -100,8 +106,9 @@ class TrainConfig:
     eval: EvalSettings = field(default_factory=EvalSettings)
     features: list[str] = field(default_factory=list)  # extra observation features (agents/features.py)
     shaping: dict[str, float] = field(default_factory=dict)  # potential-based, training only (agents/shaping)
-    action_repeat: int = 1  # environment steps per policy decision (agents.features.ActionRepeat)
-    relative_actions: bool = False  # target mode: "stay" / "move k places" (agents.features.RelativeTargets)
+    action_repeat: int = 1  # environment steps per policy decision (planetnav_agents.features.ActionRepeat)
+    # target mode: "stay" / "move k places" (planetnav_agents.features.RelativeTargets)
+    relative_actions: bool = False
     pretrain: dict[str, Any] = field(
         default_factory=dict
     )  # behaviour-cloning warm start (agents/pretrain.py)
@@ -312,7 +319,8 @@ def _nav_callback_class() -> type:
 def make_training_env(tc: TrainConfig, monitor_dir: Path | None) -> Any:
     """The training VecEnv: ``n_envs`` rows of the native vector env (one compiled step for all rows)
     under SB3's ``VecMonitor``, with ``since_measured``, action repeat and relative actions computed on
-    arrays (:class:`agents.vec_training.NavTrainingVecEnv`, the ``gain`` feature included). The feature that
+    arrays (:class:`planetnav_agents.vec_training.NavTrainingVecEnv`, the ``gain`` feature included). The
+    feature that
     needs a per-environment agent (``pd_torque``) and reward shaping are gymnasium wrappers of single
     environments: with any
     of those configured, ``n_envs`` wrapped single environments run in SB3's ``DummyVecEnv`` instead
@@ -320,7 +328,7 @@ def make_training_env(tc: TrainConfig, monitor_dir: Path | None) -> Any:
     from stable_baselines3.common.env_util import make_vec_env
     from stable_baselines3.common.vec_env import DummyVecEnv, VecMonitor
 
-    from agents.vec_training import NATIVE_FEATURES, NavTrainingVecEnv
+    from planetnav_agents.vec_training import NATIVE_FEATURES, NavTrainingVecEnv
     from planetnav_env.env import PlanetNavEnv
 
     env_cfg = tc.env_config()
@@ -381,7 +389,7 @@ def train(tc: TrainConfig, run_dir: Path, progress: bool = True) -> tuple[Path, 
     t0 = time.perf_counter()
     pretrain_stats: dict[str, Any] = {}
     if tc.pretrain:
-        from agents.pretrain import clone, dagger, demonstrations
+        from planetnav_agents.pretrain import clone, dagger, demonstrations
 
         teacher = tc.pretrain.get("teacher")
         if "teacher_config" in tc.pretrain:
@@ -497,7 +505,7 @@ def evaluate_agent(
 ) -> EvalResult:
     """Run agent ``spec`` (name, ``name:key=value,...`` or model path) on seeds ``seed, seed+1, ...``.
 
-    Raises :class:`agents.NotApplicableError` when the agent cannot act in this environment.
+    Raises :class:`planetnav_agents.NotApplicableError` when the agent cannot act in this environment.
     """
     from tqdm.auto import tqdm
 
@@ -1022,7 +1030,7 @@ def cmd_paired(args: argparse.Namespace) -> int:
 
 def cmd_agreement(args: argparse.Namespace) -> int:
     """How often a trained policy picks another planet than a teacher on the policy's own states."""
-    from agents.pretrain import agreement
+    from planetnav_agents.pretrain import agreement
 
     env_cfg, ev = _eval_env_config(args, [args.student])
     episodes = args.episodes or 5

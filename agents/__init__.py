@@ -1,21 +1,23 @@
-"""Agents for the planetnav environments, behind one interface (:class:`agents.base.Agent`).
+"""Agents for the planetnav environments, behind one interface (:class:`planetnav_agents.base.Agent`).
 
 ``make_agent(name_or_path, env)`` builds one by name or loads a saved Stable-Baselines3 model:
 
 ============== ==========================================================================================
 name           agent
 ============== ==========================================================================================
-baseline       the thesis's rule: the nearest planet by the filter's estimate (:mod:`agents.baseline`)
+baseline       the thesis's rule: the nearest planet by the filter's estimate
+               (:mod:`planetnav_agents.baseline`)
 baseline-size  the same rule ranking by estimated apparent diameter
 greedy         the planet whose measurements shrink the position covariance most, slew time counted
 random         a uniformly random action each step
 idle           never measures (needs ``idle_action=True``, so ``action_mode="target"`` only)
-periodic       fixed schedule: the planets of a cycle in turn, ``period`` steps each (:mod:`agents.periodic`)
+periodic       fixed schedule: the planets of a cycle in turn, ``period`` steps each
+               (:mod:`planetnav_agents.periodic`)
 planner        non-myopic rollout planner on copies of the environment, scored by the filter's
-               covariance (:mod:`agents.planner`)
+               covariance (:mod:`planetnav_agents.planner`)
 PATH           a saved SB3 model (``.zip`` or a ``runs/<name>/`` directory), deterministic actions
 PATH           an RLlib checkpoint (a ``runs/<name>/`` directory of ``algo: rllib_ppo``, or the checkpoint
-               directory itself; needs the ``[ray]`` extra), the policy's mode (:mod:`agents.rllib`)
+               directory itself; needs the ``[ray]`` extra), the policy's mode (:mod:`planetnav_agents.rllib`)
 PATH@sampled   the same model, actions sampled from the policy (seeded by ``reset(seed)``)
 ============== ==========================================================================================
 
@@ -36,16 +38,21 @@ from typing import Any
 
 import gymnasium as gym
 
-from agents.base import Agent, NotApplicableError, ParsedObservation, TargetAgent, parse_observation
-from agents.baseline import BaselineAgent
-from agents.greedy import GreedyAgent
-from agents.periodic import PeriodicAgent
-from agents.planner import PlannerAgent
-from agents.rllib import RLlibAgent
-from agents.rllib import find_checkpoint as find_rllib_checkpoint
-from agents.sb3 import SB3Agent
-from agents.simple import IdleAgent, RandomAgent
+from planetnav_agents.base import Agent, NotApplicableError, ParsedObservation, TargetAgent, parse_observation
+from planetnav_agents.baseline import BaselineAgent
+from planetnav_agents.greedy import GreedyAgent
+from planetnav_agents.periodic import PeriodicAgent
+from planetnav_agents.planner import PlannerAgent
+from planetnav_agents.rllib import RLlibAgent
+from planetnav_agents.rllib import find_checkpoint as find_rllib_checkpoint
+from planetnav_agents.sb3 import SB3Agent
+from planetnav_agents.simple import IdleAgent, RandomAgent
 from planetnav_env.config import EnvConfig
+
+if __name__ == "agents":  # this folder imported under its own name, from a source checkout
+    from planetnav_agents._checkout_alias import alias_checkout_import
+
+    alias_checkout_import()
 
 AGENTS: dict[str, Callable[..., Agent]] = {
     "baseline": functools.partial(BaselineAgent, criterion="distance"),

@@ -139,7 +139,8 @@ class Agent:
 
     def follow(self, target: int) -> None:
         """Another actor holds planet ``target`` (an index, -1 for none) in this episode: the agent labels
-        states it does not drive (DAgger, ``agents.pretrain``). Agents whose actions are relative to their
+        states it does not drive (DAgger, ``planetnav_agents.pretrain``). Agents whose actions are
+        relative to their
         own last choice resynchronise; the others ignore it."""
 
 

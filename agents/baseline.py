@@ -20,7 +20,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from agents.base import ParsedObservation, TargetAgent
+from planetnav_agents.base import ParsedObservation, TargetAgent
 
 
 class BaselineAgent(TargetAgent):

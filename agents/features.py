@@ -2,7 +2,8 @@
 
 One implementation serves training and evaluation: :class:`FeatureState` appends the features to the
 environment's box observation; :class:`NavFeatures` is the Gymnasium wrapper ``train.py`` puts around each
-training environment (config key ``features``), and :class:`agents.sb3.SB3Agent` rebuilds the same state
+training environment (config key ``features``), and :class:`planetnav_agents.sb3.SB3Agent` rebuilds the
+same state
 from the run's ``config.yaml`` so that a saved policy sees identical inputs when it is evaluated.
 
 ========================== ===========================================================================
@@ -15,11 +16,12 @@ feature                    values appended (``P`` planets), each in [0, 1] unles
 ``gain``                   per planet: the greedy agent's predicted reduction of trace(P_rr) per step
                            over its horizon (3 steps), slew time counted, relative to the best
                            planet's (1 = greedy's choice), -1 if not observable
-                           (:func:`agents.gain.planet_gains`). Compiled, a few microseconds per row;
+                           (:func:`planetnav_agents.gain.planet_gains`). Compiled, a few microseconds per row;
                            the vector training env computes it on arrays.
 ``pd_torque``              per planet, 3 values in [-1, 1]: the wheel torque (fraction of the limit) of
                            the agent-side PD law toward that planet's estimated direction
-                           (:meth:`agents.base.TargetAgent.torque_toward`, what ``baseline`` commands in
+                           (:meth:`planetnav_agents.base.TargetAgent.torque_toward`, what ``baseline``
+                           commands in
                            torque mode). For torque modes: the policy chooses and blends pointing
                            commands instead of rediscovering attitude control.
 ========================== ===========================================================================
@@ -37,8 +39,8 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from agents.base import parse_observation, unwrapped_config, with_planet_choice
-from agents.gain import DEFAULT_HORIZON, SlewModel, planet_gains
+from planetnav_agents.base import parse_observation, unwrapped_config, with_planet_choice
+from planetnav_agents.gain import DEFAULT_HORIZON, SlewModel, planet_gains
 
 FEATURES = ("since_measured", "gain", "pd_torque")
 #: Scale of ``since_measured`` [steps]: a constant (one cruise day of 60-s steps), not the episode length,
@@ -50,7 +52,8 @@ _WIDTH = {"since_measured": 1, "gain": 1, "pd_torque": 3}
 
 
 class GainFeature:
-    """The ``gain`` feature of a configuration: :func:`agents.gain.planet_gains` with greedy's horizon and
+    """The ``gain`` feature of a configuration: :func:`planetnav_agents.gain.planet_gains` with greedy's
+    horizon and
     slew model, for rows of box observations and the filter states that go with them."""
 
     def __init__(self, cfg: Any, params: Any) -> None:
@@ -80,7 +83,8 @@ def advance_since_measured(since: np.ndarray, measured: np.ndarray, target_index
     since: (N, P) float counts (``inf``: not measured this episode). measured: (N,) bool, the step's
     ``info["measured"]``. target_index: (N,) int, the index in ``config.planets`` of what was measured
     (anything outside ``0 .. P - 1``, e.g. -1 or a pulsar, resets nothing). The one formula for the
-    single-env wrapper (:class:`FeatureState`, N = 1) and the vector training env (``agents.vec_training``).
+    single-env wrapper (:class:`FeatureState`, N = 1) and the vector training env
+    (``planetnav_agents.vec_training``).
     """
     since += 1.0
     n_planets = since.shape[1]
@@ -114,7 +118,7 @@ class FeatureState:
         self._gain = GainFeature(cfg, env.unwrapped.core.params) if "gain" in self.features else None
         self._pointer = None
         if "pd_torque" in self.features:
-            from agents.base import TargetAgent
+            from planetnav_agents.base import TargetAgent
 
             self._pointer = TargetAgent(env)
         self.n_extra = self.n_planets * sum(_WIDTH[f] for f in self.features)
@@ -255,7 +259,7 @@ def absolute_to_relative(action: Any, current: int, n_planets: int) -> tuple[Any
     """The relative action that makes :func:`relative_action` pick the target of the absolute ``action``
     (an integer, or a ``target+torque`` Box action whose argmax over the planet entries is the target),
     and that target. Its inverse: ``relative_action(absolute_to_relative(a, c, n)[0], c, n)`` chooses
-    the target of ``a``. For teachers that act in absolute targets (``agents.pretrain``)."""
+    the target of ``a``. For teachers that act in absolute targets (``planetnav_agents.pretrain``)."""
     a = np.asarray(action)
     target = chosen_planet(a, n_planets)
     if target < 0:

@@ -10,8 +10,9 @@ at it for ``horizon`` steps would bring, after the steps lost slewing there (``d
 * ``n = horizon - lost`` images of a nearly static state equal one with ``R / n``: one Kalman update by
   the environment core's own model and update (:func:`planetnav_env.core.kernels.predicted_planet_trace`).
 
-:class:`agents.greedy.GreedyAgent` picks the largest score, the ``gain`` observation feature
-(:mod:`agents.features`, and on arrays :class:`agents.vec_training.NavTrainingVecEnv`) is the score
+:class:`planetnav_agents.greedy.GreedyAgent` picks the largest score, the ``gain`` observation feature
+(:mod:`planetnav_agents.features`, and on arrays
+:class:`planetnav_agents.vec_training.NavTrainingVecEnv`) is the score
 relative to the best planet's. All of them call :func:`planet_scores`, which loops over rows in compiled
 code, so a row's score does not depend on the batch it is computed in (the single-env feature and the
 vector training env agree bit for bit).
@@ -31,10 +32,11 @@ from planetnav_env.core import layout as L
 from planetnav_env.core.kernels import coasted_position_trace, predicted_planet_trace
 from planetnav_env.dynamics.attitude import dcm_body_to_inertial_kernel
 
-#: Greedy's horizon [steps]: over it, the value of a new line of sight outweighs the slew (``agents.greedy``).
+#: Greedy's horizon [steps]: over it, the value of a new line of sight outweighs the slew
+# (``planetnav_agents.greedy``).
 DEFAULT_HORIZON = 3
 #: Ratio of the PD law's slew time to the bang-bang minimum, calibrated on the environment
-#: (``agents.greedy`` docstring, ``docs/agents.md``).
+#: (``planetnav_agents.greedy`` docstring, ``docs/agents.md``).
 PD_SLOWDOWN = 1.6
 
 

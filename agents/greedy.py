@@ -44,8 +44,8 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from agents.base import ParsedObservation, TargetAgent
-from agents.gain import DEFAULT_HORIZON, PD_SLOWDOWN, SlewModel, lost_steps, planet_scores
+from planetnav_agents.base import ParsedObservation, TargetAgent
+from planetnav_agents.gain import DEFAULT_HORIZON, PD_SLOWDOWN, SlewModel, lost_steps, planet_scores
 from planetnav_env.core.kernels import coasted_position_trace, predicted_planet_trace, predicted_pulsar_trace
 from planetnav_env.sensors.pulsar import ambiguity_resolvable_kernel
 
@@ -108,7 +108,7 @@ class GreedyAgent(TargetAgent):
 
     def _planet_scores(self, obs: ParsedObservation, info: dict[str, Any]) -> np.ndarray:
         """(P,) reduction of trace(P_rr) per step over the horizon [km^2/step], -inf if not observable
-        (:func:`agents.gain.planet_scores`, the one formula)."""
+        (:func:`planetnav_agents.gain.planet_scores`, the one formula)."""
         x = np.ascontiguousarray(self.estimate(obs, info), dtype=float)
         p = np.ascontiguousarray(info["filter"]["P"], dtype=float)
         out = np.empty((1, self.n_planets))

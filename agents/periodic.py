@@ -24,7 +24,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from agents.base import ParsedObservation, TargetAgent
+from planetnav_agents.base import ParsedObservation, TargetAgent
 
 DEFAULT_PERIOD = 10
 DEFAULT_CYCLE = "0-1"

@@ -40,8 +40,8 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from agents.base import ParsedObservation, TargetAgent, parse_observation
-from agents.greedy import GreedyAgent
+from planetnav_agents.base import ParsedObservation, TargetAgent, parse_observation
+from planetnav_agents.greedy import GreedyAgent
 
 
 class PlannerAgent(TargetAgent):

@@ -12,7 +12,8 @@ The demonstrations are recorded in the training MDP: with ``action_repeat`` the 
 decision point is recorded and held for the decision, as the policy's will be (the teacher still sees
 every step, so a teacher with its own features or decision clock, e.g. a saved policy, runs as in
 evaluation), and with ``relative_actions`` its absolute
-target is encoded as "stay" / "move k places" (:func:`agents.features.absolute_to_relative`). With the
+target is encoded as "stay" / "move k places" (:func:`planetnav_agents.features.absolute_to_relative`).
+With the
 ``gain`` feature, a greedy teacher's decision is the argmax of an input, which a clone can fit; without
 it, the clone of a teacher that switches ~10 times a day learns "stay" (``docs/training.md``, R2).
 """
@@ -42,9 +43,9 @@ def demonstrations(
 
     ``student``: an SB3 model whose deterministic decisions drive the episodes instead of the teacher's,
     which only labels the states the student visits (DAgger's data collection, :func:`dagger`). The teacher
-    is told the target the student holds (:meth:`agents.base.Agent.follow`) before each decision."""
-    from agents import make_agent
-    from agents.features import (
+    is told the target the student holds (:meth:`planetnav_agents.base.Agent.follow`) before each decision."""
+    from planetnav_agents import make_agent
+    from planetnav_agents.features import (
         FeatureState,
         absolute_to_relative,
         check_relative_config,
@@ -192,7 +193,7 @@ def agreement(
     the state (as in :func:`dagger`). Returns the number of decisions, the fraction where the student
     picks another planet than the teacher, and (``target+torque``) the mean |residual torque| the student
     commands, as a fraction of its action range."""
-    from agents.sb3 import SB3Agent
+    from planetnav_agents.sb3 import SB3Agent
     from planetnav_env.env import PlanetNavEnv
 
     if env_config.action_mode == "torque":

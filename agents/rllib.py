@@ -1,4 +1,4 @@
-"""A saved RLlib policy (new API stack checkpoint) behind the :class:`~agents.base.Agent` interface.
+"""A saved RLlib policy (new API stack checkpoint) behind the :class:`~planetnav_agents.base.Agent` interface.
 
 ``path`` is a run directory written by ``train.py`` for ``algo: rllib_ppo`` (``runs/<name>/``, which holds
 ``checkpoint/`` and ``config.yaml``) or an ``Algorithm.save_to_path`` directory itself. Only the policy's
@@ -15,7 +15,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from agents.base import Agent
+from planetnav_agents.base import Agent
 
 #: File that marks an RLlib checkpoint directory.
 CHECKPOINT_MARKER = "rllib_checkpoint.json"

@@ -1,4 +1,5 @@
-"""A saved Stable-Baselines3 model behind the :class:`~agents.base.Agent` interface (deterministic actions).
+"""A saved Stable-Baselines3 model behind the :class:`~planetnav_agents.base.Agent` interface
+(deterministic actions).
 
 ``path`` is a model ``.zip`` or a run directory written by ``train.py`` (``runs/<name>/``, which holds
 ``model.zip`` and ``config.yaml``). The algorithm comes from, in order: the ``algo`` argument, the
@@ -13,8 +14,8 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from agents.base import Agent, NotApplicableError, target_torque_action
-from agents.features import FeatureState, relative_action
+from planetnav_agents.base import Agent, NotApplicableError, target_torque_action
+from planetnav_agents.features import FeatureState, relative_action
 
 #: Lower-case names -> SB3 classes (imported lazily: SB3 and torch take seconds to import).
 ALGORITHMS = ("ppo", "a2c", "dqn", "sac", "td3", "ddpg")
@@ -103,7 +104,7 @@ class SB3Agent(Agent):
         # policy sees the same inputs; ``features`` overrides the run's config.yaml.
         sidecar = _sidecar(self.path)
         names = features if features is not None else sidecar.get("features") or []
-        # One decision per ``action_repeat`` steps, as in training (agents.features.ActionRepeat).
+        # One decision per ``action_repeat`` steps, as in training (planetnav_agents.features.ActionRepeat).
         self.action_repeat = (
             int(sidecar.get("action_repeat") or 1) if action_repeat is None else action_repeat
         )
@@ -119,7 +120,8 @@ class SB3Agent(Agent):
         if names and env is None:
             raise ValueError(f"{self.path}: a policy with observation features needs the environment")
         # A target-choice policy (Discrete over the planets) in a target+torque environment picks the planet
-        # with zero residual torque (agents.base.target_torque_action): the target-mode action is a subset.
+        # with zero residual torque (planetnav_agents.base.target_torque_action): the target-mode action
+        # is a subset.
         self._as_target_torque = (
             env is not None
             and env.unwrapped.config.action_mode == "target+torque"

@@ -23,7 +23,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from agents.base import parse_observation, unwrapped_config
+from planetnav_agents.base import parse_observation, unwrapped_config
 
 SHAPINGS = ("pointing",)
 

@@ -7,7 +7,7 @@ from typing import Any
 
 import gymnasium as gym
 
-from agents.base import Agent, unwrapped_config
+from planetnav_agents.base import Agent, unwrapped_config
 
 
 class RandomAgent(Agent):

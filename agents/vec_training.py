@@ -2,20 +2,23 @@
 
 :class:`NavTrainingVecEnv` is :class:`planetnav_env.sb3_vec.PlanetNavSB3VecEnv` (the compiled vector
 environment as a Stable-Baselines3 ``VecEnv``) plus the three options of the default recipe
-(``docs/training.md``), computed for all rows at once with the formulas of :mod:`agents.features`:
+(``docs/training.md``), computed for all rows at once with the formulas of :mod:`planetnav_agents.features`:
 
-* ``since_measured`` appended to the observation (:func:`agents.features.advance_since_measured`,
-  :func:`agents.features.since_measured_values`);
+* ``since_measured`` appended to the observation (:func:`planetnav_agents.features.advance_since_measured`,
+  :func:`planetnav_agents.features.since_measured_values`);
 * ``action_repeat``: one decision held for that many environment steps, rewards summed; a row whose
   episode ends inside the hold stops there (:meth:`PlanetNavVectorEnv.step_rows` steps only the rows
   still running) and is reset at the end of the decision;
-* ``relative_actions``: "stay" / "move k places" (:func:`agents.features.relative_actions_batch`).
+* ``relative_actions``: "stay" / "move k places" (:func:`planetnav_agents.features.relative_actions_batch`).
 
-It is the same MDP as ``n_envs`` single environments wrapped in :class:`agents.features.NavFeatures`,
-:class:`~agents.features.ActionRepeat` and :class:`~agents.features.RelativeTargets` in SB3's
+It is the same MDP as ``n_envs`` single environments wrapped in
+:class:`planetnav_agents.features.NavFeatures`,
+:class:`~planetnav_agents.features.ActionRepeat` and :class:`~planetnav_agents.features.RelativeTargets`
+in SB3's
 ``DummyVecEnv`` (``tests/test_vec_training.py`` holds the two to equal observations, rewards and
 dones), at the vector environment's speed. The ``gain`` feature is computed for all rows by the same
-compiled function as the single-env feature (:func:`agents.gain.planet_gains`), once per decision. The
+compiled function as the single-env feature (:func:`planetnav_agents.gain.planet_gains`), once per
+decision. The
 ``pd_torque`` feature (a per-environment agent) and reward shaping stay on the ``DummyVecEnv`` path
 (:data:`NATIVE_FEATURES`).
 """
@@ -28,7 +31,7 @@ from typing import Any
 import numpy as np
 from gymnasium import spaces
 
-from agents.features import (
+from planetnav_agents.features import (
     GainFeature,
     advance_since_measured,
     check_features,

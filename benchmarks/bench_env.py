@@ -34,7 +34,7 @@ def _cartpole_rate(steps: int) -> float:
 
 
 def _planetnav_rate(env_id: str, steps: int) -> tuple[float, float]:
-    from agents import make_agent
+    from planetnav_agents import make_agent
 
     env = gym.make(env_id).unwrapped
     agent = make_agent("baseline", env)

@@ -57,7 +57,7 @@ def main() -> None:
     print("| training env | env steps/s (env + learning) | ratio |")
     print("|---|---|---|")
     print(f"| DummyVecEnv of wrapped single envs | {dummy:,.0f} | 1.00x |")
-    print(f"| native vector env (agents.vec_training) | {native:,.0f} | {native / dummy:.2f}x |")
+    print(f"| native vector env (planetnav_agents.vec_training) | {native:,.0f} | {native / dummy:.2f}x |")
     print("Target (issue 8): native >= 2x the DummyVecEnv path of the default run.")
 
 

@@ -132,7 +132,8 @@ class PlanetNavVectorEnv(VectorEnv):
     def step_rows(self, actions: Any, active: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Advance only the ``active`` rows (bool (N,)) by one step, with no autoreset: the building block
         of wrappers that run their own loop over steps (one policy decision held for several steps,
-        ``agents.vec_training``). Returns ``(reward, terminated, truncated)``, zero / False for the rows
+        ``planetnav_agents.vec_training``). Returns ``(reward, terminated, truncated)``, zero / False for
+        the rows
         not stepped. The caller resets finished rows (``reset(options={"reset_mask": ...})``, which
         continues each row's generator) before stepping them again; the whole ``actions`` batch is
         validated, inactive rows included."""

@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from agents import (
+from planetnav_agents import (
     AGENTS,
     Agent,
     BaselineAgent,
@@ -37,7 +37,7 @@ from agents import (
     make_agent,
     parse_observation,
 )
-from agents.gain import bang_bang_time
+from planetnav_agents.gain import bang_bang_time
 from planetnav_env.env import PlanetNavEnv
 from planetnav_env.ephemeris import DEEphemeris
 
@@ -195,10 +195,11 @@ def test_baseline_size_option_and_greedy_parts() -> None:
 
 
 def test_gain_feature_is_greedys_score_relative_to_the_trace() -> None:
-    """The ``gain`` feature (agents.gain.planet_gains on the flat observation) and greedy's scores (its
+    """The ``gain`` feature (planetnav_agents.gain.planet_gains on the flat observation) and greedy's
+    scores (its
     parsed observation) are one formula: score / best score, -1 where the planet is not observable, and
     greedy picks the planet whose gain is 1."""
-    from agents.features import FeatureState
+    from planetnav_agents.features import FeatureState
 
     env = PlanetNavEnv(scenario="random-cruise", episode_steps=80)
     g = GreedyAgent(env)

@@ -1,4 +1,4 @@
-"""agents.stats against scipy.stats: the t-interval of a mean and the paired t-interval."""
+"""planetnav_agents.stats against scipy.stats: the t-interval of a mean and the paired t-interval."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from agents.stats import mean_ci, paired_difference
+from planetnav_agents.stats import mean_ci, paired_difference
 
 
 @pytest.mark.parametrize("n", [2, 5, 20])

@@ -1,4 +1,5 @@
-"""The vector training env (agents.vec_training) is the same MDP as wrapped single envs in DummyVecEnv."""
+"""The vector training env (planetnav_agents.vec_training) is the same MDP as wrapped single envs in
+DummyVecEnv."""
 
 from __future__ import annotations
 
@@ -6,8 +7,8 @@ import numpy as np
 import pytest
 from stable_baselines3.common.vec_env import DummyVecEnv
 
-from agents.features import ActionRepeat, NavFeatures, RelativeTargets, relative_actions_batch
-from agents.vec_training import NavTrainingVecEnv
+from planetnav_agents.features import ActionRepeat, NavFeatures, RelativeTargets, relative_actions_batch
+from planetnav_agents.vec_training import NavTrainingVecEnv
 from planetnav_env.config import EnvConfig
 from planetnav_env.env import PlanetNavEnv
 
