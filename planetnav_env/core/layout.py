@@ -152,6 +152,16 @@ MODE_CODES = {"target": MODE_TARGET, "torque": MODE_TORQUE, "target+torque": MOD
 # ------------------------------------------------------------------------------------------------
 #: Width of the per-target block (planets; pulsars use the same width).
 TARGET_FEATURES = 7
+#: Columns of one target block (planets and pulsars share the width and columns 0-2, 5 and 6; see
+#: PLANET_FEATURE_TEXT and PULSAR_FEATURE_TEXT). The compiled builders and the agents index with these.
+TF_DIR = 0  #: direction in body axes, 3 columns (0, 1, 2)
+TF_LOG_DISTANCE = 3  #: planets: log10(estimated distance / AU)
+TF_PROGRESS = 3  #: pulsars: integration progress 0..1 (current target only)
+TF_SIZE = 4  #: planets: estimated apparent diameter / diameter noise
+TF_LOG_PHASE_SIGMA = 4  #: pulsars: log10 of the predicted phase 1-sigma [cycles]
+TF_OBSERVABLE = 5  #: 1 if a measurement of it is possible now (Sun, occultation, size), else 0
+TF_LOG_SIGMA = 6  #: log10 of the position 1-sigma [km] / 4 across its line of sight (planets), along it
+#: (pulsars): what a measurement of it would shrink
 #: The spacecraft block: (name, width, content, scale), in order from index 0.
 SPACECRAFT_BLOCK = (
     ("position", 3, "estimated position relative to the central body (the Sun; Mars on approach), ICRF",
