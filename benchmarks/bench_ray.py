@@ -4,8 +4,8 @@ sweep on one loopback node against two, all in one run on this machine (the numb
 
     RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER=0 .venv-ray/bin/python benchmarks/bench_ray.py   # = make bench-ray
 
-Env steps/s count environment steps per second of training (sampling + learning, as train.py reports for
-SB3), after two untimed warm-up iterations. Same environment
+Env steps/s count environment steps per second of training (sampling + learning, as ``train.py`` reports
+for SB3), after two untimed warm-up iterations. Same environment
 (Cruise-Target, one-day episodes, covariance reward), same PPO batch (4096 steps, minibatch 512, 5 epochs),
 same 64x64 MLP, one torch thread for the learner. The machine is shared: rates vary by tens of percent
 between runs, so compare within one run.
@@ -21,10 +21,9 @@ import time
 from pathlib import Path
 
 os.environ["RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER"] = "0"  # before Ray is imported: stay on 127.0.0.1
-ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))
 
-import train  # noqa: E402
+from planetnav_train.config import ROOT, load_config, parse_config
+from planetnav_train.training import train
 
 
 def bench_rllib(num_env_runners: int, iterations: int) -> dict[str, float]:
@@ -34,7 +33,7 @@ def bench_rllib(num_env_runners: int, iterations: int) -> dict[str, float]:
     from planetnav_rl.cluster import init_ray, shutdown_ray
     from planetnav_rl.rllib import build_algorithm, iteration_summary
 
-    tc = train.load_config(ROOT / "configs" / "rllib_ppo.yaml")
+    tc = load_config(ROOT / "configs" / "rllib_ppo.yaml")
     tc.hyperparams["num_env_runners"] = num_env_runners
     # Same total envs either way (4): 1 runner x 4 envs or 2 runners x 2 envs.
     tc.n_envs = 4 // num_env_runners
@@ -80,10 +79,11 @@ SB3_CONFIG = {
 
 
 def bench_sb3(timesteps: int) -> dict[str, float]:
-    """Env steps/s of SB3 PPO (:data:`SB3_CONFIG`: 8 envs x 512 steps per update), via train.train."""
-    tc = train.parse_config({**SB3_CONFIG, "n_timesteps": timesteps})
+    """Env steps/s of SB3 PPO (:data:`SB3_CONFIG`: 8 envs x 512 steps per update), via
+    :func:`planetnav_train.training.train`."""
+    tc = parse_config({**SB3_CONFIG, "n_timesteps": timesteps})
     with tempfile.TemporaryDirectory() as tmp:
-        _, stats = train.train(tc, Path(tmp), progress=False)
+        _, stats = train(tc, Path(tmp), progress=False)
     return {"steps": stats["timesteps"], "seconds": stats["seconds"], "steps_per_s": stats["steps_per_s"]}
 
 

@@ -1,4 +1,4 @@
-"""Training throughput: environment steps per second of ``train.py``'s training loop (environment and
+"""Training throughput: environment steps per second of the training loop of ``train.py`` (environment and
 learning together), on the native vector env against SB3's DummyVecEnv of wrapped single envs, same run.
 
     python benchmarks/bench_train.py                          # the default config, 2 PPO updates each
@@ -12,24 +12,23 @@ kernels. The figure issue 8 asks for is the ratio native / dummy of the default 
 from __future__ import annotations
 
 import argparse
-import sys
 import time
-from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from planetnav_agents.sb3 import algorithm_class
+from planetnav_train.algorithms import algo_kwargs
+from planetnav_train.config import TrainConfig, load_config
+from planetnav_train.envs import make_training_env
 
-import train
 
-
-def rate(tc: train.TrainConfig, vec_env: str, decisions: int) -> float:
+def rate(tc: TrainConfig, vec_env: str, decisions: int) -> float:
     """Environment steps/s of ``decisions`` policy decisions of training on the ``vec_env`` path."""
     import torch
 
     tc.vec_env = vec_env
     torch.set_num_threads(tc.torch_threads)
-    venv = train.make_training_env(tc, None)
-    model = train.algorithm_class(tc.algo)(
-        tc.policy, venv, seed=tc.seed, device="cpu", verbose=0, **train.algo_kwargs(tc)
+    venv = make_training_env(tc, None)
+    model = algorithm_class(tc.algo)(
+        tc.policy, venv, seed=tc.seed, device="cpu", verbose=0, **algo_kwargs(tc)
     )
     t = time.perf_counter()
     model.learn(total_timesteps=decisions)
@@ -43,13 +42,13 @@ def main() -> None:
     ap.add_argument("--config", default="configs/cruise_ppo.yaml")
     ap.add_argument("--updates", type=int, default=2, help="PPO rollouts + updates timed per path")
     args = ap.parse_args()
-    tc = train.load_config(args.config)
+    tc = load_config(args.config)
     per_update = int(tc.hyperparams.get("n_steps", 2048)) * tc.n_envs
     decisions = args.updates * per_update
     # Warm-up: compile the kernels and build torch's graph caches outside the timing.
-    rate(train.load_config(args.config), "native", per_update)
-    native = rate(train.load_config(args.config), "native", decisions)
-    dummy = rate(train.load_config(args.config), "dummy", decisions)
+    rate(load_config(args.config), "native", per_update)
+    native = rate(load_config(args.config), "native", decisions)
+    dummy = rate(load_config(args.config), "dummy", decisions)
     print(
         f"{args.config}: {tc.n_envs} envs, action_repeat {tc.action_repeat}, {decisions} decisions "
         f"({decisions * tc.action_repeat} env steps) per path"

@@ -4,17 +4,16 @@
 Needs the ``[ray]`` extra (``pip install -e ".[ray]"``). Importing this package does not import Ray:
 every Ray import is inside a function, so ``import planetnav_env, agents`` and the SB3 path of
 ``train.py`` work without it. Commands and cluster set-up: ``docs/scaling.md``.
+
+This package builds on :mod:`planetnav_train` (configuration, training envs, evaluation), never the other
+way at import time: ``planetnav_train`` hands a run to Ray only from inside its functions.
 """
 
 from __future__ import annotations
 
-#: ``algo`` values of a training configuration that train with RLlib instead of Stable-Baselines3.
-RLLIB_ALGOS = ("rllib_ppo",)
-
-
-def is_rllib_algo(algo: str) -> bool:
-    """Whether ``algo`` (any case) names an RLlib algorithm (see :data:`RLLIB_ALGOS`)."""
-    return str(algo).lower() in RLLIB_ALGOS
+# The algorithm names belong to the training package (its configuration validates them); kept here too,
+# where they were first published.
+from planetnav_train.algorithms import RLLIB_ALGOS, is_rllib_algo
 
 
 def require_ray(what: str) -> None:

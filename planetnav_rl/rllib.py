@@ -1,4 +1,5 @@
-"""RLlib PPO (new API stack) on any ``planetnav/*`` environment, driven by ``train.py``'s configuration.
+"""RLlib PPO (new API stack) on any ``planetnav/*`` environment, driven by a training configuration
+(:class:`planetnav_train.config.TrainConfig`).
 
 A training configuration with ``algo: rllib_ppo`` (``configs/rllib_ppo.yaml``) maps onto RLlib as:
 
@@ -29,13 +30,11 @@ import inspect
 import math
 import time
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from planetnav_env.errors import ConfigError
 from planetnav_rl import require_ray
-
-if TYPE_CHECKING:  # train.py's dataclass; imported lazily at run time (train.py is a script)
-    from train import TrainConfig
+from planetnav_train.config import TrainConfig
 
 #: Name under which the environment creator is registered with Ray (``tune.register_env``).
 ENV_NAME = "planetnav"
@@ -188,7 +187,7 @@ def train(
     tc: TrainConfig, run_dir: Path, address: str | None = None, progress: bool = True
 ) -> tuple[Path, dict[str, Any]]:
     """Train ``tc`` with RLlib into ``run_dir``; return the checkpoint directory and training statistics
-    (the keys ``train.train`` returns: timesteps, seconds, steps_per_s, episodes).
+    (the keys :func:`planetnav_train.training.train` returns: timesteps, seconds, steps_per_s, episodes).
 
     Without ``address`` a local Ray is started on 127.0.0.1 (and shut down at the end); with one, the env
     runners run on that cluster while the learner stays in this process.

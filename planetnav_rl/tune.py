@@ -3,9 +3,9 @@
 A sweep YAML names a training configuration (``base``, any ``algo`` that ``train.py train`` takes), the
 search ``space`` over its hyper-parameters and seed, and how to search. Each trial trains in
 ``iterations`` equal chunks of ``n_timesteps``; after each chunk it saves its model and evaluates it with
-``train.evaluate_agent`` on held-out seeds, and reports the held-out **mean position error** (the metric,
-minimised; never the training return) with the node it ran on. An ASHA scheduler stops poor trials at
-its rungs; the search is random (Tune's variant generator) or Optuna (TPE).
+:func:`planetnav_train.evaluate.evaluate_agent` on held-out seeds, and reports the held-out **mean position
+error** (the metric, minimised; never the training return) with the node it ran on. An ASHA scheduler
+stops poor trials at its rungs; the search is random (Tune's variant generator) or Optuna (TPE).
 
 Keys of the sweep YAML (unknown keys raise :class:`ConfigError` naming them):
 
@@ -37,24 +37,26 @@ import copy
 import csv
 import dataclasses
 import math
-import sys
 import tempfile
 import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from types import ModuleType
 from typing import Any
 
 import yaml
 
+from planetnav_agents.sb3 import algorithm_class
+from planetnav_env.config import EnvConfig
 from planetnav_env.errors import ConfigError
-from planetnav_rl import is_rllib_algo, require_ray
+from planetnav_rl import require_ray
+from planetnav_train.algorithms import algo_kwargs, is_rllib_algo
+from planetnav_train.config import ROOT, TrainConfig, parse_config
+from planetnav_train.envs import make_training_env
+from planetnav_train.evaluate import evaluate_agent
 
-#: The repository root (where ``train.py`` lives): trials import ``train`` from here.
-ROOT = Path(__file__).resolve().parent.parent
-
-#: Metrics of ``train.evaluate_agent`` a sweep may optimise (all minimised position / velocity errors).
+#: Metrics of :func:`planetnav_train.evaluate.evaluate_agent` a sweep may optimise (all minimised position /
+#: velocity errors).
 METRICS = ("mean_pos_err_km", "final_pos_err_km", "final_pos_sigma_km", "mean_vel_err_km_s")
 DISTRIBUTIONS = ("choice", "uniform", "loguniform", "randint")
 EXPERIMENT = "tune"  # the Tune experiment's directory name inside the run directory
@@ -79,15 +81,6 @@ class SweepConfig:
     max_failures: int = 2
     #: The base training configuration with ``train`` merged in (a plain mapping); set by :func:`load_sweep`.
     base_config: dict[str, Any] = field(default_factory=dict)
-
-
-def train_module() -> ModuleType:
-    """``train.py`` as a module (it is a script at the repository root, not part of a package)."""
-    if "train" not in sys.modules and str(ROOT) not in sys.path:
-        sys.path.insert(0, str(ROOT))
-    import train
-
-    return train
 
 
 def _merge(base: Mapping[str, Any], over: Mapping[str, Any]) -> dict[str, Any]:
@@ -185,14 +178,13 @@ def load_sweep(path: str | Path) -> SweepConfig:
         base = yaml.safe_load(fh) or {}
     base.setdefault("name", sc.name)
     sc.base_config = _merge(base, sc.train or {})
-    train = train_module()
     try:
-        tc = train.parse_config(sc.base_config)
+        tc = parse_config(sc.base_config)
     except ConfigError as exc:
         raise ConfigError(f"{path}: base {sc.base}: {exc}") from None
     sample = {k: _representative(*next(iter(v.items()))) for k, v in sc.space.items()}
     try:
-        train.parse_config(apply_params(sc.base_config, sample))
+        parse_config(apply_params(sc.base_config, sample))
     except ConfigError as exc:
         raise ConfigError(
             f"{path}: search space key(s) {sorted(sample)} for algo {tc.algo!r}: {exc}"
@@ -221,18 +213,16 @@ def param_space(sc: SweepConfig) -> dict[str, Any]:
 class _SB3Learner:
     """An SB3 model trained chunk by chunk (``learn(reset_num_timesteps=False)`` continues the rollout)."""
 
-    def __init__(self, train: ModuleType, tc: Any, restore: Path | None) -> None:
+    def __init__(self, tc: TrainConfig, restore: Path | None) -> None:
         import torch
 
         torch.set_num_threads(tc.torch_threads)
-        self.venv = train.make_training_env(tc, None)
-        cls = train.algorithm_class(tc.algo)
+        self.venv = make_training_env(tc, None)
+        cls = algorithm_class(tc.algo)
         if restore is not None:
             self.model = cls.load(restore / "model.zip", env=self.venv, device="cpu")
         else:
-            self.model = cls(
-                tc.policy, self.venv, seed=tc.seed, device="cpu", verbose=0, **train.algo_kwargs(tc)
-            )
+            self.model = cls(tc.policy, self.venv, seed=tc.seed, device="cpu", verbose=0, **algo_kwargs(tc))
 
     @property
     def timesteps(self) -> int:
@@ -254,7 +244,7 @@ class _RLlibLearner:
     """An RLlib PPO trained iteration by iteration; samples in the trial's own process (no env runner
     actors), so a trial needs exactly the CPUs Tune reserved for it."""
 
-    def __init__(self, train: ModuleType, tc: Any, restore: Path | None) -> None:
+    def __init__(self, tc: TrainConfig, restore: Path | None) -> None:
         from planetnav_rl.rllib import build_algorithm
 
         self.algo = build_algorithm(tc, num_env_runners=0)
@@ -298,13 +288,12 @@ def run_trial(
 
     from planetnav_rl.cluster import node_label
 
-    train = train_module()
     cfg = apply_params(base, params)
-    tc = train.parse_config(cfg)
+    tc = parse_config(cfg)
     ev = {**dataclasses.asdict(tc.eval), **settings.get("eval", {})}
     env_cfg = tc.env_config()
     if ev.get("episode_steps"):
-        env_cfg = train.EnvConfig.from_dict(env_cfg.to_dict(), episode_steps=ev["episode_steps"])
+        env_cfg = EnvConfig.from_dict(env_cfg.to_dict(), episode_steps=ev["episode_steps"])
     node = node_label()
     checkpoint = tune.get_checkpoint() if report is None else None
     start = 0
@@ -313,7 +302,7 @@ def run_trial(
         if checkpoint is not None:  # a retry after a node failure, or --resume: continue from the last chunk
             restore = Path(checkpoint.to_directory(restore_dir))
             start = int((restore / "iteration.txt").read_text())
-        learner = (_RLlibLearner if is_rllib_algo(tc.algo) else _SB3Learner)(train, tc, restore)
+        learner = (_RLlibLearner if is_rllib_algo(tc.algo) else _SB3Learner)(tc, restore)
     iterations = int(settings["iterations"])
     t0 = time.perf_counter()
     for it in range(start, iterations):
@@ -324,7 +313,7 @@ def run_trial(
             (out / "iteration.txt").write_text(str(it + 1))
             with open(out / "config.yaml", "w") as fh:  # the trial's own training config
                 yaml.safe_dump(tc.to_dict(), fh, sort_keys=False)
-            result = train.evaluate_agent(
+            result = evaluate_agent(
                 str(model_path), env_cfg, int(ev["episodes"]), int(ev["seed"]), progress=False
             )
             metrics = {

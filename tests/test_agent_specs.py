@@ -387,13 +387,13 @@ def test_agreement_of_a_policy_with_itself_and_with_another_teacher(tmp_path: Pa
     # The command prints and writes the same figures (JSON without NaN: target mode has no residual).
     import json
 
-    import train
+    from planetnav_train.cli import main
 
     out = tmp_path / "agreement.json"
     teacher = "periodic:period=8,skip_invisible=false"
     args = ["agreement", "--student", str(run), "--teacher", teacher, "--episodes", "2",
             "--seed", str(DEMO_SEED), "--episode-steps", "40", "--json", str(out)]  # fmt: skip
-    assert train.main(args) == 0
+    assert main(args) == 0
     written = json.loads(out.read_text())
     assert written["different"] == other["different"] and written["mean_abs_residual"] is None
     with pytest.raises(ValueError, match="planet choices"):

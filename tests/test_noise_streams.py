@@ -11,7 +11,6 @@ from pathlib import Path
 import gymnasium as gym
 import numpy as np
 import pytest
-from conftest import load_train
 from numba import njit
 from scipy import stats
 
@@ -22,6 +21,9 @@ from planetnav_env.core import rng as prng
 from planetnav_env.env import PlanetNavEnv
 from planetnav_env.errors import ConfigError
 from planetnav_env.vector_env import PlanetNavVectorEnv
+from planetnav_train.cli import main
+from planetnav_train.config import parse_config
+from planetnav_train.evaluate import evaluation_env
 
 MASK = (1 << 64) - 1
 
@@ -189,31 +191,30 @@ def test_bad_noise_streams_name_the_value() -> None:
 # --------------------------------------------------------------------------------------------------------
 # train.py: the evaluation option
 # --------------------------------------------------------------------------------------------------------
-train = load_train()
 
 
 def test_evaluation_env_overrides_only_what_is_given() -> None:
     base = EnvConfig(episode_steps=30)
-    assert train.evaluation_env(base, None, None) is base
-    got = train.evaluation_env(base, 7, "per_step")
+    assert evaluation_env(base, None, None) is base
+    got = evaluation_env(base, 7, "per_step")
     assert (got.episode_steps, got.noise_streams) == (7, "per_step")
-    assert train.evaluation_env(base, None, "per_step").episode_steps == 30
+    assert evaluation_env(base, None, "per_step").episode_steps == 30
 
 
 def test_eval_noise_streams_is_validated() -> None:
     with pytest.raises(ConfigError, match=r"config\.eval: noise_streams.*'shared'"):
-        train.parse_config({"eval": {"noise_streams": "shared"}})
-    assert train.parse_config({"eval": {"noise_streams": "per_step"}}).eval.noise_streams == "per_step"
+        parse_config({"eval": {"noise_streams": "shared"}})
+    assert parse_config({"eval": {"noise_streams": "per_step"}}).eval.noise_streams == "per_step"
 
 
 def test_compare_with_per_step_noise_changes_the_draw_not_the_seeds(tmp_path: Path) -> None:
     """``--noise-streams per_step`` reaches the environment (other errors on the same seeds), and the
     report says the agents shared their noise."""
     common = ["compare", "--agents", "greedy", "--episodes", "2", "--episode-steps", "30", "--no-progress"]
-    assert train.main([*common, "--json", str(tmp_path / "seq.json")]) == 0
+    assert main([*common, "--json", str(tmp_path / "seq.json")]) == 0
     crn_args = ["--noise-streams", "per_step", "--json", str(tmp_path / "crn.json")]
     crn_args += ["--report", str(tmp_path / "rep")]
-    assert train.main([*common, *crn_args]) == 0
+    assert main([*common, *crn_args]) == 0
     seq = json.loads((tmp_path / "seq.json").read_text())["agents"]["greedy"]
     crn = json.loads((tmp_path / "crn.json").read_text())["agents"]["greedy"]
     assert seq["seed"] == crn["seed"] and seq["episodes"] == crn["episodes"] == 2
@@ -229,7 +230,7 @@ def test_paired_notes_evaluations_that_share_no_noise(
     (tmp_path / "a.json").write_text(json.dumps({"agents": {"x": {**entry, "noise_streams": "per_step"}}}))
     (tmp_path / "b.json").write_text(json.dumps({"agents": {"x": entry}}))  # written before the key
     (tmp_path / "c.json").write_text(json.dumps({"agents": {"x": {**entry, "noise_streams": "per_step"}}}))
-    assert train.main(["paired", "--a", f"{tmp_path / 'a.json'}:x", "--b", f"{tmp_path / 'b.json'}:x"]) == 0
+    assert main(["paired", "--a", f"{tmp_path / 'a.json'}:x", "--b", f"{tmp_path / 'b.json'}:x"]) == 0
     assert "share no sensor noise" in capsys.readouterr().out
-    assert train.main(["paired", "--a", f"{tmp_path / 'a.json'}:x", "--b", f"{tmp_path / 'c.json'}:x"]) == 0
+    assert main(["paired", "--a", f"{tmp_path / 'a.json'}:x", "--b", f"{tmp_path / 'c.json'}:x"]) == 0
     assert "share no sensor noise" not in capsys.readouterr().out

@@ -21,10 +21,11 @@ import pytest
 os.environ["RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER"] = "0"
 ray = pytest.importorskip("ray")
 
-import train  # noqa: E402
 from planetnav_env.errors import ConfigError  # noqa: E402
 from planetnav_rl.cluster import LOOPBACK, loopback_cluster  # noqa: E402
 from planetnav_rl.tune import load_sweep, run_sweep  # noqa: E402
+from planetnav_train.cli import main  # noqa: E402
+from planetnav_train.config import load_config, parse_config  # noqa: E402
 
 pytestmark = pytest.mark.ray
 
@@ -68,9 +69,7 @@ def test_rllib_training_on_cluster_writes_the_run_directory(cluster: Any, tmp_pa
     assert all(0.0 < a["mean_pos_err_km"] < 1e5 for a in agents.values())
     # evaluate/compare take the RLlib run directory as an agent, and find its env through config.yaml.
     out = tmp_path / "eval.json"
-    rc = train.main(
-        ["evaluate", "--agent", str(run_dir), "--episodes", "1", "--json", str(out), "--no-progress"]
-    )
+    rc = main(["evaluate", "--agent", str(run_dir), "--episodes", "1", "--json", str(out), "--no-progress"])
     assert rc == 0
     evaluated = json.loads(out.read_text())["agents"]["rllib_ppo:rllib"]
     # Same policy, env, seed and deterministic actions: the same metric as in the run's eval.json.
@@ -93,11 +92,11 @@ def test_sweep_on_cluster_uses_both_nodes_and_its_best_config_trains(cluster: An
     report = (tmp_path / "sweep" / "report.md").read_text()
     assert all(r["node_id"] in report for r in rows)
     # The best config is a training config: it reloads with its trial's parameters and trains.
-    tc = train.load_config(summary["best_config"])
+    tc = load_config(summary["best_config"])
     assert tc.seed == best["seed"]
     assert tc.hyperparams["learning_rate"] == pytest.approx(best["hyperparams.learning_rate"])
     run_dir = tmp_path / "best"
-    rc = train.main(
+    rc = main(
         ["train", "--config", str(summary["best_config"]), "--run-dir", str(run_dir)]
         + ["--no-eval", "--no-progress"]
     )
@@ -145,7 +144,7 @@ def test_bad_address_fails_before_any_trial(
     tmp_path: Path, capsys: pytest.CaptureFixture[str], args: list[str], named: str
 ) -> None:
     run_dir = tmp_path / "sweep"
-    rc = train.main(["tune", "--config", str(CONFIGS / "sweep_smoke.yaml"), "--run-dir", str(run_dir), *args])
+    rc = main(["tune", "--config", str(CONFIGS / "sweep_smoke.yaml"), "--run-dir", str(run_dir), *args])
     assert rc == 2
     assert named in capsys.readouterr().err
     assert not run_dir.exists()  # nothing started
@@ -158,11 +157,11 @@ def test_bad_sweep_inputs_fail_before_any_trial(tmp_path: Path, capsys: pytest.C
     sweep["base"] = str(CONFIGS / "rllib_smoke.yaml")  # RLlib's PPO has lr, not learning_rate
     path = tmp_path / "s.yaml"
     path.write_text(yaml.safe_dump(sweep))
-    rc = train.main(["tune", "--config", str(path), "--run-dir", str(tmp_path / "out")])
+    rc = main(["tune", "--config", str(path), "--run-dir", str(tmp_path / "out")])
     assert rc == 2 and "learning_rate" in capsys.readouterr().err
     assert not (tmp_path / "out").exists()
     with pytest.raises(ConfigError, match="lr_typo"):
-        train.parse_config({"algo": "rllib_ppo", "hyperparams": {"lr_typo": 1e-3}})
+        parse_config({"algo": "rllib_ppo", "hyperparams": {"lr_typo": 1e-3}})
 
 
 def test_rllib_sweep_with_optuna_on_cluster(cluster: Any, tmp_path: Path) -> None:
@@ -184,7 +183,7 @@ def test_rllib_sweep_with_optuna_on_cluster(cluster: Any, tmp_path: Path) -> Non
     rows = summary["rows"]
     assert len(rows) == 2 and all(r["status"] in ("TERMINATED", "STOPPED") for r in rows), rows
     assert all(0.0 < r["mean_pos_err_km"] < 1e5 and 1e-4 <= r["hyperparams.lr"] <= 1e-3 for r in rows)
-    best = train.load_config(summary["best_config"])
+    best = load_config(summary["best_config"])
     assert best.algo == "rllib_ppo" and best.hyperparams["lr"] == pytest.approx(
         summary["best"]["hyperparams.lr"]
     )

@@ -16,10 +16,11 @@ from pathlib import Path
 import pytest
 import yaml
 
-import train
 from planetnav_env.errors import ConfigError
 from planetnav_rl.cluster import check_address, parse_address
 from planetnav_rl.tune import load_sweep
+from planetnav_train.cli import main
+from planetnav_train.config import load_config, parse_config
 
 ROOT = Path(__file__).resolve().parent.parent
 CONFIGS = ROOT / "configs"
@@ -91,7 +92,7 @@ def _write_sweep(tmp_path: Path, **changes: object) -> Path:
 def test_shipped_sweeps_load(name: str) -> None:
     sc = load_sweep(CONFIGS / name)
     assert sc.num_samples >= 4 and sc.metric == "mean_pos_err_km"
-    assert train.parse_config(sc.base_config).n_timesteps >= sc.iterations
+    assert parse_config(sc.base_config).n_timesteps >= sc.iterations
 
 
 def test_smoke_sweep_loads_with_the_base_merged() -> None:
@@ -126,11 +127,11 @@ def test_sweep_unknown_key_and_distribution_are_named(tmp_path: Path) -> None:
 
 def test_train_config_unknown_algo_lists_rllib() -> None:
     with pytest.raises(ConfigError, match=r"'ppo_turbo' is not one of .*rllib_ppo"):
-        train.parse_config({"algo": "ppo_turbo"})
+        parse_config({"algo": "ppo_turbo"})
 
 
 @pytest.mark.skipif(HAS_RAY, reason="checks the message given where the [ray] extra is missing")
 def test_rllib_config_without_ray_names_the_extra() -> None:
     with pytest.raises(ConfigError, match=r"\[ray\]"):
-        train.load_config(CONFIGS / "rllib_smoke.yaml")
-    assert train.main(["tune", "--config", str(CONFIGS / "sweep_smoke.yaml")]) == 2
+        load_config(CONFIGS / "rllib_smoke.yaml")
+    assert main(["tune", "--config", str(CONFIGS / "sweep_smoke.yaml")]) == 2

@@ -11,7 +11,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
-from conftest import load_train
+
+from planetnav_train.algorithms import algo_kwargs
+from planetnav_train.cli import main
+from planetnav_train.config import load_config
 
 ROOT = Path(__file__).resolve().parents[1]
 METRIC_KEYS = {
@@ -22,9 +25,6 @@ METRIC_KEYS = {
     "measured_fraction",
     "return",
 }
-
-
-train = load_train()
 
 
 @pytest.fixture(scope="module")
@@ -54,7 +54,7 @@ def test_smoke_training_writes_the_run(smoke_run: Path) -> None:
 
 def test_evaluate_json_schema(tmp_path: Path, smoke_run: Path) -> None:
     out = tmp_path / "eval.json"
-    rc = train.main(
+    rc = main(
         ["evaluate", "--agent", "greedy", "--episodes", "2", "--seed", "10000", "--episode-steps", "20",
          "--json", str(out), "--no-progress"]
     )  # fmt: skip
@@ -70,16 +70,14 @@ def test_evaluate_json_schema(tmp_path: Path, smoke_run: Path) -> None:
     # A saved model by its run directory: the env comes from the run's config.yaml (120-step episodes).
     out2 = tmp_path / "model.json"
     assert (
-        train.main(
-            ["evaluate", "--agent", str(smoke_run), "--episodes", "1", "--json", str(out2), "--no-progress"]
-        )
+        main(["evaluate", "--agent", str(smoke_run), "--episodes", "1", "--json", str(out2), "--no-progress"])
         == 0
     )
     assert json.loads(out2.read_text())["agents"]["ppo:smoke"]["episodes"] == 1
 
 
 def test_compare_prints_one_table(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    rc = train.main(
+    rc = main(
         ["compare", "--agents", "baseline", "greedy", "random", "idle", "--episodes", "1",
          "--episode-steps", "15", "--json", str(tmp_path / "c.json"), "--report", str(tmp_path / "rep"),
          "--no-progress"]
@@ -118,7 +116,7 @@ def test_bad_config_key_is_named(
 ) -> None:
     cfg = tmp_path / "bad.yaml"
     cfg.write_text(text)
-    assert train.main(["train", "--config", str(cfg), "--no-progress"]) == 2
+    assert main(["train", "--config", str(cfg), "--no-progress"]) == 2
     err = capsys.readouterr().err
     assert named in err and "error:" in err
 
@@ -140,10 +138,10 @@ def test_shipped_configs_parse() -> None:
             continue  # Tune sweep configs, not training configs: tests/test_scaling.py loads them
         if path.name.startswith("rllib") and not has_ray:
             continue  # algo: rllib_ppo is validated against RLlib itself: the [ray] extra's venv checks them
-        tc = train.load_config(path)
+        tc = load_config(path)
         tc.env_config()
-        train.algo_kwargs(tc)
-    assert train.load_config(ROOT / "configs" / "cruise_ppo.yaml").name == "cruise_ppo"
+        algo_kwargs(tc)
+    assert load_config(ROOT / "configs" / "cruise_ppo.yaml").name == "cruise_ppo"
 
 
 def test_compare_pairs_with_greedy_and_skips_what_does_not_apply(
@@ -154,7 +152,7 @@ def test_compare_pairs_with_greedy_and_skips_what_does_not_apply(
     cfg = tmp_path / "torque.yaml"
     cfg.write_text("env_id: planetnav/Cruise-Torque-v0\n")
     out = tmp_path / "c.json"
-    rc = train.main(
+    rc = main(
         ["compare", "--agents", "planner:horizon=4,replan=2", "greedy", "periodic", "baseline", "random",
          "idle", "--config", str(cfg), "--episodes", "3", "--episode-steps", "8", "--json", str(out),
          "--no-progress"]
@@ -181,7 +179,7 @@ def test_compare_pairs_with_greedy_and_skips_what_does_not_apply(
 
 def test_sweep_periodic_prints_the_best(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     out = tmp_path / "sweep.json"
-    rc = train.main(
+    rc = main(
         ["sweep-periodic", "--periods", "2", "5", "--cycles", "0-1", "0-1-2", "--episodes", "2",
          "--episode-steps", "12", "--json", str(out), "--no-progress"]
     )  # fmt: skip
@@ -223,10 +221,10 @@ def test_every_shipped_config_trains_and_evaluates(tmp_path: Path, name: str) ->
     """CI smoke test of each shipped training config, evaluation and report included (torque modes too)."""
     cfg = _smoke_version(ROOT / "configs" / name, tmp_path)
     run_dir = tmp_path / "run"
-    rc = train.main(["train", "--config", str(cfg), "--run-dir", str(run_dir), "--no-progress"])
+    rc = main(["train", "--config", str(cfg), "--run-dir", str(run_dir), "--no-progress"])
     assert rc == 0
     data = json.loads((run_dir / "eval.json").read_text())
-    tc = train.load_config(cfg)
+    tc = load_config(cfg)
     ran = set(data["agents"]) | set(data["skipped"])
     assert len(ran) == 2 + len(tc.eval.agents)  # the trained policy (argmax, sampled) + the config's agents
     assert all(m["episodes"] == 2 for m in data["agents"].values())
@@ -237,9 +235,9 @@ def test_seed_override(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> No
     """``--seed`` trains another seed of a config (the spread across training runs in docs/training.md)."""
     run_dir = tmp_path / "s3"
     args = ["train", "--config", str(ROOT / "configs" / "smoke.yaml"), "--run-dir", str(run_dir)]
-    assert train.main([*args, "--seed", "3", "--no-eval", "--no-progress"]) == 0
+    assert main([*args, "--seed", "3", "--no-eval", "--no-progress"]) == 0
     assert yaml.safe_load((run_dir / "config.yaml").read_text())["seed"] == 3
-    assert train.main([*args, "--seed", "-1", "--no-eval", "--no-progress"]) == 2
+    assert main([*args, "--seed", "-1", "--no-eval", "--no-progress"]) == 2
     assert "--seed must be >= 0, got -1" in capsys.readouterr().err
 
 
@@ -256,7 +254,7 @@ def test_paired_pairs_two_evaluation_files(tmp_path: Path, capsys: pytest.Captur
 
     a = write("a.json", "ppo:x", [10.0, 20.0, 30.0])
     b = write("b.json", "periodic:period=10", [9.0, 18.0, 27.0])
-    assert train.main(["paired", "--a", f"{a}:ppo:x", "--b", f"{b}:periodic:period=10"]) == 0
+    assert main(["paired", "--a", f"{a}:ppo:x", "--b", f"{b}:periodic:period=10"]) == 0
     out = capsys.readouterr().out
     # differences 1, 2, 3: mean 2, t(0.975, 2) = 4.303 x sd 1 / sqrt(3) = 2.48
     assert "paired difference (first - second) +2.0 [-0.5, +4.5] km on 3 seeds from 10000" in out
@@ -264,9 +262,9 @@ def test_paired_pairs_two_evaluation_files(tmp_path: Path, capsys: pytest.Captur
     # sigma differences 2, 4, 6: mean 4, half-width 4.303 x 2 / sqrt(3) = 4.97
     assert "1-sigma (mean over the day): 40.0 km vs 36.0 km; paired difference +4.0 [-1.0, +9.0] km" in out
     c = write("c.json", "greedy", [1.0, 2.0, 3.0], seed=20000)
-    assert train.main(["paired", "--a", f"{a}:ppo:x", "--b", f"{c}:greedy"]) == 2
+    assert main(["paired", "--a", f"{a}:ppo:x", "--b", f"{c}:greedy"]) == 2
     assert "different seeds" in capsys.readouterr().err
-    assert train.main(["paired", "--a", f"{a}:nope", "--b", f"{c}:greedy"]) == 2
+    assert main(["paired", "--a", f"{a}:nope", "--b", f"{c}:greedy"]) == 2
     assert "no agent 'nope'" in capsys.readouterr().err
-    assert train.main(["paired", "--a", "missing.json:greedy", "--b", f"{c}:greedy"]) == 2
+    assert main(["paired", "--a", "missing.json:greedy", "--b", f"{c}:greedy"]) == 2
     assert "FILE:AGENT" in capsys.readouterr().err

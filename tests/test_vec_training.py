@@ -95,11 +95,12 @@ def test_relative_actions_name_the_bad_row():
 def test_train_uses_the_native_training_env_for_the_default_recipe(tmp_path):
     from stable_baselines3.common.vec_env import VecMonitor
 
-    import train
+    from planetnav_train.config import load_config
+    from planetnav_train.envs import make_training_env
 
-    tc = train.load_config("configs/cruise_ppo.yaml")
-    venv = train.make_training_env(tc, tmp_path)
+    tc = load_config("configs/cruise_ppo.yaml")
+    venv = make_training_env(tc, tmp_path)
     assert isinstance(venv, VecMonitor) and isinstance(venv.venv, NavTrainingVecEnv)
     assert venv.venv.action_repeat == 10 and venv.venv.relative_actions and venv.venv.features
     tc.vec_env = "dummy"
-    assert isinstance(train.make_training_env(tc, tmp_path), DummyVecEnv)
+    assert isinstance(make_training_env(tc, tmp_path), DummyVecEnv)

@@ -1,0 +1,364 @@
+"""Train Stable-Baselines3 agents on planetnav and compare them with the rule-based agents.
+
+Usage::
+
+    python train.py                                   # = train --config configs/cruise_ppo.yaml (~10 min)
+    python train.py train --config configs/X.yaml [--run-dir DIR] [--timesteps N] [--no-eval]
+    python train.py evaluate --agent NAME|PATH --episodes N --seed S --json out.json [--config X.yaml]
+    python train.py compare --agents planner greedy periodic baseline random idle [PATH ...] --episodes N \\
+        [--json J] [--report DIR] [--reference greedy]
+    python train.py sweep-periodic [--periods 10 30 60 ...] [--cycles 0-1 0-1-2 ...] [--episodes N] [--seed S]
+    python train.py train --config configs/rllib_ppo.yaml [--address HOST:PORT]   # RLlib, needs [ray]
+    python train.py tune --config configs/sweep.yaml [--address HOST:PORT] [--resume]  # Ray Tune sweep
+
+A training run writes ``runs/<name>/``: ``model.zip``, ``config.yaml`` (the resolved configuration; the SB3
+loader reads ``algo`` from it), ``tb/`` (TensorBoard), ``monitor/`` (episode CSVs), then, unless
+``--no-eval``, ``eval.json``, ``report.md`` and the plots ``pos_err.png``, ``pos_sigma.png``,
+``training.png``. Configuration keys: ``configs/README.md``. Agents evaluate on 20 held-out seeds (default
+10_000 onwards; training environments use the config's ``seed`` onwards, far below), every agent on the
+same seeds; each mean comes with a 95 % t-interval and the paired difference from a reference agent
+(``greedy``) on the same seeds (:mod:`planetnav_agents.stats`). Agents that cannot act in the environment's
+action mode (``idle`` outside ``target`` mode, a model trained for other spaces) are skipped with a note.
+``algo: rllib_ppo`` trains with RLlib instead (``planetnav_rl/rllib.py``; the run directory then holds
+``checkpoint/`` in place of ``model.zip``, and ``evaluate``/``compare`` take it as an agent like a model
+path). Sweeps: ``planetnav_rl/tune.py``, docs/scaling.md.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+import time
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from planetnav_agents import strip_sampled
+from planetnav_agents.rllib import config_sidecar as rllib_config_sidecar
+from planetnav_agents.sb3 import resolve_model_path
+from planetnav_agents.stats import paired_difference
+from planetnav_env.config import NOISE_STREAMS, EnvConfig
+from planetnav_env.errors import ConfigError
+from planetnav_train.algorithms import is_rllib_algo
+from planetnav_train.config import (
+    DEFAULT_AGENTS,
+    DEFAULT_CONFIG,
+    EVAL_EPISODES,
+    EVAL_SEED,
+    REFERENCE,
+    ROOT,
+    EvalSettings,
+    load_config,
+    parse_config,
+)
+from planetnav_train.evaluate import (
+    DEFAULT_SWEEP_CYCLES,
+    DEFAULT_SWEEP_PERIODS,
+    SWEEP_SEED,
+    compare_agents,
+    evaluate_agent,
+    evaluation_env,
+    results_json,
+    sweep_periodic,
+)
+from planetnav_train.report import print_table, write_report
+from planetnav_train.training import train
+
+
+def _eval_env_config(args: argparse.Namespace, specs: Sequence[str]) -> tuple[EnvConfig, EvalSettings]:
+    """The env of ``--config``, else of the first model run directory's ``config.yaml``, else defaults."""
+    if args.config:
+        tc = load_config(args.config)
+    else:
+        tc = parse_config({})
+        for s in specs:
+            try:
+                sidecar = resolve_model_path(strip_sampled(s)).parent / "config.yaml"
+            except FileNotFoundError:
+                sidecar = rllib_config_sidecar(strip_sampled(s))  # an RLlib run or checkpoint directory
+                if sidecar is None:
+                    continue
+            if sidecar.is_file():
+                tc = load_config(sidecar)
+                break
+    steps = args.episode_steps or tc.eval.episode_steps
+    noise = args.noise_streams or tc.eval.noise_streams
+    return evaluation_env(tc.env_config(), steps, noise), tc.eval
+
+
+def cmd_train(args: argparse.Namespace) -> int:
+    tc = load_config(args.config)
+    if args.timesteps:
+        tc.n_timesteps = args.timesteps
+    if args.seed is not None:
+        if args.seed < 0:
+            raise ConfigError(f"--seed must be >= 0, got {args.seed}")
+        tc.seed = args.seed
+    run_dir = Path(args.run_dir) if args.run_dir else ROOT / "runs" / tc.name
+    progress = not args.no_progress
+    print(f"training {tc.algo.upper()} for {tc.n_timesteps} steps on {tc.n_envs} envs -> {run_dir}")
+    if is_rllib_algo(tc.algo):
+        from planetnav_rl.rllib import train as train_rllib
+
+        model_path, stats = train_rllib(tc, run_dir, address=args.address, progress=progress)
+    elif args.address:
+        raise ConfigError(f"--address {args.address!r}: only RLlib configs (algo: rllib_ppo) train on Ray")
+    else:
+        model_path, stats = train(tc, run_dir, progress=progress)
+    print(
+        f"trained {stats['timesteps']} decisions = {stats.get('env_steps', stats['timesteps'])} env steps"
+        + (f" + the teacher's {stats['teacher_env_steps']}" if stats.get("teacher_env_steps") else "")
+        + f" in {stats['seconds']:.0f} s ({stats['steps_per_s']:.0f} env steps/s)"
+    )
+    if args.no_eval:
+        return 0
+    env_cfg = evaluation_env(tc.env_config(), tc.eval.episode_steps, tc.eval.noise_streams)
+    # The trained policy twice: its argmax (the usual deterministic evaluation) and its sampled actions,
+    # which on this problem can differ a lot (docs/training.md).
+    specs = [str(model_path), f"{model_path}@sampled", *tc.eval.agents]
+    t0 = time.perf_counter()
+    results = compare_agents(specs, env_cfg, tc.eval.episodes, tc.eval.seed, progress, tc.eval.reference)
+    stats["eval_seconds"] = time.perf_counter() - t0
+    print_table(results)
+    print(
+        f"wall time: training {stats['seconds']:.0f} s + evaluation {stats['eval_seconds']:.0f} s = "
+        f"{(stats['seconds'] + stats['eval_seconds']) / 60:.1f} min"
+    )
+    report = write_report(run_dir, results, env_cfg, f"Run `{tc.name}`", stats, tc)
+    print(f"report: {report}")
+    return 0
+
+
+def _write_json(path: str, data: Any) -> None:
+    """``data`` as indented JSON at ``path`` (the ``--json`` option of the commands), folders created."""
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
+    Path(path).write_text(json.dumps(data, indent=2))
+
+
+def cmd_evaluate(args: argparse.Namespace) -> int:
+    env_cfg, ev = _eval_env_config(args, [args.agent])
+    episodes = args.episodes or ev.episodes
+    seed = ev.seed if args.seed is None else args.seed
+    result = evaluate_agent(args.agent, env_cfg, episodes, seed, progress=not args.no_progress)
+    print_table([result])
+    if args.json:
+        _write_json(args.json, results_json([result]))
+    return 0
+
+
+def cmd_compare(args: argparse.Namespace) -> int:
+    env_cfg, ev = _eval_env_config(args, args.agents)
+    episodes = args.episodes or ev.episodes
+    seed = ev.seed if args.seed is None else args.seed
+    reference = args.reference or ev.reference
+    results = compare_agents(args.agents, env_cfg, episodes, seed, not args.no_progress, reference)
+    print_table(results)
+    if args.json:
+        _write_json(args.json, results_json(results))
+    if args.report:
+        print(f"report: {write_report(Path(args.report), results, env_cfg, 'Agent comparison')}")
+    return 0
+
+
+def _evaluation_entry(given: str) -> tuple[str, dict[str, Any]]:
+    """``FILE:AGENT`` (an ``eval.json`` or a ``--json`` output and one of its agents) -> (agent, metrics)."""
+    # Agent names hold colons (ppo:run, periodic:period=10): the file is the shortest prefix that exists.
+    cuts = [i for i, ch in enumerate(given) if ch == ":" and Path(given[:i]).is_file()]
+    if not cuts or cuts[0] == len(given) - 1:
+        raise ConfigError(f"paired: expected FILE:AGENT with an existing evaluation file, got {given!r}")
+    path, agent = given[: cuts[0]], given[cuts[0] + 1 :]
+    try:
+        agents = json.loads(Path(path).read_text())["agents"]
+    except (ValueError, KeyError, TypeError):
+        raise ConfigError(f"paired: {path!r} is not an evaluation JSON (no 'agents')") from None
+    if agent not in agents:
+        raise ConfigError(f"paired: no agent {agent!r} in {path}; it has {sorted(agents)}")
+    return agent, agents[agent]
+
+
+def cmd_paired(args: argparse.Namespace) -> int:
+    """Paired difference of two evaluations on the same seeds, which may come from two environments (the
+    same policy in target and target+torque mode) or two runs of ``compare``."""
+    (name_a, a), (name_b, b) = _evaluation_entry(args.a), _evaluation_entry(args.b)
+    if (a["seed"], a["episodes"]) != (b["seed"], b["episodes"]):
+        raise ConfigError(
+            f"paired: the evaluations ran on different seeds: {args.a} on {a['episodes']} from {a['seed']}, "
+            f"{args.b} on {b['episodes']} from {b['seed']}"
+        )
+    diff = paired_difference(a["per_episode_mean_pos_err_km"], b["per_episode_mean_pos_err_km"])
+    print(
+        f"{name_a}: {a['mean_pos_err_km']:.1f} km, {name_b}: {b['mean_pos_err_km']:.1f} km; paired "
+        f"difference (first - second) {diff.format('{:+.1f}')} km on {a['episodes']} seeds from {a['seed']}"
+    )
+    # Files written before the key existed used the sequential stream.
+    streams = (a.get("noise_streams", "sequential"), b.get("noise_streams", "sequential"))
+    if streams[0] != streams[1]:
+        print(
+            f"note: {args.a} drew {streams[0]} noise, {args.b} {streams[1]}: the two share no sensor noise, "
+            "so the pairing is by seed only (docs/training.md, common random numbers)"
+        )
+    per_seed = np.subtract(a["per_episode_mean_pos_err_km"], b["per_episode_mean_pos_err_km"])
+    q05, q50, q95 = np.percentile(per_seed, [5, 50, 95])
+    print(f"per seed: 5 % quantile {q05:+.1f} km, median {q50:+.1f} km, 95 % quantile {q95:+.1f} km")
+    key = "per_episode_mean_pos_sigma_km"
+    if key in a and key in b:  # evaluation files written before this key have the error only
+        sig = paired_difference(a[key], b[key])
+        print(
+            f"filter 1-sigma (mean over the day): {a['mean_pos_sigma_km']:.1f} km vs "
+            f"{b['mean_pos_sigma_km']:.1f} km; paired difference {sig.format('{:+.1f}')} km"
+        )
+    return 0
+
+
+def cmd_agreement(args: argparse.Namespace) -> int:
+    """How often a trained policy picks another planet than a teacher on the policy's own states."""
+    from planetnav_agents.pretrain import agreement
+
+    env_cfg, ev = _eval_env_config(args, [args.student])
+    episodes = args.episodes or 5
+    seed = ev.seed if args.seed is None else args.seed
+    try:
+        got = agreement(args.student, env_cfg, args.teacher, episodes, seed)
+    except ValueError as exc:
+        raise ConfigError(f"agreement: {exc}") from None
+    residual = got["mean_abs_residual"]
+    print(
+        f"{args.student} vs {args.teacher} on {episodes} episodes from seed {seed}: another planet at "
+        f"{100 * got['different']:.1f} % of {got['decisions']} decisions"
+        + (f"; mean |residual torque| {residual:.4f} of the action range" if math.isfinite(residual) else "")
+    )
+    if args.json:
+        if not math.isfinite(residual):
+            got["mean_abs_residual"] = None  # target mode: no residual torque (JSON has no NaN)
+        _write_json(args.json, {"student": args.student, "teacher": args.teacher, "episodes": episodes,
+                                "seed": seed, **got})  # fmt: skip
+    return 0
+
+
+def cmd_sweep_periodic(args: argparse.Namespace) -> int:
+    env_cfg, _ = _eval_env_config(args, [])
+    if env_cfg.action_mode != "target":
+        raise ConfigError("sweep-periodic runs in action_mode 'target' (use a target-mode --config)")
+    episodes = args.episodes or EVAL_EPISODES
+    seed = SWEEP_SEED if args.seed is None else args.seed
+    t0 = time.perf_counter()
+    results = sweep_periodic(env_cfg, args.periods, args.cycles, episodes, seed, not args.no_progress)
+    print_table(
+        results,
+        title=f"periodic schedules: {episodes} seeds ({seed}..{seed + episodes - 1}), paired with the best",
+    )
+    best = results[0]
+    print(f"best: {best.name} (mean err {best.metrics['mean_pos_err_km']:.1f} km); "
+          f"{len(results)} settings in {time.perf_counter() - t0:.0f} s")  # fmt: skip
+    if args.json:
+        _write_json(args.json, {**results_json(results), "best": best.name})
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(
+        description=__doc__.split("\n\n")[0], formatter_class=argparse.RawTextHelpFormatter
+    )
+    sub = p.add_subparsers(dest="command")
+
+    t = sub.add_parser("train", help="train an SB3 agent from a YAML config, then evaluate and report")
+    t.add_argument("--config", default=str(DEFAULT_CONFIG), help="training YAML (default %(default)s)")
+    t.add_argument("--run-dir", help="output directory (default runs/<name>)")
+    t.add_argument("--timesteps", type=int, help="override n_timesteps")
+    t.add_argument("--seed", type=int, help="override the config's training seed (spread across runs)")
+    t.add_argument("--no-eval", action="store_true", help="skip the evaluation and report")
+    t.add_argument("--address", help="RLlib only: join the Ray cluster at HOST:PORT (default: a local Ray)")
+    t.set_defaults(func=cmd_train)
+
+    def cmd_tune(args: argparse.Namespace) -> int:
+        from planetnav_rl.tune import cmd_tune as run_tune
+
+        return run_tune(args)
+
+    tn = sub.add_parser("tune", help="Ray Tune sweep over an SB3 or RLlib config (needs the [ray] extra)")
+    tn.add_argument("--config", required=True, help="sweep YAML (e.g. configs/sweep.yaml)")
+    tn.add_argument("--address", help="join the Ray cluster at HOST:PORT (default: a local Ray)")
+    tn.add_argument("--run-dir", help="output directory (default runs/<sweep name>)")
+    tn.add_argument("--resume", action="store_true", help="continue an interrupted sweep in --run-dir")
+    tn.add_argument("--num-cpus", type=int, help="CPUs of the local Ray (default: all)")
+    tn.set_defaults(func=cmd_tune)
+
+    def common(sp: argparse.ArgumentParser) -> None:
+        sp.add_argument(
+            "--episodes", type=int, help="episodes per agent (default: the config's eval.episodes)"
+        )
+        sp.add_argument("--seed", type=int, help=f"first held-out seed (default {EVAL_SEED})")
+        sp.add_argument("--config", help="YAML whose env (and eval) sections define the environment")
+        sp.add_argument("--episode-steps", type=int, help="override the episode length")
+        sp.add_argument(
+            "--noise-streams",
+            choices=NOISE_STREAMS,
+            help="override the env's noise_streams: per_step gives every agent the same sensor noise "
+            "wherever it makes the same measurement (common random numbers; docs/training.md)",
+        )
+        sp.add_argument("--json", help="write the metrics as JSON here")
+
+    e = sub.add_parser("evaluate", help="evaluate one agent (name or SB3 model path)")
+    e.add_argument(
+        "--agent", required=True, help="planner, greedy, periodic:period=60,cycle=0-1-2, ... or a model path"
+    )
+    common(e)
+    e.set_defaults(func=cmd_evaluate)
+
+    c = sub.add_parser("compare", help="evaluate several agents on the same seeds and print one table")
+    c.add_argument("--agents", nargs="+", default=list(DEFAULT_AGENTS), help="names and/or model paths")
+    c.add_argument("--report", help="also write report.md, plots and eval.json into this directory")
+    c.add_argument("--reference", help=f"paired differences against this agent (default {REFERENCE})")
+    common(c)
+    c.set_defaults(func=cmd_compare)
+
+    pr = sub.add_parser(
+        "paired", help="paired difference of two evaluation JSONs on the same seeds (e.g. two action modes)"
+    )
+    pr.add_argument("--a", required=True, help="FILE:AGENT, e.g. runs/x/eval.json:ppo:x")
+    pr.add_argument("--b", required=True, help="FILE:AGENT, subtracted from --a")
+    pr.set_defaults(func=cmd_paired)
+
+    ag = sub.add_parser(
+        "agreement", help="how often a trained policy picks another planet than a teacher, on its own states"
+    )
+    ag.add_argument("--student", required=True, help="a train.py run directory or model .zip")
+    ag.add_argument("--teacher", required=True, help="an agent spec or another run (it labels the states)")
+    common(ag)
+    ag.set_defaults(func=cmd_agreement)
+
+    w = sub.add_parser(
+        "sweep-periodic",
+        help=f"every periodic schedule of a grid on seeds {SWEEP_SEED}.. (not the evaluation seeds)",
+    )
+    w.add_argument(
+        "--periods", nargs="+", type=int, default=list(DEFAULT_SWEEP_PERIODS), help="steps per planet"
+    )
+    w.add_argument(
+        "--cycles", nargs="+", default=list(DEFAULT_SWEEP_CYCLES), help="planet cycles, e.g. 0-1-2"
+    )
+    common(w)
+    w.set_defaults(func=cmd_sweep_periodic)
+
+    for sp in (t, e, c, w, tn):
+        sp.add_argument("--no-progress", action="store_true", help="no progress bars")
+    return p
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if not argv:
+        argv = ["train"]  # python train.py: the default training run
+    args = build_parser().parse_args(argv)
+    if args.command is None:
+        build_parser().print_help()
+        return 2
+    try:
+        return args.func(args)
+    except (ConfigError, FileNotFoundError, ValueError) as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2

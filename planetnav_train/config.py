@@ -1,0 +1,204 @@
+"""Training configuration: :class:`TrainConfig` (one run, RL-Zoo style) with its ``eval:`` section
+:class:`EvalSettings`, read from YAML by :func:`load_config` and validated by :func:`parse_config`.
+
+Every key is checked (``configs/README.md`` lists them); an unknown or ill-typed value raises
+:class:`~planetnav_env.errors.ConfigError` naming it, before anything is trained.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import inspect
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from planetnav_agents.features import check_features
+from planetnav_agents.sb3 import ALGORITHMS, algorithm_class
+from planetnav_agents.shaping import SHAPINGS
+from planetnav_env.config import NOISE_STREAMS, EnvConfig
+from planetnav_env.errors import ConfigError
+from planetnav_env.registration import ENV_IDS
+from planetnav_train.algorithms import RLLIB_ALGOS, is_rllib_algo
+
+#: The repository checkout this package sits in: ``configs/`` and the default ``runs/`` live here.
+ROOT = Path(__file__).resolve().parents[1]
+DEFAULT_CONFIG = ROOT / "configs" / "cruise_ppo.yaml"
+DEFAULT_AGENTS = ("planner", "greedy", "periodic", "baseline", "random", "idle")
+EVAL_SEED = 10_000
+EVAL_EPISODES = 20
+REFERENCE = "greedy"
+
+
+@dataclass
+class EvalSettings:
+    """``eval:`` section: held-out episodes run after training (the trained model is added to ``agents``)."""
+
+    episodes: int = EVAL_EPISODES
+    seed: int = EVAL_SEED
+    agents: tuple[str, ...] = DEFAULT_AGENTS
+    episode_steps: int | None = None  # None: the env's own episode length
+    # None: the env's own; "per_step": common random numbers across the agents (EnvConfig.noise_streams)
+    noise_streams: str | None = None
+    reference: str = REFERENCE  # paired differences are taken against this agent (if it ran)
+
+
+@dataclass
+class TrainConfig:
+    """A training run, RL-Zoo style (see ``configs/README.md``)."""
+
+    name: str = "run"
+    algo: str = "ppo"
+    env_id: str | None = None
+    n_timesteps: int = 100_000
+    policy: str = "MlpPolicy"
+    n_envs: int = 4
+    seed: int = 0
+    torch_threads: int = 1
+    # "native": n_envs rows of the compiled vector env (planetnav_agents.vec_training); "dummy": n_envs single
+    # environments in SB3's DummyVecEnv (the path for the gain / pd_torque features and shaping).
+    vec_env: str = "native"
+    hyperparams: dict[str, Any] = field(default_factory=dict)
+    env: dict[str, Any] = field(default_factory=dict)
+    eval: EvalSettings = field(default_factory=EvalSettings)
+    features: list[str] = field(default_factory=list)  # extra observation features (agents/features.py)
+    shaping: dict[str, float] = field(default_factory=dict)  # potential-based, training only (agents/shaping)
+    action_repeat: int = 1  # environment steps per policy decision (planetnav_agents.features.ActionRepeat)
+    # target mode: "stay" / "move k places" (planetnav_agents.features.RelativeTargets)
+    relative_actions: bool = False
+    pretrain: dict[str, Any] = field(
+        default_factory=dict
+    )  # behaviour-cloning warm start (agents/pretrain.py)
+
+    def env_config(self) -> EnvConfig:
+        """The environment configuration: the ``env_id``'s defaults overridden by ``env``."""
+        base: dict[str, Any] = {}
+        if self.env_id is not None:
+            if self.env_id not in ENV_IDS:
+                raise ConfigError(f"env_id {self.env_id!r} is not one of {sorted(ENV_IDS)}")
+            base = dict(ENV_IDS[self.env_id])
+        return EnvConfig.from_dict({**base, **self.env})
+
+    def to_dict(self) -> dict[str, Any]:
+        out = dataclasses.asdict(self)
+        out["eval"]["agents"] = list(self.eval.agents)
+        return out
+
+
+_TOP_KEYS = {f.name for f in dataclasses.fields(TrainConfig)}
+_EVAL_KEYS = {f.name for f in dataclasses.fields(EvalSettings)}
+
+
+def _check_keys(data: Mapping[str, Any], known: set[str], where: str) -> None:
+    unknown = sorted(set(data) - known)
+    if unknown:
+        raise ConfigError(f"{where}: unknown key(s) {unknown}; known keys: {sorted(known)}")
+
+
+def parse_config(data: Mapping[str, Any] | None, name: str = "run") -> TrainConfig:
+    """Validate a configuration mapping (unknown keys raise :class:`ConfigError` naming them)."""
+    data = dict(data or {})
+    _check_keys(data, _TOP_KEYS, "config")
+    ev = data.pop("eval", None) or {}
+    if not isinstance(ev, Mapping):
+        raise ConfigError("config: 'eval' must be a mapping")
+    _check_keys(ev, _EVAL_KEYS, "config.eval")
+    eval_settings = EvalSettings(**{**ev, "agents": tuple(ev.get("agents", DEFAULT_AGENTS))})
+    for key in ("hyperparams", "env"):
+        if data.get(key) is None:
+            data[key] = {}
+        if not isinstance(data[key], Mapping):
+            raise ConfigError(f"config: {key!r} must be a mapping")
+        data[key] = dict(data[key])
+    data.setdefault("name", name)
+    tc = TrainConfig(**data, eval=eval_settings)
+    tc.algo = str(tc.algo).lower()
+    if tc.algo not in ALGORITHMS and not is_rllib_algo(tc.algo):
+        raise ConfigError(f"config: algo {tc.algo!r} is not one of {[*ALGORITHMS, *RLLIB_ALGOS]}")
+    for key in ("n_timesteps", "n_envs", "torch_threads", "action_repeat"):
+        value = getattr(tc, key)
+        if not isinstance(value, int) or isinstance(value, bool) or value < 1:
+            raise ConfigError(f"config: {key} must be a positive integer, got {value!r}")
+    if tc.vec_env not in ("native", "dummy"):
+        raise ConfigError(f"config: vec_env must be 'native' or 'dummy', got {tc.vec_env!r}")
+    if eval_settings.episodes < 1:
+        raise ConfigError(f"config.eval: episodes must be >= 1, got {eval_settings.episodes!r}")
+    if eval_settings.noise_streams is not None and eval_settings.noise_streams not in NOISE_STREAMS:
+        raise ConfigError(
+            f"config.eval: noise_streams must be one of {NOISE_STREAMS}, got {eval_settings.noise_streams!r}"
+        )
+    _check_hyperparams(tc)
+    tc.env_config()  # validate the env section now, not after training
+    try:
+        tc.features = list(check_features(tc.features or []))
+    except ValueError as exc:
+        raise ConfigError(f"config: features: {exc}") from None
+    if not isinstance(tc.relative_actions, bool):
+        raise ConfigError(f"config: relative_actions must be true or false, got {tc.relative_actions!r}")
+    tc.pretrain = dict(tc.pretrain or {})
+    if tc.pretrain:
+        _check_keys(
+            tc.pretrain,
+            {"teacher", "teacher_config", "episodes", "epochs", "keep_std", "dagger_rounds"},
+            "config.pretrain",
+        )
+        if not isinstance(tc.pretrain.setdefault("keep_std", False), bool):
+            raise ConfigError(
+                f"config.pretrain: keep_std must be true or false, got {tc.pretrain['keep_std']!r}"
+            )
+        if ("teacher" in tc.pretrain) == ("teacher_config" in tc.pretrain):
+            raise ConfigError(
+                "config.pretrain: give either 'teacher' (an agent spec) or 'teacher_config' (a training "
+                "YAML to train first), not both or neither"
+            )
+        if "teacher_config" in tc.pretrain:
+            given = tc.pretrain["teacher_config"]
+            if not resolve_config_path(given).is_file():
+                raise ConfigError(f"config.pretrain: teacher_config {given!r} not found")
+        for key, default, least in (("episodes", 4, 1), ("epochs", 20, 1), ("dagger_rounds", 0, 0)):
+            value = tc.pretrain.setdefault(key, default)
+            if isinstance(value, bool) or not isinstance(value, int) or value < least:
+                raise ConfigError(f"config.pretrain: {key} must be an integer >= {least}, got {value!r}")
+    tc.shaping = dict(tc.shaping or {})
+    _check_keys(tc.shaping, set(SHAPINGS), "config.shaping")
+    for key, weight in tc.shaping.items():
+        if isinstance(weight, bool) or not isinstance(weight, int | float) or not weight > 0:
+            raise ConfigError(f"config.shaping: {key} must be a positive weight, got {weight!r}")
+    return tc
+
+
+def resolve_config_path(path: str | Path) -> Path:
+    """A config path as given, or relative to the repository root (``configs/X.yaml`` from anywhere)."""
+    p = Path(path)
+    return p if p.is_absolute() or p.is_file() else ROOT / p
+
+
+def load_config(path: str | Path) -> TrainConfig:
+    """Read and validate a YAML training configuration; the run name defaults to the file's stem."""
+    path = Path(path)
+    if not path.is_file():
+        raise ConfigError(f"no configuration file {path}")
+    with open(path) as fh:
+        data = yaml.safe_load(fh) or {}
+    if not isinstance(data, Mapping):
+        raise ConfigError(f"{path}: expected a mapping at the top level")
+    try:
+        return parse_config(data, name=path.stem)
+    except ConfigError as exc:
+        raise ConfigError(f"{path}: {exc}") from None
+
+
+def _check_hyperparams(tc: TrainConfig) -> None:
+    if is_rllib_algo(tc.algo):  # RLlib's PPOConfig keywords (needs the [ray] extra)
+        from planetnav_rl.rllib import check_hyperparams
+
+        check_hyperparams(tc.hyperparams)
+        return
+    params = inspect.signature(algorithm_class(tc.algo).__init__).parameters
+    # Set by this script from other keys; a user value would be silently overwritten.
+    reserved = {"self", "policy", "env", "seed", "tensorboard_log", "verbose", "device", "_init_setup_model"}
+    known = set(params) - reserved
+    _check_keys(tc.hyperparams, known, f"config.hyperparams ({tc.algo})")

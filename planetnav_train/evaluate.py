@@ -1,0 +1,244 @@
+"""Evaluation on held-out seeds: every agent (rule-based, an SB3 model or an RLlib checkpoint) on the
+same seeds, metrics with 95 % t-intervals (:func:`evaluate_agent`), paired differences from a reference
+agent (:func:`add_paired`), the JSON written by the commands (:func:`results_json`), and the periodic
+schedule sweep (:func:`sweep_periodic`)."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from planetnav_agents import NotApplicableError, make_agent, not_applicable, requires_idle_action
+from planetnav_agents.stats import mean_ci, paired_difference
+from planetnav_env.config import EnvConfig
+from planetnav_train.config import REFERENCE
+
+#: Seeds of the periodic sweep: disjoint from the evaluation seeds (the chosen setting is not tuned on them).
+SWEEP_SEED = 20_000
+
+
+@dataclass
+class EvalResult:
+    """Metrics of one agent over held-out episodes, the per-episode values the statistics use, and the
+    mean curves used by the plots. ``skipped`` holds the reason when the agent could not run here."""
+
+    name: str
+    metrics: dict[str, Any]
+    pos_err_curve: np.ndarray
+    pos_sigma_curve: np.ndarray
+    episode_mean_err: np.ndarray = field(default_factory=lambda: np.zeros(0))  # km, one per seed
+    seeds: tuple[int, ...] = ()
+    skipped: str | None = None
+
+    @property
+    def ran(self) -> bool:
+        return self.skipped is None
+
+
+def _skipped(name: str, reason: str) -> EvalResult:
+    return EvalResult(name, {"skipped": reason}, np.zeros(0), np.zeros(0), skipped=reason)
+
+
+def _episode(agent: Any, env: Any, seed: int, on_step: Callable[[], None]) -> dict[str, Any]:
+    agent.reset(seed=seed)
+    obs, info = env.reset(seed=seed)
+    err, sig, vel, measured = [], [], [], 0
+    slews, ret, diverged = 0, 0.0, False
+    t0 = time.perf_counter()
+    while True:
+        obs, reward, terminated, truncated, info = env.step(agent.act(obs, info))
+        err.append(info["pos_err_km"])
+        sig.append(info["pos_sigma_km"])
+        vel.append(info["vel_err_km_s"])
+        measured += bool(info["measured"])
+        slews += bool(info["slewing"])
+        ret += float(reward)
+        on_step()
+        if terminated or truncated:
+            diverged = bool(terminated)
+            break
+    return {
+        "pos_err": np.asarray(err),
+        "pos_sigma": np.asarray(sig),
+        "mean_vel_err_km_s": float(np.mean(vel)),
+        "measured_fraction": measured / len(err),
+        "slews": slews,
+        "return": ret,
+        "diverged": diverged,
+        "seconds": time.perf_counter() - t0,
+    }
+
+
+def _padded_mean(curves: Sequence[np.ndarray]) -> np.ndarray:
+    n = max(len(c) for c in curves)
+    out = np.full((len(curves), n), np.nan)
+    for i, c in enumerate(curves):
+        out[i, : len(c)] = c
+    return np.nanmean(out, axis=0)
+
+
+def evaluate_agent(
+    spec: str, env_cfg: EnvConfig, episodes: int, seed: int, progress: bool = True
+) -> EvalResult:
+    """Run agent ``spec`` (name, ``name:key=value,...`` or model path) on seeds ``seed, seed+1, ...``.
+
+    Raises :class:`planetnav_agents.NotApplicableError` when the agent cannot act in this environment.
+    """
+    from tqdm.auto import tqdm
+
+    from planetnav_env.env import PlanetNavEnv
+
+    reason = not_applicable(spec, env_cfg)
+    if reason:
+        raise NotApplicableError(reason)
+    # Only the idle agent gets the extra "camera off" action: the others keep the trained action space.
+    overrides = {"idle_action": True} if requires_idle_action(spec) else {}
+    env = PlanetNavEnv(env_cfg, **overrides)
+    agent = make_agent(spec, env)
+    name = getattr(agent, "name", spec)
+    bar = tqdm(
+        total=episodes * env_cfg.episode_steps,
+        desc=f"eval {name}",
+        unit="step",
+        disable=not progress,
+        leave=False,
+    )
+    runs = [_episode(agent, env, seed + i, lambda: bar.update(1)) for i in range(episodes)]
+    bar.close()
+    env.close()
+    final = np.array([r["pos_err"][-1] for r in runs])
+    per_episode = np.array([np.mean(r["pos_err"]) for r in runs])
+    # The filter's own 1-sigma varies far less from seed to seed than the error drawn around it, so
+    # paired differences of it resolve what the error's cannot (docs/training.md, 100-seed checks).
+    per_episode_sigma = [float(np.mean(r["pos_sigma"])) for r in runs]
+    ci = mean_ci(per_episode)
+    metrics = {
+        "episodes": episodes,
+        "seed": seed,
+        "noise_streams": env_cfg.noise_streams,
+        "mean_pos_err_km": ci.mean,
+        "mean_pos_err_ci95_km": [ci.low, ci.high],
+        "final_pos_err_km": float(np.mean(final)),
+        "final_pos_err_std_km": float(np.std(final)),
+        "final_pos_err_ci95_km": [mean_ci(final).low, mean_ci(final).high],
+        "final_pos_sigma_km": float(np.mean([r["pos_sigma"][-1] for r in runs])),
+        "mean_pos_sigma_km": float(np.mean(per_episode_sigma)),
+        "mean_vel_err_km_s": float(np.mean([r["mean_vel_err_km_s"] for r in runs])),
+        "measured_fraction": float(np.mean([r["measured_fraction"] for r in runs])),
+        "slews": float(np.mean([r["slews"] for r in runs])),
+        "return": float(np.mean([r["return"] for r in runs])),
+        "diverged": int(sum(r["diverged"] for r in runs)),
+        "seconds_per_episode": float(np.mean([r["seconds"] for r in runs])),
+        "per_episode_mean_pos_err_km": per_episode.tolist(),
+        "per_episode_mean_pos_sigma_km": per_episode_sigma,
+    }
+    return EvalResult(
+        name=name,
+        metrics=metrics,
+        pos_err_curve=_padded_mean([r["pos_err"] for r in runs]),
+        pos_sigma_curve=_padded_mean([r["pos_sigma"] for r in runs]),
+        episode_mean_err=per_episode,
+        seeds=tuple(range(seed, seed + episodes)),
+    )
+
+
+def add_paired(results: Sequence[EvalResult], reference: str) -> EvalResult | None:
+    """Adds ``metrics["vs_reference"]`` (mean of the per-seed differences agent - reference of the mean
+    position error [km] with its paired 95 % t-interval, and the ratio of the means) to every agent that
+    ran on the reference's seeds. The reference is the result whose name is ``reference`` (or starts with
+    ``reference:``); returns it, or None when it did not run."""
+    ref = next(
+        (r for r in results if r.ran and (r.name == reference or r.name.startswith(reference + ":"))), None
+    )
+    if ref is None:
+        return None
+    for r in results:
+        if not r.ran or r.seeds != ref.seeds:
+            continue
+        d = paired_difference(r.episode_mean_err, ref.episode_mean_err)
+        ds = paired_difference(
+            r.metrics["per_episode_mean_pos_sigma_km"], ref.metrics["per_episode_mean_pos_sigma_km"]
+        )
+        r.metrics["vs_reference"] = {
+            "reference": ref.name,
+            "mean_diff_km": d.mean,
+            "ci95_km": [d.low, d.high],
+            "ratio": r.metrics["mean_pos_err_km"] / ref.metrics["mean_pos_err_km"],
+            "outside_noise": d.excludes_zero(),
+            "mean_sigma_diff_km": ds.mean,
+            "sigma_ci95_km": [ds.low, ds.high],
+        }
+    return ref
+
+
+def compare_agents(
+    specs: Sequence[str],
+    env_cfg: EnvConfig,
+    episodes: int,
+    seed: int,
+    progress: bool = True,
+    reference: str = REFERENCE,
+) -> list[EvalResult]:
+    """Evaluate each agent on the same seeds (so the same initial states and estimate errors); agents that
+    cannot act in this environment are kept as skipped rows with the reason; paired differences against
+    ``reference`` (see :func:`add_paired`)."""
+    results = []
+    for s in specs:
+        try:
+            results.append(evaluate_agent(s, env_cfg, episodes, seed, progress))
+        except NotApplicableError as exc:
+            results.append(_skipped(str(s), str(exc)))
+    add_paired(results, reference)
+    return results
+
+
+def results_json(results: Sequence[EvalResult]) -> dict[str, Any]:
+    """``{"agents": {name: metrics}, "skipped": {name: reason}}`` (names made unique if two agents share
+    one)."""
+    out: dict[str, Any] = {}
+    skipped: dict[str, str] = {}
+    for r in results:
+        if not r.ran:
+            skipped[r.name] = str(r.skipped)
+            continue
+        key, k = r.name, 2
+        while key in out:
+            key, k = f"{r.name}#{k}", k + 1
+        out[key] = r.metrics
+    return {"agents": out, "skipped": skipped}
+
+
+def evaluation_env(env_cfg: EnvConfig, episode_steps: int | None, noise_streams: str | None) -> EnvConfig:
+    """``env_cfg`` with the evaluation's overrides of the episode length and the noise streams (None:
+    keep the env's own)."""
+    overrides: dict[str, Any] = {}
+    if episode_steps:
+        overrides["episode_steps"] = episode_steps
+    if noise_streams:
+        overrides["noise_streams"] = noise_streams
+    return EnvConfig.from_dict(env_cfg.to_dict(), **overrides) if overrides else env_cfg
+
+
+DEFAULT_SWEEP_PERIODS = (10, 20, 30, 60, 120, 240)
+DEFAULT_SWEEP_CYCLES = ("0-1", "0-2", "1-2", "0-1-2", "0-2-1")
+
+
+def sweep_periodic(
+    env_cfg: EnvConfig,
+    periods: Sequence[int],
+    cycles: Sequence[str],
+    episodes: int,
+    seed: int,
+    progress: bool = True,
+) -> list[EvalResult]:
+    """Every ``periodic:period=P,cycle=C`` on the same seeds, best (lowest mean error) first, with paired
+    differences against the best."""
+    specs = [f"periodic:period={p},cycle={c}" for c in cycles for p in periods]
+    results = [evaluate_agent(s, env_cfg, episodes, seed, progress) for s in specs]
+    results.sort(key=lambda r: r.metrics["mean_pos_err_km"])
+    add_paired(results, results[0].name)
+    return results
