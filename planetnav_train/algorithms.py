@@ -22,6 +22,7 @@ def is_rllib_algo(algo: str) -> bool:
 
 
 def _activation(name: str) -> Any:
+    """A torch activation class by its name in ``policy_kwargs.activation_fn``."""
     import torch.nn as nn
 
     table = {"tanh": nn.Tanh, "relu": nn.ReLU, "elu": nn.ELU, "leaky_relu": nn.LeakyReLU, "gelu": nn.GELU}
@@ -50,8 +51,3 @@ def algo_kwargs(tc: TrainConfig) -> dict[str, Any]:
     if pk:
         kw["policy_kwargs"] = pk
     return kw
-
-
-# ---------------------------------------------------------------------------------------------------------
-# Training
-# ---------------------------------------------------------------------------------------------------------

@@ -91,6 +91,8 @@ def _eval_env_config(args: argparse.Namespace, specs: Sequence[str]) -> tuple[En
 
 
 def cmd_train(args: argparse.Namespace) -> int:
+    """``train``: train a configuration (SB3 or RLlib), then evaluate it with the rule-based agents and write
+    the report (unless ``--no-eval``)."""
     tc = load_config(args.config)
     if args.timesteps:
         tc.n_timesteps = args.timesteps
@@ -140,6 +142,7 @@ def _write_json(path: str, data: Any) -> None:
 
 
 def cmd_evaluate(args: argparse.Namespace) -> int:
+    """``evaluate``: one agent on held-out seeds; prints its row and optionally writes the JSON."""
     env_cfg, ev = _eval_env_config(args, [args.agent])
     episodes = args.episodes or ev.episodes
     seed = ev.seed if args.seed is None else args.seed
@@ -151,6 +154,7 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
 
 
 def cmd_compare(args: argparse.Namespace) -> int:
+    """``compare``: several agents on the same seeds in one table, with the JSON and the report on request."""
     env_cfg, ev = _eval_env_config(args, args.agents)
     episodes = args.episodes or ev.episodes
     seed = ev.seed if args.seed is None else args.seed
@@ -240,6 +244,7 @@ def cmd_agreement(args: argparse.Namespace) -> int:
 
 
 def cmd_sweep_periodic(args: argparse.Namespace) -> int:
+    """``sweep-periodic``: the grid of periodic schedules on the sweep seeds, best first."""
     env_cfg, _ = _eval_env_config(args, [])
     if env_cfg.action_mode != "target":
         raise ConfigError("sweep-periodic runs in action_mode 'target' (use a target-mode --config)")
@@ -260,6 +265,7 @@ def cmd_sweep_periodic(args: argparse.Namespace) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
+    """The command line of ``train.py``: one sub-command per ``cmd_*`` function."""
     p = argparse.ArgumentParser(
         description=__doc__.split("\n\n")[0], formatter_class=argparse.RawTextHelpFormatter
     )
@@ -350,6 +356,8 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    """Run ``train.py`` with ``argv`` (default: ``sys.argv``; none: the default training run); returns the
+    exit status (2 with the message on stderr for a configuration or input error)."""
     argv = list(sys.argv[1:] if argv is None else argv)
     if not argv:
         argv = ["train"]  # python train.py: the default training run

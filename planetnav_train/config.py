@@ -83,6 +83,7 @@ class TrainConfig:
         return EnvConfig.from_dict({**base, **self.env})
 
     def to_dict(self) -> dict[str, Any]:
+        """The configuration as plain YAML-able data (what ``config.yaml`` of a run holds)."""
         out = dataclasses.asdict(self)
         out["eval"]["agents"] = list(self.eval.agents)
         return out
@@ -93,6 +94,7 @@ _EVAL_KEYS = {f.name for f in dataclasses.fields(EvalSettings)}
 
 
 def _check_keys(data: Mapping[str, Any], known: set[str], where: str) -> None:
+    """Raise :class:`ConfigError` naming the keys of ``data`` that ``known`` lacks."""
     unknown = sorted(set(data) - known)
     if unknown:
         raise ConfigError(f"{where}: unknown key(s) {unknown}; known keys: {sorted(known)}")
@@ -192,13 +194,15 @@ def load_config(path: str | Path) -> TrainConfig:
 
 
 def _check_hyperparams(tc: TrainConfig) -> None:
+    """Reject ``hyperparams`` keys the algorithm's constructor does not take (or that are set from other
+    keys)."""
     if is_rllib_algo(tc.algo):  # RLlib's PPOConfig keywords (needs the [ray] extra)
         from planetnav_rl.rllib import check_hyperparams
 
         check_hyperparams(tc.hyperparams)
         return
     params = inspect.signature(algorithm_class(tc.algo).__init__).parameters
-    # Set by this script from other keys; a user value would be silently overwritten.
+    # Set by the training code from other keys; a user value would be silently overwritten.
     reserved = {"self", "policy", "env", "seed", "tensorboard_log", "verbose", "device", "_init_setup_model"}
     known = set(params) - reserved
     _check_keys(tc.hyperparams, known, f"config.hyperparams ({tc.algo})")

@@ -36,14 +36,17 @@ class EvalResult:
 
     @property
     def ran(self) -> bool:
+        """Whether the agent ran (it was not skipped)."""
         return self.skipped is None
 
 
 def _skipped(name: str, reason: str) -> EvalResult:
+    """The row of an agent that could not act in this environment, with the reason."""
     return EvalResult(name, {"skipped": reason}, np.zeros(0), np.zeros(0), skipped=reason)
 
 
 def _episode(agent: Any, env: Any, seed: int, on_step: Callable[[], None]) -> dict[str, Any]:
+    """One episode of ``agent`` from ``seed``: the per-step errors and the episode's totals."""
     agent.reset(seed=seed)
     obs, info = env.reset(seed=seed)
     err, sig, vel, measured = [], [], [], 0
@@ -74,6 +77,7 @@ def _episode(agent: Any, env: Any, seed: int, on_step: Callable[[], None]) -> di
 
 
 def _padded_mean(curves: Sequence[np.ndarray]) -> np.ndarray:
+    """Mean over curves of unequal length, step by step (the shorter ones padded with NaN)."""
     n = max(len(c) for c in curves)
     out = np.full((len(curves), n), np.nan)
     for i, c in enumerate(curves):

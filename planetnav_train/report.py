@@ -55,6 +55,7 @@ TABLE_HEAD = (
 
 
 def table_rows(results: Sequence[EvalResult]) -> list[list[str]]:
+    """One row of cells per agent, in the order of :data:`TABLE_HEAD` (skipped agents noted)."""
     rows = []
     for r in results:
         if not r.ran:
@@ -81,6 +82,7 @@ def table_rows(results: Sequence[EvalResult]) -> list[list[str]]:
 
 
 def _reference_name(results: Sequence[EvalResult]) -> str | None:
+    """The name of the reference agent of the paired columns, or None."""
     return next(
         (r.metrics["vs_reference"]["reference"] for r in results if "vs_reference" in r.metrics), None
     )
@@ -97,6 +99,7 @@ def table_head(results: Sequence[EvalResult]) -> list[str]:
 
 
 def markdown_table(results: Sequence[EvalResult]) -> str:
+    """The table as markdown, followed by the notes of the skipped agents."""
     head = table_head(results)
     lines = ["| " + " | ".join(head) + " |", "|" + "|".join("---" for _ in head) + "|"]
     lines += ["| " + " | ".join(row) + " |" for row in table_rows(results)]
@@ -110,6 +113,7 @@ def skipped_notes(results: Sequence[EvalResult]) -> list[tuple[str, str]]:
 
 
 def print_table(results: Sequence[EvalResult], title: str | None = None) -> None:
+    """Print the table (rich) and the notes of the skipped agents; ``title`` defaults to the seeds."""
     from rich.console import Console
     from rich.table import Table
 

@@ -19,6 +19,7 @@ from planetnav_train.envs import make_training_env
 
 
 def _nav_callback_class() -> type:
+    """The SB3 callback class (defined here so that SB3 is imported only when training)."""
     from stable_baselines3.common.callbacks import BaseCallback
 
     class NavMetricsCallback(BaseCallback):
