@@ -1,19 +1,19 @@
-"""Scale-out for planetnav on Ray: RLlib training (:mod:`planetnav_rl.rllib`), Tune sweeps
-(:mod:`planetnav_rl.tune`) and the Ray connection (:mod:`planetnav_rl.cluster`).
+"""Scale-out for planetnav on Ray: RLlib training (:mod:`planetnav_rl.rllib`, its ``hyperparams`` keys in
+:mod:`planetnav_rl.hyperparams`), Tune sweeps (:mod:`planetnav_rl.tune`) and the Ray connection
+(:mod:`planetnav_rl.cluster`).
 
 Needs the ``[ray]`` extra (``pip install -e ".[ray]"``). Importing this package does not import Ray:
 every Ray import is inside a function, so ``import planetnav_env, agents`` and the SB3 path of
 ``train.py`` work without it. Commands and cluster set-up: ``docs/scaling.md``.
 
-This package builds on :mod:`planetnav_train` (configuration, training envs, evaluation), never the other
-way at import time: ``planetnav_train`` hands a run to Ray only from inside its functions.
+This package builds on :mod:`planetnav_train` (configuration, training envs, evaluation). The other way,
+only functions of ``planetnav_train`` import from here (its command line hands a run to Ray; its
+configuration checks :mod:`planetnav_rl.hyperparams`), and neither this file nor that module imports
+``planetnav_train``, so the imports form no circle. The ``algo`` names that train with RLlib are
+:data:`planetnav_train.config.RLLIB_ALGOS` (:func:`planetnav_train.config.is_rllib_algo`).
 """
 
 from __future__ import annotations
-
-# The algorithm names belong to the training package (its configuration validates them); kept here too,
-# where they were first published.
-from planetnav_train.algorithms import RLLIB_ALGOS, is_rllib_algo
 
 
 def require_ray(what: str) -> None:
@@ -29,4 +29,4 @@ def require_ray(what: str) -> None:
         )
 
 
-__all__ = ["RLLIB_ALGOS", "is_rllib_algo", "require_ray"]
+__all__ = ["require_ray"]

@@ -50,8 +50,8 @@ from planetnav_agents.sb3 import algorithm_class
 from planetnav_env.config import EnvConfig
 from planetnav_env.errors import ConfigError
 from planetnav_rl import require_ray
-from planetnav_train.algorithms import algo_kwargs, is_rllib_algo
-from planetnav_train.config import ROOT, TrainConfig, parse_config
+from planetnav_train.algorithms import algo_kwargs
+from planetnav_train.config import ROOT, TrainConfig, is_rllib_algo, parse_config
 from planetnav_train.envs import make_training_env
 from planetnav_train.evaluate import evaluate_agent
 

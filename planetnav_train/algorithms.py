@@ -1,24 +1,14 @@
-"""Which algorithms train, and their constructor arguments: the RLlib names (:data:`RLLIB_ALGOS`; the SB3
-ones are :data:`planetnav_agents.sb3.ALGORITHMS`) and :func:`algo_kwargs`, the SB3 keyword arguments from a
-configuration's ``hyperparams`` (activation names, RL-Zoo ``lin_`` schedules).
+"""The SB3 algorithm's constructor arguments from a configuration's ``hyperparams``: :func:`algo_kwargs`
+(activation names, RL-Zoo ``lin_`` schedules). Which algorithms a configuration may name, and which
+``hyperparams`` keys each takes, is checked by :mod:`planetnav_train.config`.
 """
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from planetnav_env.errors import ConfigError
-
-if TYPE_CHECKING:  # config.py imports this module at run time (is_rllib_algo): only the type from there
-    from planetnav_train.config import TrainConfig
-
-#: ``algo`` values of a training configuration that train with RLlib instead of Stable-Baselines3.
-RLLIB_ALGOS = ("rllib_ppo",)
-
-
-def is_rllib_algo(algo: str) -> bool:
-    """Whether ``algo`` (any case) names an RLlib algorithm (see :data:`RLLIB_ALGOS`)."""
-    return str(algo).lower() in RLLIB_ALGOS
+from planetnav_train.config import TrainConfig
 
 
 def _activation(name: str) -> Any:

@@ -43,7 +43,6 @@ from planetnav_agents.sb3 import resolve_model_path
 from planetnav_agents.stats import paired_difference
 from planetnav_env.config import NOISE_STREAMS, EnvConfig
 from planetnav_env.errors import ConfigError
-from planetnav_train.algorithms import is_rllib_algo
 from planetnav_train.config import (
     DEFAULT_AGENTS,
     DEFAULT_CONFIG,
@@ -52,6 +51,7 @@ from planetnav_train.config import (
     REFERENCE,
     ROOT,
     EvalSettings,
+    is_rllib_algo,
     load_config,
     parse_config,
 )

@@ -22,11 +22,13 @@ from planetnav_agents.shaping import SHAPINGS
 from planetnav_env.config import NOISE_STREAMS, EnvConfig
 from planetnav_env.errors import ConfigError
 from planetnav_env.registration import ENV_IDS
-from planetnav_train.algorithms import RLLIB_ALGOS, is_rllib_algo
 
 #: The repository checkout this package sits in: ``configs/`` and the default ``runs/`` live here.
 ROOT = Path(__file__).resolve().parents[1]
 DEFAULT_CONFIG = ROOT / "configs" / "cruise_ppo.yaml"
+#: ``algo`` values of a training configuration that train with RLlib (:mod:`planetnav_rl.rllib`) instead of
+#: Stable-Baselines3 (:data:`planetnav_agents.sb3.ALGORITHMS`).
+RLLIB_ALGOS = ("rllib_ppo",)
 DEFAULT_AGENTS = ("planner", "greedy", "periodic", "baseline", "random", "idle")
 EVAL_SEED = 10_000
 EVAL_EPISODES = 20
@@ -91,6 +93,11 @@ class TrainConfig:
 
 _TOP_KEYS = {f.name for f in dataclasses.fields(TrainConfig)}
 _EVAL_KEYS = {f.name for f in dataclasses.fields(EvalSettings)}
+
+
+def is_rllib_algo(algo: str) -> bool:
+    """Whether ``algo`` (any case) names an RLlib algorithm (see :data:`RLLIB_ALGOS`)."""
+    return str(algo).lower() in RLLIB_ALGOS
 
 
 def _check_keys(data: Mapping[str, Any], known: set[str], where: str) -> None:
@@ -197,7 +204,7 @@ def _check_hyperparams(tc: TrainConfig) -> None:
     """Reject ``hyperparams`` keys the algorithm's constructor does not take (or that are set from other
     keys)."""
     if is_rllib_algo(tc.algo):  # RLlib's PPOConfig keywords (needs the [ray] extra)
-        from planetnav_rl.rllib import check_hyperparams
+        from planetnav_rl.hyperparams import check_hyperparams
 
         check_hyperparams(tc.hyperparams)
         return
