@@ -28,6 +28,7 @@ from planetnav_env import quaternion as qt
 from planetnav_env.attitude.pointing import pd_torque
 from planetnav_env.bodies import AU_KM, body
 from planetnav_env.config import EnvConfig
+from planetnav_env.core import layout as L
 from planetnav_env.dynamics.attitude import AttitudeConfig
 
 _DEG = math.pi / 180.0
@@ -57,22 +58,22 @@ class ParsedObservation:
     @property
     def planet_distance_km(self) -> np.ndarray:
         """Estimated distance to each planet [km], (P,)."""
-        return AU_KM * 10.0 ** self.planets[:, 3]
+        return AU_KM * 10.0 ** self.planets[:, L.TF_LOG_DISTANCE]
 
     @property
     def planet_los_inertial(self) -> np.ndarray:
         """Estimated unit line of sight to each planet, inertial axes (P, 3) (body block rotated by q)."""
-        return qt.rotate_body_to_inertial(self.q, self.planets[:, 0:3])
+        return qt.rotate_body_to_inertial(self.q, self.planets[:, L.TF_DIR : L.TF_DIR + 3])
 
     @property
     def planet_observable(self) -> np.ndarray:
         """(P,) bool: measurable if pointed at (Sun exclusion, occultation, size), per the env."""
-        return self.planets[:, 5] > 0.5
+        return self.planets[:, L.TF_OBSERVABLE] > 0.5
 
     @property
     def pulsar_los_inertial(self) -> np.ndarray:
         """Unit direction of each pulsar, inertial axes (Q, 3)."""
-        return qt.rotate_body_to_inertial(self.q, self.pulsars[:, 0:3])
+        return qt.rotate_body_to_inertial(self.q, self.pulsars[:, L.TF_DIR : L.TF_DIR + 3])
 
     @property
     def boresight_inertial(self) -> np.ndarray:
@@ -152,11 +153,64 @@ def unwrapped_config(env: gym.Env) -> EnvConfig:
     return cfg
 
 
+class PointingLaw:
+    """The agent-side PD law of a configuration over N rows: the wheel torque that points the camera
+    toward given directions, as a torque action.
+
+    Gains for a zero-order hold of ``step_s``: the env applies the agent's torque unchanged for the whole
+    step, so the 1-s-substep gains of the env's own PD law (k_a=0.02, k_w=1) would overshoot wildly. For
+    a double integrator J theta'' = u held over T, u = -J (theta / T^2 + 1.5 omega / T) is deadbeat (both
+    closed-loop poles at 0). With S ~ 2 theta this is k_a = J / (2 T^2), k_w = 1.5 J / T, taken at the
+    mean moment (the per-axis ratio 0.8-1.25 keeps the poles inside the unit circle).
+
+    What :meth:`TargetAgent.torque_toward` commands in torque mode and what the ``pd_torque`` feature
+    (:class:`planetnav_agents.features.FeatureBatch`) gives per planet: one formula.
+    """
+
+    def __init__(self, cfg: EnvConfig) -> None:
+        att = cfg.attitude
+        self._att_config = AttitudeConfig(inertia=att.inertia)
+        t = cfg.step_s
+        j_mean = float(np.mean(att.inertia))
+        self.k_a = j_mean / (2.0 * t * t)  # [N m]
+        self.k_w = 1.5 * j_mean / t  # [N m s]
+        self._tau_max = att.wheel_torque_limit
+        self._torque_scale = cfg.torque_action_scale
+        self._h_max = att.wheel_momentum_capacity
+
+    def torque_actions(
+        self,
+        q: np.ndarray,
+        rates_rad_s: np.ndarray,
+        wheel_fraction: np.ndarray,
+        directions: np.ndarray,
+        roll_ref: np.ndarray,
+    ) -> np.ndarray:
+        """(N, K, 3) float32 torque actions in [-1, 1] toward K directions per row: the PD torque divided
+        by ``wheel_torque_limit * torque_action_scale``, clipped.
+
+        q (N, 4): star-tracker attitude (unit, body->inertial, scalar first); rates_rad_s (N, 3): reported
+        body rates [rad/s]; wheel_fraction (N, 3): wheel momentum / capacity; directions (N, K, 3):
+        inertial directions to point the boresight at (any length > 0); roll_ref (N, 3): the vector that
+        fixes the roll (the estimated position [km])."""
+        u = pd_torque(
+            q[:, None, :],
+            rates_rad_s[:, None, :],
+            directions,
+            self._att_config,
+            h_w=(wheel_fraction * self._h_max)[:, None, :],
+            roll_ref_inertial=roll_ref[:, None, :],
+            k_a=self.k_a,
+            k_w=self.k_w,
+        )
+        return np.clip(u / (self._tau_max * self._torque_scale), -1.0, 1.0).astype(np.float32)
+
+
 class TargetAgent(Agent):
     """An agent that chooses a planet each step; :meth:`act` encodes it for the environment's action mode.
 
     Subclasses implement :meth:`choose_target`. ``torque`` mode uses the thesis's PD law on the agent side
-    with gains re-tuned for a torque held over a whole environment step (see :meth:`torque_toward`).
+    with gains re-tuned for a torque held over a whole environment step (:class:`PointingLaw`).
     """
 
     def __init__(self, env: gym.Env) -> None:
@@ -166,21 +220,7 @@ class TargetAgent(Agent):
         self.n_planets = cfg.n_planets
         self.n_targets = cfg.n_targets
         self.radii = np.array([body(p).radius for p in cfg.planets])
-        att = cfg.attitude
-        self._att_config = AttitudeConfig(inertia=att.inertia)
-        # Gains for a zero-order hold of step_s: the env applies the agent's torque unchanged for the whole
-        # step, so the 1-s-substep gains of the env's own PD law (k_a=0.02, k_w=1) would overshoot wildly.
-        # For a double integrator J theta'' = u held over T, u = -J (theta / T^2 + 1.5 omega / T) is
-        # deadbeat (both closed-loop poles at 0). With S ~ 2 theta this is k_a = J / (2 T^2),
-        # k_w = 1.5 J / T, taken at the mean moment (the per-axis ratio 0.8-1.25 keeps the poles inside
-        # the unit circle).
-        t = cfg.step_s
-        j_mean = float(np.mean(att.inertia))
-        self._k_a = j_mean / (2.0 * t * t)
-        self._k_w = 1.5 * j_mean / t
-        self._tau_max = att.wheel_torque_limit
-        self._torque_scale = cfg.torque_action_scale
-        self._h_max = att.wheel_momentum_capacity
+        self.pointing = PointingLaw(cfg)
 
     def choose_target(self, obs: ParsedObservation, info: dict[str, Any]) -> int:
         """Index of the target: a planet (order of ``config.planets``), then the pulsars."""
@@ -211,14 +251,5 @@ class TargetAgent(Agent):
         wheel torque as a fraction of the limit, divided by ``config.torque_action_scale``, clipped."""
         x_est = self.estimate(obs, info)
         direction = obs.planet_los_inertial[idx]
-        u = pd_torque(
-            obs.q,
-            obs.rates_rad_s,
-            direction,
-            self._att_config,
-            h_w=obs.wheel_fraction * self._h_max,
-            roll_ref_inertial=x_est[:3],
-            k_a=self._k_a,
-            k_w=self._k_w,
-        )
-        return np.clip(u / (self._tau_max * self._torque_scale), -1.0, 1.0).astype(np.float32)
+        one_row = (obs.q[None], obs.rates_rad_s[None], obs.wheel_fraction[None], direction[None, None])
+        return self.pointing.torque_actions(*one_row, x_est[None, :3])[0, 0]

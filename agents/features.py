@@ -1,10 +1,15 @@
 """Extra observation features for learned policies, computed from what the spacecraft knows.
 
-One implementation serves training and evaluation: :class:`FeatureState` appends the features to the
-environment's box observation; :class:`NavFeatures` is the Gymnasium wrapper ``train.py`` puts around each
-training environment (config key ``features``), and :class:`planetnav_agents.sb3.SB3Agent` rebuilds the
-same state
-from the run's ``config.yaml`` so that a saved policy sees identical inputs when it is evaluated.
+One implementation serves training and evaluation: :class:`FeatureBatch` appends the features to N rows
+of box observations; :class:`planetnav_agents.batch_wrappers.FeatureRows` drives it over the rows of the
+training env (config key ``features``; N rows of the vector env, or one single env), and
+:class:`planetnav_agents.sb3.SB3Agent` rebuilds the same state (N = 1) from the run's ``config.yaml`` so
+that a saved policy sees identical inputs when it is evaluated. The relative-action and action-repeat
+formulas here are likewise the ones :mod:`planetnav_agents.batch_wrappers` runs.
+
+Deprecated names (a ``DeprecationWarning`` on construction, same behaviour): ``FeatureState`` (use
+``FeatureBatch.for_env``), ``NavFeatures``, ``ActionRepeat``, ``RelativeTargets`` (the N = 1 stacks of
+:mod:`planetnav_agents.batch_wrappers`; use ``single_training_env``).
 
 ========================== ===========================================================================
 feature                    values appended (``P`` planets), each in [0, 1] unless stated
@@ -16,12 +21,11 @@ feature                    values appended (``P`` planets), each in [0, 1] unles
 ``gain``                   per planet: the greedy agent's predicted reduction of trace(P_rr) per step
                            over its horizon (3 steps), slew time counted, relative to the best
                            planet's (1 = greedy's choice), -1 if not observable
-                           (:func:`planetnav_agents.gain.planet_gains`). Compiled, a few microseconds per row;
-                           the vector training env computes it on arrays.
+                           (:func:`planetnav_agents.gain.planet_gains`). Compiled, a few microseconds per
+                           row.
 ``pd_torque``              per planet, 3 values in [-1, 1]: the wheel torque (fraction of the limit) of
                            the agent-side PD law toward that planet's estimated direction
-                           (:meth:`planetnav_agents.base.TargetAgent.torque_toward`, what ``baseline``
-                           commands in
+                           (:class:`planetnav_agents.base.PointingLaw`, what ``baseline`` commands in
                            torque mode). For torque modes: the policy chooses and blends pointing
                            commands instead of rediscovering attitude control.
 ========================== ===========================================================================
@@ -32,6 +36,7 @@ These are inputs, not rewards: the reward stays the environment's navigation err
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Sequence
 from typing import Any
 
@@ -39,8 +44,12 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from planetnav_agents.base import parse_observation, unwrapped_config, with_planet_choice
+from planetnav_agents.base import unwrapped_config, with_planet_choice
 from planetnav_agents.gain import DEFAULT_HORIZON, SlewModel, planet_gains
+from planetnav_env import quaternion as qt
+from planetnav_env.core import layout as L
+
+_DEG = math.pi / 180.0  # the observation's rates are in deg/s
 
 FEATURES = ("since_measured", "gain", "pd_torque")
 #: Scale of ``since_measured`` [steps]: a constant (one cruise day of 60-s steps), not the episode length,
@@ -82,9 +91,8 @@ def advance_since_measured(since: np.ndarray, measured: np.ndarray, target_index
 
     since: (N, P) float counts (``inf``: not measured this episode). measured: (N,) bool, the step's
     ``info["measured"]``. target_index: (N,) int, the index in ``config.planets`` of what was measured
-    (anything outside ``0 .. P - 1``, e.g. -1 or a pulsar, resets nothing). The one formula for the
-    single-env wrapper (:class:`FeatureState`, N = 1) and the vector training env
-    (``planetnav_agents.vec_training``).
+    (anything outside ``0 .. P - 1``, e.g. -1 or a pulsar, resets nothing). Called by
+    :meth:`FeatureBatch.advance`.
     """
     since += 1.0
     n_planets = since.shape[1]
@@ -100,102 +108,160 @@ def since_measured_values(since: np.ndarray) -> np.ndarray:
     return np.where(np.isfinite(since), np.minimum(scaled, 1.0), 1.0).astype(np.float32)
 
 
-class FeatureState:
-    """Per-episode state of the features of ``env`` (a planetnav environment, box observation).
+def check_action_repeat(repeat: Any) -> int:
+    """``repeat`` (environment steps per policy decision), validated: ``ValueError`` naming it unless an
+    integer >= 1.
 
-    Call :meth:`reset` at the start of each episode, then :meth:`augment` with every observation and the
-    ``info`` returned with it (including the first one, from ``env.reset``).
+    Why a repeat: the payoff of a target switch builds up over tens of steps, and a policy that decides
+    every step has to express "dwell ~10 steps" through its own timing; with one decision per dwell the
+    best fixed schedules (``periodic:period=10``) become a two-state rule the one-hot current target
+    already carries, and the credit-assignment horizon shrinks ``repeat`` times. The reward is still the
+    navigation error, summed over the held steps; an episode that ends inside a hold ends the decision.
+    """
+    if isinstance(repeat, bool) or not isinstance(repeat, int | np.integer) or repeat < 1:
+        raise ValueError(f"action_repeat must be an integer >= 1, got {repeat!r}")
+    return int(repeat)
+
+
+def step_columns(
+    info: dict[str, Any], planets: Sequence[str]
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """One step's ``info`` (single env) as the columns of one row that the features read: measured (1,)
+    bool, target index (1,) in ``planets`` (-1 for none or a pulsar), the filter estimate (1, 6)
+    [km, km/s] and covariance (1, 6, 6)."""
+    target = info.get("target")
+    index = planets.index(target) if target in planets else -1
+    filt = info.get("filter") or {}
+    x = np.reshape(filt["x"], (1, 6)) if "x" in filt else None
+    p = np.reshape(filt["P"], (1, 6, 6)) if "P" in filt else None
+    return np.array([bool(info.get("measured"))]), np.array([index]), x, p
+
+
+class FeatureBatch:
+    """The observation features of N rows of a configuration: their per-episode state and values.
+
+    The one implementation: :class:`planetnav_agents.batch_wrappers.FeatureRows` drives it over the
+    rows of a training env (N rows of the vector env, or one single env), and agents that rebuild a
+    policy's inputs (``planetnav_agents.sb3``, ``planetnav_agents.pretrain``) use it with N = 1 through
+    :meth:`augment_info`.
+
+    cfg: the rows' :class:`EnvConfig` (``observation="box"``); params: their compiled parameter record
+    (``env.core_params``), for ``gain``'s what-if updates.
     """
 
-    def __init__(self, env: gym.Env, features: Sequence[str]) -> None:
-        cfg = unwrapped_config(env)
+    def __init__(self, cfg: Any, params: Any, features: Sequence[str], num_rows: int = 1) -> None:
+        from planetnav_agents.base import PointingLaw
+
         if cfg.observation != "box":
-            raise ValueError("observation features need observation='box'")
-        self.env = env
+            raise ValueError(f"observation features need observation='box', got {cfg.observation!r}")
         self.features = check_features(features)
         self.planets = cfg.planets
         self.n_planets = cfg.n_planets
-        self._gain = GainFeature(cfg, env.unwrapped.core.params) if "gain" in self.features else None
-        self._pointer = None
-        if "pd_torque" in self.features:
-            from planetnav_agents.base import TargetAgent
-
-            self._pointer = TargetAgent(env)
+        self.num_rows = int(num_rows)
+        self.layout = L.ObservationLayout(cfg.n_planets, cfg.n_pulsars)
+        self._gain = GainFeature(cfg, params) if "gain" in self.features else None
+        self._pointing = PointingLaw(cfg) if "pd_torque" in self.features else None
+        #: True when :meth:`augment` needs the filter's state (``gain``, ``pd_torque``).
+        self.needs_filter = self._gain is not None or self._pointing is not None
         self.n_extra = self.n_planets * sum(_WIDTH[f] for f in self.features)
-        self.reset()
+        self._since = np.full((self.num_rows, self.n_planets), np.inf)  # steps since last measured
+        self._all = np.ones(self.num_rows, dtype=bool)
 
-    def reset(self) -> None:
-        self._since = np.full((1, self.n_planets), np.inf)  # steps since last measured
+    @classmethod
+    def for_env(cls, env: gym.Env, features: Sequence[str], num_rows: int = 1) -> FeatureBatch:
+        """The features of ``env`` (a planetnav environment, wrapped or not)."""
+        return cls(unwrapped_config(env), env.unwrapped.core_params, features, num_rows)
+
+    def reset(self, mask: np.ndarray | None = None) -> None:
+        """Start a new episode in the rows of ``mask`` (all rows when None)."""
+        self._since[self._all if mask is None else np.asarray(mask, dtype=bool)] = np.inf
+
+    def advance(self, measured: np.ndarray, targets: np.ndarray, rows: np.ndarray) -> None:
+        """One environment step (or a reset's first observation) seen by the ``rows`` (bool (N,)):
+        ``measured`` (N,) bool and ``targets`` (N,) target indices are every row's, as the step left them."""
+        rows = np.asarray(rows, dtype=bool)
+        since = self._since[rows]
+        advance_since_measured(since, np.asarray(measured)[rows], np.asarray(targets)[rows])
+        self._since[rows] = since
 
     def observation_space(self, base: spaces.Box) -> spaces.Box:
         """``base`` with :attr:`n_extra` more entries."""
         return spaces.Box(-np.inf, np.inf, (base.shape[0] + self.n_extra,), dtype=np.float32)
 
-    def augment(self, observation: np.ndarray, info: dict[str, Any]) -> np.ndarray:
-        """The observation with the features appended (float32); advances the per-episode state."""
-        target = info.get("target")
-        index = self.planets.index(target) if target in self.planets else -1
-        advance_since_measured(self._since, np.array([bool(info.get("measured"))]), np.array([index]))
-        parts = [np.asarray(observation, dtype=np.float32).reshape(-1)]
+    def augment(self, observations: np.ndarray, x: np.ndarray | None, p: np.ndarray | None) -> np.ndarray:
+        """Observations (N, D) with the features appended in the configured order, float32 (N, D + extra).
+
+        x (N, 6) [km, km/s], p (N, 6, 6): the filter's state at the observations (needed when
+        :attr:`needs_filter`). Reads the per-episode state; :meth:`advance` moves it."""
+        obs = np.asarray(observations, dtype=np.float32)
+        if not self.features:
+            return obs
+        n = obs.shape[0]
+        parts = [obs]
         for f in self.features:
             if f == "since_measured":
-                parts.append(since_measured_values(self._since)[0])
+                parts.append(since_measured_values(self._since))
             elif f == "gain":
-                filt = info["filter"]
-                parts.append(
-                    self._gain(np.reshape(observation, (1, -1)), np.reshape(filt["x"], (1, 6)),
-                               np.reshape(filt["P"], (1, 6, 6)))[0]
-                )
-            elif f == "pd_torque":
-                parsed = parse_observation(observation, self.env)
-                for i in range(self.n_planets):
-                    parts.append(self._pointer.torque_toward(parsed, info, i).astype(np.float32))
-        return np.concatenate(parts)
+                parts.append(self._gain(obs, x, p))
+            else:  # pd_torque: planet-major, 3 torque components per planet
+                q, rates, wheel, planets = observation_columns(obs, self.layout)
+                directions = qt.rotate_body_to_inertial(q[:, None, :], planets[:, :, L.TF_DIR : L.TF_DIR + 3])
+                torques = self._pointing.torque_actions(q, rates, wheel, directions, np.asarray(x)[:, :3])
+                parts.append(torques.reshape(n, -1))
+        return np.concatenate(parts, axis=1)
+
+    def augment_info(self, observation: Any, info: dict[str, Any]) -> np.ndarray:
+        """N = 1: the observation (D,) with the features appended (D + extra,), advancing the state with
+        the step's ``info`` (call it with every observation, the reset's included)."""
+        if self.num_rows != 1:
+            raise ValueError(f"augment_info is the one-row form; this batch has {self.num_rows} rows")
+        measured, target, x, p = step_columns(info, self.planets)
+        self.advance(measured, target, self._all)
+        return self.augment(np.reshape(observation, (1, -1)), x, p)[0]
 
 
-class NavFeatures(gym.Wrapper):
-    """Appends :class:`FeatureState`'s features to a planetnav environment's box observation."""
+def observation_columns(
+    observations: np.ndarray, layout: L.ObservationLayout
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Rows of box observations (N, D) in the units of :meth:`PlanetNavEnv.decode_observation` (the same
+    operations, per row): unit star-tracker quaternion (N, 4), reported rates (N, 3) [rad/s], wheel
+    momentum / capacity (N, 3), planet blocks (N, P, 7) (columns ``layout.TF_*``), float64."""
+    obs = np.asarray(observations, dtype=float)
+    blocks = {name: (a, b) for name, a, b, _ in layout.blocks}
+    a, b = blocks["attitude"]
+    attitude = obs[:, a:b]
+    q = attitude / np.linalg.norm(attitude, axis=-1, keepdims=True)
+    a, b = blocks["rates"]
+    rates = obs[:, a:b] * _DEG
+    a, b = blocks["wheel_momentum"]
+    wheel = obs[:, a:b]
+    a, b = blocks["planets"]
+    planets = obs[:, a:b].reshape(obs.shape[0], layout.n_planets, L.TARGET_FEATURES)
+    return q, rates, wheel, planets
+
+
+class FeatureState(FeatureBatch):
+    """Deprecated: :class:`FeatureBatch` for one environment (``FeatureBatch.for_env(env, features)``,
+    :meth:`FeatureBatch.augment_info`). Behaves as before: ``reset()``, ``augment(observation, info)``."""
 
     def __init__(self, env: gym.Env, features: Sequence[str]) -> None:
-        super().__init__(env)
-        self.state = FeatureState(env, features)
-        self.observation_space = self.state.observation_space(env.observation_space)
+        warnings.warn(
+            "planetnav_agents.features.FeatureState is deprecated; use FeatureBatch.for_env(env, features) "
+            "and its augment_info",
+            DeprecationWarning,
+            stacklevel=2,
+        )
+        super().__init__(unwrapped_config(env), env.unwrapped.core_params, features, 1)
+        self.env = env
 
-    def reset(self, *, seed: int | None = None, options: dict | None = None):
-        obs, info = self.env.reset(seed=seed, options=options)
-        self.state.reset()
-        return self.state.augment(obs, info), info
+    def augment(self, observation: Any, info: Any, p: Any = None) -> np.ndarray:  # type: ignore[override]
+        """The observation with the features appended (float32); advances the per-episode state."""
+        return self.augment_info(observation, info)
 
-    def step(self, action: Any):
-        obs, reward, terminated, truncated, info = self.env.step(action)
-        return self.state.augment(obs, info), reward, terminated, truncated, info
-
-
-class ActionRepeat(gym.Wrapper):
-    """Holds each action for ``repeat`` environment steps (rewards summed): one decision per ``repeat``
-    steps. The reward is still the navigation error, summed over the held steps; an episode that ends
-    inside a hold ends the decision there.
-
-    Why: the payoff of a target switch builds up over tens of steps, and a policy that decides every step
-    has to express "dwell ~10 steps" through its own timing; with one decision per dwell the best fixed
-    schedules (``periodic:period=10``) become a two-state rule the one-hot current target already
-    carries, and the credit-assignment horizon shrinks ``repeat`` times.
-    """
-
-    def __init__(self, env: gym.Env, repeat: int) -> None:
-        super().__init__(env)
-        if isinstance(repeat, bool) or not isinstance(repeat, int) or repeat < 1:
-            raise ValueError(f"action_repeat must be an integer >= 1, got {repeat!r}")
-        self.repeat = repeat
-
-    def step(self, action: Any):
-        total = 0.0
-        for _ in range(self.repeat):
-            obs, reward, terminated, truncated, info = self.env.step(action)
-            total += float(reward)
-            if terminated or truncated:
-                break
-        return obs, total, terminated, truncated, info
+    def augment_info(self, observation: Any, info: dict[str, Any]) -> np.ndarray:
+        measured, target, x, p = step_columns(info, self.planets)
+        self.advance(measured, target, self._all)
+        return FeatureBatch.augment(self, np.reshape(observation, (1, -1)), x, p)[0]
 
 
 def relative_targets(actions: np.ndarray, current: np.ndarray, n_targets: int) -> np.ndarray:
@@ -279,28 +345,14 @@ def check_relative_config(cfg: Any) -> None:
         )
 
 
-class RelativeTargets(gym.Wrapper):
-    """Target choice with relative actions (:func:`relative_action`): "stay" or "move k places".
+#: Deprecated names of the single-env wrappers, now N = 1 stacks of :mod:`planetnav_agents.batch_wrappers`
+#: (resolved lazily: that module imports this one).
+_DEPRECATED_WRAPPERS = ("NavFeatures", "ActionRepeat", "RelativeTargets")
 
-    Why: a policy that finds switching worthwhile but cannot yet tell *when* spreads its probability
-    over the planets, and its argmax then stares at one (``docs/training.md``); in relative form the
-    same indifference has the argmax "switch", a periodic schedule. The environment, its reward and what
-    the camera can do are unchanged; only the encoding of the choice differs.
-    """
 
-    def __init__(self, env: gym.Env) -> None:
-        super().__init__(env)
-        cfg = unwrapped_config(env)
-        check_relative_config(cfg)
-        self.n_planets = cfg.n_planets
-        self._current = -1
+def __getattr__(name: str) -> Any:
+    if name in _DEPRECATED_WRAPPERS:
+        from planetnav_agents import batch_wrappers
 
-    def reset(self, *, seed: int | None = None, options: dict | None = None):
-        obs, info = self.env.reset(seed=seed, options=options)
-        self._current = -1
-        return obs, info
-
-    def step(self, action: Any):
-        env_action, self._current = relative_action(action, self._current, self.n_planets)
-        obs, reward, terminated, truncated, info = self.env.step(env_action)
-        return obs, reward, terminated, truncated, info
+        return getattr(batch_wrappers, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -11,11 +11,10 @@ at it for ``horizon`` steps would bring, after the steps lost slewing there (``d
   the environment core's own model and update (:func:`planetnav_env.core.kernels.predicted_planet_trace`).
 
 :class:`planetnav_agents.greedy.GreedyAgent` picks the largest score, the ``gain`` observation feature
-(:mod:`planetnav_agents.features`, and on arrays
-:class:`planetnav_agents.vec_training.NavTrainingVecEnv`) is the score
-relative to the best planet's. All of them call :func:`planet_scores`, which loops over rows in compiled
-code, so a row's score does not depend on the batch it is computed in (the single-env feature and the
-vector training env agree bit for bit).
+(:class:`planetnav_agents.features.FeatureBatch`) is the score relative to the best planet's. All of
+them call :func:`planet_scores`, which loops over rows in compiled code, so a row's score does not depend
+on the batch it is computed in (a single env, N = 1, and the vector training env's rows agree bit for
+bit).
 """
 
 from __future__ import annotations
@@ -95,6 +94,7 @@ def planet_scores(prm, slew, horizon, q, planets, x, p, out, lookahead_s=0.0) ->
     position covariance coasted that far ahead (``core.kernels.coasted_position_trace``; 0: as it is).
     """
     n_rows, n_planets = out.shape
+    d = L.TF_DIR  # the body-axes direction's 3 columns
     dcm = np.empty((3, 3))
     planet = np.empty(3)
     for r in range(n_rows):
@@ -102,13 +102,17 @@ def planet_scores(prm, slew, horizon, q, planets, x, p, out, lookahead_s=0.0) ->
         dcm_body_to_inertial_kernel(q[r, 0] / norm, q[r, 1] / norm, q[r, 2] / norm, q[r, 3] / norm, dcm)
         trace0 = coasted_position_trace(p[r], lookahead_s)
         for i in range(n_planets):
-            if planets[r, i, 5] <= 0.5:
+            if planets[r, i, L.TF_OBSERVABLE] <= 0.5:
                 out[r, i] = -np.inf
                 continue
-            dist = AU_KM * 10.0 ** planets[r, i, 3]
+            dist = AU_KM * 10.0 ** planets[r, i, L.TF_LOG_DISTANCE]
             cos_angle = 0.0
             for a in range(3):
-                u = dcm[a, 0] * planets[r, i, 0] + dcm[a, 1] * planets[r, i, 1] + dcm[a, 2] * planets[r, i, 2]
+                u = (
+                    dcm[a, 0] * planets[r, i, d]
+                    + dcm[a, 1] * planets[r, i, d + 1]
+                    + dcm[a, 2] * planets[r, i, d + 2]
+                )
                 planet[a] = x[r, a] + u * dist
                 cos_angle += u * dcm[a, 0]  # boresight = body +x in inertial axes: column 0 of R
             angle = math.acos(min(1.0, max(-1.0, cos_angle)))

@@ -46,6 +46,7 @@ import numpy as np
 
 from planetnav_agents.base import ParsedObservation, TargetAgent
 from planetnav_agents.gain import DEFAULT_HORIZON, PD_SLOWDOWN, SlewModel, lost_steps, planet_scores
+from planetnav_env.core import layout as L
 from planetnav_env.core.kernels import coasted_position_trace, predicted_planet_trace, predicted_pulsar_trace
 from planetnav_env.sensors.pulsar import ambiguity_resolvable_kernel
 
@@ -74,7 +75,7 @@ class GreedyAgent(TargetAgent):
         self.lookahead_s = float(lookahead_s)
         cfg = self.config
         # The environment's own parameter record: the what-if updates use the core's model and noise.
-        self._params = env.unwrapped.core.params
+        self._params = env.unwrapped.core_params
         self._integration_steps = max(1, math.ceil(cfg.detector.integration_time_s / cfg.step_s - 1e-9))
         self.slew = SlewModel.from_config(cfg, pd_slowdown)
         self.last_scores: np.ndarray = np.zeros(cfg.n_targets)
@@ -129,14 +130,16 @@ class GreedyAgent(TargetAgent):
         scores[:n_p] = self._planet_scores(obs, info)
         if obs.pulsars.shape[0]:
             # An integration already under way is finished: leaving loses it.
-            if obs.target >= n_p and 0.0 < obs.pulsars[obs.target - n_p, 3] < 1.0:
+            if obs.target >= n_p and 0.0 < obs.pulsars[obs.target - n_p, L.TF_PROGRESS] < 1.0:
                 self.last_scores = scores
                 return obs.target
             n_dirs = obs.pulsar_los_inertial
             psr_lost = self.lost_steps(np.arccos(np.clip(n_dirs @ boresight, -1.0, 1.0)))
             # The environment's own trust rule and its configured k (the filter skips untrusted phases).
-            resolvable = ambiguity_resolvable_kernel(10.0 ** obs.pulsars[:, 4], self.config.ambiguity_k_sigma)
-            for j in np.flatnonzero((obs.pulsars[:, 5] > 0.5) & resolvable):
+            resolvable = ambiguity_resolvable_kernel(
+                10.0 ** obs.pulsars[:, L.TF_LOG_PHASE_SIGMA], self.config.ambiguity_k_sigma
+            )
+            for j in np.flatnonzero((obs.pulsars[:, L.TF_OBSERVABLE] > 0.5) & resolvable):
                 cycle = self._integration_steps + int(psr_lost[j])
                 scores[n_p + j] = (trace0 - self.pulsar_trace(p, n_dirs[j], int(j))) / cycle
         self.last_scores = scores

@@ -46,26 +46,26 @@ def demonstrations(
     is told the target the student holds (:meth:`planetnav_agents.base.Agent.follow`) before each decision."""
     from planetnav_agents import make_agent
     from planetnav_agents.features import (
-        FeatureState,
+        FeatureBatch,
         absolute_to_relative,
+        check_action_repeat,
         check_relative_config,
         chosen_planet,
         relative_action,
     )
     from planetnav_env.env import PlanetNavEnv
 
-    if isinstance(action_repeat, bool) or not isinstance(action_repeat, int) or action_repeat < 1:
-        raise ValueError(f"action_repeat must be an integer >= 1, got {action_repeat!r}")
+    check_action_repeat(action_repeat)
     env = PlanetNavEnv(env_config)
     if relative_actions:
         check_relative_config(env.config)
     agent = make_agent(teacher, env)
-    state = FeatureState(env, features) if features else None
+    state = FeatureBatch.for_env(env, features) if features else None
     n_planets = env.config.n_planets
 
     def observed(obs: Any, info: dict[str, Any]) -> np.ndarray:
         # Every environment step advances the features (since_measured counts steps), held ones too.
-        return state.augment(obs, info) if state is not None else np.asarray(obs, np.float32)
+        return state.augment_info(obs, info) if state is not None else np.asarray(obs, np.float32)
 
     obs_out, act_out = [], []
     for ep in range(episodes):

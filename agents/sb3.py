@@ -15,7 +15,7 @@ import gymnasium as gym
 import numpy as np
 
 from planetnav_agents.base import Agent, NotApplicableError, target_torque_action
-from planetnav_agents.features import FeatureState, relative_action
+from planetnav_agents.features import FeatureBatch, relative_action
 
 #: Lower-case names -> SB3 classes (imported lazily: SB3 and torch take seconds to import).
 ALGORITHMS = ("ppo", "a2c", "dqn", "sac", "td3", "ddpg")
@@ -104,7 +104,7 @@ class SB3Agent(Agent):
         # policy sees the same inputs; ``features`` overrides the run's config.yaml.
         sidecar = _sidecar(self.path)
         names = features if features is not None else sidecar.get("features") or []
-        # One decision per ``action_repeat`` steps, as in training (planetnav_agents.features.ActionRepeat).
+        # One decision per ``action_repeat`` steps, as in training (batch_wrappers.ActionRepeatRows).
         self.action_repeat = (
             int(sidecar.get("action_repeat") or 1) if action_repeat is None else action_repeat
         )
@@ -112,11 +112,11 @@ class SB3Agent(Agent):
             raise ValueError(f"action_repeat must be >= 1, got {self.action_repeat!r}")
         self._k = 0
         self._held: Any = None
-        # Relative target actions ("stay" / "move k places") as in training (features.RelativeTargets).
+        # Relative target actions ("stay" / "move k places"), as in training (RelativeTargetRows).
         self.relative = bool(sidecar.get("relative_actions", False))
         self._current = -1
         self._n_planets = env.unwrapped.config.n_planets if env is not None else 0
-        self.features = FeatureState(env, names) if (names and env is not None) else None
+        self.features = FeatureBatch.for_env(env, names) if (names and env is not None) else None
         if names and env is None:
             raise ValueError(f"{self.path}: a policy with observation features needs the environment")
         # A target-choice policy (Discrete over the planets) in a target+torque environment picks the planet
@@ -160,7 +160,7 @@ class SB3Agent(Agent):
 
     def act(self, observation: Any, info: dict[str, Any]) -> Any:
         if self.features is not None:
-            observation = self.features.augment(observation, info)  # every step: the features count steps
+            observation = self.features.augment_info(observation, info)  # every step: features count steps
         k, self._k = self._k, self._k + 1
         if k % self.action_repeat:
             return self._held

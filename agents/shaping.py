@@ -12,61 +12,64 @@ boresight is body +x in every shipped configuration, and the wrapper checks it),
 observable. ``weight`` is in reward units (the navigation reward is ``-error / reward_scale_km`` per
 step, ~-0.1..-1.7 in cruise).
 
-Used only by ``train.py`` during training (config key ``shaping: {pointing: WEIGHT}``); evaluation
-reports the unshaped navigation metrics.
+Used only in training (config key ``shaping: {pointing: WEIGHT}``), on arrays over the training env's
+rows (:class:`planetnav_agents.batch_wrappers.PointingShapingRows`; a single env is one row); evaluation
+reports the unshaped navigation metrics. ``PointingShaping``, the former single-env wrapper, is a
+deprecated alias of that layer with N = 1.
 """
 
 from __future__ import annotations
 
 from typing import Any
 
-import gymnasium as gym
 import numpy as np
 
-from planetnav_agents.base import parse_observation, unwrapped_config
+from planetnav_env.config import EnvConfig
+from planetnav_env.core import layout as L
 
 SHAPINGS = ("pointing",)
 
 
-class PointingShaping(gym.Wrapper):
-    """Adds the potential-based pointing term of the module docstring to the reward.
+def check_shaping(weight: float, gamma: float) -> tuple[float, float]:
+    """(weight, gamma) of the pointing shaping, validated: ``ValueError`` naming a weight that is not
+    > 0 or a gamma outside (0, 1]."""
+    if not (np.isfinite(weight) and weight > 0):
+        raise ValueError(f"shaping weight must be > 0, got {weight!r}")
+    if not 0.0 < gamma <= 1.0:
+        raise ValueError(f"shaping gamma must be in (0, 1], got {gamma!r}")
+    return float(weight), float(gamma)
 
-    ``info["shaping"]`` holds the term added at each step (so a log can separate it from the reward).
-    """
 
-    def __init__(self, env: gym.Env, weight: float, gamma: float) -> None:
-        super().__init__(env)
-        cfg = unwrapped_config(env)
+class PointingPotential:
+    """``Phi`` of the module docstring for rows of box observations of configuration ``cfg``."""
+
+    def __init__(self, cfg: EnvConfig, weight: float) -> None:
         if not np.allclose(cfg.camera.boresight_body, (1.0, 0.0, 0.0)):
             raise ValueError(
                 f"pointing shaping assumes the camera boresight is body +x, got {cfg.camera.boresight_body}"
             )
-        if not (np.isfinite(weight) and weight > 0):
-            raise ValueError(f"shaping weight must be > 0, got {weight!r}")
-        if not 0.0 < gamma <= 1.0:
-            raise ValueError(f"shaping gamma must be in (0, 1], got {gamma!r}")
-        self.weight, self.gamma = float(weight), float(gamma)
-        self._phi = 0.0
+        if cfg.observation != "box":
+            raise ValueError(f"pointing shaping reads box observations, got observation={cfg.observation!r}")
+        self.weight = check_shaping(weight, 1.0)[0]
+        self._planets = L.ObservationLayout(cfg.n_planets, cfg.n_pulsars).planets_start
+        self._n_planets = cfg.n_planets
 
-    def potential(self, observation: Any) -> float:
-        """``Phi(s)`` of an observation (see the module docstring)."""
-        obs = parse_observation(observation, self.env)
-        visible = obs.planet_observable
-        if not np.any(visible):
-            return 0.0
-        cos = obs.planets[:, 0]  # x component of the estimated body-frame direction = cos(off-boresight)
-        return self.weight * float(np.max(cos[visible]))
+    def __call__(self, observations: Any) -> np.ndarray:
+        """(N,) float64 ``Phi`` [reward units] of observations (N, D)."""
+        obs = np.asarray(observations, dtype=float)
+        a = self._planets
+        planets = obs[:, a : a + self._n_planets * L.TARGET_FEATURES].reshape(
+            obs.shape[0], self._n_planets, L.TARGET_FEATURES
+        )
+        visible = planets[:, :, L.TF_OBSERVABLE] > 0.5
+        # x component of the estimated body-frame direction = cos(angle off the boresight).
+        cos = np.where(visible, planets[:, :, L.TF_DIR], -np.inf)
+        return np.where(visible.any(axis=1), self.weight * np.max(cos, axis=1, initial=-np.inf), 0.0)
 
-    def reset(self, *, seed: int | None = None, options: dict | None = None):
-        obs, info = self.env.reset(seed=seed, options=options)
-        self._phi = self.potential(obs)
-        return obs, info
 
-    def step(self, action: Any):
-        obs, reward, terminated, truncated, info = self.env.step(action)
-        # Terminal states have potential 0 (the standard convention that keeps the invariance).
-        phi = 0.0 if terminated else self.potential(obs)
-        shaping = self.gamma * phi - self._phi
-        self._phi = phi
-        info = {**info, "shaping": shaping}
-        return obs, float(reward) + shaping, terminated, truncated, info
+def __getattr__(name: str) -> Any:
+    if name == "PointingShaping":  # deprecated single-env wrapper, now an N = 1 stack
+        from planetnav_agents import batch_wrappers
+
+        return batch_wrappers.PointingShaping
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -214,6 +214,14 @@ class PlanetNavEnv(gym.Env):
         """Heliocentric positions [km] of the central body and the planets now (from the episode's table)."""
         return self.core.body_positions(0)
 
+    # -- Public accessors for wrappers and agents (``planetnav_agents``) --
+    @property
+    def core_params(self) -> Any:
+        """The compiled parameter record (``CoreParams``) this environment steps with; read-only by
+        convention. Agents' what-if kernels (greedy's score, the ``gain`` feature) take it so that their
+        predictions use the environment's own measurement model and noise."""
+        return self.core.params
+
 
 PlanetNavEnv.__doc__ = (PlanetNavEnv.__doc__ or "").replace(
     "{OBSERVATION_TABLE}",

@@ -215,3 +215,26 @@ class PlanetNavVectorEnv(VectorEnv):
 
     def close_extras(self, **kwargs: Any) -> None:
         return None
+
+    # -- Public accessors for wrappers and agents (``planetnav_agents``); the arrays are copies --
+    @property
+    def core_params(self) -> Any:
+        """The compiled parameter record (``CoreParams``) the rows step with; read-only by convention.
+        Agents' what-if kernels (greedy's score, the ``gain`` feature) take it so that their predictions
+        use the environment's own measurement model and noise."""
+        return self.core.params
+
+    def current_targets(self) -> np.ndarray:
+        """(N,) int64: each row's current target index (``config.planets`` order, then ``config.pulsars``),
+        -1 for none; ``info["target_index"]``."""
+        return self.core.i[:, L.I_TARGET].copy()
+
+    def measured_flags(self) -> np.ndarray:
+        """(N,) bool: whether each row's last step gave its filter an accepted measurement
+        (``info["measured"]``)."""
+        return self.core.i[:, L.I_MEASURED] != 0
+
+    def info_arrays(self) -> dict[str, np.ndarray]:
+        """Every row's info as arrays after the last reset / step (copies; ``pos_err_km`` [km],
+        ``pos_sigma_km`` [km], ``measured``, ... as :meth:`BatchCore.info_batch`), no ``_key`` masks."""
+        return self.core.info_batch()

@@ -1,60 +1,46 @@
-"""The training environments: :func:`make_training_env` builds the VecEnv a configuration trains on
-(the native vector env with the training options on arrays, or wrapped single environments in SB3's
-``DummyVecEnv`` where a feature or the shaping needs them)."""
+"""The training environments: :func:`make_training_env` builds the VecEnv a configuration trains on (the
+native vector env with every option of the recipe on arrays; ``vec_env: dummy`` runs the same options on
+single environments in SB3's ``DummyVecEnv``, for comparison)."""
 
 from __future__ import annotations
 
 from pathlib import Path
 from typing import Any
 
-from planetnav_agents.features import ActionRepeat, NavFeatures, RelativeTargets
-from planetnav_agents.shaping import PointingShaping
 from planetnav_train.config import TrainConfig
 
 
 def make_training_env(tc: TrainConfig, monitor_dir: Path | None) -> Any:
     """The training VecEnv: ``n_envs`` rows of the native vector env (one compiled step for all rows)
-    under SB3's ``VecMonitor``, with ``since_measured``, action repeat and relative actions computed on
-    arrays (:class:`planetnav_agents.vec_training.NavTrainingVecEnv`, the ``gain`` feature included). The
-    feature that
-    needs a per-environment agent (``pd_torque``) and reward shaping are gymnasium wrappers of single
-    environments: with any
-    of those configured, ``n_envs`` wrapped single environments run in SB3's ``DummyVecEnv`` instead
-    (``vec_env: dummy`` forces that path; both paths are the same MDP, ``tests/test_vec_training.py``)."""
+    under SB3's ``VecMonitor``, with the recipe's options on arrays
+    (:class:`planetnav_agents.vec_training.NavTrainingVecEnv`): the pointing shaping, the features
+    (``since_measured``, ``gain``, ``pd_torque``), action repeat and relative actions, in every action mode.
+
+    ``vec_env: dummy`` builds ``n_envs`` single environments, each running the same option layers with one
+    row (:func:`planetnav_agents.batch_wrappers.single_training_env`), in SB3's ``DummyVecEnv``: the same
+    MDP (``tests/test_vec_training.py``), slower; kept to compare the two (``benchmarks/bench_train.py``)."""
     from stable_baselines3.common.env_util import make_vec_env
     from stable_baselines3.common.vec_env import DummyVecEnv, VecMonitor
 
-    from planetnav_agents.vec_training import NATIVE_FEATURES, NavTrainingVecEnv
+    from planetnav_agents.batch_wrappers import single_training_env
+    from planetnav_agents.vec_training import NavTrainingVecEnv
     from planetnav_env.env import PlanetNavEnv
 
     env_cfg = tc.env_config()
-    features = tuple(tc.features)
-    pointing = tc.shaping.get("pointing")
-    gamma = float(tc.hyperparams.get("gamma", 0.99))
-
-    native = tc.vec_env == "native" and not pointing and set(features) <= set(NATIVE_FEATURES)
-    if native:
+    options = {
+        "features": tuple(tc.features),
+        "action_repeat": tc.action_repeat,
+        "relative_actions": tc.relative_actions,
+        "pointing": tc.shaping.get("pointing"),
+        "gamma": float(tc.hyperparams.get("gamma", 0.99)),  # the shaping's discount is the algorithm's
+    }
+    if tc.vec_env == "native":
         if monitor_dir is not None:
             monitor_dir.mkdir(parents=True, exist_ok=True)
-        venv = NavTrainingVecEnv(
-            tc.n_envs, env_cfg, seed=tc.seed, features=features, action_repeat=tc.action_repeat,
-            relative_actions=tc.relative_actions,
-        )  # fmt: skip
+        venv = NavTrainingVecEnv(tc.n_envs, env_cfg, seed=tc.seed, **options)
         return VecMonitor(venv, filename=str(monitor_dir / "vec") if monitor_dir is not None else None)
-
-    def make_env() -> Any:
-        env = PlanetNavEnv(env_cfg)
-        if pointing:  # the shaping reads the raw observation: inside the feature wrapper
-            env = PointingShaping(env, pointing, gamma)
-        if features:
-            env = NavFeatures(env, features)
-        if tc.action_repeat > 1:
-            env = ActionRepeat(env, tc.action_repeat)
-        # Outside the repeat: a relative choice is made once per decision, then its absolute target held.
-        return RelativeTargets(env) if tc.relative_actions else env
-
     return make_vec_env(
-        make_env,
+        lambda: single_training_env(PlanetNavEnv(env_cfg), **options),
         n_envs=tc.n_envs,
         seed=tc.seed,
         monitor_dir=str(monitor_dir) if monitor_dir is not None else None,

@@ -199,15 +199,15 @@ def test_gain_feature_is_greedys_score_relative_to_the_trace() -> None:
     scores (its
     parsed observation) are one formula: score / best score, -1 where the planet is not observable, and
     greedy picks the planet whose gain is 1."""
-    from planetnav_agents.features import FeatureState
+    from planetnav_agents.features import FeatureBatch
 
     env = PlanetNavEnv(scenario="random-cruise", episode_steps=80)
     g = GreedyAgent(env)
-    features = FeatureState(env, ["gain"])
+    features = FeatureBatch.for_env(env, ["gain"])
     obs, info = env.reset(seed=7)
     for _ in range(80):
         action = g.act(obs, info)
-        gain = features.augment(obs, info)[-3:]
+        gain = features.augment_info(obs, info)[-3:]
         finite = np.isfinite(g.last_scores)
         best = g.last_scores[finite].max()
         np.testing.assert_allclose(gain[finite], g.last_scores[finite] / best, rtol=1e-5)

@@ -1,51 +1,67 @@
-"""The vector training env (planetnav_agents.vec_training) is the same MDP as wrapped single envs in
-DummyVecEnv."""
+"""The training options written once over a batch (planetnav_agents.batch_wrappers): the native training
+VecEnv's rows equal single environments running the same layers with N = 1 (in SB3's DummyVecEnv), for
+every feature, the shaping, action repeat and relative actions, in every action mode; the deprecated
+single-env wrappers still work and warn; the agent-side formulas equal their one-row forms."""
 
 from __future__ import annotations
+
+import warnings
 
 import numpy as np
 import pytest
 from stable_baselines3.common.vec_env import DummyVecEnv
 
-from planetnav_agents.features import ActionRepeat, NavFeatures, RelativeTargets, relative_actions_batch
+from planetnav_agents.batch_wrappers import single_training_env
+from planetnav_agents.features import FeatureBatch, relative_actions_batch
 from planetnav_agents.vec_training import NavTrainingVecEnv
 from planetnav_env.config import EnvConfig
 from planetnav_env.env import PlanetNavEnv
 
 
-def _dummy(cfg: EnvConfig, n: int, features, repeat: int, relative: bool) -> DummyVecEnv:
-    def make():
-        env = PlanetNavEnv(cfg)
-        if features:
-            env = NavFeatures(env, features)
-        if repeat > 1:
-            env = ActionRepeat(env, repeat)
-        return RelativeTargets(env) if relative else env
-
-    return DummyVecEnv([make for _ in range(n)])
+def _dummy(cfg: EnvConfig, n: int, **options) -> DummyVecEnv:
+    return DummyVecEnv([lambda: single_training_env(PlanetNavEnv(cfg), **options) for _ in range(n)])
 
 
-@pytest.mark.parametrize(
-    ("mode", "features", "repeat", "relative"),
-    [
-        ("target", ["since_measured"], 3, True),  # the default recipe; 3 does not divide the episode
-        ("target", [], 1, False),
-        ("target+torque", ["since_measured"], 2, True),
-        ("torque", ["since_measured"], 4, False),
-        ("target", ["gain", "since_measured"], 3, True),  # the random-cruise recipe
-        ("target", ["gain"], 1, False),
-    ],
-)
+def _deprecated_stack(cfg: EnvConfig, features, repeat: int, relative: bool, pointing, gamma):
+    """The old way of building a training env: the deprecated single-env wrappers, nested."""
+    from planetnav_agents.features import ActionRepeat, NavFeatures, RelativeTargets
+    from planetnav_agents.shaping import PointingShaping
+
+    env = PlanetNavEnv(cfg)
+    if pointing:
+        env = PointingShaping(env, pointing, gamma)
+    if features:
+        env = NavFeatures(env, features)
+    if repeat > 1:
+        env = ActionRepeat(env, repeat)
+    return RelativeTargets(env) if relative else env
+
+
+CASES = [
+    # mode, features, repeat, relative, pointing weight, gamma
+    ("target", ["since_measured"], 3, True, None, 0.99),  # the default recipe; 3 does not divide 20
+    ("target", [], 1, False, None, 0.99),
+    ("target+torque", ["since_measured", "pd_torque"], 2, True, None, 0.99),
+    ("torque", ["pd_torque"], 1, False, 1.0, 0.99),  # the torque recipe (configs/torque.yaml)
+    ("torque", ["since_measured", "gain", "pd_torque"], 4, False, 0.5, 0.9),
+    ("target", ["gain", "since_measured"], 3, True, None, 0.99),  # the random-cruise recipe
+    ("target", ["gain"], 1, False, 2.0, 1.0),
+]
+
+
+@pytest.mark.parametrize(("mode", "features", "repeat", "relative", "pointing", "gamma"), CASES)
 @pytest.mark.parametrize("scenario", ["cruise", "random-cruise"])
-def test_native_training_env_equals_wrapped_single_envs(mode, features, repeat, relative, scenario):
-    if scenario == "random-cruise" and "gain" not in features:
-        pytest.skip("the recipes without gain are covered on the fixed cruise")
+def test_native_training_env_rows_equal_single_env_adapters(
+    mode, features, repeat, relative, pointing, gamma, scenario
+):
+    if scenario == "random-cruise" and "gain" not in features and "pd_torque" not in features:
+        pytest.skip("the recipes without gain or pd_torque are covered on the fixed cruise")
     n, seed, decisions = 3, 11, 40
     cfg = EnvConfig(action_mode=mode, episode_steps=20, scenario=scenario)
-    native = NavTrainingVecEnv(
-        n, cfg, seed=seed, features=features, action_repeat=repeat, relative_actions=relative
-    )
-    dummy = _dummy(cfg, n, features, repeat, relative)
+    options = {"features": features, "action_repeat": repeat, "relative_actions": relative,
+               "pointing": pointing, "gamma": gamma}  # fmt: skip
+    native = NavTrainingVecEnv(n, cfg, seed=seed, **options)
+    dummy = _dummy(cfg, n, **options)
     dummy.seed(seed)
     assert native.observation_space.shape == dummy.observation_space.shape
     assert native.action_space == dummy.action_space
@@ -72,15 +88,87 @@ def test_native_training_env_equals_wrapped_single_envs(mode, features, repeat, 
     assert dones_seen >= n  # the comparison went through episode ends inside a held decision
 
 
-def test_native_training_env_rejects_what_it_cannot_compute():
-    with pytest.raises(ValueError, match="pd_torque"):
-        NavTrainingVecEnv(2, EnvConfig(action_mode="torque"), features=["pd_torque"])
+@pytest.mark.parametrize(("mode", "features", "repeat", "relative", "pointing", "gamma"), CASES[2:5])
+def test_deprecated_wrappers_warn_and_equal_the_single_env_adapter(
+    mode, features, repeat, relative, pointing, gamma
+):
+    cfg = EnvConfig(action_mode=mode, episode_steps=12)
+    with pytest.warns(DeprecationWarning, match="is deprecated; use planetnav_agents.batch_wrappers"):
+        old = _deprecated_stack(cfg, features, repeat, relative, pointing, gamma)
+    new = single_training_env(
+        PlanetNavEnv(cfg), features, repeat, relative_actions=relative, pointing=pointing, gamma=gamma
+    )
+    o_old, i_old = old.reset(seed=5)
+    o_new, i_new = new.reset(seed=5)
+    np.testing.assert_array_equal(o_old, o_new)
+    new.action_space.seed(1)
+    done = False
+    while not done:
+        a = new.action_space.sample()
+        o_old, r_old, t_old, u_old, i_old = old.step(a)
+        o_new, r_new, t_new, u_new, i_new = new.step(a)
+        np.testing.assert_array_equal(o_old, o_new)
+        assert (r_old, t_old, u_old) == (r_new, t_new, u_new)
+        assert i_old["pos_err_km"] == i_new["pos_err_km"]
+        if pointing:
+            assert i_old["shaping"] == i_new["shaping"] and np.isfinite(i_new["shaping"])
+        done = t_new or u_new
+
+
+def test_deprecated_feature_state_warns_and_equals_feature_batch():
+    env = PlanetNavEnv(episode_steps=6, action_mode="torque")
+    features = ["since_measured", "gain", "pd_torque"]
+    with pytest.warns(DeprecationWarning, match="FeatureState is deprecated"):
+        from planetnav_agents.features import FeatureState
+
+        old = FeatureState(env, features)
+    new = FeatureBatch.for_env(env, features)
+    obs, info = env.reset(seed=2)
+    for _ in range(6):
+        np.testing.assert_array_equal(old.augment(obs, info), new.augment_info(obs, info))
+        obs, _, _, _, info = env.step(np.array([0.3, -0.2, 0.1], dtype=np.float32))
+
+
+def test_pd_torque_feature_is_the_agents_pd_law_per_planet():
+    """The feature's row-batched PD torques equal TargetAgent.torque_toward (the agent's one-row form) per
+    planet, and that equals the PD law called on the single row's arrays (the formula before batching)."""
+    from planetnav_agents.base import TargetAgent, parse_observation
+    from planetnav_env.attitude.pointing import pd_torque
+
+    env = PlanetNavEnv(episode_steps=10, action_mode="torque", torque_action_scale=0.05)
+    agent = TargetAgent(env)
+    batch = FeatureBatch.for_env(env, ["pd_torque"])
+    obs, info = env.reset(seed=4)
+    law = agent.pointing
+    for _ in range(10):
+        parsed = parse_observation(obs, env)
+        feature = batch.augment_info(obs, info)[obs.shape[0] :].reshape(-1, 3)
+        for i in range(env.config.n_planets):
+            got = agent.torque_toward(parsed, info, i)
+            np.testing.assert_array_equal(feature[i], got)
+            u = pd_torque(
+                parsed.q, parsed.rates_rad_s, parsed.planet_los_inertial[i], law._att_config,
+                h_w=parsed.wheel_fraction * law._h_max, roll_ref_inertial=info["filter"]["x"][:3],
+                k_a=law.k_a, k_w=law.k_w,
+            )  # fmt: skip
+            ref = np.clip(u / (law._tau_max * law._torque_scale), -1.0, 1.0).astype(np.float32)
+            np.testing.assert_array_equal(got, ref)
+        obs, _, _, _, info = env.step(feature[1])  # point at the second planet with the feature's torque
+
+
+def test_native_training_env_rejects_bad_options():
     with pytest.raises(ValueError, match="unknown observation feature 'clock'"):
         NavTrainingVecEnv(2, EnvConfig(), features=["clock"])
     with pytest.raises(ValueError, match="relative target actions"):
         NavTrainingVecEnv(2, EnvConfig(action_mode="torque"), relative_actions=True)
     with pytest.raises(ValueError, match="action_repeat must be an integer >= 1, got 0"):
         NavTrainingVecEnv(2, EnvConfig(), action_repeat=0)
+    with pytest.raises(ValueError, match=r"shaping weight must be > 0, got -1\.0"):
+        NavTrainingVecEnv(2, EnvConfig(), pointing=-1.0)
+    with pytest.raises(ValueError, match=r"shaping gamma must be in \(0, 1\], got 1.5"):
+        NavTrainingVecEnv(2, EnvConfig(), pointing=1.0, gamma=1.5)
+    with pytest.raises(ValueError, match="observation features need observation='box', got 'dict'"):
+        NavTrainingVecEnv(2, EnvConfig(observation="dict"), features=["gain"])
 
 
 def test_relative_actions_name_the_bad_row():
@@ -92,15 +180,26 @@ def test_relative_actions_name_the_bad_row():
         env.step(np.array([-1, 0]))
 
 
-def test_train_uses_the_native_training_env_for_the_default_recipe(tmp_path):
+def test_single_env_adapter_adds_no_warning_and_keeps_dict_observations():
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", DeprecationWarning)
+        env = single_training_env(PlanetNavEnv(episode_steps=4, observation="dict"), action_repeat=2)
+    obs, _ = env.reset(seed=0)
+    assert isinstance(obs, dict) and obs["planets"].shape == (3, 7)
+    obs, reward, terminated, truncated, _ = env.step(0)
+    assert isinstance(obs, dict) and isinstance(reward, float) and not (terminated or truncated)
+
+
+@pytest.mark.parametrize("config", ["configs/cruise_ppo.yaml", "configs/torque.yaml"])
+def test_train_uses_the_native_training_env_for_every_recipe(tmp_path, config):
     from stable_baselines3.common.vec_env import VecMonitor
 
     from planetnav_train.config import load_config
     from planetnav_train.envs import make_training_env
 
-    tc = load_config("configs/cruise_ppo.yaml")
+    tc = load_config(config)
     venv = make_training_env(tc, tmp_path)
     assert isinstance(venv, VecMonitor) and isinstance(venv.venv, NavTrainingVecEnv)
-    assert venv.venv.action_repeat == 10 and venv.venv.relative_actions and venv.venv.features
+    assert venv.venv.features == tuple(tc.features) and venv.venv.pointing == tc.shaping.get("pointing")
     tc.vec_env = "dummy"
     assert isinstance(make_training_env(tc, tmp_path), DummyVecEnv)
