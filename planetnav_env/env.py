@@ -184,12 +184,56 @@ class PlanetNavEnv(gym.Env):
         docstring, target (index or -1), elapsed."""
         return decode_observation(self.config, self.layout, observation)
 
-    def render(self):
+    def render(self) -> np.ndarray | None:
+        """The current frame, (480, 1280, 3) uint8 RGB, with ``render_mode="rgb_array"`` (else None): the
+        camera view, the error history and the orbit view (see :mod:`planetnav_env.render`)."""
         if self.render_mode != "rgb_array":
             return None
         from planetnav_env.render import render_frame
 
-        return render_frame(self)
+        return render_frame(self._frame_data())
+
+    def _frame_data(self) -> Any:
+        """The :class:`planetnav_env.render.FrameData` of the current state. The env hands render.py plain
+        numbers (heliocentric ICRF km), so render.py never imports this module."""
+        from planetnav_env.bodies import body
+        from planetnav_env.render import FrameData
+        from planetnav_env.sensors.pulsar import pulsar
+        from planetnav_env.sensors.star_tracker import StarTrackerConfig, catalogue_for
+
+        cfg = self.config
+        info = self.core.info_row(0)  # what the last reset/step returned (filter estimate and covariance)
+        truth = self.truth
+        bodies = self.body_positions()
+        central_km = bodies["central"]  # the truth and the filter are relative to the central body
+        episodes = getattr(self.core, "episodes", None)
+        central = episodes[0].central if episodes and episodes[0] is not None else "sun"
+        # The camera's own stars: the core's star tracker uses the default catalogue (core/params.py).
+        stars = catalogue_for(StarTrackerConfig()).directions
+        hist = np.asarray(self.history, dtype=float).reshape(-1, 2)
+        return FrameData(
+            title=self.spec.id if self.spec is not None else f"{cfg.scenario} ({cfg.action_mode})",
+            time_s=(len(hist) - 1) * float(cfg.step_s),  # info["time_s"] is ephemeris time, not elapsed
+            step=len(hist) - 1,
+            episode_steps=int(cfg.episode_steps),
+            step_s=float(cfg.step_s),
+            spacecraft_km=truth["x"][:3] + central_km,
+            estimate_km=info["filter"]["x"][:3] + central_km,
+            position_cov_km2=info["filter"]["P"][:3, :3],
+            central=central,
+            planet_names=tuple(self.planets),
+            planet_km=np.asarray(bodies["planets"], dtype=float).reshape(-1, 3),
+            planet_radii_km=np.array([body(p).radius for p in self.planets], dtype=float),
+            pulsar_names=tuple(self.pulsars),
+            pulsar_dirs=np.array([pulsar(p).direction for p in self.pulsars], dtype=float).reshape(-1, 3),
+            target=info["target"],
+            visibility=str(info["visibility"]),
+            measured=bool(info["measured"]),
+            attitude_q=truth["q"],
+            camera=cfg.camera,
+            star_dirs=stars,
+            history_km=hist,
+        )
 
     @property
     def truth(self) -> dict[str, np.ndarray]:
