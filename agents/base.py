@@ -25,11 +25,12 @@ import gymnasium as gym
 import numpy as np
 
 from planetnav_env import quaternion as qt
-from planetnav_env.attitude.pointing import pd_torque
+from planetnav_env.attitude.pointing import _frame_batch, _pd_torque_batch
 from planetnav_env.bodies import AU_KM, body
 from planetnav_env.config import EnvConfig
 from planetnav_env.core import layout as L
-from planetnav_env.dynamics.attitude import AttitudeConfig
+from planetnav_env.dynamics.attitude import AttitudeConfig, raise_state_error
+from planetnav_env.errors import InvalidParameterError, require_finite
 
 _DEG = math.pi / 180.0
 
@@ -193,16 +194,27 @@ class PointingLaw:
         body rates [rad/s]; wheel_fraction (N, 3): wheel momentum / capacity; directions (N, K, 3):
         inertial directions to point the boresight at (any length > 0); roll_ref (N, 3): the vector that
         fixes the roll (the estimated position [km])."""
-        u = pd_torque(
-            q[:, None, :],
-            rates_rad_s[:, None, :],
-            directions,
-            self._att_config,
-            h_w=(wheel_fraction * self._h_max)[:, None, :],
-            roll_ref_inertial=roll_ref[:, None, :],
-            k_a=self.k_a,
-            k_w=self.k_w,
-        )
+        n, k = directions.shape[:2]
+        # One row per (row, direction): the kernels below loop over rows.
+        named = {
+            "q": q, "rates_rad_s": rates_rad_s, "wheel_fraction": wheel_fraction * self._h_max,
+            "roll_ref": roll_ref,
+        }  # fmt: skip
+        for name, v in named.items():
+            named[name] = np.ascontiguousarray(np.repeat(require_finite(name, v), k, axis=0))
+        q_, w_, h_, x_ = named.values()
+        p_ = np.ascontiguousarray(require_finite("directions", directions).reshape(n * k, 3))
+        # The compiled kernels of attitude.pointing.pd_torque, called directly: its validation and
+        # broadcasting cost ~0.5 ms a call, more than a training step of 8 rows; the inputs are checked here.
+        frame = np.empty((n * k, 3, 3))
+        bad = _frame_batch(p_, x_, frame)
+        if bad:
+            r, i = divmod(bad - 1, k)
+            raise InvalidParameterError(f"direction {i} of row {r} has zero length: {p_[bad - 1].tolist()}")
+        u = np.empty((n * k, 3))
+        status = _pd_torque_batch(q_, w_, h_, frame, self._att_config.inertia_matrix, self.k_a, self.k_w, u)
+        raise_state_error(status, [("q", q_)])
+        u = u.reshape(n, k, 3)
         return np.clip(u / (self._tau_max * self._torque_scale), -1.0, 1.0).astype(np.float32)
 
 

@@ -35,6 +35,7 @@ These are inputs, not rewards: the reward stays the environment's navigation err
 
 from __future__ import annotations
 
+import functools
 import math
 import warnings
 from collections.abc import Sequence
@@ -179,6 +180,8 @@ class FeatureBatch:
     def advance(self, measured: np.ndarray, targets: np.ndarray, rows: np.ndarray) -> None:
         """One environment step (or a reset's first observation) seen by the ``rows`` (bool (N,)):
         ``measured`` (N,) bool and ``targets`` (N,) target indices are every row's, as the step left them."""
+        if "since_measured" not in self.features:
+            return  # the only feature with per-episode state
         rows = np.asarray(rows, dtype=bool)
         since = self._since[rows]
         advance_since_measured(since, np.asarray(measured)[rows], np.asarray(targets)[rows])
@@ -220,6 +223,12 @@ class FeatureBatch:
         return self.augment(np.reshape(observation, (1, -1)), x, p)[0]
 
 
+@functools.lru_cache(maxsize=16)
+def _block_bounds(layout: L.ObservationLayout) -> dict[str, tuple[int, int]]:
+    """``{block name: (start, stop)}`` of ``layout`` (computed once per layout: this runs every step)."""
+    return {name: (a, b) for name, a, b, _ in layout.blocks}
+
+
 def observation_columns(
     observations: np.ndarray, layout: L.ObservationLayout
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -227,7 +236,7 @@ def observation_columns(
     operations, per row): unit star-tracker quaternion (N, 4), reported rates (N, 3) [rad/s], wheel
     momentum / capacity (N, 3), planet blocks (N, P, 7) (columns ``layout.TF_*``), float64."""
     obs = np.asarray(observations, dtype=float)
-    blocks = {name: (a, b) for name, a, b, _ in layout.blocks}
+    blocks = _block_bounds(layout)
     a, b = blocks["attitude"]
     attitude = obs[:, a:b]
     q = attitude / np.linalg.norm(attitude, axis=-1, keepdims=True)
