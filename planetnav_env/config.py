@@ -1,7 +1,9 @@
 """Environment configuration: typed, validated dataclasses that YAML files in ``configs/`` map onto.
 
 An unknown key or an invalid value raises :class:`~planetnav_env.errors.ConfigError` naming it,
-never a silent default. ``EnvConfig.from_dict`` accepts the nested mapping of a YAML file::
+never a silent default (an unknown top-level option raises its subclass
+:class:`~planetnav_env.errors.UnknownOptionError`, also a ``TypeError``).
+``EnvConfig.from_dict`` accepts the nested mapping of a YAML file::
 
     scenario: cruise
     planets: [venus, mars, earth]
@@ -20,7 +22,7 @@ from pathlib import Path
 from typing import Any
 
 from planetnav_env.bodies import BODIES
-from planetnav_env.errors import ConfigError, PlanetNavError
+from planetnav_env.errors import ConfigError, PlanetNavError, UnknownOptionError
 from planetnav_env.estimation.ekf import FilterConfig
 from planetnav_env.estimation.measurements import MODELS
 from planetnav_env.sensors.camera import CameraConfig
@@ -230,7 +232,13 @@ class EnvConfig:
         kwargs: dict[str, Any] = {}
         for key, value in merged.items():
             if key not in known:
-                raise ConfigError(f"unknown environment option {key!r}; known options: {sorted(known)}")
+                # Worded as Python words a bad keyword, and a TypeError too: clients probe optional
+                # keywords (TorchRL's GymEnv passes frameskip) and retry only on that error.
+                hint = " (planetnav's name for it is 'episode_steps')" if key == "max_episode_steps" else ""
+                raise UnknownOptionError(
+                    f"unknown environment option: got an unexpected keyword argument {key!r}{hint}; "
+                    f"known options: {sorted(known)}"
+                )
             sub = _NESTED.get(key)
             if sub is not None and isinstance(value, Mapping):
                 value = _build(sub, value, key)

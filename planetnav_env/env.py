@@ -28,17 +28,21 @@ the *estimated* position.
 
 from __future__ import annotations
 
+import dataclasses
+from collections.abc import Mapping
 from typing import Any
 
 import gymnasium as gym
 import numpy as np
+from gymnasium.envs.registration import EnvSpec
 
 from planetnav_env.config import EnvConfig
 from planetnav_env.core import layout as L
 from planetnav_env.core.batch import BatchCore
 from planetnav_env.core.layout import ObservationLayout
 from planetnav_env.core.rng import seed_state
-from planetnav_env.errors import InvalidParameterError
+from planetnav_env.errors import ConfigError, InvalidParameterError
+from planetnav_env.registration import id_options
 from planetnav_env.spaces import (
     action_space,
     decode_box_actions,
@@ -49,11 +53,55 @@ from planetnav_env.spaces import (
 )
 
 
-def resolve_config(config: EnvConfig | dict | None, overrides: dict[str, Any]) -> EnvConfig:
-    """An ``EnvConfig`` from a config, a mapping or None, with keyword overrides (named errors)."""
+def resolve_config(config: EnvConfig | Mapping | str | None, overrides: dict[str, Any]) -> EnvConfig:
+    """An ``EnvConfig`` from a config, a mapping, a registered id (``"planetnav/Cruise-Target-v0"``: its
+    options, as ``gym.make`` passes them) or None, with keyword overrides (named errors)."""
     if isinstance(config, EnvConfig):
         return EnvConfig.from_dict(config.to_dict(), **overrides) if overrides else config
+    if isinstance(config, str):
+        config = id_options(config)
+    elif config is not None and not isinstance(config, Mapping):
+        raise ConfigError(
+            "config must be an EnvConfig, a mapping of options, a planetnav environment id or None, "
+            f"got {config!r} of type {type(config).__name__}"
+        )
     return EnvConfig.from_dict(config or {}, **overrides)
+
+
+def row_info(core: BatchCore, row: int) -> dict[str, Any]:
+    """Row ``row``'s ``info`` in the single environment's form (Python scalars, names as text), with the
+    numeric codes the vector environment also reports: ``target_index`` (index into ``planets +
+    pulsars``, -1: none) and ``visibility_code`` (index into
+    :data:`planetnav_env.core.layout.REASONS`)."""
+    info = core.info_row(row)
+    info["target_index"] = int(core.i[row, L.I_TARGET])
+    info["visibility_code"] = int(core.i[row, L.I_REASON])
+    return info
+
+
+def check_reset_options(options: Any, known: tuple[str, ...], owner: str) -> None:
+    """Raise :class:`~planetnav_env.errors.InvalidParameterError` naming any key of ``options`` that
+    ``owner`` does not know (a misspelt option must not be ignored in silence)."""
+    if options is None:
+        return
+    if not isinstance(options, Mapping):
+        raise InvalidParameterError(
+            f"{owner}.reset options must be a dict or None, got {options!r} of type {type(options).__name__}"
+        )
+    unknown = sorted(str(k) for k in options if k not in known)
+    if unknown:
+        accepted = f"known reset options: {list(known)}" if known else "it takes no reset options"
+        raise InvalidParameterError(f"{owner}.reset got unknown option(s) {unknown}; {accepted}")
+
+
+def spec_with_episode_length(spec: EnvSpec | None, episode_steps: int) -> EnvSpec | None:
+    """``spec`` with ``max_episode_steps`` set to the environment's own truncation length when it has
+    none. ``gym.make`` gives the unwrapped env a spec with ``None`` there (and the registry keeps
+    ``None`` so that no ``TimeLimit`` counts the steps a second time); clients read the episode length
+    from ``env.spec.max_episode_steps``."""
+    if spec is None or spec.max_episode_steps is not None:
+        return spec
+    return dataclasses.replace(spec, max_episode_steps=int(episode_steps))
 
 
 class PlanetNavEnv(gym.Env):
@@ -98,16 +146,22 @@ class PlanetNavEnv(gym.Env):
     spacecraft cannot compute it); ``"covariance"``: ``-sqrt(trace P_rr) / reward_scale_km``. Minus
     ``torque_penalty * |u / u_max|^2`` for commanded torques. The episode *terminates* when the true
     position error exceeds ``divergence_km`` or the filter state becomes non-finite (divergence), and
-    is *truncated* after ``episode_steps``. ``info`` holds ``pos_err_km``, ``vel_err_km_s``, ``nees``,
-    ``pos_sigma_km``, ``measured``, ``rejected``, ``target``, ``visibility`` (reason), ``slewing``,
-    ``attitude_err_arcsec`` (star tracker), ``time_s`` and ``filter`` (the estimate ``x`` and
-    covariance ``P``, which the spacecraft knows).
+    is *truncated* after ``episode_steps`` (``env.spec.max_episode_steps`` reports it). ``info`` holds
+    ``pos_err_km``, ``vel_err_km_s``, ``nees``, ``pos_sigma_km``, ``measured``, ``rejected``, ``target``
+    (name or None) and ``target_index`` (-1: none), ``sensor``, ``ambiguous_skipped``, ``visibility``
+    (reason) and ``visibility_code``, ``slewing``, ``attitude_err_arcsec`` (star tracker), ``time_s`` and
+    ``filter`` (the estimate ``x`` and covariance ``P``, which the spacecraft knows); the vector
+    environment gives the same keys as arrays over its rows (docs/environment.md, "Info keys").
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 15}  # noqa: RUF012 (Gymnasium convention)
+    _spec: EnvSpec | None = None
 
     def __init__(
-        self, config: EnvConfig | dict | None = None, render_mode: str | None = None, **overrides: Any
+        self,
+        config: EnvConfig | Mapping | str | None = None,
+        render_mode: str | None = None,
+        **overrides: Any,
     ):
         cfg = resolve_config(config, overrides)
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
@@ -129,13 +183,25 @@ class PlanetNavEnv(gym.Env):
         self._done = False
         self.history: list[tuple[float, float]] = []
 
+    @property
+    def spec(self) -> EnvSpec | None:
+        """The spec ``gym.make`` gave this environment, ``max_episode_steps`` = ``episode_steps``."""
+        return self._spec
+
+    @spec.setter
+    def spec(self, value: EnvSpec | None) -> None:
+        self._spec = spec_with_episode_length(value, self.config.episode_steps)
+
     # ------------------------------------------------------------------------------------------
     def reset(self, *, seed: int | None = None, options: dict | None = None):
+        """Start an episode (drawn from ``seed`` in the ``random-cruise`` scenario); the environment
+        takes no reset options (an unknown one raises, naming it)."""
+        check_reset_options(options, (), "PlanetNavEnv")
         super().reset(seed=seed)
         self.core.reset_rows(np.zeros(1, dtype=np.int64), [self.np_random])
         self._started = True
         self._done = False
-        info = self.core.info_row(0)
+        info = row_info(self.core, 0)
         self.history = [(info["pos_err_km"], info["pos_sigma_km"])]
         return format_observation(self.config, self.layout, self.core.obs[0]), info
 
@@ -151,12 +217,9 @@ class PlanetNavEnv(gym.Env):
                     )
                 self._targets[0] = -1 if idx == cfg.n_targets else idx
                 return
-            a = np.asarray(action)
-            if a.size != 1:
-                raise InvalidParameterError(f"target action must be one integer, got {action!r}")
-            self._targets[:] = decode_target_actions(cfg, n_act, a.reshape(1), 1)
+            self._targets[:] = decode_target_actions(cfg, n_act, action, 1, single=True)
             return
-        targets, torques = decode_box_actions(cfg, self.action_space.shape, action, 1)
+        targets, torques = decode_box_actions(cfg, self.action_space.shape, action, 1, single=True)
         self._targets[:] = targets
         self._torques[:] = torques
 
@@ -168,7 +231,7 @@ class PlanetNavEnv(gym.Env):
         self._decode(action)
         core = self.core
         core.step(self._targets, self._torques)
-        info = core.info_row(0)
+        info = row_info(core, 0)
         terminated = bool(core.i[0, L.I_TERMINATED])
         truncated = bool(core.i[0, L.I_TRUNCATED])
         self._done = terminated or truncated

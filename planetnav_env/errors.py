@@ -37,6 +37,16 @@ class ConfigError(PlanetNavError):
     """An unknown configuration key or an invalid configuration value."""
 
 
+class UnknownOptionError(ConfigError, TypeError):
+    """An environment option (keyword argument) that the environment does not have.
+
+    Also a ``TypeError`` worded as Python words an unexpected keyword argument ("got an unexpected keyword
+    argument 'frameskip'"): clients probe optional keywords that way (TorchRL's ``GymEnv`` passes
+    ``frameskip`` and retries without it only on such a ``TypeError``), so the environment must answer as a
+    plain function would.
+    """
+
+
 def require_positive(name: str, value: float) -> float:
     """Return ``float(value)`` or raise :class:`InvalidParameterError` naming it."""
     v = float(value)

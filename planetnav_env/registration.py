@@ -2,11 +2,24 @@
 
 ``import planetnav_env`` registers them; ``gymnasium.make("planetnav/Cruise-Target-v0")`` then works.
 Without the import, ``gymnasium.make("planetnav_env:planetnav/Cruise-Target-v0")`` imports it first.
+
+``max_episode_steps``: an environment built by ``gym.make`` or ``gym.make_vec`` reports its own
+``episode_steps`` as ``env.spec.max_episode_steps`` (1,440 for the cruise ids, 1,128 for the Mars
+approach, or whatever ``episode_steps`` the caller passed). The registry's spec leaves it ``None`` on
+purpose: a value there makes ``gym.make`` add Gymnasium's ``TimeLimit`` wrapper, a second counter that
+truncates at the registered length even when the caller asked for a longer episode.
 """
 
 from __future__ import annotations
 
+from typing import Any
+
 import gymnasium as gym
+
+from planetnav_env.errors import ConfigError
+
+#: The single environment's entry point (a spec with another one is not a planetnav environment).
+ENTRY_POINT = "planetnav_env.env:PlanetNavEnv"
 
 ENV_IDS: dict[str, dict] = {
     "planetnav/Cruise-Target-v0": {"scenario": "cruise", "action_mode": "target"},
@@ -28,13 +41,38 @@ ENV_IDS: dict[str, dict] = {
 }
 
 
+def id_options(env_id: str) -> dict[str, Any]:
+    """The environment options that the registered id ``env_id`` stands for (a copy of its spec's
+    kwargs), as ``gym.make(env_id)`` passes them; ``"module:id"`` is accepted as ``gym.make`` accepts it.
+
+    Raises :class:`~planetnav_env.errors.ConfigError` naming the id when it is not registered or is not a
+    planetnav environment.
+    """
+    name = env_id.split(":", 1)[1] if ":" in env_id else env_id
+    try:
+        spec = gym.spec(name)
+    except gym.error.Error:
+        raise ConfigError(
+            f"unknown environment id {env_id!r}; the planetnav ids are {sorted(ENV_IDS)}"
+        ) from None
+    entry = spec.entry_point
+    entry_name = entry if isinstance(entry, str) else f"{entry.__module__}:{entry.__qualname__}"
+    if entry_name != ENTRY_POINT:
+        raise ConfigError(
+            f"{env_id!r} is not a planetnav environment (entry point {entry_name!r}); "
+            f"the planetnav ids are {sorted(ENV_IDS)}"
+        )
+    return dict(spec.kwargs)
+
+
 def register_envs() -> None:
+    """Register every id of :data:`ENV_IDS` (ids already registered are left as they are)."""
     for env_id, kwargs in ENV_IDS.items():
         if env_id in gym.registry:
             continue
         gym.register(
             id=env_id,
-            entry_point="planetnav_env.env:PlanetNavEnv",
+            entry_point=ENTRY_POINT,
             # gym.make_vec(id, num_envs=N) builds the native vector env over the batch core (the id's
             # kwargs are passed to it); vectorization_mode="sync" still gives a SyncVectorEnv.
             vector_entry_point="planetnav_env.vector_env:PlanetNavVectorEnv",

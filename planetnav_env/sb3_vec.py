@@ -6,16 +6,28 @@ the rows are stepped by one compiled loop (:class:`~planetnav_env.vector_env.Pla
 observation travels in ``infos[i]["terminal_observation"]``, with ``"TimeLimit.truncated"`` set for
 truncations so that SB3 bootstraps them).
 
-Stable-Baselines3 is imported only when this module is, never by ``import planetnav_env``.
+``config`` is what :class:`~planetnav_env.env.PlanetNavEnv` takes: an ``EnvConfig``, a mapping of options,
+or a registered id (``PlanetNavSB3VecEnv(4, "planetnav/MarsApproach-Tasking-v0")`` has the options
+``gym.make`` would pass), with keyword overrides.
+
+Stable-Baselines3 is imported only when this module is, never by ``import planetnav_env``; it comes with
+the ``train`` extra (``pip install "planetnav[train]"``).
 """
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
-from stable_baselines3.common.vec_env.base_vec_env import VecEnv
+
+try:
+    from stable_baselines3.common.vec_env.base_vec_env import VecEnv
+except ImportError as exc:  # the environment alone installs without SB3 (training is an extra)
+    raise ImportError(
+        "planetnav_env.sb3_vec needs Stable-Baselines3, which the environment alone does not install: "
+        f'pip install "planetnav[train]" ({exc})'
+    ) from exc
 
 from planetnav_env.config import EnvConfig
 from planetnav_env.errors import InvalidParameterError
@@ -33,7 +45,11 @@ class PlanetNavSB3VecEnv(VecEnv):
     """
 
     def __init__(
-        self, num_envs: int, config: EnvConfig | dict | None = None, seed: int | None = None, **overrides
+        self,
+        num_envs: int,
+        config: EnvConfig | Mapping | str | None = None,
+        seed: int | None = None,
+        **overrides: Any,
     ):
         self.venv = PlanetNavVectorEnv(num_envs, config=config, autoreset_mode="same_step", **overrides)
         super().__init__(num_envs, self.venv.single_observation_space, self.venv.single_action_space)

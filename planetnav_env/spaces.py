@@ -51,55 +51,95 @@ def format_observation(cfg: EnvConfig, layout: ObservationLayout, flat: np.ndarr
     return layout.to_dict(f)
 
 
-def decode_target_actions(cfg: EnvConfig, n_actions: int, actions: Any, n_rows: int) -> np.ndarray:
-    """Target indices (N,) int64 (-1: the idle action) from discrete actions; errors name the row."""
+def _is_numeric(a: np.ndarray) -> bool:
+    """Numbers or booleans (not text, bytes or arbitrary objects, which NumPy would coerce or carry)."""
+    return a.dtype.kind in "biuf"
+
+
+def _row(r: int, single: bool) -> str:
+    """How an error names the offending action: a row of the batch, or the single environment's action."""
+    return "action" if single else f"action of row {r}"
+
+
+def _not_stepped(single: bool) -> str:
+    # A vector env validates the whole batch first: say that no row moved, so a caller may retry.
+    return "" if single else "; no row was stepped"
+
+
+def _out_of_range(r: int, single: bool, n_actions: int, value: Any) -> InvalidParameterError:
+    return InvalidParameterError(
+        f"{_row(r, single)} must be an integer in [0, {n_actions}), got {value!r}{_not_stepped(single)}"
+    )
+
+
+def decode_target_actions(
+    cfg: EnvConfig, n_actions: int, actions: Any, n_rows: int, *, single: bool = False
+) -> np.ndarray:
+    """Target indices (N,) int64 (-1: the idle action) from discrete actions; errors name the row (the
+    value alone with ``single=True``, the single environment's wording)."""
     a = np.asarray(actions)
-    if a.shape not in ((n_rows,), (n_rows, 1)) or not (np.issubdtype(a.dtype, np.number) or a.dtype == bool):
+    if not _is_numeric(a):
+        what = "target action must be an integer" if single else f"target actions must be {n_rows} integer(s)"
         raise InvalidParameterError(
-            f"target actions must be {n_rows} integer(s) (shape ({n_rows},)), got shape {a.shape} "
-            f"dtype {a.dtype}: {actions!r}"
+            f"{what} in [0, {n_actions}), got {actions!r} of type {type(actions).__name__}"
+            f"{'' if single else f' (dtype {a.dtype})'}"
+        )
+    if single and a.size != 1:
+        raise InvalidParameterError(
+            f"target action must be one integer in [0, {n_actions}), got shape {a.shape}: {actions!r}"
+        )
+    if not single and a.shape not in ((n_rows,), (n_rows, 1)):
+        raise InvalidParameterError(
+            f"target actions must be {n_rows} integer(s) (shape ({n_rows},)), "
+            f"got shape {a.shape}: {actions!r}"
         )
     a = a.reshape(n_rows)
     if not np.issubdtype(a.dtype, np.integer):
         bad = ~np.isfinite(a)
         if bad.any():
             r = int(np.flatnonzero(bad)[0])
-            raise NonFiniteError(f"action of row {r} is not finite: {a[r]!r}; no row was stepped")
+            raise NonFiniteError(f"{_row(r, single)} is not finite: {a[r].item()!r}{_not_stepped(single)}")
         frac = a != np.round(a)
         if frac.any():
             r = int(np.flatnonzero(frac)[0])
-            raise InvalidParameterError(
-                f"action of row {r} must be an integer in [0, {n_actions}), got {a[r]!r}; no row was stepped"
-            )
+            raise _out_of_range(r, single, n_actions, a[r].item())
     idx = a.astype(np.int64)
     out = (idx < 0) | (idx >= n_actions)
     if out.any():
         r = int(np.flatnonzero(out)[0])
-        raise InvalidParameterError(
-            f"action of row {r} must be an integer in [0, {n_actions}), got {a[r]!r}; no row was stepped"
-        )
+        raise _out_of_range(r, single, n_actions, a[r].item())
     return np.where(idx == cfg.n_targets, -1, idx)
 
 
 def decode_box_actions(
-    cfg: EnvConfig, shape: tuple[int, ...], actions: Any, n_rows: int
+    cfg: EnvConfig, shape: tuple[int, ...], actions: Any, n_rows: int, *, single: bool = False
 ) -> tuple[np.ndarray, np.ndarray]:
     """(targets (N,), torque fractions (N, 3)) from Box actions of ``shape`` per row; values outside
-    [-1, 1] are clipped (as SB3 does), NaN/inf raise naming the row."""
+    [-1, 1] are clipped (as SB3 does), NaN/inf raise naming the row (the values alone with
+    ``single=True``, the single environment's wording)."""
+    want = shape if single else (n_rows, *shape)
     try:
-        a = np.asarray(actions, dtype=float)
-    except (TypeError, ValueError):
+        raw = np.asarray(actions)
+    except (TypeError, ValueError):  # ragged nested sequences
+        raw = None
+    if raw is None or not _is_numeric(raw):
+        # Checked before the shape: asarray(..., dtype=float) would turn '1' into 1.0, and a str's
+        # shape () would be blamed instead of its type.
         raise InvalidParameterError(
-            f"actions must be numbers of shape {(n_rows, *shape)}, got {actions!r}"
-        ) from None
+            f"{'action' if single else 'actions'} must be numbers of shape {want}, "
+            f"got {actions!r} of type {type(actions).__name__}"
+        )
+    a = raw.astype(float, copy=False)
     if a.shape != (n_rows, *shape) and not (n_rows == 1 and a.shape == shape):
-        raise InvalidParameterError(f"actions must have shape {(n_rows, *shape)}, got {np.shape(actions)}")
+        raise InvalidParameterError(
+            f"{'action' if single else 'actions'} must have shape {want}, got shape {a.shape}: {actions!r}"
+        )
     a = a.reshape(n_rows, *shape)
     bad = ~np.isfinite(a).all(axis=1)
     if bad.any():
         r = int(np.flatnonzero(bad)[0])
         raise NonFiniteError(
-            f"action of row {r} contains NaN or infinite values: {a[r].tolist()}; no row was stepped"
+            f"{_row(r, single)} contains NaN or infinite values: {a[r].tolist()}{_not_stepped(single)}"
         )
     a = np.clip(a, -1.0, 1.0)
     if cfg.action_mode == "torque":

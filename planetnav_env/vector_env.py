@@ -8,20 +8,27 @@ Gymnasium ``np_random`` (for episode draws) and its own compiled random stream (
 Autoreset: ``autoreset_mode="next_step"`` (Gymnasium's default): the step after a row ends resets it and
 returns its first observation with reward 0; ``"same_step"``: a row that ends is reset in the same
 step, its last observation in ``info["final_obs"]`` and its last info in ``info["final_info"]`` (what
-Stable-Baselines3 expects; :class:`planetnav_env.sb3_vec.PlanetNavSB3VecEnv` uses it).
+Stable-Baselines3 expects; :class:`planetnav_env.sb3_vec.PlanetNavSB3VecEnv` uses it); ``"disabled"``
+(Gymnasium >= 1.1): no autoreset, the caller resets the rows that ended with
+``reset(options={"reset_mask": mask})`` before stepping them again (what TorchRL prefers; its
+``GymWrapper`` refuses ``next_step``, see docs/environment.md, "Clients").
 
-``info`` is a dict of numeric arrays over the rows (Gymnasium's vector convention, with the ``_key``
-masks; see :meth:`BatchCore.info_batch`); :meth:`PlanetNavVectorEnv.info_row` gives one row's info in the
-single environment's form and :meth:`PlanetNavVectorEnv.filter_state` the filters.
+``info`` has the single environment's keys, each an array over the rows (Gymnasium's vector convention,
+with the ``_key`` masks): numbers as numeric arrays, names (``target``, ``sensor``, ``visibility``) as
+object arrays of str or None, and ``filter`` as ``{"x": (N, 6), "P": (N, 6, 6)}``; the table is in
+docs/environment.md ("Info keys"). :meth:`PlanetNavVectorEnv.info_row` gives one row's info in the single
+environment's form and :meth:`PlanetNavVectorEnv.filter_state` the filters.
 Bad actions (wrong shape, NaN in a row, out of range) raise before any row is stepped, naming the row.
 A row whose filter diverges terminates alone.
 """
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
+from gymnasium.envs.registration import EnvSpec
 from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
@@ -29,7 +36,8 @@ from gymnasium.vector.utils import batch_space
 from planetnav_env.config import EnvConfig
 from planetnav_env.core import layout as L
 from planetnav_env.core.batch import BatchCore
-from planetnav_env.env import resolve_config
+from planetnav_env.core.params import ARCSEC
+from planetnav_env.env import check_reset_options, resolve_config, row_info, spec_with_episode_length
 from planetnav_env.errors import InvalidParameterError
 from planetnav_env.spaces import (
     action_space,
@@ -41,17 +49,22 @@ from planetnav_env.spaces import (
 )
 
 _MODES = {"next_step": AutoresetMode.NEXT_STEP, "same_step": AutoresetMode.SAME_STEP}
+#: Gymnasium >= 1.1 has a mode without autoreset (TorchRL's preferred one); 1.0 does not.
+_DISABLED = getattr(AutoresetMode, "DISABLED", None)
+if _DISABLED is not None:
+    _MODES["disabled"] = _DISABLED
 
 
 class PlanetNavVectorEnv(VectorEnv):
     """``num_envs`` planetnav environments as one batch (see the module docstring)."""
 
     metadata = {"autoreset_mode": AutoresetMode.NEXT_STEP, "render_modes": []}  # noqa: RUF012
+    _spec: EnvSpec | None = None
 
     def __init__(
         self,
         num_envs: int = 1,
-        config: EnvConfig | dict | None = None,
+        config: EnvConfig | Mapping | str | None = None,
         autoreset_mode: str | AutoresetMode = "next_step",
         render_mode: str | None = None,
         **overrides: Any,
@@ -66,9 +79,9 @@ class PlanetNavVectorEnv(VectorEnv):
         mode = (
             _MODES.get(autoreset_mode, autoreset_mode) if isinstance(autoreset_mode, str) else autoreset_mode
         )
-        if mode not in (AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP):
+        if mode not in _MODES.values():
             raise InvalidParameterError(
-                f"autoreset_mode must be 'next_step' or 'same_step', got {autoreset_mode!r}"
+                f"autoreset_mode must be one of {list(_MODES)}, got {autoreset_mode!r}"
             )
         self.metadata = {**self.metadata, "autoreset_mode": mode}
         self.autoreset_mode = mode
@@ -89,13 +102,27 @@ class PlanetNavVectorEnv(VectorEnv):
         self._rows = np.arange(n, dtype=np.int64)
         self._all_rows = np.ones(n, dtype=bool)
         self._all_rows.flags.writeable = False
+        # Name tables indexed by the core's codes; the appended None makes code -1 (no target) read None.
+        self._target_names = np.array([*cfg.planets, *cfg.pulsars, None], dtype=object)
+        self._sensor_names = np.array(L.SENSORS, dtype=object)
+        self._reason_names = np.array(L.REASONS, dtype=object)
+
+    @property
+    def spec(self) -> EnvSpec | None:
+        """The spec ``gym.make_vec`` gave this environment, ``max_episode_steps`` = ``episode_steps``."""
+        return self._spec
+
+    @spec.setter
+    def spec(self, value: EnvSpec | None) -> None:
+        self._spec = spec_with_episode_length(value, self.config.episode_steps)
 
     # ------------------------------------------------------------------------------------------
     def reset(
         self, *, seed: int | list[int | None] | None = None, options: dict | None = None
     ) -> tuple[Any, dict[str, Any]]:
-        """Reset every row (or the rows of ``options["reset_mask"]``). ``seed`` int s seeds row i with
-        s + i; a list gives one seed (or None) per row."""
+        """Reset every row (or the rows of ``options["reset_mask"]``, the only reset option). ``seed`` int s
+        seeds row i with s + i; a list gives one seed (or None) per row."""
+        check_reset_options(options, ("reset_mask",), "PlanetNavVectorEnv")
         n = self.num_envs
         if seed is None:
             seeds: list[int | None] = [None] * n
@@ -164,6 +191,12 @@ class PlanetNavVectorEnv(VectorEnv):
         n = self.num_envs
         targets, torques = self._decode(actions)
         core = self.core
+        if self.autoreset_mode == _DISABLED and self._needs_reset.any():
+            raise RuntimeError(
+                f"rows {np.flatnonzero(self._needs_reset).tolist()} have ended and autoreset_mode is "
+                "'disabled': reset them (reset(options={'reset_mask': mask})) before step(); "
+                "no row was stepped"
+            )
         if self.autoreset_mode == AutoresetMode.NEXT_STEP and self._needs_reset.any():
             rows = np.flatnonzero(self._needs_reset)
             core.reset_rows(rows, [self._generators[r] for r in rows])
@@ -182,7 +215,7 @@ class PlanetNavVectorEnv(VectorEnv):
                     infos["final_obs"][r] = (
                         obs_now[r] if cfg.observation == "box" else {k: v[r] for k, v in obs_now.items()}
                     )
-                    infos["final_info"][r] = self.core.info_row(int(r))
+                    infos["final_info"][r] = row_info(self.core, int(r))
                 infos["_final_obs"] = done.copy()
                 infos["_final_info"] = done.copy()
                 core.reset_rows(rows, [self._generators[r] for r in rows])
@@ -196,7 +229,21 @@ class PlanetNavVectorEnv(VectorEnv):
         return format_observation(self.config, self.layout, self.core.obs)
 
     def _infos(self) -> dict[str, Any]:
-        info = self.core.info_batch()
+        """The single environment's info keys as arrays over the rows (module docstring), each with its
+        ``_key`` mask (all True: every row has every key)."""
+        core = self.core
+        codes = core.i
+        info = core.info_batch()
+        info["target"] = self._target_names[codes[:, L.I_TARGET]]
+        info["sensor"] = self._sensor_names[codes[:, L.I_SENSOR]]
+        info["visibility"] = self._reason_names[codes[:, L.I_REASON]]
+        info["ambiguous_skipped"] = codes[:, L.I_SKIPPED].copy()
+        att = core.f[:, L.F_ATT_ERR]
+        with np.errstate(invalid="ignore"):
+            # The single env's rule: a non-finite fix (no star fix) reads NaN, never +-inf.
+            info["attitude_err_arcsec"] = np.where(np.isfinite(att), att / ARCSEC, np.nan)
+        x, p = core.filter_state()
+        info["filter"] = {"x": x, "P": p, "_x": self._all_rows, "_P": self._all_rows}
         for k in list(info):
             info["_" + k] = self._all_rows  # every key holds a value for every row
         return info
@@ -211,7 +258,7 @@ class PlanetNavVectorEnv(VectorEnv):
 
     def info_row(self, row: int) -> dict[str, Any]:
         """Row ``row``'s info in the single environment's form (dicts, Python scalars)."""
-        return self.core.info_row(int(row))
+        return row_info(self.core, int(row))
 
     def close_extras(self, **kwargs: Any) -> None:
         return None

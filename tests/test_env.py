@@ -6,12 +6,11 @@ import gymnasium as gym
 import numpy as np
 import pytest
 from gymnasium.utils.env_checker import check_env as gym_check_env
-from stable_baselines3.common.env_checker import check_env as sb3_check_env
 
 import planetnav_env  # noqa: F401  (registers the ids)
 from planetnav_env.config import EnvConfig
 from planetnav_env.env import PlanetNavEnv
-from planetnav_env.errors import ConfigError, InvalidParameterError, NonFiniteError
+from planetnav_env.errors import ConfigError, InvalidParameterError, NonFiniteError, UnknownOptionError
 from planetnav_env.registration import ENV_IDS
 
 SHORT = {"episode_steps": 50}
@@ -21,7 +20,9 @@ SHORT = {"episode_steps": 50}
 def test_registered_ids_pass_gymnasium_and_sb3_checkers(env_id):
     env = gym.make(env_id, render_mode="rgb_array", **SHORT)
     gym_check_env(env.unwrapped, skip_render_check=False)
-    sb3_check_env(gym.make(env_id, **SHORT).unwrapped, warn=True)
+    # SB3 is the [train] extra (the environment alone does not need it): its checker runs where it is.
+    sb3_checker = pytest.importorskip("stable_baselines3.common.env_checker")
+    sb3_checker.check_env(gym.make(env_id, **SHORT).unwrapped, warn=True)
 
 
 def test_dict_observation_variant_passes_checker():
@@ -288,3 +289,78 @@ def test_star_tracker_attitude_error_reaches_navigation():
     shift = r_biased - r_ideal
     across = np.linalg.norm(shift - (shift @ u) * u)
     assert 0.7 * bias_rad * rng_km < across < 1.3 * bias_rad * rng_km
+
+
+@pytest.mark.parametrize("env_id", sorted(ENV_IDS))
+def test_unknown_option_is_a_type_error_worded_like_python(env_id):
+    """TorchRL's GymEnv passes ``frameskip`` and retries without it only on a TypeError worded like
+    Python's: an unknown option must be that TypeError, and still a ConfigError naming the option."""
+    with pytest.raises(TypeError, match="got an unexpected keyword argument 'frameskip'") as err:
+        gym.make(env_id, frameskip=4)
+    assert isinstance(err.value, UnknownOptionError) and isinstance(err.value, ConfigError)
+    with pytest.raises(UnknownOptionError, match="'episode_steps'"):  # Gymnasium's name gets a hint
+        PlanetNavEnv(max_episode_steps=10)
+
+
+def test_spec_reports_the_episode_length_without_a_time_limit():
+    """``env.spec.max_episode_steps`` is the env's own truncation step, per id and after an override;
+    no Gymnasium TimeLimit is added (a second counter would cut an episode longer than the registered
+    one)."""
+    for env_id, options in ENV_IDS.items():
+        want = options.get("episode_steps", EnvConfig().episode_steps)
+        env = gym.make(env_id)
+        assert env.spec.max_episode_steps == want and env.unwrapped.spec.max_episode_steps == want
+        wrapper = env
+        while isinstance(wrapper, gym.Wrapper):
+            assert not isinstance(wrapper, gym.wrappers.TimeLimit), env_id
+            wrapper = wrapper.env
+    assert ENV_IDS["planetnav/MarsApproach-Tasking-v0"]["episode_steps"] == 1128  # ids differ: per id
+    env = gym.make("planetnav/Cruise-Target-v0", episode_steps=3)
+    assert env.spec.max_episode_steps == 3
+    env.reset(seed=0)
+    assert [env.step(0)[3] for _ in range(3)] == [False, False, True]
+
+
+def test_env_accepts_a_registered_id_as_config():
+    """``PlanetNavEnv(id)`` has the options ``gym.make(id)`` passes; other strings are named."""
+    env = PlanetNavEnv("planetnav/MarsApproach-Tasking-v0", episode_steps=5)
+    assert env.config == gym.make("planetnav/MarsApproach-Tasking-v0", episode_steps=5).unwrapped.config
+    assert PlanetNavEnv("planetnav_env:planetnav/Cruise-Torque-v0").config.action_mode == "torque"
+    with pytest.raises(ConfigError, match="'planetnav/Nope-v0'"):
+        PlanetNavEnv("planetnav/Nope-v0")
+    with pytest.raises(ConfigError, match="'CartPole-v1' is not a planetnav environment"):
+        PlanetNavEnv("CartPole-v1")
+    with pytest.raises(ConfigError, match="got 5 of type int"):
+        PlanetNavEnv(5)
+
+
+def test_single_env_bad_input_names_the_value_not_a_row():
+    """The single env's errors name the bad value in its own words (no "row 0", no "no row was
+    stepped"), blame a str's type rather than a shape, and reject an unknown reset option by name."""
+    env = PlanetNavEnv(**SHORT)
+    env.reset(seed=0)
+    cases = [
+        ("1", InvalidParameterError, "got '1' of type str"),
+        (None, InvalidParameterError, "got None of type NoneType"),
+        (np.nan, NonFiniteError, "action is not finite: nan"),
+        (1.5, InvalidParameterError, "must be an integer in [0, 3), got 1.5"),
+        (np.array([4]), InvalidParameterError, "must be an integer in [0, 3), got 4"),
+        ([0, 1], InvalidParameterError, "one integer in [0, 3), got shape (2,)"),
+    ]
+    tenv = PlanetNavEnv(action_mode="torque", **SHORT)
+    tenv.reset(seed=0)
+    torque_cases = [
+        ("1", InvalidParameterError, "must be numbers of shape (3,), got '1' of type str"),
+        ([0.0, np.nan, 0.0], NonFiniteError, "action contains NaN or infinite values: [0.0, nan, 0.0]"),
+        ([1.0, 2.0], InvalidParameterError, "action must have shape (3,), got shape (2,)"),
+    ]
+    for e, table in ((env, cases), (tenv, torque_cases)):
+        for action, kind, text in table:
+            with pytest.raises(kind) as err:
+                e.step(action)
+            assert text in str(err.value) and "row" not in str(err.value), (action, str(err.value))
+    with pytest.raises(InvalidParameterError, match=r"option\(s\) \['foo'\]; it takes no reset options"):
+        env.reset(options={"foo": 1})
+    with pytest.raises(InvalidParameterError, match="must be a dict or None, got 'foo'"):
+        env.reset(options="foo")
+    assert env.reset(seed=0, options={})[1]["time_s"] == env.reset(seed=0)[1]["time_s"]

@@ -14,7 +14,7 @@ import planetnav_env  # noqa: F401  (registers the ids)
 from planetnav_env.core import layout as L
 from planetnav_env.core.batch import PARALLEL_MIN_ROWS
 from planetnav_env.env import PlanetNavEnv
-from planetnav_env.errors import ConfigError, InvalidParameterError, NonFiniteError
+from planetnav_env.errors import ConfigError, InvalidParameterError, NonFiniteError, UnknownOptionError
 from planetnav_env.registration import ENV_IDS
 from planetnav_env.vector_env import PlanetNavVectorEnv
 
@@ -173,7 +173,10 @@ def test_vector_env_conformance() -> None:
         venv = gym.make_vec(env_id, num_envs=2, episode_steps=4)
         obs, info = venv.reset(seed=1)
         assert venv.observation_space.contains(obs)
-        assert isinstance(info, dict) and all(len(v) == 2 for k, v in info.items())
+        assert isinstance(info, dict)
+        # Every key (and every key of a nested dict, Gymnasium's convention for dict values) has 2 rows.
+        rows = [len(x) for v in info.values() for x in (v.values() if isinstance(v, dict) else [v])]
+        assert set(rows) == {2}
         acts = venv.action_space.sample()
         obs, rew, term, trunc, _ = venv.step(acts)
         assert venv.observation_space.contains(obs)
@@ -214,6 +217,7 @@ def test_settled_substeps_follow_the_fine_integration() -> None:
 
 
 def test_sb3_adapter_trains_and_reports_terminal_observations() -> None:
+    pytest.importorskip("stable_baselines3", reason="the SB3 adapter needs the [train] extra")
     from stable_baselines3 import PPO
     from stable_baselines3.common.vec_env import VecMonitor
 
@@ -287,3 +291,116 @@ def test_torque_action_scale_multiplies_the_commanded_torque():
     for bad in (0.0, 1.5, float("nan"), True):
         with pytest.raises(ConfigError, match="torque_action_scale"):
             PlanetNavVectorEnv(1, action_mode="torque", torque_action_scale=bad)
+
+
+#: The info keys that docs/environment.md ("Info keys") documents, for the single and the vector env.
+INFO_KEYS = {
+    "pos_err_km", "vel_err_km_s", "nees", "pos_sigma_km", "measured", "rejected", "target", "target_index",
+    "sensor", "ambiguous_skipped", "visibility", "visibility_code", "slewing", "attitude_err_arcsec",
+    "time_s", "filter",
+}  # fmt: skip
+
+
+def _same_value(vector_value, single_value) -> bool:
+    """A row's array entry equals the single env's Python value (names: the same str or None)."""
+    if single_value is None or isinstance(single_value, str):
+        return vector_value == single_value
+    if isinstance(single_value, float) and np.isnan(single_value):
+        return bool(np.isnan(vector_value))
+    return vector_value == single_value
+
+
+def _assert_rows_match(vinfo: dict, infos: list[dict]) -> None:
+    assert {k for k in vinfo if not k.startswith("_")} == INFO_KEYS
+    for single in infos:
+        assert set(single) == INFO_KEYS
+    for k in INFO_KEYS:
+        assert vinfo["_" + k].dtype == bool and vinfo["_" + k].all(), k  # every row has every key
+    for i, single in enumerate(infos):
+        for k, value in single.items():
+            if k == "filter":
+                assert np.array_equal(vinfo[k]["x"][i], value["x"])
+                assert np.array_equal(vinfo[k]["P"][i], value["P"])
+            else:
+                assert _same_value(vinfo[k][i], value), (k, i, vinfo[k][i], value)
+
+
+@pytest.mark.parametrize("env_id", list(ENV_IDS))
+def test_vector_info_has_the_single_env_keys_row_for_row(env_id: str) -> None:
+    """One documented set of info keys: the vector env's are the single env's, as arrays over the rows
+    (names as object arrays, the filter as (N, 6) and (N, 6, 6)), each value equal to the single env's
+    row; the README's ``info["target"]`` works on both."""
+    n, seed = 3, 21
+    venv = gym.make_vec(env_id, num_envs=n, episode_steps=8)
+    singles = [gym.make(env_id, episode_steps=8) for _ in range(n)]
+    _, vinfo = venv.reset(seed=seed)
+    infos = [env.reset(seed=seed + i)[1] for i, env in enumerate(singles)]
+    _assert_rows_match(vinfo, infos)
+    rng = np.random.default_rng(3)
+    names_seen = set()
+    for _ in range(6):
+        acts = _actions(venv.single_action_space, n, rng)
+        *_, vinfo = venv.step(acts)
+        infos = [env.step(acts[i])[4] for i, env in enumerate(singles)]
+        _assert_rows_match(vinfo, infos)
+        names_seen.update(vinfo["target"].tolist())
+    assert vinfo["target"].dtype == object and names_seen - {None}  # real names, not codes
+    names = venv.unwrapped.config.planets + venv.unwrapped.config.pulsars
+    for i in range(n):
+        code = vinfo["target_index"][i]
+        assert vinfo["target"][i] == (names[code] if code >= 0 else None)
+        assert vinfo["visibility"][i] == L.REASONS[vinfo["visibility_code"][i]]
+        row = venv.unwrapped.info_row(i)
+        assert set(row) == INFO_KEYS and row["target_index"] == infos[i]["target_index"]
+
+
+def test_vector_env_takes_an_env_id_and_reports_the_episode_length() -> None:
+    """An id stands for its registered options (as gym.make reads them), in the vector env and the SB3
+    adapter alike; ``spec.max_episode_steps`` is the env's own ``episode_steps``."""
+    venv = PlanetNavVectorEnv(2, "planetnav/MarsApproach-Tasking-v0", episode_steps=5)
+    made = gym.make_vec("planetnav/MarsApproach-Tasking-v0", num_envs=2, episode_steps=5)
+    assert venv.config == made.unwrapped.config and venv.config.pulsars == ("B0531+21", "B1937+21")
+    assert made.spec.max_episode_steps == 5
+    assert gym.make_vec("planetnav/MarsApproach-Tasking-v0", num_envs=2).spec.max_episode_steps == 1128
+    with pytest.raises(ConfigError, match="planetnav/Nope-v0"):
+        PlanetNavVectorEnv(2, "planetnav/Nope-v0")
+    with pytest.raises(UnknownOptionError, match="got an unexpected keyword argument 'frameskip'"):
+        gym.make_vec("planetnav/Cruise-Target-v0", num_envs=2, frameskip=4)
+    pytest.importorskip("stable_baselines3", reason="the SB3 adapter needs the [train] extra")
+    from planetnav_env.sb3_vec import PlanetNavSB3VecEnv
+
+    sb3 = PlanetNavSB3VecEnv(4, "planetnav/MarsApproach-Tasking-v0")
+    assert sb3.config == PlanetNavVectorEnv(4, "planetnav/MarsApproach-Tasking-v0").config
+    assert sb3.reset().shape == (4, *sb3.observation_space.shape)
+
+
+def test_vector_reset_rejects_unknown_options_by_name() -> None:
+    venv = PlanetNavVectorEnv(2, **SHORT)
+    with pytest.raises(InvalidParameterError, match=r"\['foo'\].*reset_mask"):
+        venv.reset(seed=0, options={"foo": 1})
+    with pytest.raises(InvalidParameterError, match="must be a dict"):
+        venv.reset(seed=0, options=["reset_mask"])
+    venv.reset(seed=0)
+    _, info = venv.reset(options={"reset_mask": np.array([True, False])})  # the one known option
+    assert info["pos_err_km"].shape == (2,)
+
+
+@pytest.mark.skipif(not hasattr(gym.vector.AutoresetMode, "DISABLED"), reason="Gymnasium < 1.1")
+def test_disabled_autoreset_leaves_resets_to_the_caller() -> None:
+    """``autoreset_mode="disabled"`` (TorchRL's preferred mode): a row that ended refuses to step, naming
+    it, until the caller resets it with ``reset_mask``; the rows then go on as ``next_step`` rows do."""
+    acts = np.array([0, 1])
+    off = gym.make_vec("planetnav/Cruise-Target-v0", num_envs=2, autoreset_mode="disabled", episode_steps=3)
+    ref = gym.make_vec("planetnav/Cruise-Target-v0", num_envs=2, episode_steps=3)
+    assert off.metadata["autoreset_mode"] == gym.vector.AutoresetMode.DISABLED
+    off.reset(seed=4)
+    ref.reset(seed=4)
+    for _ in range(3):
+        obs, _, _, trunc, _ = off.step(acts)
+        assert np.array_equal(obs, ref.step(acts)[0])
+    assert trunc.all()
+    with pytest.raises(RuntimeError, match=r"rows \[0, 1\] have ended.*reset_mask"):
+        off.step(acts)
+    obs, _ = off.reset(options={"reset_mask": np.array([True, True])})
+    assert np.array_equal(obs, ref.step(acts)[0])  # next_step's autoreset observation
+    assert np.array_equal(off.step(acts)[0], ref.step(acts)[0])
