@@ -18,16 +18,34 @@ from planetnav_agents.base import Agent, NotApplicableError, target_torque_actio
 from planetnav_agents.features import FeatureBatch, relative_action
 
 #: Lower-case names -> SB3 classes (imported lazily: SB3 and torch take seconds to import).
-ALGORITHMS = ("ppo", "a2c", "dqn", "sac", "td3", "ddpg")
+ALGORITHMS = ("ppo", "a2c", "dqn", "sac", "td3", "ddpg", "recurrent_ppo", "maskable_ppo", "tqc")
+#: The names of :data:`ALGORITHMS` that sb3-contrib provides (the ``bench`` extra) -> its class names;
+#: ``maskable_ppo`` masks the unobservable targets (:mod:`planetnav_agents.masking`).
+CONTRIB_ALGORITHMS = {"recurrent_ppo": "RecurrentPPO", "maskable_ppo": "MaskablePPO", "tqc": "TQC"}
 
 
 def algorithm_class(name: str) -> type:
-    """The SB3 algorithm class for a lower-case name in :data:`ALGORITHMS`."""
-    import stable_baselines3 as sb3
-
+    """The SB3 or sb3-contrib algorithm class for a lower-case name in :data:`ALGORITHMS`; a
+    :class:`~planetnav_env.errors.ConfigError` naming the ``bench`` extra when sb3-contrib is missing."""
     key = str(name).lower()
     if key not in ALGORITHMS:
         raise ValueError(f"unknown algorithm {name!r}; choose from {list(ALGORITHMS)}")
+    if key in CONTRIB_ALGORITHMS:
+        try:
+            import sb3_contrib
+        except ImportError:
+            from planetnav_env.errors import ConfigError
+
+            raise ConfigError(
+                f"algorithm {key!r} needs sb3-contrib, which is not installed: pip install -e \".[bench]\""
+            ) from None
+        if key == "maskable_ppo":
+            from planetnav_agents.masking import masked_ppo_class
+
+            return masked_ppo_class()
+        return getattr(sb3_contrib, CONTRIB_ALGORITHMS[key])
+    import stable_baselines3 as sb3
+
     return getattr(sb3, key.upper())
 
 
@@ -111,6 +129,7 @@ class SB3Agent(Agent):
         if self.action_repeat < 1:
             raise ValueError(f"action_repeat must be >= 1, got {self.action_repeat!r}")
         self._k = 0
+        self._lstm: Any = None  # a recurrent policy's LSTM state (RecurrentPPO), reset with the episode
         self._held: Any = None
         # Relative target actions ("stay" / "move k places"), as in training (RelativeTargetRows).
         self.relative = bool(sidecar.get("relative_actions", False))
@@ -147,6 +166,7 @@ class SB3Agent(Agent):
 
     def reset(self, seed: int | None = None) -> None:
         self._k = 0
+        self._lstm = None
         self._current = -1
         if self.features is not None:
             self.features.reset()
@@ -172,7 +192,13 @@ class SB3Agent(Agent):
         return self._held
 
     def _decide(self, observation: Any) -> Any:
-        action, _ = self.model.predict(observation, deterministic=self.deterministic)
+        if hasattr(self.model.policy, "lstm_actor"):  # RecurrentPPO: carry the LSTM state over the episode
+            start = np.array([self._lstm is None])
+            action, self._lstm = self.model.predict(
+                observation, state=self._lstm, episode_start=start, deterministic=self.deterministic
+            )
+        else:
+            action, _ = self.model.predict(observation, deterministic=self.deterministic)
         if np.ndim(action) == 0 or getattr(self.model.action_space, "n", None) is not None:
             return int(np.asarray(action).reshape(-1)[0])
         return np.asarray(action, dtype=np.float32)

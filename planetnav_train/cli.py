@@ -264,6 +264,36 @@ def cmd_sweep_periodic(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_suite(args: argparse.Namespace) -> int:
+    """``suite``: train, evaluate, score and aggregate a grid of benchmark cells
+    (:mod:`planetnav_train.suite`, docs/suite.md); a Ray Tune grid when Ray is installed; ``--resume``."""
+    from planetnav_train import suite
+
+    if not args.budget_scale > 0:
+        raise ConfigError(f"--budget-scale must be > 0, got {args.budget_scale}")
+    for flag, value in (("--episode-steps", args.episode_steps), ("--eval-episodes", args.eval_episodes)):
+        if value is not None and value < 1:
+            raise ConfigError(f"{flag} must be >= 1, got {value}")
+    tasks = args.tasks or [t.id for t in suite.TASKS]
+    kinds = {suite.get_task(t).action_kind for t in tasks}
+    algos = args.algos or sorted({a for k in kinds for a in suite.ALGOS_BY_KIND[k]})
+    cells = suite.make_cells(tasks, algos, args.seeds, args.track)
+    settings = suite.Settings(
+        out=Path(args.out),
+        budget_scale=args.budget_scale,
+        episode_steps=args.episode_steps,
+        eval_episodes=args.eval_episodes,
+        assists_path=args.assists,
+        progress=not args.no_progress,
+    )
+    use_ray = False if args.no_ray else None
+    result = suite.run_suite(cells, settings, resume=args.resume, use_ray=use_ray, address=args.address)
+    out = suite.finish(result, settings, args.json, Path(args.markdown) if args.markdown else None)
+    print(f"ran {len(result['ran'])}, skipped {len(result['skipped'])} finished; {len(result['records'])} "
+          f"records in {out['json']}; leaderboard: {out['markdown']}")  # fmt: skip
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The command line of ``train.py``: one sub-command per ``cmd_*`` function."""
     p = argparse.ArgumentParser(
@@ -352,6 +382,24 @@ def build_parser() -> argparse.ArgumentParser:
 
     for sp in (t, e, c, w, tn):
         sp.add_argument("--no-progress", action="store_true", help="no progress bars")
+
+    su = sub.add_parser("suite", help="benchmark suite: train, evaluate, score, aggregate (docs/suite.md)")
+    su.add_argument("--tasks", nargs="+", help="task ids, e.g. Cruise-Target-v0 (default: every task)")
+    su.add_argument("--algos", nargs="+", help="algorithms (default: every one of the tasks' action kinds)")
+    su.add_argument("--seeds", nargs="+", type=int, default=[0, 1, 2, 3, 4], help="training seeds")
+    su.add_argument("--track", choices=("raw", "assisted"), default="raw", help="default %(default)s")
+    su.add_argument("--assists", default="configs/suite/assisted.yaml", help="the assisted track's assists")
+    su.add_argument("--budget-scale", type=float, default=1.0, help="x each task's budget (smoke: < 1)")
+    su.add_argument("--episode-steps", type=int, help="smoke only: shorter episodes, training and evaluation")
+    su.add_argument("--eval-episodes", type=int, help="smoke only: fewer evaluation seeds than the task's")
+    su.add_argument("--out", default="runs/suite", help="records, models, references (default %(default)s)")
+    su.add_argument("--resume", action="store_true", help="skip the cells whose record exists in --out")
+    su.add_argument("--json", help="write this invocation's runs here (the published JSON's form)")
+    su.add_argument("--markdown", help="the leaderboard page (default OUT/benchmark.md)")
+    su.add_argument("--address", help="run the grid on the Ray cluster at HOST:PORT (needs the [ray] extra)")
+    su.add_argument("--no-ray", action="store_true", help="run sequentially even where Ray is installed")
+    su.add_argument("--no-progress", action="store_true", help="no progress bars")
+    su.set_defaults(func=cmd_suite)
     return p
 
 

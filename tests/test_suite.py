@@ -1,0 +1,219 @@
+"""The benchmark suite (planetnav_train/suite.py, scores.py; docs/suite.md): the normalized score, the
+rliable aggregation against direct numpy computations, the action mask, resume, and the CI smoke run of
+``train.py suite`` end to end on one tiny task and budget."""
+
+from __future__ import annotations
+
+import json
+import shlex
+
+import numpy as np
+import pytest
+
+from planetnav_env.errors import ConfigError
+from planetnav_env.registration import ENV_IDS
+from planetnav_train import suite
+from planetnav_train.scores import normalized_score
+
+#: A fixed (runs, tasks) score matrix: 5 seeds x 3 tasks.
+SCORES = np.array(
+    [
+        [0.10, 0.90, 1.20],
+        [0.40, 0.70, 0.95],
+        [-0.20, 1.10, 1.05],
+        [0.55, 0.60, 1.40],
+        [0.30, 0.85, 0.80],
+    ]
+)
+
+
+def test_normalized_score_hand_values() -> None:
+    # J_random 1000 km, best reference 200 km: random -> 0, reference -> 1, halfway -> 0.5.
+    assert normalized_score(1000.0, 1000.0, 200.0) == 0.0
+    assert normalized_score(200.0, 1000.0, 200.0) == 1.0
+    assert normalized_score(600.0, 1000.0, 200.0) == 0.5
+    assert normalized_score(100.0, 1000.0, 200.0) == pytest.approx(1.125)  # beats the reference
+    assert normalized_score(1200.0, 1000.0, 200.0) == pytest.approx(-0.25)  # worse than random
+    with pytest.raises(ConfigError, match="same objective"):
+        normalized_score(5.0, 300.0, 300.0)
+    with pytest.raises(ConfigError, match="non-finite"):
+        normalized_score(float("nan"), 300.0, 200.0)
+
+
+def _direct_iqm(m: np.ndarray) -> float:
+    flat = np.sort(m.ravel())
+    cut = int(0.25 * flat.size)
+    return float(flat[cut : flat.size - cut].mean())
+
+
+def test_iqm_with_stratified_bootstrap_matches_numpy() -> None:
+    pytest.importorskip("rliable")
+    from planetnav_train.scores import iqm_intervals
+
+    got = iqm_intervals({"a": SCORES}, reps=4_000, seed=1)["a"]
+    assert got["iqm"] == pytest.approx(_direct_iqm(SCORES), abs=1e-12)
+    # The same bootstrap by hand: resample the runs within each task (stratified), IQM, percentiles.
+    rng = np.random.default_rng(7)
+    runs, tasks = SCORES.shape
+    boot = np.empty(4_000)
+    for b in range(boot.size):
+        idx = rng.integers(0, runs, size=(runs, tasks))
+        boot[b] = _direct_iqm(np.take_along_axis(SCORES, idx, axis=0))
+    low, high = np.percentile(boot, [2.5, 97.5])
+    # Two independent Monte Carlo estimates of the same percentiles: close, not equal.
+    assert got["low"] == pytest.approx(low, abs=0.04)
+    assert got["high"] == pytest.approx(high, abs=0.04)
+    assert got["low"] < got["iqm"] < got["high"]
+
+
+def test_profiles_and_probability_of_improvement_match_numpy() -> None:
+    pytest.importorskip("rliable")
+    from planetnav_train.scores import improvement_probabilities, performance_profiles
+
+    taus = [0.0, 0.5, 1.0]
+    prof = performance_profiles({"a": SCORES}, taus=taus, reps=200)["a"]
+    assert prof["fraction"] == pytest.approx([np.mean(SCORES > t) for t in taus])
+    other = SCORES[::-1] + 0.1
+    (row,) = improvement_probabilities({("b", "a"): (other, SCORES)}, reps=200)
+    # P(X > Y): per task, over all pairs of runs, ties count half; then the mean over tasks.
+    direct = np.mean(
+        [
+            np.mean(
+                (other[:, None, j] > SCORES[None, :, j]) + 0.5 * (other[:, None, j] == SCORES[None, :, j])
+            )
+            for j in range(SCORES.shape[1])
+        ]
+    )
+    assert row["probability"] == pytest.approx(direct)
+    assert row["low"] <= row["probability"] <= row["high"]
+
+
+def test_every_registered_id_is_a_task_with_100_seeds() -> None:
+    assert {t.env_id for t in suite.TASKS} == set(ENV_IDS)
+    for t in suite.TASKS:
+        assert len(t.eval_seeds) == 100 and t.noise_streams == "per_step"
+        assert t.eval_config().noise_streams == "per_step"
+        assert t.id.endswith(f"-v{t.version}")
+    with pytest.raises(ConfigError, match="unknown task 'Nope-v0'"):
+        suite.get_task("Nope-v0")
+
+
+def test_cells_and_bad_values() -> None:
+    cells = suite.make_cells(["Cruise-Target-v0", "Cruise-Torque-v0"], ["ppo", "dqn"], [0, 1], "raw")
+    # dqn is discrete only: skipped on the torque task; ppo runs on both.
+    assert sorted({(c.task, c.algo) for c in cells}) == [
+        ("Cruise-Target-v0", "dqn"), ("Cruise-Target-v0", "ppo"), ("Cruise-Torque-v0", "ppo"),
+    ]  # fmt: skip
+    with pytest.raises(ConfigError, match="'sac' runs on"):
+        suite.make_cells(["Cruise-Target-v0"], ["sac"], [0], "raw")
+    with pytest.raises(ConfigError, match="--track 'both'"):
+        suite.make_cells(["Cruise-Target-v0"], ["ppo"], [0], "both")
+    with pytest.raises(ConfigError, match="unknown algorithm 'ppo2'"):
+        suite.make_cells(["Cruise-Target-v0"], ["ppo2"], [0], "raw")
+
+
+def test_raw_and_assisted_configs(tmp_path) -> None:
+    settings = suite.Settings(out=tmp_path)
+    raw, names = suite.cell_config(suite.Cell("Cruise-Target-v0", "ppo", "raw", 3), settings)
+    assert names == [] and raw.features == [] and raw.action_repeat == 1 and not raw.pretrain
+    assert raw.env == {} and raw.seed == 3 and raw.n_timesteps == suite.get_task("Cruise-Target-v0").budget
+    assisted, names = suite.cell_config(suite.Cell("Cruise-Target-v0", "ppo", "assisted", 3), settings)
+    assert "since_measured" in names and assisted.features == ["since_measured"]
+    # The budget is in environment steps: with a repeat of 10, a tenth as many decisions.
+    assert assisted.n_timesteps * assisted.action_repeat == raw.n_timesteps
+    with pytest.raises(ConfigError, match="maskable_ppo masks"):
+        suite.cell_config(suite.Cell("Cruise-Target-v0", "maskable_ppo", "assisted", 0), settings)
+
+
+def test_observable_mask_reads_the_observable_column() -> None:
+    from planetnav_agents.masking import observable_mask
+    from planetnav_env.core.layout import TF_OBSERVABLE
+    from planetnav_env.env import PlanetNavEnv
+
+    env = PlanetNavEnv(suite.get_task("MarsApproach-Tasking-v0").env_config())  # a planet and 2 pulsars
+    obs, _ = env.reset(seed=1)
+    blocks = env.layout.to_dict(obs)
+    observable = np.concatenate([blocks["planets"][:, TF_OBSERVABLE], blocks["pulsars"][:, TF_OBSERVABLE]])
+    mask = observable_mask(obs, env.action_space.n)
+    if observable.any():
+        assert mask.tolist() == (observable > 0.5).tolist()
+    rows = np.stack([obs, obs])
+    rows[1, :] = 0.0  # nothing observable: every action allowed (an all-false mask has no distribution)
+    masks = observable_mask(rows, env.action_space.n + 1)  # + the idle action, always allowed
+    assert masks[1].all() and masks[0, -1]
+
+
+def test_contrib_algorithm_without_sb3_contrib_names_the_extra(monkeypatch) -> None:
+    import sys
+
+    from planetnav_agents.sb3 import algorithm_class
+
+    monkeypatch.setitem(sys.modules, "sb3_contrib", None)  # import sb3_contrib raises ImportError
+    with pytest.raises(ConfigError, match=r"\.\[bench\]"):
+        algorithm_class("tqc")
+
+
+def _fake_record(cell: suite.Cell, settings: suite.Settings) -> dict:
+    return {"task": cell.task, "algorithm": cell.algo, "track": cell.track, "seed": cell.seed,
+            "objective": 100.0 + cell.seed, "normalized_score": 0.5 + 0.1 * cell.seed, "wall_seconds": 0.0,
+            "official": False, "command": suite.rerun_command(cell, settings)}  # fmt: skip
+
+
+def test_resume_skips_finished_runs(tmp_path, monkeypatch) -> None:
+    trained: list[str] = []
+
+    def fake_run_cell(cell, settings, references):
+        trained.append(cell.key)
+        return _fake_record(cell, settings)
+
+    monkeypatch.setattr(suite, "run_cell", fake_run_cell)
+    monkeypatch.setattr(suite, "task_references", lambda task, settings: {"task": task.id})
+    settings = suite.Settings(out=tmp_path)
+    cells = suite.make_cells(["Cruise-Target-v0"], ["ppo"], [0, 1], "raw")
+    first = suite.run_suite(cells, settings, use_ray=False)
+    assert len(trained) == 2 and len(first["records"]) == 2
+    with pytest.raises(ConfigError, match="--resume"):
+        suite.run_suite(cells, settings, use_ray=False)
+    more = suite.make_cells(["Cruise-Target-v0"], ["ppo"], [0, 1, 2], "raw")
+    again = suite.run_suite(more, settings, resume=True, use_ray=False)
+    assert trained == [c.key for c in cells] + ["Cruise-Target-v0__ppo__raw__s2"]  # only the new cell
+    assert len(again["skipped"]) == 2 and len(again["records"]) == 3
+
+
+def test_suite_smoke_end_to_end(tmp_path) -> None:
+    """CI: train a few hundred steps, evaluate on 2 seeds of 20 steps, score, aggregate, write the JSON and
+    the markdown; then re-parse the recorded command of a cell."""
+    pytest.importorskip("rliable")
+    from planetnav_train.cli import build_parser, main
+
+    out, js, md = tmp_path / "suite", tmp_path / "runs.json", tmp_path / "benchmark.md"
+    argv = ["suite", "--tasks", "Cruise-Target-v0", "--algos", "ppo", "--seeds", "0", "1",
+            "--budget-scale", "0.003", "--episode-steps", "20", "--eval-episodes", "2",
+            "--out", str(out), "--json", str(js), "--markdown", str(md),
+            "--no-ray", "--no-progress"]  # fmt: skip
+    assert main(argv) == 0
+    runs = json.loads(js.read_text())["runs"]
+    assert len(runs) == 2
+    for r in runs:
+        assert r["env_steps"] >= 300 and len(r["per_episode"]) == 2 and not r["official"]
+        assert np.isfinite(r["normalized_score"]) and r["wall_seconds"] > 0
+    published = json.loads((out / "suite.json").read_text())
+    ref = published["references"]["Cruise-Target-v0"]
+    candidates = {k: v["objective"] for k, v in ref["agents"].items() if k != "random"}
+    assert ref["J_best"] == min(candidates.values()) == ref["agents"][ref["best"]]["objective"]
+    agg = published["aggregate"]["raw"]["overall"]["ppo"]
+    assert agg["low"] <= agg["iqm"] <= agg["high"]
+    text = md.read_text()
+    assert "Not a leaderboard" in text and (tmp_path / "benchmark_plots" / "raw_iqm.png").is_file()
+    # Resume: nothing left to train.
+    assert main([*argv, "--resume"]) == 0
+    assert json.loads(js.read_text())["runs"] == []
+    # The recorded command re-runs exactly that cell.
+    args = build_parser().parse_args(shlex.split(runs[0]["command"])[2:])
+    assert (args.tasks, args.algos, args.seeds, args.track) == (
+        ["Cruise-Target-v0"],
+        ["ppo"],
+        [runs[0]["seed"]],
+        "raw",
+    )
+    assert (args.budget_scale, args.episode_steps, args.eval_episodes) == (0.003, 20, 2)
