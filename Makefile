@@ -16,6 +16,8 @@ $(STAMP): pyproject.toml
 
 # Second environment with the [ray] extra (RLlib + Tune). RLlib pins gymnasium (1.2.2 for ray 2.60), so
 # this one also checks planetnav under that gymnasium, while .venv keeps the default (newest) one.
+# It also holds the [clients] extra (torchrl 0.14 + tensordict 0.14, sb3-contrib), which the optional
+# tests/test_client_*.py run against; both install for torch 2.13.0 and leave it as it is (~5 MB).
 RAY_VENV := .venv-ray
 RAY_BIN := $(RAY_VENV)/bin
 RAY_STAMP := $(RAY_VENV)/.installed
@@ -24,7 +26,7 @@ $(RAY_STAMP): pyproject.toml
 	$(PY) -m venv $(RAY_VENV)
 	$(RAY_BIN)/python -m pip install -q --upgrade pip
 	$(RAY_BIN)/python -m pip install -q torch==2.13.0
-	$(RAY_BIN)/python -m pip install -q -e ".[dev,ray]"
+	$(RAY_BIN)/python -m pip install -q -e ".[dev,ray,clients]"
 	touch $(RAY_STAMP)
 
 run: $(STAMP)
@@ -40,7 +42,8 @@ test: $(STAMP)
 	$(BIN)/python -m pytest
 
 # The whole suite under the [ray] extra's gymnasium, including the Ray tests (two-node loopback clusters,
-# RLlib training, Tune sweeps, node loss) that the default environment skips.
+# RLlib training, Tune sweeps, node loss) and the client tests (TorchRL, sb3-contrib) that the default
+# environment skips.
 test-ray: $(RAY_STAMP)
 	RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER=0 $(RAY_BIN)/python -m pytest
 
