@@ -58,6 +58,7 @@ import numpy as np
 from numba import njit
 
 from planetnav_env import quaternion as qt
+from planetnav_env.codes import AttitudeStatus
 from planetnav_env.errors import InvalidParameterError, NonFiniteError, require_finite, require_positive
 from planetnav_env.jit import row_kernel
 
@@ -347,12 +348,13 @@ def store_state_kernel(
     return ok
 
 
-# Status codes of the batch kernels, turned into exceptions by raise_state_error.
-STATUS_OK = 0
-STATUS_NONFINITE_INPUT = 1
-STATUS_ZERO_Q = 2
-STATUS_NONFINITE_RESULT = 3
-STATUS_ZERO_DIRECTION = 4
+# Status codes of the batch kernels (AttitudeStatus as ints: numba folds int globals), turned into
+# exceptions by raise_state_error.
+STATUS_OK = int(AttitudeStatus.OK)
+STATUS_NONFINITE_INPUT = int(AttitudeStatus.NONFINITE_INPUT)
+STATUS_ZERO_Q = int(AttitudeStatus.ZERO_Q)
+STATUS_NONFINITE_RESULT = int(AttitudeStatus.NONFINITE_RESULT)
+STATUS_ZERO_DIRECTION = int(AttitudeStatus.ZERO_DIRECTION)
 
 
 @row_kernel

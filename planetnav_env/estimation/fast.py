@@ -7,8 +7,9 @@ cycle) cannot give. These kernels run the *same equations* (RK4 state + RK4 vari
 ``P = Phi P Phi^T + Q``, Joseph update, angle wrapping, chi-square gate) as scalar loops;
 ``tests/test_fast_ekf.py`` holds them to the numpy core at 1e-10 relative.
 
-Measurement kinds (integer codes, see :data:`KIND_CODES`): 0 direction, 1 direction+size,
-2 los, 3 los+size, with the formulas of :mod:`planetnav_env.estimation.measurements`.
+Measurement kinds (:class:`~planetnav_env.codes.MeasurementKind`; :data:`KIND_CODES` maps the
+configuration strings to its ints): 0 direction, 1 direction+size, 2 los, 3 los+size, with the
+formulas of :mod:`planetnav_env.estimation.measurements`.
 """
 
 from __future__ import annotations
@@ -18,13 +19,15 @@ import math
 import numpy as np
 from numba import njit, prange
 
+from planetnav_env.codes import MeasurementKind
 from planetnav_env.dynamics.orbit import GravityModel, PerturberFn
 from planetnav_env.errors import InvalidParameterError, NonFiniteError, require_finite, require_positive
 from planetnav_env.estimation.ekf import FilterConfig, process_noise, validate_initial
 from planetnav_env.estimation.measurements import MeasurementModel
 from planetnav_env.jit import row_kernel
 
-KIND_CODES = {"direction": 0, "direction+size": 1, "los": 2, "los+size": 3}
+#: Configuration string -> MeasurementKind as an int (what the kernels take).
+KIND_CODES = {k.label: int(k) for k in MeasurementKind}
 
 
 @row_kernel
