@@ -167,6 +167,20 @@ SPACECRAFT_BLOCK = (
     ("rates", 3, "reported body rates", "deg/s"),
     ("wheel_momentum", 3, "wheel momentum", "/ capacity"),
 )  # fmt: skip
+
+
+def _block_starts() -> dict[str, int]:
+    starts, i = {}, 0
+    for name, w, _, _ in SPACECRAFT_BLOCK:
+        starts[name] = i
+        i += w
+    return starts
+
+
+#: First index of each spacecraft-block field in the flat observation (the compiled builder writes there).
+(SC_POSITION, SC_VELOCITY, SC_LOG_SIGMA, SC_ATTITUDE, SC_RATES, SC_WHEEL_MOMENTUM) = (
+    _block_starts()[k] for k in ("position", "velocity", "log_sigma", "attitude", "rates", "wheel_momentum")
+)
 PLANET_FEATURE_TEXT = (
     "planet p: estimated direction in body axes (3), log10(estimated distance / AU), estimated apparent "
     "diameter / diameter noise, observable if pointed at (Sun exclusion, occultation, size) 0/1, log10 of "

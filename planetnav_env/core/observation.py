@@ -33,6 +33,20 @@ from planetnav_env.core.layout import (
     S_SIGMA_ALPHA,
     S_SUN_AVOID,
     S_VEL_SCALE,
+    SC_ATTITUDE,
+    SC_LOG_SIGMA,
+    SC_POSITION,
+    SC_RATES,
+    SC_VELOCITY,
+    SC_WHEEL_MOMENTUM,
+    TARGET_FEATURES,
+    TF_DIR,
+    TF_LOG_DISTANCE,
+    TF_LOG_PHASE_SIGMA,
+    TF_LOG_SIGMA,
+    TF_OBSERVABLE,
+    TF_PROGRESS,
+    TF_SIZE,
 )  # fmt: skip
 from planetnav_env.core.row_ephemeris import eval_channel, planets_at, row_time
 from planetnav_env.dynamics.attitude import dcm_body_to_inertial_kernel
@@ -59,14 +73,14 @@ def observe_row(prm, f, p, i, eph, obs, n, sc, bodies_ready) -> None:  # pragma:
     pm = p[n]
     qe = f[n, F_QE : F_QE + 4]
     for j in range(3):
-        o[j] = xe[j] / s[S_POS_SCALE]
-        o[3 + j] = xe[3 + j] / s[S_VEL_SCALE]
-        o[6 + j] = math.log10(math.sqrt(max(pm[j, j], 1e-30))) / 4.0
-        o[9 + j] = math.log10(math.sqrt(max(pm[3 + j, 3 + j], 1e-30)) * 1e3) / 4.0
-        o[16 + j] = f[n, F_WM + j] / (math.pi / 180.0)
-        o[19 + j] = f[n, F_HW + j] / prm.h_max[j]
+        o[SC_POSITION + j] = xe[j] / s[S_POS_SCALE]
+        o[SC_VELOCITY + j] = xe[3 + j] / s[S_VEL_SCALE]
+        o[SC_LOG_SIGMA + j] = math.log10(math.sqrt(max(pm[j, j], 1e-30))) / 4.0
+        o[SC_LOG_SIGMA + 3 + j] = math.log10(math.sqrt(max(pm[3 + j, 3 + j], 1e-30)) * 1e3) / 4.0
+        o[SC_RATES + j] = f[n, F_WM + j] / (math.pi / 180.0)
+        o[SC_WHEEL_MOMENTUM + j] = f[n, F_HW + j] / prm.h_max[j]
     for j in range(4):
-        o[12 + j] = qe[j]
+        o[SC_ATTITUDE + j] = qe[j]
     if not bodies_ready:
         t = row_time(prm, f, i, n)
         eval_channel(prm, eph, f, n, t, nn[N_CH_CENTRAL], sc.central)
@@ -76,8 +90,8 @@ def observe_row(prm, f, p, i, eph, obs, n, sc, bodies_ready) -> None:  # pragma:
     _planet_features(prm, sc.dirv, qe, pm, sc)
     base = nn[N_OBS_PLANETS]
     for a in range(sc.feat.shape[0]):
-        for c in range(7):
-            o[base + 7 * a + c] = sc.feat[a, c]
+        for c in range(TARGET_FEATURES):
+            o[base + TARGET_FEATURES * a + c] = sc.feat[a, c]
     n_q = nn[N_NQ]
     if n_q:
         _pulsar_features(prm, f, p, i, n, qe, sc, o, nn[N_OBS_PULSARS])
@@ -107,15 +121,15 @@ def _planet_features(prm, r_est, qe, pm, sc) -> None:  # pragma: no cover - comp
         dist = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
         u0, u1, u2 = d0 / dist, d1 / dist, d2 / dist
         for c in range(3):  # R^T u
-            out[a, c] = r[0, c] * u0 + r[1, c] * u1 + r[2, c] * u2
-        out[a, 3] = math.log10(dist / AU_KM)
+            out[a, TF_DIR + c] = r[0, c] * u0 + r[1, c] * u1 + r[2, c] * u2
+        out[a, TF_LOG_DISTANCE] = math.log10(dist / AU_KM)
         alpha = 2.0 * math.asin(min(prm.radii[a] / dist, 1.0))
         along = (
             u0 * (pm[0, 0] * u0 + pm[0, 1] * u1 + pm[0, 2] * u2)
             + u1 * (pm[1, 0] * u0 + pm[1, 1] * u1 + pm[1, 2] * u2)
             + u2 * (pm[2, 0] * u0 + pm[2, 1] * u1 + pm[2, 2] * u2)
         )
-        out[a, 6] = math.log10(math.sqrt(max(tr - along, 1e-12))) / 4.0
+        out[a, TF_LOG_SIGMA] = math.log10(math.sqrt(max(tr - along, 1e-12))) / 4.0
         # Shortest arc from the boresight b to u: q = [1 + b.u, b x u] / norm (u opposite b: a
         # perpendicular axis).
         w = 1.0 + b0 * u0 + b1 * u1 + b2 * u2
@@ -131,8 +145,8 @@ def _planet_features(prm, r_est, qe, pm, sc) -> None:  # pragma: no cover - comp
             prm.cam, sc.m, sc.u6, sc.vals,
         )  # fmt: skip
         visible = st == 0 and int(sc.vals[V_REASON]) == REASON_VISIBLE
-        out[a, 5] = 1.0 if (visible and alpha < s[S_ALPHA_MAX]) else 0.0
-        out[a, 4] = alpha / s[S_SIGMA_ALPHA]
+        out[a, TF_OBSERVABLE] = 1.0 if (visible and alpha < s[S_ALPHA_MAX]) else 0.0
+        out[a, TF_SIZE] = alpha / s[S_SIGMA_ALPHA]
 
 
 @row_kernel
@@ -146,18 +160,18 @@ def _pulsar_features(prm, f, p, i, n, qe, sc, o, base) -> None:  # pragma: no co
     dcm_body_to_inertial_kernel(qe[0], qe[1], qe[2], qe[3], sc.rq)
     for j in range(nn[N_NQ]):
         nv = prm.psr[j, 0:3]
-        off = base + 7 * j
+        off = base + TARGET_FEATURES * j
         for c in range(3):
-            o[off + c] = sc.rq[0, c] * nv[0] + sc.rq[1, c] * nv[1] + sc.rq[2, c] * nv[2]
-        o[off + 3] = f[n, F_INTEGRATED] / s[S_PSR_INT_S] if i[n, I_TARGET] == n_p + j else 0.0
+            o[off + TF_DIR + c] = sc.rq[0, c] * nv[0] + sc.rq[1, c] * nv[1] + sc.rq[2, c] * nv[2]
+        o[off + TF_PROGRESS] = f[n, F_INTEGRATED] / s[S_PSR_INT_S] if i[n, I_TARGET] == n_p + j else 0.0
         var = 0.0
         for a in range(3):
             for c in range(3):
                 var += nv[a] * pm[a, c] * nv[c]
         lam, sig = prm.psr[j, 3], prm.psr[j, 4]
-        o[off + 4] = math.log10(math.sqrt(var / (lam * lam) + sig * sig))
+        o[off + TF_LOG_PHASE_SIGMA] = math.log10(math.sqrt(var / (lam * lam) + sig * sig))
         vis = pulsar_visibility_row(
             sc.dirv, nv, s[S_SUN_AVOID], sc.central, s[S_CENTRAL_RADIUS], nn[N_APPROACH] != 0
         )
-        o[off + 5] = 1.0 if vis == REASON_VISIBLE else 0.0
-        o[off + 6] = math.log10(math.sqrt(max(var, 1e-12))) / 4.0
+        o[off + TF_OBSERVABLE] = 1.0 if vis == REASON_VISIBLE else 0.0
+        o[off + TF_LOG_SIGMA] = math.log10(math.sqrt(max(var, 1e-12))) / 4.0

@@ -9,6 +9,7 @@ import numpy as np
 from numba import njit
 
 from planetnav_env.core import rng as crng
+from planetnav_env.core.layout import TARGET_FEATURES
 from planetnav_env.sensors.camera import (
     N_VIS_SLOTS,
 )
@@ -77,7 +78,7 @@ class Scratch(NamedTuple):
     planets: np.ndarray  # (P, 3)
     r_tile: np.ndarray  # (P, 3)
     q_tile: np.ndarray  # (P, 4)
-    feat: np.ndarray  # (P, 7)
+    feat: np.ndarray  # (P, TARGET_FEATURES)
     noise3: np.ndarray  # (3,)
     star_idx: np.ndarray  # (max_stars,) int64 catalogue indices in view
     star_noise: np.ndarray  # (max_stars, 3) per-star direction noise [rad]
@@ -91,13 +92,50 @@ def make_scratch(prm: CoreParams) -> Scratch:  # pragma: no cover - compiled
     n_p = prm.radii.shape[0]
     n_k = prm.mus.shape[0]
     n_s = prm.stars.max_stars
+    # By keyword: a field is found by its name, not by its place among 44.
     return Scratch(
-        np.empty((8, 7)), np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3)), np.empty(7), np.empty(3),
-        np.empty(3), np.zeros(3), np.empty((3, 6, 6)), np.empty((4, 6)), np.empty((6, 6)), np.empty((6, 6)),
-        np.empty(6), np.empty((5, 6, 6)), np.empty(3), np.empty((3, 6)), np.empty((3, 3)), np.empty(3),
-        np.zeros((2, 3)), np.empty((3, 3)), np.empty(6), np.empty(N_VIS_SLOTS), np.empty(3), np.empty(3),
-        np.empty(2), np.empty(2), np.empty((1, 3)), np.empty((1, 4)), np.empty((1, 3)), np.empty(3),
-        np.empty(3), np.empty(3), np.empty(3), np.empty((3, n_k, 3)), np.empty((n_p, 3)), np.empty((n_p, 3)),
-        np.empty((n_p, 4)), np.empty((n_p, 7)), np.empty(3), np.empty(n_s, np.int64), np.empty((n_s, 3)),
-        np.empty(FIX_WORK_SHAPE), np.empty(4), np.empty(crng.STATE_WORDS, np.uint64),
-    )  # fmt: skip
+        work=np.empty((8, 7)),
+        rq=np.empty((3, 3)),
+        a=np.empty((3, 3)),
+        frame=np.empty((3, 3)),
+        y=np.empty(7),
+        u_cmd=np.empty(3),
+        bias=np.empty(3),
+        zero3=np.zeros(3),
+        w6=np.empty((3, 6, 6)),
+        v6=np.empty((4, 6)),
+        phi=np.empty((6, 6)),
+        tmp=np.empty((6, 6)),
+        x_new=np.empty(6),
+        uw=np.empty((5, 6, 6)),
+        h=np.empty(3),
+        jac=np.empty((3, 6)),
+        rcov=np.empty((3, 3)),
+        z=np.empty(3),
+        basis=np.zeros((2, 3)),
+        m=np.empty((3, 3)),
+        u6=np.empty(6),
+        vals=np.empty(N_VIS_SLOTS),
+        los=np.empty(3),
+        los_true=np.empty(3),
+        mm=np.empty(2),
+        pix=np.empty(2),
+        r1=np.empty((1, 3)),
+        q1=np.empty((1, 4)),
+        t1=np.empty((1, 3)),
+        central=np.empty(3),
+        ssb=np.empty(3),
+        dirv=np.empty(3),
+        roll=np.empty(3),
+        pert=np.empty((3, n_k, 3)),
+        planets=np.empty((n_p, 3)),
+        r_tile=np.empty((n_p, 3)),
+        q_tile=np.empty((n_p, 4)),
+        feat=np.empty((n_p, TARGET_FEATURES)),
+        noise3=np.empty(3),
+        star_idx=np.empty(n_s, np.int64),
+        star_noise=np.empty((n_s, 3)),
+        star_work=np.empty(FIX_WORK_SHAPE),
+        q_fix=np.empty(4),
+        sub=np.empty(crng.STATE_WORDS, np.uint64),
+    )
