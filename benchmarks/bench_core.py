@@ -24,7 +24,7 @@ from planetnav_env.dynamics.attitude import AttitudeConfig
 from planetnav_env.dynamics.orbit import GravityModel, rk4_step
 from planetnav_env.ephemeris import KeplerianEphemeris
 from planetnav_env.estimation.ekf import BatchEKF, FilterConfig, FilterpyEKF, process_noise
-from planetnav_env.estimation.fast import (
+from planetnav_env.estimation.ekf_kernels import (
     KIND_CODES,
     SingleEKF,
     predict_batch_kernel,

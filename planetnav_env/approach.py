@@ -47,7 +47,7 @@ from planetnav_env.dynamics.orbit import GravityModel, rk4_step
 from planetnav_env.ephemeris import DEEphemeris
 from planetnav_env.errors import InvalidParameterError, require_finite, require_positive
 from planetnav_env.estimation.ekf import BatchEKF, FilterConfig
-from planetnav_env.estimation.fast import nees_batch_kernel
+from planetnav_env.estimation.ekf_kernels import nees_batch_kernel
 from planetnav_env.estimation.image_plane import (
     boresight_camera_to_inertial,
     image_plane_coordinates,

@@ -1,7 +1,7 @@
 """Compilation options of the compiled row kernels (one place for them).
 
 The simulation core calls many small kernels per row and step, passing arrays and tuples of arrays
-(:class:`~planetnav_env.core.kernels.CoreParams`, ``Scratch``: ~60 arrays). With numba's reference
+(:class:`~planetnav_env.core.records.CoreParams`, ``Scratch``: ~60 arrays). With numba's reference
 counting (NRT) every such call increments and decrements the count of every array it receives: atomic
 operations that cost more than the arithmetic of a small kernel, and that two threads stepping their
 chunks contend on (the parameter arrays are shared). Kernels that neither allocate nor return an

@@ -19,7 +19,7 @@ from planetnav_env.dynamics.orbit import GravityModel, rk4_step
 from planetnav_env.ephemeris import Ephemeris
 from planetnav_env.errors import InvalidParameterError, require_positive
 from planetnav_env.estimation.ekf import BatchEKF, FilterConfig, nees, process_noise
-from planetnav_env.estimation.fast import (
+from planetnav_env.estimation.ekf_kernels import (
     KIND_CODES,
     predict_batch_kernel,
     rk4_batch_kernel,

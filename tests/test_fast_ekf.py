@@ -8,7 +8,7 @@ from planetnav_env.dynamics.orbit import GravityModel
 from planetnav_env.ephemeris import DEEphemeris, KeplerianEphemeris, elements_to_state
 from planetnav_env.errors import InvalidParameterError, NonFiniteError
 from planetnav_env.estimation.ekf import BatchEKF, FilterConfig, process_noise
-from planetnav_env.estimation.fast import KIND_CODES, SingleEKF, cycle_batch_kernel
+from planetnav_env.estimation.ekf_kernels import KIND_CODES, SingleEKF, cycle_batch_kernel
 from planetnav_env.estimation.measurements import MeasurementModel, los_basis
 from planetnav_env.navigation import perturb_direction
 from planetnav_env.timescale import tdb_seconds
@@ -153,12 +153,12 @@ def test_navigation_harness_engines_agree(kind):
 
 
 def test_core_what_if_updates_equal_the_numpy_kalman_update():
-    """The planning agents' what-if (core.kernels.predicted_*_trace: the core's model and Joseph update on
+    """The planning agents' what-if (core.what_if.predicted_*_trace: the core's model and Joseph update on
     copies, R / n, zero innovation) equals the standard-form update P - P H^T S^-1 H P of the numpy
     measurement model (the oracle) for every measurement model and pulsar."""
     import math
 
-    from planetnav_env.core.kernels import predicted_planet_trace, predicted_pulsar_trace
+    from planetnav_env.core.what_if import predicted_planet_trace, predicted_pulsar_trace
     from planetnav_env.env import PlanetNavEnv
     from planetnav_env.estimation.measurements import MeasurementModel, los_basis
     from planetnav_env.sensors import pulsar as psr

@@ -244,8 +244,8 @@ def test_sb3_adapter_trains_and_reports_terminal_observations() -> None:
 def test_core_pulsar_visibility_equals_the_numpy_rule() -> None:
     """The core's per-row pulsar visibility (Sun avoidance, occultation by the central body) is held to
     ``sensors.pulsar.pulsar_visibility`` (its numpy oracle) at random geometries near Mars."""
-    from planetnav_env.core.kernels import pulsar_visibility_row
     from planetnav_env.sensors import pulsar as psr
+    from planetnav_env.sensors.pulsar import pulsar_visibility_row
 
     rng = np.random.default_rng(7)
     det = psr.DEFAULT_DETECTOR

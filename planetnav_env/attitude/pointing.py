@@ -86,11 +86,10 @@ from planetnav_env.dynamics.attitude import (
     dcm_body_to_inertial_kernel,
     load_state_kernel,
     normalize_quaternion_kernel,
+    plant_substep_kernel,
     raise_state_error,
     require_substeps,
-    rk4_substep_kernel,
     store_state_kernel,
-    wheel_torque_kernel,
 )
 from planetnav_env.errors import InvalidParameterError, require_finite, require_positive
 from planetnav_env.jit import row_kernel
@@ -260,7 +259,8 @@ def substeps_kernel(
 ) -> None:
     """``n_substeps`` closed-loop sub-steps of one spacecraft, in place on ``y = (q, omega)`` and ``h``:
     command = PD torque toward ``frame`` (if ``use_pd``) + ``u_bias`` -> wheel limits -> RK4 (the one
-    sub-step loop: :func:`propagate_pointing` and the environment both run it). ``u`` holds the last
+    closed-loop sub-step loop: :func:`propagate_pointing` and the environment both run it; the plant's
+    sub-step is :func:`~planetnav_env.dynamics.attitude.plant_substep_kernel`). ``u`` holds the last
     applied wheel torque; ``work``, ``rq``, ``a``, ``u_cmd`` are scratch."""
     for _ in range(n_substeps):
         if use_pd:
@@ -270,8 +270,7 @@ def substeps_kernel(
         else:
             for i in range(3):
                 u_cmd[i] = u_bias[i]
-        wheel_torque_kernel(u_cmd, h, dt, tau_max, h_max, u)
-        rk4_substep_kernel(y, h, u, u_ext, dt, jm, jinv, work)
+        plant_substep_kernel(y, h, u_cmd, u_ext, dt, jm, jinv, tau_max, h_max, work, u)
 
 
 @njit(cache=True)
@@ -298,8 +297,8 @@ def propagate_batch_kernel(
 ) -> int:
     """:func:`substeps_kernel` for every row ``b`` of a batch: the PD law toward ``direction[b]`` (if
     ``use_pd``; ``direction`` and ``roll_ref`` are then ignored otherwise) plus the constant command
-    ``u_bias[b]`` -> wheel limits -> RK4. Serves both :func:`propagate_pointing` (closed loop) and
-    :func:`planetnav_env.dynamics.attitude.propagate_attitude` (open loop). Returns a status code."""
+    ``u_bias[b]`` -> wheel limits -> RK4 (the closed loop of :func:`propagate_pointing`; the open loop
+    is :func:`planetnav_env.dynamics.attitude.propagate_open_loop_batch`). Returns a status code."""
     if not (
         all_finite_kernel(q)
         and all_finite_kernel(omega)

@@ -16,6 +16,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from planetnav_env.codes import RowStatus, VisibilityReason
+
 
 def _slots(*names: str) -> dict[str, int]:
     return {n: i for i, n in enumerate(names)}
@@ -87,18 +89,9 @@ I_REASON, I_SLEWING, I_SENSOR, I_TERMINATED, I_TRUNCATED, I_STATUS, I_STARS = (
     _I[k] for k in ("REASON", "SLEWING", "SENSOR", "TERMINATED", "TRUNCATED", "STATUS", "STARS")
 )
 
-#: ``info["visibility"]`` strings by code: the camera's reasons first (VisibilityReason order).
-REASONS = (
-    "visible",
-    "out_of_fov",
-    "occulted",
-    "sun_exclusion",
-    "too_small",
-    "too_large",
-    "none",
-    "integrating",
-    "ambiguous",
-)
+#: ``info["visibility"]`` strings by code (:class:`~planetnav_env.codes.VisibilityReason` labels).
+REASONS = tuple(r.label for r in VisibilityReason)
+# The REASON_* ints the kernels compare (derived: numba folds int globals into constants).
 (
     REASON_VISIBLE,
     REASON_OUT_OF_FOV,
@@ -109,11 +102,12 @@ REASONS = (
     REASON_NONE,
     REASON_INTEGRATING,
     REASON_AMBIGUOUS,
-) = range(len(REASONS))
+) = (int(r) for r in VisibilityReason)
 SENSORS = (None, "camera", "xray")
 SENSOR_NONE, SENSOR_CAMERA, SENSOR_XRAY = range(3)
-#: Row status codes (BatchState.i[:, I_STATUS]); the shells turn non-zero ones into named errors.
-STATUS_OK, STATUS_ATTITUDE_NONFINITE, STATUS_CAMERA = range(3)
+#: Row status codes (:class:`~planetnav_env.codes.RowStatus` as ints, BatchState.i[:, I_STATUS]); the
+#: shells turn non-zero ones into named errors.
+STATUS_OK, STATUS_ATTITUDE_NONFINITE, STATUS_CAMERA = (int(s) for s in RowStatus)
 
 # ------------------------------------------------------------------------------------------------
 # Parameter slots (CoreParams.s floats, CoreParams.n integers)
@@ -173,6 +167,20 @@ SPACECRAFT_BLOCK = (
     ("rates", 3, "reported body rates", "deg/s"),
     ("wheel_momentum", 3, "wheel momentum", "/ capacity"),
 )  # fmt: skip
+
+
+def _block_starts() -> dict[str, int]:
+    starts, i = {}, 0
+    for name, w, _, _ in SPACECRAFT_BLOCK:
+        starts[name] = i
+        i += w
+    return starts
+
+
+#: First index of each spacecraft-block field in the flat observation (the compiled builder writes there).
+(SC_POSITION, SC_VELOCITY, SC_LOG_SIGMA, SC_ATTITUDE, SC_RATES, SC_WHEEL_MOMENTUM) = (
+    _block_starts()[k] for k in ("position", "velocity", "log_sigma", "attitude", "rates", "wheel_momentum")
+)
 PLANET_FEATURE_TEXT = (
     "planet p: estimated direction in body axes (3), log10(estimated distance / AU), estimated apparent "
     "diameter / diameter noise, observable if pointed at (Sun exclusion, occultation, size) 0/1, log10 of "

@@ -15,9 +15,9 @@ from planetnav_env.bodies import body
 from planetnav_env.config import EnvConfig
 from planetnav_env.core import layout as L
 from planetnav_env.core.ephemeris_table import SEGMENT_S
-from planetnav_env.core.kernels import CoreParams
+from planetnav_env.core.records import CoreParams
 from planetnav_env.estimation.ekf import process_noise
-from planetnav_env.estimation.fast import KIND_CODES
+from planetnav_env.estimation.ekf_kernels import KIND_CODES
 from planetnav_env.sensors import pulsar as psr
 from planetnav_env.sensors.star_tracker import StarTrackerConfig, star_fix_tables
 

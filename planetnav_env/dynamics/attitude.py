@@ -58,6 +58,7 @@ import numpy as np
 from numba import njit
 
 from planetnav_env import quaternion as qt
+from planetnav_env.codes import AttitudeStatus
 from planetnav_env.errors import InvalidParameterError, NonFiniteError, require_finite, require_positive
 from planetnav_env.jit import row_kernel
 
@@ -347,12 +348,78 @@ def store_state_kernel(
     return ok
 
 
-# Status codes of the batch kernels, turned into exceptions by raise_state_error.
-STATUS_OK = 0
-STATUS_NONFINITE_INPUT = 1
-STATUS_ZERO_Q = 2
-STATUS_NONFINITE_RESULT = 3
-STATUS_ZERO_DIRECTION = 4
+# Status codes of the batch kernels (AttitudeStatus as ints: numba folds int globals), turned into
+# exceptions by raise_state_error.
+STATUS_OK = int(AttitudeStatus.OK)
+STATUS_NONFINITE_INPUT = int(AttitudeStatus.NONFINITE_INPUT)
+STATUS_ZERO_Q = int(AttitudeStatus.ZERO_Q)
+STATUS_NONFINITE_RESULT = int(AttitudeStatus.NONFINITE_RESULT)
+STATUS_ZERO_DIRECTION = int(AttitudeStatus.ZERO_DIRECTION)
+
+
+@row_kernel
+def plant_substep_kernel(
+    y: np.ndarray,
+    h_w: np.ndarray,
+    u_cmd: np.ndarray,
+    u_ext: np.ndarray,
+    dt: float,
+    jm: np.ndarray,
+    jinv: np.ndarray,
+    tau_max: np.ndarray,
+    h_max: np.ndarray,
+    work: np.ndarray,
+    u: np.ndarray,
+) -> None:
+    """One sub-step of ``dt`` [s] of the plant under the command ``u_cmd`` [N m, body] held over it: wheel
+    limits -> RK4, in place on ``y = (q, omega)`` and ``h_w``; ``u`` receives the applied wheel torque.
+
+    Every sub-step loop (open loop here, closed loop in :mod:`planetnav_env.attitude.pointing`) calls it,
+    so the plant is written once and the controller only chooses the command."""
+    wheel_torque_kernel(u_cmd, h_w, dt, tau_max, h_max, u)
+    rk4_substep_kernel(y, h_w, u, u_ext, dt, jm, jinv, work)
+
+
+@njit(cache=True)
+def propagate_open_loop_batch(
+    q: np.ndarray,
+    omega: np.ndarray,
+    h_w: np.ndarray,
+    u_cmd: np.ndarray,
+    u_ext: np.ndarray,
+    dt: float,
+    n_substeps: int,
+    jm: np.ndarray,
+    jinv: np.ndarray,
+    tau_max: np.ndarray,
+    h_max: np.ndarray,
+    q_out: np.ndarray,
+    w_out: np.ndarray,
+    h_out: np.ndarray,
+) -> int:
+    """``n_substeps`` :func:`plant_substep_kernel` steps of every row ``b`` under the constant command
+    ``u_cmd[b]``; returns a status code (``STATUS_*``)."""
+    if not (
+        all_finite_kernel(q)
+        and all_finite_kernel(omega)
+        and all_finite_kernel(h_w)
+        and all_finite_kernel(u_cmd)
+        and all_finite_kernel(u_ext)
+    ):
+        return STATUS_NONFINITE_INPUT
+    work = np.empty((8, 7))
+    y = np.empty(7)
+    h = np.empty(3)
+    u = np.empty(3)
+    for b in range(q.shape[0]):
+        if not load_state_kernel(q[b], omega[b], y):
+            return STATUS_ZERO_Q
+        h[:] = h_w[b]
+        for _ in range(n_substeps):
+            plant_substep_kernel(y, h, u_cmd[b], u_ext[b], dt, jm, jinv, tau_max, h_max, work, u)
+        if not store_state_kernel(y, h, q_out[b], w_out[b], h_out[b]):
+            return STATUS_NONFINITE_RESULT
+    return STATUS_OK
 
 
 @njit(cache=True)
@@ -364,7 +431,7 @@ def _wheel_torque_batch(
 
 
 # ---------------------------------------------------------------------------------------------------------
-# Input handling shared with planetnav_env.attitude.pointing
+# Input handling shared with planetnav_env.attitude.pointing (which imports this module, never the reverse)
 # ---------------------------------------------------------------------------------------------------------
 
 
@@ -500,15 +567,9 @@ def propagate_attitude(
     w_out = np.empty_like(wa)
     h_out = np.empty_like(ha)
     wheels = config.wheels
-    # The one sub-step loop lives with the PD law it can close (attitude.pointing imports this module,
-    # so the import is deferred to call time); here it runs open loop, the command as a constant bias.
-    from planetnav_env.attitude.pointing import propagate_batch_kernel
-
-    no_direction = np.zeros_like(ua)
-    status = propagate_batch_kernel(
-        qa, wa, ha, False, no_direction, no_direction, ua, ea, dt, n, config.inertia_matrix,
-        config.inertia_inverse, wheels.torque_limit_array, wheels.momentum_capacity_array, 0.0, 0.0,
-        q_out, w_out, h_out,
+    status = propagate_open_loop_batch(
+        qa, wa, ha, ua, ea, dt, n, config.inertia_matrix, config.inertia_inverse, wheels.torque_limit_array,
+        wheels.momentum_capacity_array, q_out, w_out, h_out,
     )  # fmt: skip
     if status:
         raise_state_error(status, list(zip(names, arrays, strict=True)))

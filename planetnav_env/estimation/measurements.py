@@ -28,9 +28,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from planetnav_env.codes import MeasurementKind
 from planetnav_env.errors import InvalidParameterError
 
-MODELS = ("direction", "direction+size", "los", "los+size")
+#: The measurement models' names (:class:`~planetnav_env.codes.MeasurementKind` labels, in code order).
+MODELS = tuple(k.label for k in MeasurementKind)
 
 
 def wrap_angle(a: np.ndarray) -> np.ndarray:

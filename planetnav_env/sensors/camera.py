@@ -33,13 +33,13 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from enum import IntEnum
 
 import numpy as np
 from numba import njit
 
 from planetnav_env import quaternion as qt
 from planetnav_env.bodies import body
+from planetnav_env.codes import CameraStatus, VisibilityReason
 from planetnav_env.dynamics.attitude import dcm_body_to_inertial_kernel
 from planetnav_env.errors import (
     InvalidParameterError,
@@ -89,14 +89,12 @@ NO_OCCULTER = -1
 SUN_OCCULTER = -2
 
 
-class VisibilityReason(IntEnum):
-    """Why a target can or cannot be measured; the first failing test in this order is reported."""
-
-    VISIBLE = 0
-    OUT_OF_FOV = 1  # centre not on the sensor rectangle (or behind the camera)
-    OCCULTED = 2  # another body's disk (the Sun included) in front of the target's disk
-    SUN_EXCLUSION = 3  # boresight or target inside the Sun-exclusion cone
-    TOO_SMALL = 4  # apparent diameter below the detection threshold (a brightness proxy)
+# The camera reports VisibilityReason 0-4 (defined in planetnav_env.codes); as ints for the kernels.
+_VISIBLE = int(VisibilityReason.VISIBLE)
+_OUT_OF_FOV = int(VisibilityReason.OUT_OF_FOV)
+_OCCULTED = int(VisibilityReason.OCCULTED)
+_SUN_EXCLUSION = int(VisibilityReason.SUN_EXCLUSION)
+_TOO_SMALL = int(VisibilityReason.TOO_SMALL)
 
 
 # ---------------------------------------------------------------------------------------------------------
@@ -452,7 +450,9 @@ def sun_angle(r_sc: np.ndarray, direction: np.ndarray) -> np.ndarray:
 _P_FPX, _P_CX, _P_CY, _P_W, _P_H, _P_EXCL, _P_MINPX, _P_SDIR, _P_SALPHA, _P_FMM, _P_RSUN = range(11)
 
 # Kernel status codes (0 = fine); the Python side turns them into named exceptions.
-_OK, _ERR_NONFINITE, _ERR_ZERO_Q, _ERR_RADIUS, _ERR_INSIDE_TARGET, _ERR_INSIDE_OCC, _ERR_OCC_RADIUS = range(7)
+_OK, _ERR_NONFINITE, _ERR_ZERO_Q, _ERR_RADIUS, _ERR_INSIDE_TARGET, _ERR_INSIDE_OCC, _ERR_OCC_RADIUS = (
+    int(c) for c in CameraStatus
+)
 
 
 @row_kernel
@@ -590,15 +590,15 @@ def visibility_row_kernel(
                 best = dk
                 who = k
     small = a * f_px < min_px
-    reason = 0
+    reason = _VISIBLE
     if not fov:
-        reason = 1
+        reason = _OUT_OF_FOV
     elif who != -1:
-        reason = 2
+        reason = _OCCULTED
     elif sun_ex:
-        reason = 3
+        reason = _SUN_EXCLUSION
     elif small:
-        reason = 4
+        reason = _TOO_SMALL
     vals[V_REASON] = reason
     vals[V_IN_FOV] = fov
     vals[V_SUN_EX] = sun_ex

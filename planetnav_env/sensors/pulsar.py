@@ -58,6 +58,7 @@ import numpy as np
 from numba import vectorize
 
 from planetnav_env.bodies import body
+from planetnav_env.codes import VisibilityReason
 from planetnav_env.errors import (
     InvalidParameterError,
     NotVisibleError,
@@ -65,6 +66,7 @@ from planetnav_env.errors import (
     require_finite,
     require_positive,
 )
+from planetnav_env.jit import row_kernel
 
 __all__ = [
     "DEFAULT_DETECTOR",
@@ -547,3 +549,29 @@ def check_visible(
 def mars_radius_km() -> float:
     """Mars's equatorial radius [km] (the occulter on approach)."""
     return body("mars").radius
+
+
+# VisibilityReason codes of the pulsar geometry, as ints for the row kernel (numba folds int globals).
+_VISIBLE = int(VisibilityReason.VISIBLE)
+_OCCULTED = int(VisibilityReason.OCCULTED)
+_SUN_EXCLUSION = int(VisibilityReason.SUN_EXCLUSION)
+
+
+@row_kernel
+def pulsar_visibility_row(
+    r_helio, nvec, sun_avoid, central, central_radius, approach
+) -> int:  # pragma: no cover
+    """VisibilityReason code for timing a pulsar along unit ``nvec`` from heliocentric ``r_helio``: Sun within
+    ``sun_avoid`` [rad] of the pulsar, or the central body (``central`` heliocentric, radius [km], on
+    approach only) across the line of sight ahead of the spacecraft."""
+    rn = math.sqrt(r_helio[0] ** 2 + r_helio[1] ** 2 + r_helio[2] ** 2)
+    c = -(r_helio[0] * nvec[0] + r_helio[1] * nvec[1] + r_helio[2] * nvec[2]) / rn
+    if math.acos(min(max(c, -1.0), 1.0)) < sun_avoid:
+        return _SUN_EXCLUSION
+    if approach:
+        d0, d1, d2 = central[0] - r_helio[0], central[1] - r_helio[1], central[2] - r_helio[2]
+        along = d0 * nvec[0] + d1 * nvec[1] + d2 * nvec[2]
+        miss2 = d0 * d0 + d1 * d1 + d2 * d2 - along * along
+        if along > 0.0 and miss2 < central_radius * central_radius:
+            return _OCCULTED
+    return _VISIBLE

@@ -1,0 +1,177 @@
+"""The observation of one row (layout: :class:`planetnav_env.core.layout.ObservationLayout`), built from
+what the spacecraft knows: the filter's estimate and covariance, the star tracker, the reported rates,
+the wheels and the ephemerides. Target-block columns are the ``TF_*`` constants of the layout."""
+
+from __future__ import annotations
+
+import math
+
+from planetnav_env.bodies import AU_KM
+from planetnav_env.core.layout import (
+    F_HW,
+    F_INTEGRATED,
+    F_QE,
+    F_WM,
+    F_XE,
+    I_K,
+    I_TARGET,
+    N_APPROACH,
+    N_CH_CENTRAL,
+    N_EPISODE_STEPS,
+    N_NP,
+    N_NQ,
+    N_NT,
+    N_OBS_ELAPSED,
+    N_OBS_PLANETS,
+    N_OBS_PULSARS,
+    N_OBS_TARGET,
+    REASON_VISIBLE,
+    S_ALPHA_MAX,
+    S_CENTRAL_RADIUS,
+    S_POS_SCALE,
+    S_PSR_INT_S,
+    S_SIGMA_ALPHA,
+    S_SUN_AVOID,
+    S_VEL_SCALE,
+    SC_ATTITUDE,
+    SC_LOG_SIGMA,
+    SC_POSITION,
+    SC_RATES,
+    SC_VELOCITY,
+    SC_WHEEL_MOMENTUM,
+    TARGET_FEATURES,
+    TF_DIR,
+    TF_LOG_DISTANCE,
+    TF_LOG_PHASE_SIGMA,
+    TF_LOG_SIGMA,
+    TF_OBSERVABLE,
+    TF_PROGRESS,
+    TF_SIZE,
+)  # fmt: skip
+from planetnav_env.core.row_ephemeris import eval_channel, planets_at, row_time
+from planetnav_env.dynamics.attitude import dcm_body_to_inertial_kernel
+from planetnav_env.jit import row_kernel
+from planetnav_env.sensors.camera import (
+    V_REASON,
+    visibility_row_kernel,
+)
+from planetnav_env.sensors.pulsar import (
+    pulsar_visibility_row,
+)
+
+
+@row_kernel
+def observe_row(prm, f, p, i, eph, obs, n, sc, bodies_ready) -> None:  # pragma: no cover - compiled
+    """Write row ``n``'s observation (layout: :class:`planetnav_env.core.layout.ObservationLayout`) from
+    what the spacecraft knows: the filter, the star tracker, the reported rates, wheels, ephemerides.
+
+    ``bodies_ready``: ``sc.central`` and ``sc.planets`` already hold the bodies at the row's current
+    time (what :func:`step_row` returns); they are evaluated here otherwise."""
+    s, nn = prm.s, prm.n
+    o = obs[n]
+    xe = f[n, F_XE : F_XE + 6]
+    pm = p[n]
+    qe = f[n, F_QE : F_QE + 4]
+    for j in range(3):
+        o[SC_POSITION + j] = xe[j] / s[S_POS_SCALE]
+        o[SC_VELOCITY + j] = xe[3 + j] / s[S_VEL_SCALE]
+        o[SC_LOG_SIGMA + j] = math.log10(math.sqrt(max(pm[j, j], 1e-30))) / 4.0
+        o[SC_LOG_SIGMA + 3 + j] = math.log10(math.sqrt(max(pm[3 + j, 3 + j], 1e-30)) * 1e3) / 4.0
+        o[SC_RATES + j] = f[n, F_WM + j] / (math.pi / 180.0)
+        o[SC_WHEEL_MOMENTUM + j] = f[n, F_HW + j] / prm.h_max[j]
+    for j in range(4):
+        o[SC_ATTITUDE + j] = qe[j]
+    if not bodies_ready:
+        t = row_time(prm, f, i, n)
+        eval_channel(prm, eph, f, n, t, nn[N_CH_CENTRAL], sc.central)
+        planets_at(prm, eph, f, n, t, sc.planets)
+    for j in range(3):
+        sc.dirv[j] = xe[j] + sc.central[j]  # estimated heliocentric position
+    _planet_features(prm, sc.dirv, qe, pm, sc)
+    base = nn[N_OBS_PLANETS]
+    for a in range(sc.feat.shape[0]):
+        for c in range(TARGET_FEATURES):
+            o[base + TARGET_FEATURES * a + c] = sc.feat[a, c]
+    n_q = nn[N_NQ]
+    if n_q:
+        _pulsar_features(prm, f, p, i, n, qe, sc, o, nn[N_OBS_PULSARS])
+    base = nn[N_OBS_TARGET]
+    for j in range(nn[N_NT]):
+        o[base + j] = 0.0
+    if i[n, I_TARGET] >= 0:
+        o[base + i[n, I_TARGET]] = 1.0
+    o[nn[N_OBS_ELAPSED]] = i[n, I_K] / nn[N_EPISODE_STEPS]
+
+
+@row_kernel
+def _planet_features(prm, r_est, qe, pm, sc) -> None:  # pragma: no cover - compiled
+    """Per-planet block from the estimate: direction in body axes (3), log10(distance / AU), apparent
+    diameter / sigma_alpha, observable if pointed at (the camera's own rules for the attitude that
+    centres the planet; the disk must fit the field), log10(position 1-sigma across the LOS [km]) / 4."""
+    s = prm.s
+    out = sc.feat
+    dcm_body_to_inertial_kernel(qe[0], qe[1], qe[2], qe[3], sc.rq)
+    r = sc.rq
+    tr = pm[0, 0] + pm[1, 1] + pm[2, 2]
+    b0, b1, b2 = prm.boresight[0], prm.boresight[1], prm.boresight[2]
+    for a in range(sc.planets.shape[0]):
+        d0 = sc.planets[a, 0] - r_est[0]
+        d1 = sc.planets[a, 1] - r_est[1]
+        d2 = sc.planets[a, 2] - r_est[2]
+        dist = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+        u0, u1, u2 = d0 / dist, d1 / dist, d2 / dist
+        for c in range(3):  # R^T u
+            out[a, TF_DIR + c] = r[0, c] * u0 + r[1, c] * u1 + r[2, c] * u2
+        out[a, TF_LOG_DISTANCE] = math.log10(dist / AU_KM)
+        alpha = 2.0 * math.asin(min(prm.radii[a] / dist, 1.0))
+        along = (
+            u0 * (pm[0, 0] * u0 + pm[0, 1] * u1 + pm[0, 2] * u2)
+            + u1 * (pm[1, 0] * u0 + pm[1, 1] * u1 + pm[1, 2] * u2)
+            + u2 * (pm[2, 0] * u0 + pm[2, 1] * u1 + pm[2, 2] * u2)
+        )
+        out[a, TF_LOG_SIGMA] = math.log10(math.sqrt(max(tr - along, 1e-12))) / 4.0
+        # Shortest arc from the boresight b to u: q = [1 + b.u, b x u] / norm (u opposite b: a
+        # perpendicular axis).
+        w = 1.0 + b0 * u0 + b1 * u1 + b2 * u2
+        c0, c1, c2 = b1 * u2 - b2 * u1, b2 * u0 - b0 * u2, b0 * u1 - b1 * u0
+        if w < 1e-12:
+            w, c0, c1, c2 = 0.0, -b1, b0, 0.0 if abs(b2) < 0.9 else b0
+        nq = math.sqrt(w * w + c0 * c0 + c1 * c1 + c2 * c2)
+        sc.q_tile[a, 0], sc.q_tile[a, 1], sc.q_tile[a, 2], sc.q_tile[a, 3] = w / nq, c0 / nq, c1 / nq, c2 / nq
+        for c in range(3):
+            sc.r_tile[a, c] = r_est[c]
+        st = visibility_row_kernel(
+            sc.r_tile, sc.q_tile, sc.planets, a, prm.radii[a], sc.planets, prm.radii, True, prm.c2b,
+            prm.cam, sc.m, sc.u6, sc.vals,
+        )  # fmt: skip
+        visible = st == 0 and int(sc.vals[V_REASON]) == REASON_VISIBLE
+        out[a, TF_OBSERVABLE] = 1.0 if (visible and alpha < s[S_ALPHA_MAX]) else 0.0
+        out[a, TF_SIZE] = alpha / s[S_SIGMA_ALPHA]
+
+
+@row_kernel
+def _pulsar_features(prm, f, p, i, n, qe, sc, o, base) -> None:  # pragma: no cover - compiled
+    """Per-pulsar block: direction in body axes (star-tracker attitude), integration progress (current
+    target only), log10 predicted phase 1-sigma [cycles], observable from the estimate (Sun, occultation),
+    log10(position 1-sigma along the pulsar [km]) / 4."""
+    s, nn = prm.s, prm.n
+    n_p = nn[N_NP]
+    pm = p[n]
+    dcm_body_to_inertial_kernel(qe[0], qe[1], qe[2], qe[3], sc.rq)
+    for j in range(nn[N_NQ]):
+        nv = prm.psr[j, 0:3]
+        off = base + TARGET_FEATURES * j
+        for c in range(3):
+            o[off + TF_DIR + c] = sc.rq[0, c] * nv[0] + sc.rq[1, c] * nv[1] + sc.rq[2, c] * nv[2]
+        o[off + TF_PROGRESS] = f[n, F_INTEGRATED] / s[S_PSR_INT_S] if i[n, I_TARGET] == n_p + j else 0.0
+        var = 0.0
+        for a in range(3):
+            for c in range(3):
+                var += nv[a] * pm[a, c] * nv[c]
+        lam, sig = prm.psr[j, 3], prm.psr[j, 4]
+        o[off + TF_LOG_PHASE_SIGMA] = math.log10(math.sqrt(var / (lam * lam) + sig * sig))
+        vis = pulsar_visibility_row(
+            sc.dirv, nv, s[S_SUN_AVOID], sc.central, s[S_CENTRAL_RADIUS], nn[N_APPROACH] != 0
+        )
+        o[off + TF_OBSERVABLE] = 1.0 if vis == REASON_VISIBLE else 0.0
+        o[off + TF_LOG_SIGMA] = math.log10(math.sqrt(max(var, 1e-12))) / 4.0

@@ -1,0 +1,242 @@
+"""The sensor stages of one row's step: star-tracker fix, rate measurement, camera image with the EKF
+update, X-ray pulsar timing. Each stage reads and writes only row ``n`` of the core's arrays; the
+formulas are the sensors' own (:mod:`planetnav_env.sensors.star_tracker`,
+:mod:`~planetnav_env.sensors.camera`, :mod:`~planetnav_env.sensors.pulsar`) and the filter's
+(:mod:`planetnav_env.estimation.ekf_kernels`, :mod:`planetnav_env.estimation.measurement_kernels`)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from planetnav_env.core.layout import (
+    F_ATT_ERR,
+    F_INTEGRATED,
+    F_NIS,
+    F_PIX,
+    F_Q,
+    F_QE,
+    F_W,
+    F_WM,
+    F_X,
+    F_XE,
+    I_SKIPPED,
+    I_STARS,
+    N_APPROACH,
+    N_CH_SSB,
+    N_IDEAL_STAR,
+    N_KIND,
+    REASON_AMBIGUOUS,
+    REASON_INTEGRATING,
+    REASON_OUT_OF_FOV,
+    REASON_VISIBLE,
+    S_AMBIG_K,
+    S_CENTRAL_RADIUS,
+    S_COS_HALF_DIAG,
+    S_DET_HALF_FOV,
+    S_GATE1,
+    S_PSR_INT_S,
+    S_RATE_NOISE,
+    S_SIG_DIR,
+    S_SIG_SIZE,
+    S_STEP_S,
+    S_SUN_AVOID,
+)  # fmt: skip
+from planetnav_env.core.row_ephemeris import eval_channel
+from planetnav_env.core.row_noise import (
+    NOISE_CAMERA,
+    NOISE_PULSAR0,
+    NOISE_RATE,
+    NOISE_STAR,
+    next_normal,
+    noise_begin,
+)
+from planetnav_env.dynamics.attitude import dcm_body_to_inertial_kernel
+from planetnav_env.estimation.ekf_kernels import (
+    planet_model_kernel,
+    update_kernel,
+)
+from planetnav_env.estimation.measurement_kernels import measurement_vector_kernel
+from planetnav_env.jit import row_kernel
+from planetnav_env.sensors.camera import (
+    measure_row_kernel,
+)
+from planetnav_env.sensors.pulsar import (
+    ambiguity_resolvable_kernel,
+    pulsar_visibility_row,
+    resolve_cycle_kernel,
+)
+from planetnav_env.sensors.star_tracker import error_angle_kernel, select_stars, star_fix
+
+
+@row_kernel
+def star_fix_stage(prm, f, i, rng, n, sc):  # pragma: no cover - compiled
+    """Star-tracker attitude into QE: q-method on the stars in the camera's own field, their directions
+    perturbed by the row's random stream. With too few stars or a degenerate field the last fix is kept
+    (stale) and ATT_ERR is NaN; ``star_tracker="ideal"`` copies the true attitude."""
+    q = f[n, F_Q : F_Q + 4]
+    qe = f[n, F_QE : F_QE + 4]
+    if prm.n[N_IDEAL_STAR]:
+        for j in range(4):
+            sc.q_fix[j] = q[j]
+        i[n, I_STARS] = -1
+        f[n, F_ATT_ERR] = _apply_bias(prm, q, sc.q_fix, qe, 0.0)
+        return
+    tables = prm.stars
+    n_stars = select_stars(tables, q, sc.rq, sc.star_idx)
+    i[n, I_STARS] = n_stars
+    if n_stars < tables.min_stars:
+        f[n, F_ATT_ERR] = np.nan
+        return
+    noise_begin(prm, i, rng, n, NOISE_STAR, sc)
+    for a in range(n_stars):  # row-major, as rng.normal(size=(n, 3)) draws them
+        for c in range(3):
+            sc.star_noise[a, c] = tables.sigma_rad * next_normal(prm, rng, n, sc)
+    err, ok = star_fix(tables, q, sc.rq, sc.star_idx, n_stars, sc.star_noise, sc.star_work, sc.q_fix)
+    if ok:
+        f[n, F_ATT_ERR] = _apply_bias(prm, q, sc.q_fix, qe, err)
+    else:
+        f[n, F_ATT_ERR] = np.nan
+
+
+@row_kernel
+def _apply_bias(prm, q, q_fix, qe, err) -> float:  # pragma: no cover - compiled
+    """qe = q_fix * q_bias (Hamilton product, scalar first; ``quaternion.multiply`` is its oracle in the
+    tests); returns the error angle [rad] of the biased fix (``err`` when there is no bias)."""
+    b = prm.q_bias
+    if b[0] == 1.0:
+        for j in range(4):
+            qe[j] = q_fix[j]
+        return err
+    a0, a1, a2, a3 = q_fix[0], q_fix[1], q_fix[2], q_fix[3]
+    qe[0] = a0 * b[0] - a1 * b[1] - a2 * b[2] - a3 * b[3]
+    qe[1] = a0 * b[1] + a1 * b[0] + a2 * b[3] - a3 * b[2]
+    qe[2] = a0 * b[2] - a1 * b[3] + a2 * b[0] + a3 * b[1]
+    qe[3] = a0 * b[3] + a1 * b[2] - a2 * b[1] + a3 * b[0]
+    return error_angle_kernel(q, qe)
+
+
+@row_kernel
+def rate_measurement(prm, f, i, rng, n, sc):  # pragma: no cover - compiled
+    sig = prm.s[S_RATE_NOISE]
+    noise_begin(prm, i, rng, n, NOISE_RATE, sc)
+    for j in range(3):
+        f[n, F_WM + j] = f[n, F_W + j] + sig * next_normal(prm, rng, n, sc)
+
+
+@row_kernel
+def nearest_in_view(prm, sc) -> int:  # pragma: no cover - compiled
+    """Index of the planet nearest the boresight by the true geometry (what the image shows), or -1."""
+    q = sc.q1[0]
+    dcm_body_to_inertial_kernel(q[0], q[1], q[2], q[3], sc.rq)
+    b = prm.boresight
+    bx = sc.rq[0, 0] * b[0] + sc.rq[0, 1] * b[1] + sc.rq[0, 2] * b[2]
+    by = sc.rq[1, 0] * b[0] + sc.rq[1, 1] * b[1] + sc.rq[1, 2] * b[2]
+    bz = sc.rq[2, 0] * b[0] + sc.rq[2, 1] * b[1] + sc.rq[2, 2] * b[2]
+    best = -2.0
+    idx = -1
+    for j in range(sc.planets.shape[0]):
+        d0 = sc.planets[j, 0] - sc.r1[0, 0]
+        d1 = sc.planets[j, 1] - sc.r1[0, 1]
+        d2 = sc.planets[j, 2] - sc.r1[0, 2]
+        c = (d0 * bx + d1 * by + d2 * bz) / math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+        if c > best:
+            best = c
+            idx = j
+    return idx if best > prm.s[S_COS_HALF_DIAG] else -1
+
+
+@row_kernel
+def measure_planet(prm, f, p, i, rng, n, idx, sc):  # pragma: no cover - compiled
+    """Camera measurement of planet ``idx`` (visible), rotated to inertial with the star-tracker attitude;
+    EKF update. Returns (measured, rejected)."""
+    s = prm.s
+    noise_begin(prm, i, rng, n, NOISE_CAMERA, sc)
+    for j in range(3):
+        sc.noise3[j] = next_normal(prm, rng, n, sc)
+    # visibility_row_kernel validated this geometry a moment ago: the status is OK.
+    _, alpha, _ = measure_row_kernel(
+        sc.r1, sc.q1, sc.t1, 0, prm.radii[idx], sc.noise3, prm.c2b, prm.cam, sc.m, sc.u6, sc.los,
+        sc.los_true, sc.mm, sc.pix,
+    )  # fmt: skip
+    f[n, F_PIX] = sc.pix[0]
+    f[n, F_PIX + 1] = sc.pix[1]
+    xe = f[n, F_XE : F_XE + 6]
+    kind = prm.n[N_KIND]
+    for j in range(3):
+        sc.dirv[j] = sc.planets[idx, j] - sc.central[j]  # the planet in the filter's frame
+    m = measurement_vector_kernel(
+        sc.los, alpha, f[n, F_QE : F_QE + 4], sc.dirv, xe, kind, sc.z, sc.basis, sc.rq
+    )
+    planet_model_kernel(
+        xe[:3], sc.dirv, 2.0 * prm.radii[idx], kind, s[S_SIG_DIR], s[S_SIG_SIZE], sc.basis, sc.h, sc.jac,
+        sc.rcov,
+    )  # fmt: skip
+    nis, ok = update_kernel(
+        xe, p[n], sc.z, sc.h, sc.jac, sc.rcov, m, 1 if kind <= 1 else -1, s[S_GATE1 + m - 1], sc.uw
+    )
+    f[n, F_NIS] = nis
+    return True, not ok
+
+
+@row_kernel
+def time_pulsar(prm, f, p, i, rng, eph, n, j, t, sc):  # pragma: no cover - compiled
+    """Accumulate X-ray photons from pulsar ``j`` while the detector points at it; after the integration
+    time a phase (range along the pulsar's direction from the barycentre) updates the filter, with the
+    cycle count resolved against the prediction only when it can be trusted. Returns
+    (measured, rejected, reason)."""
+    s, nn = prm.s, prm.n
+    x = f[n, F_X : F_X + 6]
+    xe = f[n, F_XE : F_XE + 6]
+    nvec = prm.psr[j, 0:3]
+    lam = prm.psr[j, 3]
+    sigma = prm.psr[j, 4]
+    for k in range(3):
+        sc.r1[0, k] = x[k] + sc.central[k]
+    q = f[n, F_Q : F_Q + 4]
+    dcm_body_to_inertial_kernel(q[0], q[1], q[2], q[3], sc.rq)
+    b = prm.boresight
+    cb = 0.0
+    for k in range(3):
+        cb += (sc.rq[k, 0] * b[0] + sc.rq[k, 1] * b[1] + sc.rq[k, 2] * b[2]) * nvec[k]
+    off = math.acos(min(max(cb, -1.0), 1.0))
+    reason = pulsar_visibility_row(
+        sc.r1[0], nvec, s[S_SUN_AVOID], sc.central, s[S_CENTRAL_RADIUS], nn[N_APPROACH] != 0
+    )
+    if reason != REASON_VISIBLE:
+        f[n, F_INTEGRATED] = 0.0
+        return False, False, reason
+    if off > s[S_DET_HALF_FOV]:
+        f[n, F_INTEGRATED] = 0.0
+        return False, False, REASON_OUT_OF_FOV
+    f[n, F_INTEGRATED] += s[S_STEP_S]
+    if f[n, F_INTEGRATED] + 1e-9 < s[S_PSR_INT_S]:
+        return False, False, REASON_INTEGRATING
+    f[n, F_INTEGRATED] = 0.0
+    eval_channel(prm, eph, f, n, t, nn[N_CH_SSB], sc.ssb)
+    total = 0.0
+    h = 0.0
+    for k in range(3):
+        total += nvec[k] * (x[k] + sc.ssb[k])
+        h += nvec[k] * (xe[k] + sc.ssb[k])
+    noise_begin(prm, i, rng, n, NOISE_PULSAR0 + j, sc)
+    total = total / lam + sigma * next_normal(prm, rng, n, sc)
+    h /= lam
+    frac = total - math.floor(total)  # what the detector delivers: the phase within a cycle
+    for k in range(6):
+        sc.jac[0, k] = nvec[k] / lam if k < 3 else 0.0
+    var = sigma * sigma
+    pm = p[n]
+    for a in range(3):
+        for c in range(3):
+            var += sc.jac[0, a] * pm[a, c] * sc.jac[0, c]
+    if not ambiguity_resolvable_kernel(math.sqrt(var), s[S_AMBIG_K]):
+        i[n, I_SKIPPED] += 1  # the whole number of cycles cannot be trusted: skip, count
+        return False, False, REASON_AMBIGUOUS
+    sc.z[0] = resolve_cycle_kernel(frac, h)
+    sc.h[0] = h
+    sc.rcov[0, 0] = sigma * sigma
+    nis, ok = update_kernel(xe, pm, sc.z, sc.h, sc.jac, sc.rcov, 1, -1, s[S_GATE1], sc.uw)
+    f[n, F_NIS] = nis
+    return True, not ok, REASON_VISIBLE
