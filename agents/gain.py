@@ -8,7 +8,7 @@ at it for ``horizon`` steps would bring, after the steps lost slewing there (``d
 * the slew angle between the boresight (body +x) and that direction gives a rest-to-rest bang-bang time
   (:func:`bang_bang_time`) stretched by the PD law's slowdown; the steps lost are ``ceil(t / step) - 1``;
 * ``n = horizon - lost`` images of a nearly static state equal one with ``R / n``: one Kalman update by
-  the environment core's own model and update (:func:`planetnav_env.core.kernels.predicted_planet_trace`).
+  the environment core's own model and update (:func:`planetnav_env.core.what_if.predicted_planet_trace`).
 
 :class:`planetnav_agents.greedy.GreedyAgent` picks the largest score, the ``gain`` observation feature
 (:class:`planetnav_agents.features.FeatureBatch`) is the score relative to the best planet's. All of
@@ -28,7 +28,7 @@ from numba import njit, vectorize
 from planetnav_env.bodies import AU_KM
 from planetnav_env.config import EnvConfig
 from planetnav_env.core import layout as L
-from planetnav_env.core.kernels import coasted_position_trace, predicted_planet_trace
+from planetnav_env.core.what_if import coasted_position_trace, predicted_planet_trace
 from planetnav_env.dynamics.attitude import dcm_body_to_inertial_kernel
 
 #: Greedy's horizon [steps]: over it, the value of a new line of sight outweighs the slew
@@ -91,7 +91,7 @@ def planet_scores(prm, slew, horizon, q, planets, x, p, out, lookahead_s=0.0) ->
     star-tracker quaternions from the observation (normalised here); planets (N, P, 7): the
     observation's planet blocks (body-axes direction, log10 distance / AU, size, observable flag, ...);
     x (N, 6), p (N, 6, 6): the filter's estimate [km, km/s] and covariance. lookahead_s [s]: score the
-    position covariance coasted that far ahead (``core.kernels.coasted_position_trace``; 0: as it is).
+    position covariance coasted that far ahead (``core.what_if.coasted_position_trace``; 0: as it is).
     """
     n_rows, n_planets = out.shape
     d = L.TF_DIR  # the body-axes direction's 3 columns

@@ -5,7 +5,7 @@ pointed at" flag), the agent predicts the filter's position covariance after loo
 a short horizon and picks the largest reduction of ``trace(P_rr)`` per step:
 
 1. Prediction: the environment core's own measurement model, noise and update
-   (:func:`planetnav_env.core.kernels.predicted_planet_trace` on copies of ``info["filter"]``), with the
+   (:func:`planetnav_env.core.what_if.predicted_planet_trace` on copies of ``info["filter"]``), with the
    line-of-sight basis of the predicted direction; no second implementation of the Kalman update.
 2. Slew time lost: the angle between the current boresight (star-tracker quaternion x body +x) and the
    planet's estimated direction gives a bang-bang (trapezoidal: torque limit, wheel momentum cap) slew time
@@ -47,7 +47,7 @@ import numpy as np
 from planetnav_agents.base import ParsedObservation, TargetAgent
 from planetnav_agents.gain import DEFAULT_HORIZON, PD_SLOWDOWN, SlewModel, lost_steps, planet_scores
 from planetnav_env.core import layout as L
-from planetnav_env.core.kernels import coasted_position_trace, predicted_planet_trace, predicted_pulsar_trace
+from planetnav_env.core.what_if import coasted_position_trace, predicted_planet_trace, predicted_pulsar_trace
 from planetnav_env.sensors.pulsar import ambiguity_resolvable_kernel
 
 
@@ -87,12 +87,12 @@ class GreedyAgent(TargetAgent):
 
     def trace_now(self, p: np.ndarray) -> float:
         """The score's ``trace(P_rr)`` [km^2] of covariance ``p`` with no measurement (coasted
-        ``lookahead_s`` ahead, ``core.kernels.coasted_position_trace``)."""
+        ``lookahead_s`` ahead, ``core.what_if.coasted_position_trace``)."""
         return float(coasted_position_trace(np.ascontiguousarray(p, dtype=float), self.lookahead_s))
 
     def predicted_trace(self, x: np.ndarray, p: np.ndarray, planet: np.ndarray, i: int, n: int) -> float:
         """``trace(P_rr)`` after ``n`` measurements of planet ``i`` (at ``planet``) from estimate ``x``:
-        the environment core's own measurement model and update (``core.kernels.predicted_planet_trace``)."""
+        the environment core's own measurement model and update (``core.what_if.predicted_planet_trace``)."""
         if n <= 0:
             return self.trace_now(p)
         return float(
@@ -103,7 +103,7 @@ class GreedyAgent(TargetAgent):
 
     def pulsar_trace(self, p: np.ndarray, n_dir: np.ndarray, j: int) -> float:
         """``trace(P_rr)`` after one phase of pulsar ``j``: the core's scalar update
-        (``core.kernels.predicted_pulsar_trace``; ``H = n / lambda``, ``R = sigma_phase^2``)."""
+        (``core.what_if.predicted_pulsar_trace``; ``H = n / lambda``, ``R = sigma_phase^2``)."""
         p = np.ascontiguousarray(p, dtype=float)
         return float(predicted_pulsar_trace(self._params, p, int(j), self.lookahead_s))
 
