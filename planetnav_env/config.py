@@ -15,6 +15,7 @@ never a silent default (an unknown top-level option raises its subclass
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field, fields
@@ -29,7 +30,7 @@ from planetnav_env.sensors.camera import CameraConfig
 from planetnav_env.sensors.pulsar import XrayDetector, pulsar
 
 SCENARIOS = ("cruise", "random-cruise", "mars-approach")
-ACTION_MODES = ("target", "torque", "target+torque")
+ACTION_MODES = ("target", "torque", "target+torque", "hybrid")
 REWARDS = ("truth", "covariance")
 NOISE_STREAMS = ("sequential", "per_step")
 
@@ -59,6 +60,86 @@ class AttitudeSettings:
             raise ConfigError(f"attitude.rate_noise_deg_s must be >= 0, got {self.rate_noise_deg_s!r}")
 
 
+#: Most knowledge deadlines an operations scenario may list (the core keeps one slot per deadline).
+MAX_DEADLINES = 8
+
+
+@dataclass(frozen=True)
+class OperationsSettings:
+    """A navigation-operations scenario (issue 17, docs/operations.md §3): a mission attitude that imaging
+    interrupts, and knowledge deadlines. ``None`` in :attr:`EnvConfig.operations` is the plain cruise.
+
+    Mission attitude: the thrust axis is the camera boresight body axis (the engine sits on the opposite
+    face, so the thrust acts along +boresight); the planned thrust direction ``u`` is the filter's estimated
+    velocity direction relative to the central body (a tangential thrust arc) at the start of each step.
+    The engine thrusts while the thrust axis is within ``attitude_tolerance_deg`` of ``u`` (checked at every
+    attitude sub-step).
+
+    thrust_n [N], mass_kg [kg] (constant: a 21-d arc at 92 mN uses ~1 % of DS1's mass in xenon): thrust
+    acceleration a = thrust_n / mass_kg. thrust_mag_sigma [fraction of a] and thrust_point_sigma_deg [deg
+    per cross axis]: 1-sigma execution errors of a first-order Gauss-Markov process with correlation time
+    thrust_corr_time_s [s], modelled as white noise of its low-frequency PSD 2 sigma^2 tau
+    (q_par = 2 (sigma_m a)^2 tau along u, q_perp = 2 (sigma_p a)^2 tau across, km^2/s^3).
+    deadlines_s: knowledge deadlines (TCM epochs) [s from episode start], strictly increasing, at most
+    :data:`MAX_DEADLINES`, each at most encounter_s; encounter_s: the encounter epoch E [s from episode
+    start] to which the position knowledge is mapped (t_go = E - t). cost_weight [km per m/s]: the
+    exchange rate w between delta-v lost and knowledge error in the objective
+    J = sum_k e_k + w * dv_lost.
+    """
+
+    thrust_n: float = 0.092
+    mass_kg: float = 486.0
+    thrust_mag_sigma: float = 0.02
+    thrust_point_sigma_deg: float = 1.0
+    thrust_corr_time_s: float = 86400.0
+    attitude_tolerance_deg: float = 1.0
+    deadlines_s: tuple[float, ...] = (604800.0, 1382400.0, 1684800.0)
+    encounter_s: float = 1814400.0
+    cost_weight: float = 129.6
+
+    def __post_init__(self) -> None:
+        for name in ("thrust_n", "mass_kg", "thrust_corr_time_s", "encounter_s"):
+            _positive(self, name, prefix="operations.")
+        for name in ("thrust_mag_sigma", "thrust_point_sigma_deg", "cost_weight"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not (math.isfinite(v) and v >= 0):
+                raise ConfigError(f"operations.{name} must be a finite number >= 0, got {v!r}")
+        tol = self.attitude_tolerance_deg
+        if isinstance(tol, bool) or not isinstance(tol, (int, float)) or not (0.0 < tol < 90.0):
+            raise ConfigError(f"operations.attitude_tolerance_deg must be in (0, 90) deg, got {tol!r}")
+        dl = self.deadlines_s
+        if isinstance(dl, (int, float)):
+            dl = (dl,)
+        try:
+            dl = tuple(float(v) for v in dl)
+        except (TypeError, ValueError):
+            raise ConfigError(f"operations.deadlines_s must be a list of numbers [s], got {dl!r}") from None
+        if not 1 <= len(dl) <= MAX_DEADLINES:
+            raise ConfigError(
+                f"operations.deadlines_s must list 1 to {MAX_DEADLINES} epochs, got {len(dl)}: {list(dl)}"
+            )
+        if not all(math.isfinite(v) and 0.0 < v <= self.encounter_s for v in dl) or any(
+            b <= a for a, b in itertools.pairwise(dl)
+        ):
+            raise ConfigError(
+                "operations.deadlines_s must be strictly increasing epochs in (0, encounter_s = "
+                f"{self.encounter_s}] s, got {list(dl)}"
+            )
+        object.__setattr__(self, "deadlines_s", dl)
+
+    @property
+    def thrust_accel_km_s2(self) -> float:
+        """a = T / m [km/s^2]."""
+        return self.thrust_n / self.mass_kg / 1000.0
+
+    @property
+    def psd_km2_s3(self) -> tuple[float, float]:
+        """(q_par, q_perp) [km^2/s^3]: white-noise PSDs of the thrust execution error along and across u."""
+        a, tau = self.thrust_accel_km_s2, self.thrust_corr_time_s
+        sp = math.radians(self.thrust_point_sigma_deg)
+        return 2.0 * (self.thrust_mag_sigma * a) ** 2 * tau, 2.0 * (sp * a) ** 2 * tau
+
+
 @dataclass(frozen=True)
 class EnvConfig:
     """Everything that defines an episode. Units: s, km, rad unless the name says otherwise.
@@ -75,7 +156,8 @@ class EnvConfig:
         1.4" per axis) and leave the estimate within 1 m (tested), at a tenth of the cost. Must be a
         multiple of attitude_substep_s that divides step_s; 0 disables it.
     episode_steps: steps before truncation.
-    action_mode: ``target``, ``torque`` or ``target+torque`` (see :class:`PlanetNavEnv`).
+    action_mode: ``target``, ``torque``, ``target+torque`` or ``hybrid`` (see :class:`PlanetNavEnv`;
+        ``hybrid``: each step either the PD law slews to a planet or the agent's torque drives the wheels).
     measurement_model: filter model, one of :data:`planetnav_env.estimation.measurements.MODELS`.
     reward: ``truth`` (-|r_est - r_true| / reward_scale_km, privileged) or ``covariance``
         (-sqrt(trace P_rr) / reward_scale_km, computable on board); torque_penalty multiplies
@@ -87,7 +169,11 @@ class EnvConfig:
         (0.02: a 90-degree slew takes ~10 steps). Agents convert with it (``TargetAgent.torque_toward``).
     divergence_km: the episode terminates when the true position error exceeds it.
     observation: ``box`` (flat float32) or ``dict``.
-    idle_action: add a last discrete action "camera off" (for the idle floor agent).
+    observe_in_field: add the ``in_field`` block to the observation (last, one 0/1 per planet: the
+        camera's visibility rule passes for it at the current star-tracker attitude and estimated
+        position; ``ObservationLayout``). Off by default, so existing ids keep their observation.
+    idle_action: add a last discrete action "camera off" (for the idle floor agent); with ``operations``
+        it is "stay at the mission attitude" (the engine thrusts).
     star_tracker: ``qmethod`` (q-method fix from the synthetic sky each step) or ``ideal``.
     star_tracker_sigma_arcsec: attitude error per axis the filter assumes on top of the camera's
         direction noise (the star tracker's error rotates every measured line of sight). The star
@@ -103,6 +189,9 @@ class EnvConfig:
         ``per_step`` gives common random numbers: two policies run on the same seed see the same noise
         whenever they make the same measurement at the same step, so their paired difference measures
         the policies rather than two noise draws (``train.py compare --noise-streams per_step``).
+    operations: an :class:`OperationsSettings` (thrust arc, knowledge deadlines; docs/operations.md) or
+        None (default: no mission attitude, the reward above). Needs ``action_mode="target"``,
+        ``idle_action=True`` and no pulsars.
     """
 
     scenario: str = "cruise"
@@ -119,6 +208,7 @@ class EnvConfig:
     torque_action_scale: float = 1.0
     divergence_km: float = 1.0e5
     observation: str = "box"
+    observe_in_field: bool = False
     idle_action: bool = False
     star_tracker: str = "qmethod"
     star_tracker_sigma_arcsec: float = 1.5
@@ -132,6 +222,7 @@ class EnvConfig:
     filter: FilterConfig = field(default_factory=FilterConfig)
     attitude: AttitudeSettings = field(default_factory=AttitudeSettings)
     detector: XrayDetector = field(default_factory=XrayDetector)
+    operations: OperationsSettings | None = None
 
     def __post_init__(self) -> None:
         if self.scenario not in SCENARIOS:
@@ -178,6 +269,8 @@ class EnvConfig:
             raise ConfigError(f"torque_action_scale must be in (0, 1], got {scale!r}")
         if self.observation not in ("box", "dict"):
             raise ConfigError(f"observation must be 'box' or 'dict', got {self.observation!r}")
+        if not isinstance(self.observe_in_field, bool):
+            raise ConfigError(f"observe_in_field must be true or false, got {self.observe_in_field!r}")
         if self.noise_streams not in NOISE_STREAMS:
             raise ConfigError(f"noise_streams must be one of {NOISE_STREAMS}, got {self.noise_streams!r}")
         if self.star_tracker not in ("qmethod", "ideal"):
@@ -204,6 +297,16 @@ class EnvConfig:
         _positive(self, "detector_fov_deg", "ambiguity_k_sigma", "approach_end_before_ca_h")
         if self.idle_action and self.action_mode != "target":
             raise ConfigError("idle_action is only available with action_mode 'target'")
+        ops = self.operations
+        if ops is not None:
+            if not isinstance(ops, OperationsSettings):
+                raise ConfigError(f"operations must be a mapping of settings or None, got {ops!r}")
+            if self.action_mode != "target" or not self.idle_action or self.pulsars:
+                raise ConfigError(
+                    "operations needs action_mode 'target', idle_action true (its last action is 'stay at "
+                    "the mission attitude') and no pulsars, got action_mode "
+                    f"{self.action_mode!r}, idle_action {self.idle_action!r}, pulsars {list(self.pulsars)}"
+                )
 
     @property
     def n_substeps(self) -> int:
@@ -285,6 +388,7 @@ _NESTED = {
     "filter": FilterConfig,
     "attitude": AttitudeSettings,
     "detector": XrayDetector,
+    "operations": OperationsSettings,
 }
 
 
@@ -309,7 +413,7 @@ def _build(cls: type, data: Mapping[str, Any], prefix: str) -> Any:
         raise ConfigError(f"{prefix}: {exc}") from None
 
 
-def _positive(obj: Any, *names: str) -> None:
+def _positive(obj: Any, *names: str, prefix: str = "") -> None:
     for name in names:
         v = getattr(obj, name)
         try:
@@ -317,4 +421,4 @@ def _positive(obj: Any, *names: str) -> None:
         except (TypeError, ValueError):
             ok = False
         if not ok:
-            raise ConfigError(f"{name} must be a positive finite number, got {v!r}")
+            raise ConfigError(f"{prefix}{name} must be a positive finite number, got {v!r}")

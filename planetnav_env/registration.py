@@ -21,11 +21,28 @@ from planetnav_env.errors import ConfigError
 #: The single environment's entry point (a spec with another one is not a planetnav environment).
 ENTRY_POINT = "planetnav_env.env:PlanetNavEnv"
 
+#: The attitude's timescale (issue 18, docs/environment.md "Wheel torques at 1 s"): the thesis's h = 1 s
+#: over one hour; the PD loop's time constant is ~20 s and a 90-degree slew takes ~100 s, so a 1-s step
+#: resolves a slew and 3,600 steps leave room for tens of slews between the planets.
+_ONE_SECOND = {
+    "scenario": "cruise",
+    "step_s": 1.0,
+    "attitude_substep_s": 1.0,
+    "settled_substep_s": 0.0,
+    "episode_steps": 3600,
+    "torque_action_scale": 1.0,
+    "observe_in_field": True,
+}
+
 ENV_IDS: dict[str, dict] = {
     "planetnav/Cruise-Target-v0": {"scenario": "cruise", "action_mode": "target"},
     "planetnav/Cruise-Torque-v0": {"scenario": "cruise", "action_mode": "torque"},
     "planetnav/Cruise-TargetTorque-v0": {"scenario": "cruise", "action_mode": "target+torque"},
     "planetnav/RandomCruise-Target-v0": {"scenario": "random-cruise", "action_mode": "target"},
+    # Wheel torques at the attitude's timescale: a = wheel torque / 0.01 N m per body axis, held 1 s.
+    "planetnav/Cruise-TorqueControl-v0": {**_ONE_SECOND, "action_mode": "torque"},
+    # Each 1-s decision: the PD law toward planet k, or the agent's wheel torque (spaces.decode_hybrid).
+    "planetnav/Cruise-Hybrid-v0": {**_ONE_SECOND, "action_mode": "hybrid"},
     # Sensor tasking on Mars approach (patent 003): image Mars or time one of two X-ray pulsars.
     # 94 h at 300 s steps ending 2 h before closest approach; filter settings of docs/optical_pulsar.md.
     "planetnav/MarsApproach-Tasking-v0": {
@@ -37,6 +54,28 @@ ENV_IDS: dict[str, dict] = {
         "episode_steps": 1128,
         "reward_scale_km": 10.0,
         "filter": {"sigma_pos0": 100.0, "sigma_vel0": 1e-3, "accel_psd": 1e-16},
+    },
+    # Navigation operations, scenario A (issue 17, docs/operations.md §3): a 21-day ion-thrust arc before an
+    # encounter E (DS1-like: 92 mN, 486 kg); imaging a planet turns the thrust axis away (delta-v lost);
+    # the objective is the knowledge mapped to E at the TCMs E-14 d, E-5 d, E-1.5 d plus 129.6 km per m/s.
+    "planetnav/ThrustArc-TCM-v0": {
+        "scenario": "random-cruise",
+        "action_mode": "target",
+        "idle_action": True,
+        "step_s": 600.0,
+        "episode_steps": 3024,
+        "reward": "covariance",
+        "operations": {
+            "thrust_n": 0.092,
+            "mass_kg": 486.0,
+            "thrust_mag_sigma": 0.02,
+            "thrust_point_sigma_deg": 1.0,
+            "thrust_corr_time_s": 86400.0,
+            "attitude_tolerance_deg": 1.0,
+            "deadlines_s": (604800.0, 1382400.0, 1684800.0),
+            "encounter_s": 1814400.0,
+            "cost_weight": 129.6,
+        },
     },
 }
 

@@ -81,7 +81,7 @@ class BatchCore:
         self.params = build_params(
             cfg, self.plan, self.gravity.mu_central, np.asarray(self.gravity.mu_perturbers, dtype=float)
         )
-        self.layout = L.ObservationLayout(cfg.n_planets, cfg.n_pulsars)
+        self.layout = L.ObservationLayout.for_config(cfg)
         self.table_spec = TableSpec.for_duration(
             episode_duration_s(cfg), max(self.plan.n_channels, 1), segment_s=SEGMENT_S
         )
@@ -185,7 +185,7 @@ class BatchCore:
         target = int(i[L.I_TARGET])
         names = cfg.planets + cfg.pulsars
         att = f[L.F_ATT_ERR]
-        return {
+        info = {
             "pos_err_km": float(f[L.F_POS_ERR]),
             "vel_err_km_s": float(f[L.F_VEL_ERR]),
             "nees": float(f[L.F_NEES]),
@@ -201,6 +201,24 @@ class BatchCore:
             "time_s": self.time_s(row),
             "filter": {"x": f[L.F_XE : L.F_XE + 6].copy(), "P": self.p[row].copy()},
         }
+        if cfg.operations is not None:
+            ops = self._operations_info(row)
+            info.update({k: (float(v[0]) if v.ndim == 1 else v[0]) for k, v in ops.items()})
+        return info
+
+    def _operations_info(self, rows: int | slice) -> dict[str, np.ndarray]:
+        """The operations keys (docs/environment.md, "Info keys") of ``rows`` as arrays: ``dv_lost_m_s``
+        (delta-v lost so far [m/s]), ``deadline_sigma_km`` and ``deadline_err_km`` (per deadline, NaN until
+        reached: the position 1-sigma coasted to the encounter and the true mapped error [km]) and
+        ``objective`` (J so far [km])."""
+        f = self.f[rows] if isinstance(rows, slice) else self.f[rows : rows + 1]
+        n_dl = len(self.config.operations.deadlines_s)
+        return {
+            "dv_lost_m_s": f[:, L.F_DV_LOST].copy(),
+            "deadline_sigma_km": f[:, L.F_DL_SIGMA : L.F_DL_SIGMA + n_dl].copy(),
+            "deadline_err_km": f[:, L.F_DL_ERR : L.F_DL_ERR + n_dl].copy(),
+            "objective": f[:, L.F_OBJECTIVE].copy(),
+        }
 
     def info_batch(self) -> dict[str, np.ndarray]:
         """Per-row quantities as arrays (the vector environment's ``info``): numbers only, so that a step
@@ -209,7 +227,7 @@ class BatchCore:
         :data:`planetnav_env.core.layout.REASONS`. The filter's estimate and covariance are
         :meth:`filter_state` (copying 4096 covariances every step would cost more than the step)."""
         f, i = self.f, self.i
-        return {
+        info = {
             "pos_err_km": f[:, L.F_POS_ERR].copy(),
             "vel_err_km_s": f[:, L.F_VEL_ERR].copy(),
             "nees": f[:, L.F_NEES].copy(),
@@ -221,6 +239,9 @@ class BatchCore:
             "slewing": i[:, L.I_SLEWING] != 0,
             "time_s": f[:, L.F_T0] + i[:, L.I_K] * self.config.step_s,
         }
+        if self.config.operations is not None:
+            info.update(self._operations_info(slice(None)))
+        return info
 
     def filter_state(self) -> tuple[np.ndarray, np.ndarray]:
         """Copies of every row's filter estimate (N, 6) [km, km/s] and covariance (N, 6, 6)."""

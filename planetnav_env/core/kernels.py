@@ -32,6 +32,8 @@ from numba import njit
 from planetnav_env._deprecation import moved_names
 from planetnav_env.attitude.pointing import error_matrix_kernel, frame_kernel, substeps_kernel
 from planetnav_env.core.layout import (
+    F_DV_LOST,
+    F_DV_STEP,
     F_HW,
     F_INTEGRATED,
     F_NIS,
@@ -39,6 +41,7 @@ from planetnav_env.core.layout import (
     F_Q,
     F_QE,
     F_REWARD,
+    F_THRUSTING,
     F_U,
     F_W,
     F_X,
@@ -55,6 +58,7 @@ from planetnav_env.core.layout import (
     I_TARGET,
     I_TERMINATED,
     I_TRUNCATED,
+    MODE_HYBRID,
     MODE_TARGET,
     MODE_TORQUE,
     N_CH_CENTRAL,
@@ -63,6 +67,7 @@ from planetnav_env.core.layout import (
     N_N_COARSE,
     N_N_SUB,
     N_NP,
+    N_OPS,
     REASON_NONE,
     REASON_TOO_LARGE,
     REASON_VISIBLE,
@@ -71,6 +76,10 @@ from planetnav_env.core.layout import (
     S_K_A,
     S_K_W,
     S_MU,
+    S_OPS_ACC,
+    S_OPS_COS_TOL,
+    S_OPS_Q_PAR,
+    S_OPS_Q_PERP,
     S_SETTLE_ANGLE,
     S_SETTLE_RATE,
     S_STEP_S,
@@ -84,6 +93,14 @@ from planetnav_env.core.layout import (
     STATUS_OK,
 )  # fmt: skip
 from planetnav_env.core.observation import observe_row
+from planetnav_env.core.operations import (
+    add_thrust_q,
+    apply_thrust,
+    planned_direction,
+    reset_operations,
+    thrust_axis_on,
+    thrust_noise,
+)
 from planetnav_env.core.records import make_scratch
 from planetnav_env.core.row_ephemeris import eval_channel, perturbers_at, planets_at, row_time
 from planetnav_env.core.scoring import score_row
@@ -129,6 +146,10 @@ def step_row(prm, f, p, i, rng, eph, n, target, torque, sc) -> bool:  # pragma: 
     """Advance row ``n`` by one step with the decoded action: ``target`` (planet/pulsar index, -1 for
     none) and ``torque`` (3,) as a fraction of the wheel limit (ignored in ``target`` mode).
 
+    With an operations scenario (``N_OPS``), target -1 is "stay at the mission attitude": the PD law points
+    the thrust axis (the boresight) along the planned direction (the estimated velocity), and the thrust,
+    its execution error and the filter's matching prediction follow :mod:`planetnav_env.core.operations`.
+
     Returns True when ``sc.central`` and ``sc.planets`` hold the bodies at the row's new time (the
     camera branch evaluated them), so that :func:`observe_row` need not evaluate them again."""
     s, nn = prm.s, prm.n
@@ -144,10 +165,16 @@ def step_row(prm, f, p, i, rng, eph, n, target, torque, sc) -> bool:  # pragma: 
 
     # --- attitude: PD law toward the estimated direction of the target, and/or the agent's torque ---
     eval_channel(prm, eph, f, n, t, nn[N_CH_CENTRAL], sc.central)
-    use_pd = target >= 0 and mode != MODE_TORQUE
+    ops = nn[N_OPS] != 0
+    if ops:
+        planned_direction(xe, sc.z)  # the planned thrust direction u (inertial), fixed over the step
+    use_pd = (target >= 0 or ops) and mode != MODE_TORQUE
     prev = i[n, I_TARGET]
     if use_pd:
-        if target < n_p:
+        if target < 0:
+            for j in range(3):
+                sc.dirv[j] = sc.z[j]
+        elif target < n_p:
             planets_at(prm, eph, f, n, t, sc.planets)
             for j in range(3):
                 sc.dirv[j] = sc.planets[target, j] - (xe[j] + sc.central[j])
@@ -160,7 +187,7 @@ def step_row(prm, f, p, i, rng, eph, n, target, torque, sc) -> bool:  # pragma: 
     scale = s[S_TORQUE_SCALE]
     for j in range(3):
         sc.bias[j] = torque[j] * scale * prm.tau_max[j] if mode != MODE_TARGET else 0.0
-    slewing = use_pd and target != prev and prev >= 0
+    slewing = use_pd and target != prev and (prev >= 0 or ops)
     if target != prev:
         f[n, F_INTEGRATED] = 0.0  # an X-ray integration is lost when the detector leaves its pulsar
     if use_pd:
@@ -178,10 +205,29 @@ def step_row(prm, f, p, i, rng, eph, n, target, torque, sc) -> bool:  # pragma: 
         sc.y[j] = q[j]
     for j in range(3):
         sc.y[4 + j] = w[j]
-    substeps_kernel(
-        sc.y, hw, use_pd, sc.frame, sc.bias, sc.zero3, n_sub, h_dt, prm.jm, prm.jinv, prm.tau_max,
-        prm.h_max, s[S_K_A], s[S_K_W], sc.work, sc.rq, sc.a, sc.u_cmd, f[n, F_U : F_U + 3],
-    )  # fmt: skip
+    t_on = 0.0  # thrusting time [s] and its position moment [s^2] (operations)
+    moment = 0.0
+    if ops:
+        # One sub-step at a time (the same loop as one call with n_sub), checking the thrust axis.
+        on = False
+        for j in range(n_sub):
+            substeps_kernel(
+                sc.y, hw, use_pd, sc.frame, sc.bias, sc.zero3, 1, h_dt, prm.jm, prm.jinv, prm.tau_max,
+                prm.h_max, s[S_K_A], s[S_K_W], sc.work, sc.rq, sc.a, sc.u_cmd, f[n, F_U : F_U + 3],
+            )  # fmt: skip
+            on = thrust_axis_on(sc.y, prm.boresight, sc.z, s[S_OPS_COS_TOL])
+            if on:
+                t_on += h_dt
+                moment += h_dt * (dt - (j + 0.5) * h_dt)
+        f[n, F_THRUSTING] = 1.0 if on else 0.0
+        dv_step = s[S_OPS_ACC] * (dt - t_on) * 1000.0  # [m/s]
+        f[n, F_DV_STEP] = dv_step
+        f[n, F_DV_LOST] += dv_step
+    else:
+        substeps_kernel(
+            sc.y, hw, use_pd, sc.frame, sc.bias, sc.zero3, n_sub, h_dt, prm.jm, prm.jinv, prm.tau_max,
+            prm.h_max, s[S_K_A], s[S_K_W], sc.work, sc.rq, sc.a, sc.u_cmd, f[n, F_U : F_U + 3],
+        )  # fmt: skip
     if not store_state_kernel(sc.y, hw, q, w, hw):
         i[n, I_STATUS] = STATUS_ATTITUDE_NONFINITE
         i[n, I_TERMINATED] = 1
@@ -198,6 +244,14 @@ def step_row(prm, f, p, i, rng, eph, n, target, torque, sc) -> bool:  # pragma: 
         xe, pm, dt, s[S_MU], sc.pert[0], sc.pert[1], sc.pert[2], prm.mus, prm.qproc, nn[N_EULER] != 0,
         sc.w6, sc.v6, sc.phi, sc.tmp,
     )  # fmt: skip
+    if ops and t_on > 0.0:
+        # Truth: nominal thrust + execution error drawn from frac * Q_thrust; filter: nominal thrust and
+        # the same Q (the filter knows when the engine was on: it commands it).
+        frac = t_on / dt
+        apply_thrust(x, s[S_OPS_ACC], sc.z, t_on, moment)
+        thrust_noise(prm, i, rng, n, x, dt, frac, s[S_OPS_Q_PAR], s[S_OPS_Q_PERP], sc.z, sc)
+        apply_thrust(xe, s[S_OPS_ACC], sc.z, t_on, moment)
+        add_thrust_q(pm, dt, frac, s[S_OPS_Q_PAR], s[S_OPS_Q_PERP], sc.z)
     k += 1
     i[n, I_K] = k
     t = t + dt
@@ -220,8 +274,11 @@ def step_row(prm, f, p, i, rng, eph, n, target, torque, sc) -> bool:  # pragma: 
             sc.r1[0, j] = x[j] + sc.central[j]
         for j in range(4):
             sc.q1[0, j] = q[j]
-        idx = target if mode != MODE_TORQUE else nearest_in_view(prm, sc)
-        if mode == MODE_TORQUE:
+        # The agent's own torque (torque mode, or hybrid's direct-torque option): the camera measures the
+        # visible planet nearest its boresight; otherwise the PD law's target.
+        direct = mode == MODE_TORQUE or (mode == MODE_HYBRID and target < 0)
+        idx = nearest_in_view(prm, sc) if direct else target
+        if direct:
             i[n, I_TARGET] = idx
         if idx >= 0:
             for j in range(3):
@@ -269,6 +326,8 @@ def reset_row(prm, f, p, i, rng, eph, obs, n, sc) -> None:  # pragma: no cover -
     f[n, F_PIX + 1] = np.nan
     for j in range(4):
         f[n, F_QE + j] = f[n, F_Q + j]  # a stale fix to keep if the first one fails
+    if prm.n[N_OPS]:
+        reset_operations(f, n)
     star_fix_stage(prm, f, i, rng, n, sc)
     rate_measurement(prm, f, i, rng, n, sc)
     score_row(prm, f, p, i, n, sc.zero3, sc)

@@ -47,6 +47,13 @@ _F_FIELDS = (
     ("REWARD", 1),
     ("NIS", 1),
     ("PIX", 2),  # pixel of the last planet image
+    # operations scenarios (EnvConfig.operations; zero / NaN otherwise)
+    ("DV_STEP", 1),  # delta-v lost in the last step [m/s]
+    ("DV_LOST", 1),  # delta-v lost in the episode [m/s]
+    ("OBJECTIVE", 1),  # J so far [km]: sum of the deadline terms reached + w * DV_LOST
+    ("THRUSTING", 1),  # 1: the thrust axis was within tolerance at the end of the last step
+    ("DL_SIGMA", 8),  # per deadline: sqrt(trace) of the position covariance coasted to E [km]; NaN before
+    ("DL_ERR", 8),  # per deadline: |dr + t_go dv| of the filter's true error mapped to E [km]; NaN before
 )
 F_OFFSETS: dict[str, tuple[int, int]] = {}
 _o = 0
@@ -62,6 +69,11 @@ F_POS_ERR, F_VEL_ERR, F_NEES, F_POS_SIGMA = (
     F_OFFSETS[k][0] for k in ("POS_ERR", "VEL_ERR", "NEES", "POS_SIGMA")
 )
 F_REWARD, F_NIS, F_PIX = (F_OFFSETS[k][0] for k in ("REWARD", "NIS", "PIX"))
+F_DV_STEP, F_DV_LOST, F_OBJECTIVE, F_THRUSTING, F_DL_SIGMA, F_DL_ERR = (
+    F_OFFSETS[k][0] for k in ("DV_STEP", "DV_LOST", "OBJECTIVE", "THRUSTING", "DL_SIGMA", "DL_ERR")
+)
+#: Deadline slots of the state (``config.MAX_DEADLINES``; the width of DL_SIGMA and DL_ERR).
+MAX_DEADLINES = F_OFFSETS["DL_SIGMA"][1]
 
 # ------------------------------------------------------------------------------------------------
 # Per-row integer state (BatchState.i)
@@ -117,6 +129,11 @@ _S = _slots(
     "RATE_NOISE", "COS_HALF_DIAG", "ALPHA_MAX", "SIGMA_ALPHA",
     "PSR_INT_S", "DET_HALF_FOV", "SUN_AVOID", "AMBIG_K", "CENTRAL_RADIUS", "REWARD_SCALE", "TORQUE_PENALTY",
     "DIVERGENCE", "POS_SCALE", "VEL_SCALE", "SEGMENT_S", "SETTLE_ANGLE", "SETTLE_RATE", "TORQUE_SCALE",
+    # operations (EnvConfig.operations): thrust acceleration [km/s^2], PSDs along / across the thrust
+    # [km^2/s^3], cos(attitude tolerance), encounter epoch [s from episode start], cost weight [km/(m/s)],
+    # then the deadline epochs [s from episode start] in MAX_DEADLINES slots
+    "OPS_ACC", "OPS_Q_PAR", "OPS_Q_PERP", "OPS_COS_TOL", "OPS_ENCOUNTER", "OPS_WEIGHT",
+    "OPS_DL0", "_OPS_DL1", "_OPS_DL2", "_OPS_DL3", "_OPS_DL4", "_OPS_DL5", "_OPS_DL6", "_OPS_DL7",
 )  # fmt: skip
 NS = len(_S)
 (
@@ -124,22 +141,32 @@ NS = len(_S)
     S_RATE_NOISE, S_COS_HALF_DIAG, S_ALPHA_MAX, S_SIGMA_ALPHA,
     S_PSR_INT_S, S_DET_HALF_FOV, S_SUN_AVOID, S_AMBIG_K, S_CENTRAL_RADIUS, S_REWARD_SCALE, S_TORQUE_PENALTY,
     S_DIVERGENCE, S_POS_SCALE, S_VEL_SCALE, S_SEGMENT_S, S_SETTLE_ANGLE, S_SETTLE_RATE, S_TORQUE_SCALE,
-) = range(NS)  # fmt: skip
+) = range(_S["OPS_ACC"])  # fmt: skip
+S_OPS_ACC, S_OPS_Q_PAR, S_OPS_Q_PERP, S_OPS_COS_TOL, S_OPS_ENCOUNTER, S_OPS_WEIGHT, S_OPS_DL0 = (
+    _S[k]
+    for k in ("OPS_ACC", "OPS_Q_PAR", "OPS_Q_PERP", "OPS_COS_TOL", "OPS_ENCOUNTER", "OPS_WEIGHT", "OPS_DL0")
+)
 
 _N = _slots(
     "MODE", "NP", "NQ", "NT", "N_SUB", "N_COARSE", "KIND", "EULER", "IDEAL_STAR", "REWARD_TRUTH",
     "EPISODE_STEPS", "CH_CENTRAL", "CH_PLANET0", "CH_PERT0", "N_PERT", "CH_SSB", "APPROACH",
     "OBS_PLANETS", "OBS_PULSARS", "OBS_TARGET", "OBS_ELAPSED", "NOISE_PER_STEP",
+    "OPS", "OPS_N_DL", "OBS_OPS",  # operations on (0/1), deadlines, first index of the observation's block
+    "OBS_IN_FIELD",  # first index of the observation's in-field block (-1: none; EnvConfig.observe_in_field)
 )  # fmt: skip
 NN = len(_N)
 (
     N_MODE, N_NP, N_NQ, N_NT, N_N_SUB, N_N_COARSE, N_KIND, N_EULER, N_IDEAL_STAR, N_REWARD_TRUTH,
     N_EPISODE_STEPS, N_CH_CENTRAL, N_CH_PLANET0, N_CH_PERT0, N_N_PERT, N_CH_SSB, N_APPROACH,
     N_OBS_PLANETS, N_OBS_PULSARS, N_OBS_TARGET, N_OBS_ELAPSED, N_NOISE_PER_STEP,
-) = range(NN)  # fmt: skip
+) = range(_N["OPS"])  # fmt: skip
+N_OPS, N_OPS_N_DL, N_OBS_OPS = (_N[k] for k in ("OPS", "OPS_N_DL", "OBS_OPS"))
+N_OBS_IN_FIELD = _N["OBS_IN_FIELD"]
 
-MODE_TARGET, MODE_TORQUE, MODE_TARGET_TORQUE = range(3)
-MODE_CODES = {"target": MODE_TARGET, "torque": MODE_TORQUE, "target+torque": MODE_TARGET_TORQUE}
+MODE_TARGET, MODE_TORQUE, MODE_TARGET_TORQUE, MODE_HYBRID = range(4)
+MODE_CODES = {
+    "target": MODE_TARGET, "torque": MODE_TORQUE, "target+torque": MODE_TARGET_TORQUE, "hybrid": MODE_HYBRID,
+}  # fmt: skip
 
 # ------------------------------------------------------------------------------------------------
 # Observation
@@ -192,9 +219,29 @@ PULSAR_FEATURE_TEXT = (
 )
 
 
+#: Scales of the operations block (EnvConfig.operations): time to each deadline [d] / OPS_DAYS_SCALE,
+#: delta-v lost [m/s] / OPS_DV_SCALE (values of order 1 for a 21-day arc and ~10 m/s of sessions).
+OPS_DAYS_SCALE = 10.0
+OPS_DV_SCALE = 10.0
+OPERATIONS_TEXT = (
+    "operations (with EnvConfig.operations, D deadlines): time to each deadline [d] (0 once reached), "
+    "delta-v lost so far [m/s], thrusting at the end of the step 0/1"
+)
+
+
+IN_FIELD_TEXT = (
+    "in field (with EnvConfig.observe_in_field), one per planet: 1 if the camera's visibility rule "
+    "(field of view, occultation, Sun exclusion, size) passes for that planet at the star-tracker attitude "
+    "and the estimated position now, and its disk fits the field; the camera measures the one of them "
+    "nearest the boresight"
+)
+
+
 @dataclass(frozen=True)
 class ObservationLayout:
-    """Offsets of every block of the flat observation for ``n_planets`` planets and ``n_pulsars`` pulsars.
+    """Offsets of every block of the flat observation for ``n_planets`` planets and ``n_pulsars`` pulsars,
+    and, with ``n_deadlines`` set (an operations scenario), the ``operations`` block of ``n_deadlines + 2``
+    values after ``elapsed``.
 
     ``blocks`` lists ``(name, start, stop, shape)``; the ``dict`` observation uses the same names and
     shapes, so one table serves the builders, the spaces, :func:`decode` and the documentation.
@@ -202,6 +249,18 @@ class ObservationLayout:
 
     n_planets: int
     n_pulsars: int
+    n_deadlines: int | None = None
+    #: The ``in_field`` block (P values, 0/1) last (``EnvConfig.observe_in_field``; text: IN_FIELD_TEXT).
+    in_field: bool = False
+
+    @classmethod
+    def for_config(cls, cfg) -> ObservationLayout:
+        """The layout of an :class:`~planetnav_env.config.EnvConfig`."""
+        ops = getattr(cfg, "operations", None)
+        return cls(
+            cfg.n_planets, cfg.n_pulsars, None if ops is None else len(ops.deadlines_s),
+            bool(getattr(cfg, "observe_in_field", False)),
+        )  # fmt: skip
 
     @property
     def n_targets(self) -> int:
@@ -224,8 +283,18 @@ class ObservationLayout:
         return self.target_start + self.n_targets
 
     @property
-    def size(self) -> int:
+    def operations_start(self) -> int:
+        """First index of the operations block (== size without one)."""
         return self.elapsed_index + 1
+
+    @property
+    def in_field_start(self) -> int:
+        """First index of the in-field block (== size without one)."""
+        return self.operations_start + (0 if self.n_deadlines is None else self.n_deadlines + 2)
+
+    @property
+    def size(self) -> int:
+        return self.in_field_start + (self.n_planets if self.in_field else 0)
 
     @property
     def blocks(self) -> tuple[tuple[str, int, int, tuple[int, ...]], ...]:
@@ -238,7 +307,11 @@ class ObservationLayout:
         if self.n_pulsars:
             out.append(("pulsars", self.pulsars_start, self.target_start, (self.n_pulsars, TARGET_FEATURES)))
         out.append(("target", self.target_start, self.elapsed_index, (self.n_targets,)))
-        out.append(("elapsed", self.elapsed_index, self.size, (1,)))
+        out.append(("elapsed", self.elapsed_index, self.operations_start, (1,)))
+        if self.n_deadlines is not None:
+            out.append(("operations", self.operations_start, self.in_field_start, (self.n_deadlines + 2,)))
+        if self.in_field:
+            out.append(("in_field", self.in_field_start, self.size, (self.n_planets,)))
         return tuple(out)
 
     def to_dict(self, flat: np.ndarray) -> dict[str, np.ndarray]:
@@ -265,7 +338,9 @@ class ObservationLayout:
         rows.append(("22+7p..28+7p", PLANET_FEATURE_TEXT, "-, log10(AU), / sigma_alpha, 0/1, log10(km)/4"))
         rows.append(("22+7P+7j..", PULSAR_FEATURE_TEXT, "-, 0..1, log10, 0/1, log10(km)/4"))
         rows.append(("22+7T..", "current target, one-hot (T = P + Q)", "0/1"))
-        rows.append(("last", "elapsed fraction of the episode", "0..1"))
+        rows.append(("22+8T", "elapsed fraction of the episode", "0..1"))
+        rows.append(("..+D+2", OPERATIONS_TEXT, f"/ {OPS_DAYS_SCALE:g} d, / {OPS_DV_SCALE:g} m/s, 0/1"))
+        rows.append(("last P", IN_FIELD_TEXT, "0/1"))
         w0 = max(len(r[0]) for r in rows)
         w1 = max(len(r[1]) for r in rows)
         w2 = max(len(r[2]) for r in rows)

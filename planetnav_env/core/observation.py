@@ -8,9 +8,11 @@ import math
 
 from planetnav_env.bodies import AU_KM
 from planetnav_env.core.layout import (
+    F_DV_LOST,
     F_HW,
     F_INTEGRATED,
     F_QE,
+    F_THRUSTING,
     F_WM,
     F_XE,
     I_K,
@@ -22,15 +24,23 @@ from planetnav_env.core.layout import (
     N_NQ,
     N_NT,
     N_OBS_ELAPSED,
+    N_OBS_IN_FIELD,
+    N_OBS_OPS,
     N_OBS_PLANETS,
     N_OBS_PULSARS,
     N_OBS_TARGET,
+    N_OPS,
+    N_OPS_N_DL,
+    OPS_DAYS_SCALE,
+    OPS_DV_SCALE,
     REASON_VISIBLE,
     S_ALPHA_MAX,
     S_CENTRAL_RADIUS,
+    S_OPS_DL0,
     S_POS_SCALE,
     S_PSR_INT_S,
     S_SIGMA_ALPHA,
+    S_STEP_S,
     S_SUN_AVOID,
     S_VEL_SCALE,
     SC_ATTITUDE,
@@ -52,6 +62,7 @@ from planetnav_env.core.row_ephemeris import eval_channel, planets_at, row_time
 from planetnav_env.dynamics.attitude import dcm_body_to_inertial_kernel
 from planetnav_env.jit import row_kernel
 from planetnav_env.sensors.camera import (
+    V_ALPHA,
     V_REASON,
     visibility_row_kernel,
 )
@@ -101,6 +112,17 @@ def observe_row(prm, f, p, i, eph, obs, n, sc, bodies_ready) -> None:  # pragma:
     if i[n, I_TARGET] >= 0:
         o[base + i[n, I_TARGET]] = 1.0
     o[nn[N_OBS_ELAPSED]] = i[n, I_K] / nn[N_EPISODE_STEPS]
+    if nn[N_OBS_IN_FIELD] >= 0:
+        _in_field(prm, sc.dirv, qe, sc, o, nn[N_OBS_IN_FIELD])
+    if nn[N_OPS]:
+        # Operations block: time to each deadline [d] (0 once reached), delta-v lost [m/s], thrusting.
+        base = nn[N_OBS_OPS]
+        n_dl = nn[N_OPS_N_DL]
+        elapsed = i[n, I_K] * s[S_STEP_S]
+        for d in range(n_dl):
+            o[base + d] = max(s[S_OPS_DL0 + d] - elapsed, 0.0) / 86400.0 / OPS_DAYS_SCALE
+        o[base + n_dl] = f[n, F_DV_LOST] / OPS_DV_SCALE
+        o[base + n_dl + 1] = f[n, F_THRUSTING]
 
 
 @row_kernel
@@ -147,6 +169,26 @@ def _planet_features(prm, r_est, qe, pm, sc) -> None:  # pragma: no cover - comp
         visible = st == 0 and int(sc.vals[V_REASON]) == REASON_VISIBLE
         out[a, TF_OBSERVABLE] = 1.0 if (visible and alpha < s[S_ALPHA_MAX]) else 0.0
         out[a, TF_SIZE] = alpha / s[S_SIGMA_ALPHA]
+
+
+@row_kernel
+def _in_field(prm, r_est, qe, sc, o, base) -> None:  # pragma: no cover - compiled
+    """The in-field block (``EnvConfig.observe_in_field``) from ``base``: per planet, 1.0 when the camera's
+    own visibility rule (:func:`~planetnav_env.sensors.camera.visibility_row_kernel`: field of view,
+    occultation, Sun exclusion, detection threshold) passes at the star-tracker attitude ``qe`` from the
+    estimated heliocentric position ``r_est`` [km], and the disk is not wider than the field (the step's
+    rule, ``S_ALPHA_MAX``); else 0.0. ``sc.planets`` holds the planets at the row's time."""
+    for a in range(sc.planets.shape[0]):
+        for c in range(3):
+            sc.r_tile[a, c] = r_est[c]
+        for c in range(4):
+            sc.q_tile[a, c] = qe[c]
+        st = visibility_row_kernel(
+            sc.r_tile, sc.q_tile, sc.planets, a, prm.radii[a], sc.planets, prm.radii, True, prm.c2b,
+            prm.cam, sc.m, sc.u6, sc.vals,
+        )  # fmt: skip
+        ok = st == 0 and int(sc.vals[V_REASON]) == REASON_VISIBLE and sc.vals[V_ALPHA] <= prm.s[S_ALPHA_MAX]
+        o[base + a] = 1.0 if ok else 0.0
 
 
 @row_kernel

@@ -85,7 +85,7 @@ def build_params(cfg: EnvConfig, plan: ChannelPlan, mu_central: float, mus: np.n
     """The record of everything the kernels read, from a validated config and its channel plan."""
     att = cfg.attitude
     cam = cfg.camera
-    layout = L.ObservationLayout(cfg.n_planets, cfg.n_pulsars)
+    layout = L.ObservationLayout.for_config(cfg)
     approach = cfg.scenario == "mars-approach"
     s = np.zeros(L.NS)
     n = np.zeros(L.NN, dtype=np.int64)
@@ -139,6 +139,19 @@ def build_params(cfg: EnvConfig, plan: ChannelPlan, mu_central: float, mus: np.n
     n[L.N_OBS_TARGET] = layout.target_start
     n[L.N_OBS_ELAPSED] = layout.elapsed_index
     n[L.N_NOISE_PER_STEP] = cfg.noise_streams == "per_step"
+    n[L.N_OBS_IN_FIELD] = layout.in_field_start if layout.in_field else -1
+    ops = cfg.operations
+    if ops is not None:
+        n[L.N_OPS] = 1
+        n[L.N_OPS_N_DL] = len(ops.deadlines_s)
+        n[L.N_OBS_OPS] = layout.operations_start
+        s[L.S_OPS_ACC] = ops.thrust_accel_km_s2
+        s[L.S_OPS_Q_PAR], s[L.S_OPS_Q_PERP] = ops.psd_km2_s3
+        s[L.S_OPS_COS_TOL] = math.cos(math.radians(ops.attitude_tolerance_deg))
+        s[L.S_OPS_ENCOUNTER] = ops.encounter_s
+        s[L.S_OPS_WEIGHT] = ops.cost_weight
+        for k, t in enumerate(ops.deadlines_s):
+            s[L.S_OPS_DL0 + k] = t
     # The thesis's star camera is one instrument: the stars in the planet image give the attitude.
     # Sharing the boresight matters: a tracker's weak axis is roll about its own boresight, which would
     # swing a camera mounted elsewhere by ~14" (measured) instead of ~1.4".

@@ -11,8 +11,9 @@ from planetnav_env.core.layout import (
 from planetnav_env.jit import row_kernel
 
 #: Stream ids of the per-step noise (``noise_streams: per_step``): one per sensor; pulsar j uses
-#: ``NOISE_PULSAR0 + j``.
+#: ``NOISE_PULSAR0 + j``; ``NOISE_THRUST`` is the thrust execution error of an operations scenario.
 NOISE_STAR, NOISE_RATE, NOISE_CAMERA, NOISE_PULSAR0 = 1, 2, 3, 16
+NOISE_THRUST = 4
 
 
 @row_kernel

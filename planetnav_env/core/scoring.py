@@ -19,12 +19,14 @@ from planetnav_env.core.layout import (
     MODE_TARGET,
     N_EPISODE_STEPS,
     N_MODE,
+    N_OPS,
     N_REWARD_TRUTH,
     S_DIVERGENCE,
     S_REWARD_SCALE,
     S_TORQUE_PENALTY,
     S_TORQUE_SCALE,
 )  # fmt: skip
+from planetnav_env.core.operations import score_operations
 from planetnav_env.estimation.ekf_kernels import (
     nees_kernel,
 )
@@ -33,7 +35,10 @@ from planetnav_env.jit import row_kernel
 
 @row_kernel
 def score_row(prm, f, p, i, n, torque, sc) -> None:  # pragma: no cover - compiled
-    """Errors, NEES, 1-sigma, reward, termination and truncation of row ``n`` after its step."""
+    """Errors, NEES, 1-sigma, reward, termination and truncation of row ``n`` after its step.
+
+    Operations scenarios (``N_OPS``): the reward is ``-(w * dv_step + sum of the deadline terms reached
+    this step) / reward_scale_km`` (:func:`planetnav_env.core.operations.score_operations`), km and m/s."""
     s = prm.s
     x = f[n, F_X : F_X + 6]
     xe = f[n, F_XE : F_XE + 6]
@@ -50,8 +55,11 @@ def score_row(prm, f, p, i, n, torque, sc) -> None:  # pragma: no cover - compil
     term = not (math.isfinite(pos_err) and math.isfinite(sig)) or pos_err > s[S_DIVERGENCE]
     i[n, I_TERMINATED] = term
     i[n, I_TRUNCATED] = i[n, I_K] >= prm.n[N_EPISODE_STEPS] and not term
-    err = pos_err if prm.n[N_REWARD_TRUTH] else sig
-    r = -err / s[S_REWARD_SCALE]
+    if prm.n[N_OPS]:
+        r = -score_operations(prm, f, p, i, n) / s[S_REWARD_SCALE]
+    else:
+        err = pos_err if prm.n[N_REWARD_TRUTH] else sig
+        r = -err / s[S_REWARD_SCALE]
     if prm.n[N_MODE] != MODE_TARGET and s[S_TORQUE_PENALTY] > 0.0:
         r -= s[S_TORQUE_PENALTY] * s[S_TORQUE_SCALE] ** 2 * (torque[0] ** 2 + torque[1] ** 2 + torque[2] ** 2)
     f[n, F_REWARD] = r if math.isfinite(r) else -s[S_DIVERGENCE] / s[S_REWARD_SCALE]
