@@ -539,7 +539,7 @@ def _ray_cell(config: dict[str, Any]) -> None:
 
     cell = Cell(**config["cell"])
     settings = Settings(**{**config["settings"], "out": Path(config["settings"]["out"])})
-    record = run_cell(cell, settings, config["references"])
+    record = run_cell(cell, settings, config["references"][cell.task])
     tune.report({"record": json.dumps(record), "normalized_score": record["normalized_score"]})
 
 
@@ -581,9 +581,13 @@ def _run_ray(
                 verbose=1,
             ),
         )
-        tuner.fit()
+        grid = tuner.fit()
     finally:
         shutdown_ray(info)
+    failed = [grid[i].config["cell"] for i in range(len(grid)) if grid[i].error]
+    if failed:  # the finished cells' records are written; --resume runs the failed ones again
+        keys = [Cell(**c).key for c in failed]
+        raise RuntimeError(f"{len(failed)} cell(s) failed on Ray ({keys}); see {settings.out / 'tune'}")
     return records
 
 
