@@ -9,6 +9,9 @@ baseline       the thesis's rule: the nearest planet by the filter's estimate
                (:mod:`planetnav_agents.baseline`)
 baseline-size  the same rule ranking by estimated apparent diameter
 greedy         the planet whose measurements shrink the position covariance most, slew time counted
+greedy-pd      greedy + PD, the wheel-torque tasks' reference: greedy over a 180-s horizon (in time, any
+               step), executed by the PD law (as wheel torques in ``torque`` mode;
+               :func:`planetnav_agents.greedy.greedy_pd`)
 random         a uniformly random action each step
 idle           never measures (needs ``idle_action=True``, so ``action_mode="target"`` only)
 periodic       fixed schedule: the planets of a cycle in turn, ``period`` steps each
@@ -40,7 +43,7 @@ import gymnasium as gym
 
 from planetnav_agents.base import Agent, NotApplicableError, ParsedObservation, TargetAgent, parse_observation
 from planetnav_agents.baseline import BaselineAgent
-from planetnav_agents.greedy import GreedyAgent
+from planetnav_agents.greedy import GreedyAgent, greedy_pd
 from planetnav_agents.periodic import PeriodicAgent
 from planetnav_agents.planner import PlannerAgent
 from planetnav_agents.rllib import RLlibAgent
@@ -58,6 +61,7 @@ AGENTS: dict[str, Callable[..., Agent]] = {
     "baseline": functools.partial(BaselineAgent, criterion="distance"),
     "baseline-size": functools.partial(BaselineAgent, criterion="size"),
     "greedy": GreedyAgent,
+    "greedy-pd": greedy_pd,
     "periodic": PeriodicAgent,
     "planner": PlannerAgent,
     "random": RandomAgent,

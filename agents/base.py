@@ -11,6 +11,7 @@ chosen planet index into an action for any ``action_mode``:
 
 * ``target``: the index itself (the environment's PD law slews);
 * ``target+torque``: +1 on the chosen planet, -1 elsewhere, zero residual torque;
+* ``hybrid``: the PD-law option of the chosen planet (+1 on it, -1 on the other options, zero torque);
 * ``torque``: the PD command toward the planet's estimated direction, computed here from the observation
   (star-tracker quaternion, reported rates, wheel momentum), as a fraction of the wheel torque limit.
 """
@@ -117,6 +118,24 @@ def target_torque_action(idx: int, n_planets: int) -> np.ndarray:
     return with_planet_choice(np.zeros((1, n_planets + 3)), np.array([idx]), n_planets)[0]
 
 
+def hybrid_action(option: int, n_planets: int, torque: np.ndarray | None = None) -> np.ndarray:
+    """The ``hybrid`` action (P + 1 + 3,) float32 (:func:`planetnav_env.spaces.decode_hybrid`): option
+    ``k < P`` slews to planet k by the PD law; ``k = P`` commands ``torque`` (3,) [fraction of
+    ``torque_action_scale`` x the wheel limit, body axes] directly. Raises ``ValueError`` naming a bad
+    option or torque."""
+    if not 0 <= int(option) <= n_planets:
+        raise ValueError(f"hybrid option must be in [0, {n_planets}] (P = direct torque), got {option!r}")
+    out = np.full(n_planets + 4, -1.0, dtype=np.float32)
+    out[int(option)] = 1.0
+    out[n_planets + 1 :] = 0.0
+    if torque is not None:
+        t = np.asarray(torque, dtype=float)
+        if t.shape != (3,) or not np.all(np.isfinite(t)):
+            raise ValueError(f"hybrid torque must be 3 finite numbers, got {torque!r}")
+        out[n_planets + 1 :] = np.clip(t, -1.0, 1.0)
+    return out
+
+
 class NotApplicableError(ValueError):
     """The agent cannot act in this environment (e.g. a model trained for another action space); the
     evaluation harness skips it with the message as a note instead of stopping."""
@@ -164,6 +183,12 @@ class PointingLaw:
     closed-loop poles at 0). With S ~ 2 theta this is k_a = J / (2 T^2), k_w = 1.5 J / T, taken at the
     mean moment (the per-axis ratio 0.8-1.25 keeps the poles inside the unit circle).
 
+    When the step is no longer than the env's attitude sub-step (``step_s <= attitude_substep_s``, e.g.
+    ``Cruise-TorqueControl-v0``'s 1 s) the agent's hold is the env's own, and the configuration's gains
+    (``attitude.k_a``, ``attitude.k_w``) are used: the law is then the env's PD law, run on the
+    star-tracker attitude and the reported rates. (The deadbeat gains at T = 1 s, k_a = 5 N m, would
+    ask 500 times the wheel limit and bang the wheels.)
+
     What :meth:`TargetAgent.torque_toward` commands in torque mode and what the ``pd_torque`` feature
     (:class:`planetnav_agents.features.FeatureBatch`) gives per planet: one formula.
     """
@@ -173,8 +198,11 @@ class PointingLaw:
         self._att_config = AttitudeConfig(inertia=att.inertia)
         t = cfg.step_s
         j_mean = float(np.mean(att.inertia))
-        self.k_a = j_mean / (2.0 * t * t)  # [N m]
-        self.k_w = 1.5 * j_mean / t  # [N m s]
+        if t <= cfg.attitude_substep_s:
+            self.k_a, self.k_w = float(att.k_a), float(att.k_w)  # the env's own law and hold
+        else:
+            self.k_a = j_mean / (2.0 * t * t)  # [N m]
+            self.k_w = 1.5 * j_mean / t  # [N m s]
         self._tau_max = att.wheel_torque_limit
         self._torque_scale = cfg.torque_action_scale
         self._h_max = att.wheel_momentum_capacity
@@ -249,6 +277,8 @@ class TargetAgent(Agent):
             return idx
         if mode == "target+torque":
             return target_torque_action(idx, self.n_planets)
+        if mode == "hybrid":
+            return hybrid_action(idx, self.n_planets)
         return self.torque_toward(obs, info, idx)
 
     def estimate(self, obs: ParsedObservation, info: dict[str, Any]) -> np.ndarray:

@@ -147,3 +147,29 @@ class GreedyAgent(TargetAgent):
             # Nothing observable: keep the current target (the camera waits pointed where it was).
             return obs.target if obs.target >= 0 else 0
         return int(np.argmax(scores))
+
+
+#: The ``greedy-pd`` agent's horizon [s]: greedy's default of DEFAULT_HORIZON steps at the cruise's 60-s
+#: step, kept in time when the step is shorter (at 1 s a 3-step horizon never outweighs a ~100-s slew).
+GREEDY_PD_HORIZON_S = 180.0
+
+
+def greedy_pd(
+    env: gym.Env,
+    horizon_s: float = GREEDY_PD_HORIZON_S,
+    pd_slowdown: float = PD_SLOWDOWN,
+    lookahead_s: float = 0.0,
+) -> GreedyAgent:
+    """Greedy + PD, the reference of the wheel-torque tasks (issue 18): greedy's target choice over a
+    horizon of ``horizon_s`` seconds (``round(horizon_s / step_s)`` steps, at least 1), executed by the PD
+    law: the env's own in ``target`` and ``hybrid`` mode (its PD option), the agent-side
+    :class:`~planetnav_agents.base.PointingLaw` as wheel torques in ``torque`` mode (at a 1-s step the
+    env's gains on the star-tracker attitude and reported rates)."""
+    if not (isinstance(horizon_s, int | float) and math.isfinite(horizon_s) and horizon_s > 0):
+        raise ValueError(f"horizon_s must be a positive number of seconds, got {horizon_s!r}")
+    step_s = float(env.unwrapped.config.step_s)
+    agent = GreedyAgent(
+        env, horizon=max(1, round(horizon_s / step_s)), pd_slowdown=pd_slowdown, lookahead_s=lookahead_s
+    )
+    agent.name = "greedy-pd"
+    return agent

@@ -17,11 +17,14 @@ _DEG = np.pi / 180.0
 
 def action_space(cfg: EnvConfig) -> spaces.Space:
     """``Discrete(T [+1 idle])`` in target mode, ``Box(-1, 1, (3,))`` in torque mode,
-    ``Box(-1, 1, (P + 3,))`` in target+torque mode."""
+    ``Box(-1, 1, (P + 3,))`` in target+torque mode, ``Box(-1, 1, (P + 1 + 3,))`` in hybrid mode
+    (:func:`decode_box_actions`)."""
     if cfg.action_mode == "target":
         return spaces.Discrete(cfg.n_targets + (1 if cfg.idle_action else 0))
     if cfg.action_mode == "torque":
         return spaces.Box(-1.0, 1.0, (3,), dtype=np.float32)
+    if cfg.action_mode == "hybrid":
+        return spaces.Box(-1.0, 1.0, (cfg.n_planets + 1 + 3,), dtype=np.float32)
     return spaces.Box(-1.0, 1.0, (cfg.n_planets + 3,), dtype=np.float32)
 
 
@@ -34,6 +37,7 @@ def observation_space(cfg: EnvConfig, layout: ObservationLayout) -> spaces.Space
         "wheel_momentum": (-1.0, 1.0),
         "target": (0.0, 1.0),
         "elapsed": (0.0, 1.0),
+        "in_field": (0.0, 1.0),
     }
     return spaces.Dict(
         {
@@ -116,7 +120,13 @@ def decode_box_actions(
 ) -> tuple[np.ndarray, np.ndarray]:
     """(targets (N,), torque fractions (N, 3)) from Box actions of ``shape`` per row; values outside
     [-1, 1] are clipped (as SB3 does), NaN/inf raise naming the row (the values alone with
-    ``single=True``, the single environment's wording)."""
+    ``single=True``, the single environment's wording).
+
+    ``torque``: target -1, the torque as given. ``target+torque``: target ``argmax(a[:P])``, residual
+    torque ``a[P:]``. ``hybrid``: option ``k = argmax(a[:P + 1])`` (first maximum on ties): ``k < P``
+    is planet k by the PD law (target k, torque 0: ``a[P + 1:]`` is ignored), ``k = P`` the direct torque
+    (target -1, torque ``a[P + 1:]``). Torques are fractions of ``torque_action_scale`` x the wheel limit.
+    """
     want = shape if single else (n_rows, *shape)
     try:
         raw = np.asarray(actions)
@@ -145,13 +155,28 @@ def decode_box_actions(
     if cfg.action_mode == "torque":
         return np.full(n_rows, -1, dtype=np.int64), np.ascontiguousarray(a)
     n = cfg.n_planets
+    if cfg.action_mode == "hybrid":
+        return decode_hybrid(a, n)
     return np.argmax(a[:, :n], axis=1).astype(np.int64), np.ascontiguousarray(a[:, n:])
+
+
+def decode_hybrid(actions: np.ndarray, n_planets: int) -> tuple[np.ndarray, np.ndarray]:
+    """(targets (N,), torques (N, 3)) of checked, clipped ``hybrid`` Box actions (N, P + 1 + 3): option
+    ``k = argmax(a[:P + 1])``; ``k < P`` -> target k with zero torque (the PD law slews), ``k = P`` ->
+    target -1 with torque ``a[P + 1:]`` (the agent drives the wheels). The one decoding rule of the
+    hybrid action (:func:`decode_box_actions` calls it; agents encode with it in mind)."""
+    option = np.argmax(actions[:, : n_planets + 1], axis=1).astype(np.int64)
+    direct = option == n_planets
+    targets = np.where(direct, -1, option)
+    torques = np.where(direct[:, None], actions[:, n_planets + 1 :], 0.0)
+    return targets, np.ascontiguousarray(torques)
 
 
 def decode_observation(cfg: EnvConfig, layout: ObservationLayout, observation: Any) -> dict[str, Any]:
     """Named arrays in physical units from one ``box`` or ``dict`` observation: position_km,
     velocity_km_s (relative to the central body), log_sigma (6,), q (star tracker), rates_rad_s,
-    wheel_fraction, planets (P, 7) and pulsars (Q, 7) as in the layout, target (index or -1), elapsed."""
+    wheel_fraction, planets (P, 7) and pulsars (Q, 7) as in the layout, target (index or -1), elapsed,
+    and with ``observe_in_field`` in_field (P,) bool (the planets the camera's visibility rule passes now)."""
     if isinstance(observation, dict):
         try:
             flat = layout.from_dict(observation)
@@ -168,7 +193,9 @@ def decode_observation(cfg: EnvConfig, layout: ObservationLayout, observation: A
     b = layout.to_dict(flat)
     pos_scale, vel_scale = observation_scales(cfg.scenario)
     target_vec = b["target"]
+    extra = {"in_field": b["in_field"] > 0.5} if "in_field" in b else {}
     return {
+        **extra,
         "position_km": b["position"] * pos_scale,
         "velocity_km_s": b["velocity"] * vel_scale,
         "log_sigma": b["log_sigma"],
@@ -179,4 +206,20 @@ def decode_observation(cfg: EnvConfig, layout: ObservationLayout, observation: A
         "pulsars": b.get("pulsars", np.zeros((0, TARGET_FEATURES))),
         "target": int(np.argmax(target_vec)) if np.any(target_vec > 0.5) else -1,
         "elapsed": float(b["elapsed"][0]),
+        **_decode_operations(layout, b),
+    }
+
+
+def _decode_operations(layout: ObservationLayout, b: dict[str, np.ndarray]) -> dict[str, Any]:
+    """The operations block in physical units (none without one): ``deadline_time_d`` (D,) time to each
+    deadline [d] (0 once reached), ``dv_lost_m_s`` [m/s], ``thrusting`` (bool)."""
+    if layout.n_deadlines is None:
+        return {}
+    from planetnav_env.core.layout import OPS_DAYS_SCALE, OPS_DV_SCALE
+
+    ops, n_dl = b["operations"], layout.n_deadlines
+    return {
+        "deadline_time_d": ops[:n_dl] * OPS_DAYS_SCALE,
+        "dv_lost_m_s": float(ops[n_dl]) * OPS_DV_SCALE,
+        "thrusting": bool(ops[n_dl + 1] > 0.5),
     }
