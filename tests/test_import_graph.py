@@ -1,0 +1,167 @@
+"""The project's import graph: dependencies point one way (no cycle), and nothing imports train.py.
+
+Read from the source with ``ast`` (nothing is imported): every ``import`` and ``from ... import``
+anywhere in a module counts, including those inside functions, since a lazy import still ties the two
+modules together, except in a module-level ``__getattr__`` (a deprecated alias). The folder
+``agents/`` is the package ``planetnav_agents``.
+"""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+#: package name -> folder
+PACKAGES = {
+    "planetnav_env": "planetnav_env",
+    "planetnav_agents": "agents",
+    "planetnav_rl": "planetnav_rl",
+    "planetnav_train": "planetnav_train",
+}
+
+
+def project_modules() -> dict[str, Path]:
+    """Dotted module name -> file, for every module of the installed packages."""
+    mods: dict[str, Path] = {}
+    for pkg, folder in PACKAGES.items():
+        base = ROOT / folder
+        if not base.is_dir():
+            continue
+        for path in base.rglob("*.py"):
+            parts = list(path.relative_to(base).with_suffix("").parts)
+            if parts[-1] == "__init__":
+                parts = parts[:-1]
+            mods[".".join([pkg, *parts])] = path
+    return mods
+
+
+def _imported_names(path: Path, module: str, is_package: bool) -> set[str]:
+    """Every dotted name imported by the file (relative imports resolved); ``from pkg import name`` gives
+    ``pkg.name``."""
+    tree = ast.parse(path.read_text(), filename=str(path))
+    package = module if is_package else module.rpartition(".")[0]
+    out: set[str] = set()
+    # A module-level __getattr__ is a deprecated alias (an old name resolved to its new home when
+    # used): it is not a dependency of the module's own code, and it necessarily points at the new home.
+    aliases = [n for n in tree.body if isinstance(n, ast.FunctionDef) and n.name == "__getattr__"]
+    skipped = {id(sub) for a in aliases for sub in ast.walk(a)}
+    for node in ast.walk(tree):
+        if id(node) in skipped:
+            continue
+        if isinstance(node, ast.Import):
+            out.update(alias.name for alias in node.names)
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:
+                base_parts = package.split(".")
+                base_parts = base_parts[: len(base_parts) - (node.level - 1)]
+                base = ".".join(base_parts + ([node.module] if node.module else []))
+            else:
+                base = node.module or ""
+            # ``from pkg import name``: the submodule pkg.name if there is one, else pkg itself (the
+            # resolver falls back to the longest module prefix)
+            out.update(base if alias.name == "*" else f"{base}.{alias.name}" for alias in node.names)
+    return out
+
+
+def import_graph() -> dict[str, set[str]]:
+    mods = project_modules()
+    graph: dict[str, set[str]] = {}
+    for name, path in mods.items():
+        targets = set()
+        for imported in _imported_names(path, name, path.name == "__init__.py"):
+            # the longest project module that the imported name is or lies in
+            parts = imported.split(".")
+            for k in range(len(parts), 0, -1):
+                cand = ".".join(parts[:k])
+                if cand in mods:
+                    if cand != name:
+                        targets.add(cand)
+                    break
+        graph[name] = targets
+    return graph
+
+
+def cycles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """Strongly connected components with more than one module (Tarjan)."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    on_stack: set[str] = set()
+    out: list[list[str]] = []
+    counter = [0]
+
+    def visit(v: str) -> None:
+        index[v] = low[v] = counter[0]
+        counter[0] += 1
+        stack.append(v)
+        on_stack.add(v)
+        for w in sorted(graph.get(v, ())):
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on_stack:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            comp = []
+            while True:
+                w = stack.pop()
+                on_stack.discard(w)
+                comp.append(w)
+                if w == v:
+                    break
+            if len(comp) > 1:
+                out.append(sorted(comp))
+
+    for v in sorted(graph):
+        if v not in index:
+            visit(v)
+    return out
+
+
+def test_the_graph_reader_finds_a_planted_cycle() -> None:
+    assert cycles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == [["a", "b", "c"]]
+    assert cycles({"a": {"b"}, "b": set()}) == []
+
+
+def test_deprecated_alias_imports_are_not_edges(tmp_path) -> None:
+    mod = tmp_path / "m.py"
+    mod.write_text(
+        "import os\n"
+        "def __getattr__(name):\n    from planetnav_env import env\n    return env\n"
+        "def f():\n    from planetnav_env import config\n"
+    )
+    names = _imported_names(mod, "m", False)
+    assert names == {"os", "planetnav_env.config"}
+
+
+def test_the_graph_reader_sees_known_edges() -> None:
+    graph = import_graph()
+    assert "planetnav_env.core.batch" in graph["planetnav_env.env"]
+    assert "planetnav_env.config" in graph["planetnav_env.core.batch"]
+
+
+def test_project_import_graph_has_no_cycle() -> None:
+    found = cycles(import_graph())
+    assert not found, "import cycles: " + "; ".join(" <-> ".join(c) for c in found)
+
+
+def test_nothing_imports_train_py() -> None:
+    """train.py is a command line over planetnav_train; no module, test or benchmark imports it."""
+    offenders = []
+    for path in ROOT.rglob("*.py"):
+        rel = path.relative_to(ROOT)
+        if rel.parts[0].startswith(".") or rel.parts[0] in {"build", "runs", "results"}:
+            continue
+        if path == Path(__file__).resolve():
+            continue  # this file names what it looks for
+        text = path.read_text()
+        tree = ast.parse(text, filename=str(path))
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Import) and any(a.name == "train" for a in node.names):
+                offenders.append(str(rel))
+            elif isinstance(node, ast.ImportFrom) and node.module == "train" and not node.level:
+                offenders.append(str(rel))
+        if "train.py" in text and ("spec_from_file_location" in text or "sys.path.insert" in text):
+            offenders.append(f"{rel} (loads train.py by path)")
+    assert not offenders, offenders
