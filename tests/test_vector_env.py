@@ -299,22 +299,26 @@ INFO_KEYS = {
     "sensor", "ambiguous_skipped", "visibility", "visibility_code", "slewing", "attitude_err_arcsec",
     "time_s", "filter",
 }  # fmt: skip
+#: The operations scenarios' extra keys (``EnvConfig.operations`` set), documented in the same table.
+OPERATIONS_INFO_KEYS = {"dv_lost_m_s", "deadline_sigma_km", "deadline_err_km", "objective"}
 
 
 def _same_value(vector_value, single_value) -> bool:
     """A row's array entry equals the single env's Python value (names: the same str or None)."""
     if single_value is None or isinstance(single_value, str):
         return vector_value == single_value
+    if isinstance(single_value, np.ndarray):  # per-row vectors (the operations deadlines)
+        return np.array_equal(vector_value, single_value, equal_nan=True)
     if isinstance(single_value, float) and np.isnan(single_value):
         return bool(np.isnan(vector_value))
     return vector_value == single_value
 
 
-def _assert_rows_match(vinfo: dict, infos: list[dict]) -> None:
-    assert {k for k in vinfo if not k.startswith("_")} == INFO_KEYS
+def _assert_rows_match(vinfo: dict, infos: list[dict], keys: set[str]) -> None:
+    assert {k for k in vinfo if not k.startswith("_")} == keys
     for single in infos:
-        assert set(single) == INFO_KEYS
-    for k in INFO_KEYS:
+        assert set(single) == keys
+    for k in keys:
         assert vinfo["_" + k].dtype == bool and vinfo["_" + k].all(), k  # every row has every key
     for i, single in enumerate(infos):
         for k, value in single.items():
@@ -333,25 +337,28 @@ def test_vector_info_has_the_single_env_keys_row_for_row(env_id: str) -> None:
     n, seed = 3, 21
     venv = gym.make_vec(env_id, num_envs=n, episode_steps=8)
     singles = [gym.make(env_id, episode_steps=8) for _ in range(n)]
+    keys = INFO_KEYS | (OPERATIONS_INFO_KEYS if venv.unwrapped.config.operations is not None else set())
     _, vinfo = venv.reset(seed=seed)
     infos = [env.reset(seed=seed + i)[1] for i, env in enumerate(singles)]
-    _assert_rows_match(vinfo, infos)
+    _assert_rows_match(vinfo, infos, keys)
     rng = np.random.default_rng(3)
     names_seen = set()
     for _ in range(6):
         acts = _actions(venv.single_action_space, n, rng)
         *_, vinfo = venv.step(acts)
         infos = [env.step(acts[i])[4] for i, env in enumerate(singles)]
-        _assert_rows_match(vinfo, infos)
+        _assert_rows_match(vinfo, infos, keys)
         names_seen.update(vinfo["target"].tolist())
-    assert vinfo["target"].dtype == object and names_seen - {None}  # real names, not codes
+    assert vinfo["target"].dtype == object
+    if venv.unwrapped.config.action_mode != "torque":  # torque mode has no target: None throughout
+        assert names_seen - {None}  # real names, not codes
     names = venv.unwrapped.config.planets + venv.unwrapped.config.pulsars
     for i in range(n):
         code = vinfo["target_index"][i]
         assert vinfo["target"][i] == (names[code] if code >= 0 else None)
         assert vinfo["visibility"][i] == L.REASONS[vinfo["visibility_code"][i]]
         row = venv.unwrapped.info_row(i)
-        assert set(row) == INFO_KEYS and row["target_index"] == infos[i]["target_index"]
+        assert set(row) == keys and row["target_index"] == infos[i]["target_index"]
 
 
 def test_vector_env_takes_an_env_id_and_reports_the_episode_length() -> None:
@@ -413,4 +420,4 @@ def test_info_keys_table_in_the_docs_lists_exactly_the_keys() -> None:
     text = (Path(__file__).parents[1] / "docs" / "environment.md").read_text()
     section = text.split("## Info keys", 1)[1].split("\n## ", 1)[0]
     documented = {line.split("`")[1] for line in section.splitlines() if line.startswith("| `")}
-    assert documented == INFO_KEYS
+    assert documented == INFO_KEYS | OPERATIONS_INFO_KEYS
