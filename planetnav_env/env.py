@@ -104,7 +104,24 @@ def spec_with_episode_length(spec: EnvSpec | None, episode_steps: int) -> EnvSpe
     return dataclasses.replace(spec, max_episode_steps=int(episode_steps))
 
 
-class PlanetNavEnv(gym.Env):
+class EpisodeLengthSpec:
+    """Mixin of the single and the vector environment: their ``spec`` (set by ``gym.make`` /
+    ``gym.make_vec``) reads ``max_episode_steps`` = the config's ``episode_steps``."""
+
+    _spec: EnvSpec | None = None
+    config: Any
+
+    @property
+    def spec(self) -> EnvSpec | None:
+        """The spec the registry gave this environment, with ``max_episode_steps`` = ``episode_steps``."""
+        return self._spec
+
+    @spec.setter
+    def spec(self, value: EnvSpec | None) -> None:
+        self._spec = spec_with_episode_length(value, self.config.episode_steps)
+
+
+class PlanetNavEnv(EpisodeLengthSpec, gym.Env):
     """Autonomous optical navigation between the planets (see the module docstring for one step).
 
     Action spaces (``action_mode``)
@@ -155,7 +172,6 @@ class PlanetNavEnv(gym.Env):
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 15}  # noqa: RUF012 (Gymnasium convention)
-    _spec: EnvSpec | None = None
 
     def __init__(
         self,
@@ -182,15 +198,6 @@ class PlanetNavEnv(gym.Env):
         self._started = False
         self._done = False
         self.history: list[tuple[float, float]] = []
-
-    @property
-    def spec(self) -> EnvSpec | None:
-        """The spec ``gym.make`` gave this environment, ``max_episode_steps`` = ``episode_steps``."""
-        return self._spec
-
-    @spec.setter
-    def spec(self, value: EnvSpec | None) -> None:
-        self._spec = spec_with_episode_length(value, self.config.episode_steps)
 
     # ------------------------------------------------------------------------------------------
     def reset(self, *, seed: int | None = None, options: dict | None = None):

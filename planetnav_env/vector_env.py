@@ -28,7 +28,6 @@ from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
-from gymnasium.envs.registration import EnvSpec
 from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
@@ -37,7 +36,7 @@ from planetnav_env.config import EnvConfig
 from planetnav_env.core import layout as L
 from planetnav_env.core.batch import BatchCore
 from planetnav_env.core.params import ARCSEC
-from planetnav_env.env import check_reset_options, resolve_config, row_info, spec_with_episode_length
+from planetnav_env.env import EpisodeLengthSpec, check_reset_options, resolve_config, row_info
 from planetnav_env.errors import InvalidParameterError
 from planetnav_env.spaces import (
     action_space,
@@ -55,11 +54,10 @@ if _DISABLED is not None:
     _MODES["disabled"] = _DISABLED
 
 
-class PlanetNavVectorEnv(VectorEnv):
+class PlanetNavVectorEnv(EpisodeLengthSpec, VectorEnv):
     """``num_envs`` planetnav environments as one batch (see the module docstring)."""
 
     metadata = {"autoreset_mode": AutoresetMode.NEXT_STEP, "render_modes": []}  # noqa: RUF012
-    _spec: EnvSpec | None = None
 
     def __init__(
         self,
@@ -106,15 +104,6 @@ class PlanetNavVectorEnv(VectorEnv):
         self._target_names = np.array([*cfg.planets, *cfg.pulsars, None], dtype=object)
         self._sensor_names = np.array(L.SENSORS, dtype=object)
         self._reason_names = np.array(L.REASONS, dtype=object)
-
-    @property
-    def spec(self) -> EnvSpec | None:
-        """The spec ``gym.make_vec`` gave this environment, ``max_episode_steps`` = ``episode_steps``."""
-        return self._spec
-
-    @spec.setter
-    def spec(self, value: EnvSpec | None) -> None:
-        self._spec = spec_with_episode_length(value, self.config.episode_steps)
 
     # ------------------------------------------------------------------------------------------
     def reset(
