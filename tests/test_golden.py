@@ -76,6 +76,14 @@ def _actions(space: gym.Space, rng: np.random.Generator, n: int | None) -> Any:
     return rng.uniform(-1.0, 1.0, size=shape + space.shape).astype(space.dtype)
 
 
+def _record_step(h: _Hashes, obs: Any, reward: Any, terminated: Any, truncated: Any, info: dict) -> None:
+    h.add("obs", obs)
+    h.add("reward", reward)
+    h.add("terminated", terminated)
+    h.add("truncated", truncated)
+    h.add("info", info)
+
+
 def _steps(env_id: str) -> int:
     return int(gym.spec(env_id).kwargs.get("episode_steps", 1440)) + 5
 
@@ -90,11 +98,7 @@ def rollout_single(env_id: str, options: dict) -> dict[str, Any]:
     h.add("truth", env.unwrapped.truth)
     for _ in range(_steps(env_id)):
         obs, reward, terminated, truncated, info = env.step(_actions(env.action_space, rng, None))
-        h.add("obs", obs)
-        h.add("reward", reward)
-        h.add("terminated", terminated)
-        h.add("truncated", truncated)
-        h.add("info", info)
+        _record_step(h, obs, reward, terminated, truncated, info)
         h.add("truth", env.unwrapped.truth)
         if terminated or truncated:
             obs, info = env.reset()
@@ -113,11 +117,7 @@ def rollout_vector(env_id: str, options: dict) -> dict[str, Any]:
     h.add("info", info)
     for _ in range(_steps(env_id)):
         obs, reward, terminated, truncated, info = venv.step(_actions(venv.single_action_space, rng, N_VEC))
-        h.add("obs", obs)
-        h.add("reward", reward)
-        h.add("terminated", terminated)
-        h.add("truncated", truncated)
-        h.add("info", info)
+        _record_step(h, obs, reward, terminated, truncated, info)
         x, p = venv.unwrapped.filter_state()
         h.add("filter.x", x)
         h.add("filter.P", p)
