@@ -208,9 +208,10 @@ class BatchCore:
 
     def _operations_info(self, rows: int | slice) -> dict[str, np.ndarray]:
         """The operations keys (docs/environment.md, "Info keys") of ``rows`` as arrays: ``dv_lost_m_s``
-        (delta-v lost so far [m/s]), ``deadline_sigma_km`` and ``deadline_err_km`` (per deadline, NaN until
-        reached: the position 1-sigma coasted to the encounter and the true mapped error [km]) and
-        ``objective`` (J so far [km])."""
+        (delta-v lost so far [m/s]), ``deadline_sigma_km`` and ``deadline_err_km`` (per deadline, 0 until
+        reached: the position 1-sigma coasted to the encounter and the true mapped error [km], > 0 once
+        reached; not NaN, which Gymnasium's checker cannot compare) and ``objective`` (J so far [km] =
+        sum of the reached deadline terms + w * dv_lost)."""
         f = self.f[rows] if isinstance(rows, slice) else self.f[rows : rows + 1]
         n_dl = len(self.config.operations.deadlines_s)
         return {

@@ -52,8 +52,8 @@ _F_FIELDS = (
     ("DV_LOST", 1),  # delta-v lost in the episode [m/s]
     ("OBJECTIVE", 1),  # J so far [km]: sum of the deadline terms reached + w * DV_LOST
     ("THRUSTING", 1),  # 1: the thrust axis was within tolerance at the end of the last step
-    ("DL_SIGMA", 8),  # per deadline: sqrt(trace) of the position covariance coasted to E [km]; NaN before
-    ("DL_ERR", 8),  # per deadline: |dr + t_go dv| of the filter's true error mapped to E [km]; NaN before
+    ("DL_SIGMA", 8),  # per deadline: sqrt(trace) of the position covariance coasted to E [km]; 0 before
+    ("DL_ERR", 8),  # per deadline: |dr + t_go dv| of the filter's true error mapped to E [km]; 0 before
 )
 F_OFFSETS: dict[str, tuple[int, int]] = {}
 _o = 0

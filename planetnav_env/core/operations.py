@@ -143,13 +143,14 @@ def thrust_noise(prm, i, rng, n, x, dt, frac, q_par, q_perp, u, sc) -> None:  # 
 
 @row_kernel
 def reset_operations(f, n) -> None:  # pragma: no cover - compiled
-    """A fresh episode's bookkeeping: no delta-v lost, J = 0, no deadline reached (NaN)."""
+    """A fresh episode's bookkeeping: no delta-v lost, J = 0, no deadline reached (its sigma and error 0:
+    a reached deadline's are > 0)."""
     f[n, F_DV_STEP] = 0.0
     f[n, F_DV_LOST] = 0.0
     f[n, F_OBJECTIVE] = 0.0
     for d in range(F_DL_ERR - F_DL_SIGMA):
-        f[n, F_DL_SIGMA + d] = math.nan
-        f[n, F_DL_ERR + d] = math.nan
+        f[n, F_DL_SIGMA + d] = 0.0
+        f[n, F_DL_ERR + d] = 0.0
 
 
 @row_kernel
@@ -163,7 +164,9 @@ def score_operations(prm, f, p, i, n) -> float:  # pragma: no cover - compiled
     pm = p[n]
     for d in range(prm.n[N_OPS_N_DL]):
         t_d = s[S_OPS_DL0 + d]
-        if not math.isnan(f[n, F_DL_SIGMA + d]) or elapsed < t_d * (1.0 - _EPOCH_RTOL):
+        # Reached at the first step end at or after its epoch: this step, if the previous end was before it.
+        t_hit = t_d * (1.0 - _EPOCH_RTOL)
+        if elapsed < t_hit or elapsed - s[S_STEP_S] >= t_hit:
             continue
         t_go = max(s[S_OPS_ENCOUNTER] - elapsed, 0.0)
         sig = math.sqrt(max(coasted_position_trace(pm, t_go), 0.0))
