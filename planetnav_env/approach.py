@@ -55,7 +55,7 @@ from planetnav_env.estimation.image_plane import (
     image_plane_sigma_mm,
 )
 from planetnav_env.sensors import pulsar as psr
-from planetnav_env.sensors.camera import DEFAULT_CAMERA, CameraConfig
+from planetnav_env.sensors.camera_config import DEFAULT_CAMERA, CameraConfig
 from planetnav_env.timescale import tdb_seconds
 
 __all__ = [

@@ -26,7 +26,7 @@ from planetnav_env.bodies import BODIES
 from planetnav_env.errors import ConfigError, PlanetNavError, UnknownOptionError
 from planetnav_env.estimation.ekf import FilterConfig
 from planetnav_env.estimation.measurements import MODELS
-from planetnav_env.sensors.camera import CameraConfig
+from planetnav_env.sensors.camera_config import CameraConfig
 from planetnav_env.sensors.pulsar import XrayDetector, pulsar
 
 SCENARIOS = ("cruise", "random-cruise", "mars-approach")

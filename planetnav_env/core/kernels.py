@@ -117,7 +117,7 @@ from planetnav_env.estimation.ekf_kernels import (
     rk4_kernel,
 )
 from planetnav_env.jit import row_kernel
-from planetnav_env.sensors.camera import (
+from planetnav_env.sensors.camera_kernels import (
     V_ALPHA,
     V_REASON,
     visibility_row_kernel,

@@ -61,7 +61,7 @@ from planetnav_env.core.layout import (
 from planetnav_env.core.row_ephemeris import eval_channel, planets_at, row_time
 from planetnav_env.dynamics.attitude import dcm_body_to_inertial_kernel
 from planetnav_env.jit import row_kernel
-from planetnav_env.sensors.camera import (
+from planetnav_env.sensors.camera_kernels import (
     V_ALPHA,
     V_REASON,
     visibility_row_kernel,

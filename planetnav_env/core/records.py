@@ -10,7 +10,7 @@ from numba import njit
 
 from planetnav_env.core import rng as crng
 from planetnav_env.core.layout import TARGET_FEATURES
-from planetnav_env.sensors.camera import (
+from planetnav_env.sensors.camera_kernels import (
     N_VIS_SLOTS,
 )
 from planetnav_env.sensors.star_tracker import FIX_WORK_SHAPE

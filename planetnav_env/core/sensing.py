@@ -59,7 +59,7 @@ from planetnav_env.estimation.ekf_kernels import (
 )
 from planetnav_env.estimation.measurement_kernels import measurement_vector_kernel
 from planetnav_env.jit import row_kernel
-from planetnav_env.sensors.camera import (
+from planetnav_env.sensors.camera_kernels import (
     measure_row_kernel,
 )
 from planetnav_env.sensors.pulsar import (

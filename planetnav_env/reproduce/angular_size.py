@@ -35,7 +35,7 @@ from planetnav_env.estimation.ekf import FilterConfig
 from planetnav_env.estimation.measurements import MeasurementModel
 from planetnav_env.navigation import NavigationResult, simulate_navigation
 from planetnav_env.scenarios import CRUISE_EPOCH, cruise_state
-from planetnav_env.sensors.camera import CameraConfig
+from planetnav_env.sensors.camera_config import CameraConfig
 
 EPOCH = CRUISE_EPOCH
 MODELS = ("direction", "direction+size")
