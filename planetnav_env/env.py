@@ -140,7 +140,18 @@ class PlanetNavEnv(EpisodeLengthSpec, gym.Env):
                                                             (same units as ``torque``) added to the PD
                                                             command. A Box because Stable-Baselines3
                                                             rejects Dict and Tuple action spaces.
+    hybrid         ``Box(-1, 1, (n_planets + 1 + 3,))``     option ``k = argmax(a[:n + 1])``: ``k < n``
+                                                            the PD law slews to planet k (``a[n + 1:]``
+                                                            ignored), ``k = n`` the agent's torque
+                                                            ``a[n + 1:]`` (units of ``torque``) drives
+                                                            the wheels (``spaces.decode_hybrid``); the
+                                                            camera measures the visible planet nearest
+                                                            its boresight, as in ``torque``
     ============== ======================================== ==========================================
+
+    ``planetnav/Cruise-TorqueControl-v0`` (torque) and ``planetnav/Cruise-Hybrid-v0`` (hybrid) run at the
+    attitude's timescale: 1-s steps for one hour, one unit of torque action = 0.01 N m (the wheel limit),
+    and the ``in_field`` observation block (``observe_in_field``).
 
     Box actions outside [-1, 1] are clipped (SB3 clips to the bounds too); NaN or infinite actions
     raise :class:`~planetnav_env.errors.NonFiniteError`; a discrete action outside its range raises

@@ -125,7 +125,8 @@ def decode_box_actions(
     ``torque``: target -1, the torque as given. ``target+torque``: target ``argmax(a[:P])``, residual
     torque ``a[P:]``. ``hybrid``: option ``k = argmax(a[:P + 1])`` (first maximum on ties): ``k < P``
     is planet k by the PD law (target k, torque 0: ``a[P + 1:]`` is ignored), ``k = P`` the direct torque
-    (target -1, torque ``a[P + 1:]``). Torques are fractions of ``torque_action_scale`` x the wheel limit.
+    (target -1, torque ``a[P + 1:]``). Torques are fractions of ``torque_action_scale`` x the wheel limit;
+    in hybrid mode the camera measures the visible planet nearest the boresight under either option.
     """
     want = shape if single else (n_rows, *shape)
     try:

@@ -274,9 +274,9 @@ def step_row(prm, f, p, i, rng, eph, n, target, torque, sc) -> bool:  # pragma: 
             sc.r1[0, j] = x[j] + sc.central[j]
         for j in range(4):
             sc.q1[0, j] = q[j]
-        # The agent's own torque (torque mode, or hybrid's direct-torque option): the camera measures the
-        # visible planet nearest its boresight; otherwise the PD law's target.
-        direct = mode == MODE_TORQUE or (mode == MODE_HYBRID and target < 0)
+        # Torque and hybrid modes (either option): the camera measures the visible planet nearest its
+        # boresight, whatever drives the wheels (the two tasks share one camera rule); otherwise the target.
+        direct = mode == MODE_TORQUE or mode == MODE_HYBRID
         idx = nearest_in_view(prm, sc) if direct else target
         if direct:
             i[n, I_TARGET] = idx
