@@ -193,9 +193,18 @@ def cmd_paired(args: argparse.Namespace) -> int:
             f"paired: the evaluations ran on different seeds: {args.a} on {a['episodes']} from {a['seed']}, "
             f"{args.b} on {b['episodes']} from {b['seed']}"
         )
-    diff = paired_difference(a["per_episode_mean_pos_err_km"], b["per_episode_mean_pos_err_km"])
+    # --metric objective: the scenario objective J [km] per episode (evaluate.episode_objective).
+    per_key, mean_key, label = (
+        ("per_episode_objective", "objective_mean", "objective J")
+        if getattr(args, "metric", "pos_err") == "objective"
+        else ("per_episode_mean_pos_err_km", "mean_pos_err_km", "mean position error")
+    )
+    for given, entry in ((args.a, a), (args.b, b)):
+        if per_key not in entry:
+            raise ConfigError(f"paired: {given} has no {per_key!r} (written before that key existed)")
+    diff = paired_difference(a[per_key], b[per_key])
     print(
-        f"{name_a}: {a['mean_pos_err_km']:.1f} km, {name_b}: {b['mean_pos_err_km']:.1f} km; paired "
+        f"{label}: {name_a}: {a[mean_key]:.1f} km, {name_b}: {b[mean_key]:.1f} km; paired "
         f"difference (first - second) {diff.format('{:+.1f}')} km on {a['episodes']} seeds from {a['seed']}"
     )
     # Files written before the key existed used the sequential stream.
@@ -205,7 +214,7 @@ def cmd_paired(args: argparse.Namespace) -> int:
             f"note: {args.a} drew {streams[0]} noise, {args.b} {streams[1]}: the two share no sensor noise, "
             "so the pairing is by seed only (docs/training.md, common random numbers)"
         )
-    per_seed = np.subtract(a["per_episode_mean_pos_err_km"], b["per_episode_mean_pos_err_km"])
+    per_seed = np.subtract(a[per_key], b[per_key])
     q05, q50, q95 = np.percentile(per_seed, [5, 50, 95])
     print(f"per seed: 5 % quantile {q05:+.1f} km, median {q50:+.1f} km, 95 % quantile {q95:+.1f} km")
     key = "per_episode_mean_pos_sigma_km"
@@ -357,6 +366,12 @@ def build_parser() -> argparse.ArgumentParser:
     )
     pr.add_argument("--a", required=True, help="FILE:AGENT, e.g. runs/x/eval.json:ppo:x")
     pr.add_argument("--b", required=True, help="FILE:AGENT, subtracted from --a")
+    pr.add_argument(
+        "--metric",
+        choices=("pos_err", "objective"),
+        default="pos_err",
+        help="per-episode value paired: the mean position error (default) or the scenario objective J [km]",
+    )
     pr.set_defaults(func=cmd_paired)
 
     ag = sub.add_parser(

@@ -73,7 +73,18 @@ def _episode(agent: Any, env: Any, seed: int, on_step: Callable[[], None]) -> di
         "return": ret,
         "diverged": diverged,
         "seconds": time.perf_counter() - t0,
+        "objective": episode_objective(info, np.asarray(err)),
     }
+
+
+def episode_objective(final_info: dict[str, Any], pos_err_km: np.ndarray) -> float:
+    """The scenario objective J of one episode [km], lower is better: ``info["objective"]`` at the
+    episode's end on an operations scenario (docs/operations.md §3.2: sum of the deadline terms plus
+    w x dv lost); on scenarios without operations, the episode's mean position error [km] (the same number
+    as ``per_episode_mean_pos_err_km``), so that every evaluation has the objective fields."""
+    if "objective" in final_info:
+        return float(final_info["objective"])
+    return float(np.mean(pos_err_km))
 
 
 def _padded_mean(curves: Sequence[np.ndarray]) -> np.ndarray:
@@ -120,6 +131,8 @@ def evaluate_agent(
     # paired differences of it resolve what the error's cannot (docs/training.md, 100-seed checks).
     per_episode_sigma = [float(np.mean(r["pos_sigma"])) for r in runs]
     ci = mean_ci(per_episode)
+    objective = np.array([r["objective"] for r in runs])
+    obj_ci = mean_ci(objective)
     metrics = {
         "episodes": episodes,
         "seed": seed,
@@ -139,6 +152,12 @@ def evaluate_agent(
         "seconds_per_episode": float(np.mean([r["seconds"] for r in runs])),
         "per_episode_mean_pos_err_km": per_episode.tolist(),
         "per_episode_mean_pos_sigma_km": per_episode_sigma,
+        # Scenario objective J [km] per episode (episode_objective): info["objective"] at the end on an
+        # operations scenario, else the episode's mean position error.
+        "objective_kind": "operations J" if env_cfg.operations is not None else "mean position error",
+        "objective_mean": obj_ci.mean,
+        "objective_ci95": [obj_ci.low, obj_ci.high],
+        "per_episode_objective": objective.tolist(),
     }
     return EvalResult(
         name=name,
@@ -153,8 +172,10 @@ def evaluate_agent(
 def add_paired(results: Sequence[EvalResult], reference: str) -> EvalResult | None:
     """Adds ``metrics["vs_reference"]`` (mean of the per-seed differences agent - reference of the mean
     position error [km] with its paired 95 % t-interval, and the ratio of the means) to every agent that
-    ran on the reference's seeds. The reference is the result whose name is ``reference`` (or starts with
-    ``reference:``); returns it, or None when it did not run."""
+    ran on the reference's seeds, and the same paired difference of the objective J [km]
+    (``mean_objective_diff_km``, ``objective_ci95_km``; :func:`episode_objective`). The reference is the
+    result whose name is ``reference`` (or starts with ``reference:``); returns it,
+    or None when it did not run."""
     ref = next(
         (r for r in results if r.ran and (r.name == reference or r.name.startswith(reference + ":"))), None
     )
@@ -176,6 +197,12 @@ def add_paired(results: Sequence[EvalResult], reference: str) -> EvalResult | No
             "mean_sigma_diff_km": ds.mean,
             "sigma_ci95_km": [ds.low, ds.high],
         }
+        if "per_episode_objective" in r.metrics and "per_episode_objective" in ref.metrics:
+            do = paired_difference(r.metrics["per_episode_objective"], ref.metrics["per_episode_objective"])
+            r.metrics["vs_reference"].update(
+                {"mean_objective_diff_km": do.mean, "objective_ci95_km": [do.low, do.high],
+                 "objective_outside_noise": do.excludes_zero()}
+            )
     return ref
 
 

@@ -54,12 +54,33 @@ TABLE_HEAD = (
 )
 
 
+#: Columns added after :data:`TABLE_HEAD` when the environment has operations (docs/operations.md §3).
+OBJECTIVE_HEAD = ("J km [95% CI]", "ΔJ vs ref km [95% CI]")
+
+
+def has_operations_objective(results: Sequence[EvalResult]) -> bool:
+    """Whether the evaluations are of an operations scenario (their objective is J, not the mean error)."""
+    return any(r.ran and r.metrics.get("objective_kind") == "operations J" for r in results)
+
+
+def _objective_cells(r: EvalResult) -> list[str]:
+    """(J with its 95 % interval, the paired difference of J against the reference) [km]."""
+    m = r.metrics
+    ci = MeanCI(m["objective_mean"], *m["objective_ci95"], m["episodes"], math.nan, 0.95)
+    vs = m.get("vs_reference")
+    has_diff = vs is not None and "objective_ci95_km" in vs
+    diff = _paired_cell(r, "mean_objective_diff_km", "objective_ci95_km") if has_diff else "-"
+    return [ci.format("{:.1f}"), diff]
+
+
 def table_rows(results: Sequence[EvalResult]) -> list[list[str]]:
-    """One row of cells per agent, in the order of :data:`TABLE_HEAD` (skipped agents noted)."""
+    """One row of cells per agent, in the order of :func:`table_head` (skipped agents noted)."""
     rows = []
+    width = len(table_head(results))
+    with_objective = has_operations_objective(results)
     for r in results:
         if not r.ran:
-            rows.append([r.name, "skipped (note below)", *[""] * (len(TABLE_HEAD) - 2)])
+            rows.append([r.name, "skipped (note below)", *[""] * (width - 2)])
             continue
         m = r.metrics
         ci = MeanCI(m["mean_pos_err_km"], *m["mean_pos_err_ci95_km"], m["episodes"], math.nan, 0.95)
@@ -76,6 +97,7 @@ def table_rows(results: Sequence[EvalResult]) -> list[list[str]]:
                 f"{m['measured_fraction']:.2f}",
                 f"{m['slews']:.1f}",
                 f"{m['seconds_per_episode']:.2f}",
+                *(_objective_cells(r) if with_objective else []),
             ]
         )
     return rows
@@ -89,12 +111,15 @@ def _reference_name(results: Sequence[EvalResult]) -> str | None:
 
 
 def table_head(results: Sequence[EvalResult]) -> list[str]:
-    """:data:`TABLE_HEAD` with the reference agent's name in the paired columns."""
+    """:data:`TABLE_HEAD` with the reference agent's name in the paired columns, and the objective's
+    columns (:data:`OBJECTIVE_HEAD`) on an operations scenario."""
     head = list(TABLE_HEAD)
     ref = _reference_name(results)
     if ref:
         head[2] = f"Δ vs {ref} km [95% CI]"
         head[4] = f"Δ 1σ vs {ref} km [95% CI]"
+    if has_operations_objective(results):
+        head += [OBJECTIVE_HEAD[0], f"ΔJ vs {ref} km [95% CI]" if ref else OBJECTIVE_HEAD[1]]
     return head
 
 
