@@ -12,6 +12,16 @@ The schedule is open loop: step ``k`` of the episode (counted from :meth:`reset`
 could not see even if pointed at it (the observation's flag) is replaced by the next visible one of the
 cycle, so the schedule does not stare into the Sun's glare on random cruises.
 
+Sessions (the operations scenarios, ``docs/operations.md`` §3.3): with ``session`` given,
+``periodic:period=144,session=12,phase=30,cycle=0-1`` images for ``session`` steps out of every ``period``
+steps, starting at step ``phase`` (an integer in ``[0, period)``): step ``k`` is in a session when
+``(k - phase) mod period < session``, and session number ``n = floor((k - phase) / period)`` images
+``cycle[n mod len(cycle)]`` (the next visible planet of the cycle with ``skip_invisible``). Between
+sessions the agent chooses the environment's last action, "stay at the mission attitude" (the engine
+thrusts), when the environment has it (``idle_action``); otherwise it keeps to the last session's planet.
+Here ``period`` is the spacing of sessions, not the dwell per planet. Without ``session`` (and ``phase``
+0) the schedule is the plain one above, unchanged.
+
 It is the bar the issue sets for a learned policy: a policy that only learned "switch now and then"
 should not beat the best fixed schedule.
 """
@@ -75,6 +85,8 @@ class PeriodicAgent(TargetAgent):
         period: int = DEFAULT_PERIOD,
         cycle: str | Sequence[int | str] = DEFAULT_CYCLE,
         skip_invisible: bool = True,
+        session: int | None = None,
+        phase: int = 0,
     ) -> None:
         super().__init__(env)
         if isinstance(period, bool) or not isinstance(period, int | np.integer) or period < 1:
@@ -82,19 +94,57 @@ class PeriodicAgent(TargetAgent):
         self.period = int(period)
         self.cycle = parse_cycle(cycle, self.config.planets)
         self.skip_invisible = bool(skip_invisible)
-        self.name = f"periodic:period={self.period},cycle={'-'.join(str(i) for i in self.cycle)}"
+        cycle_text = "-".join(str(i) for i in self.cycle)
+        self.name = f"periodic:period={self.period},cycle={cycle_text}"
+        if isinstance(phase, bool) or not isinstance(phase, int | np.integer) or not 0 <= phase < self.period:
+            raise ValueError(
+                f"periodic: phase must be an integer number of steps in [0, period = {self.period}), "
+                f"got {phase!r}"
+            )
+        bad_type = isinstance(session, bool) or not isinstance(session, int | np.integer)
+        if session is not None and (bad_type or not 1 <= session <= self.period):
+            raise ValueError(
+                f"periodic: session must be an integer number of steps in [1, period = {self.period}], "
+                f"got {session!r}"
+            )
+        if phase and session is None:
+            raise ValueError(f"periodic: phase={phase} needs session=<steps imaging per period>")
+        self.session = None if session is None else int(session)
+        self.phase = int(phase)
+        # The environment's "stay at the mission attitude" / "camera off" action, chosen between sessions.
+        self._stay = self.n_targets if self.config.idle_action else None
+        self._last = self.cycle[0]
+        if self.session is not None:
+            self.name = (
+                f"periodic:period={self.period},session={self.session},phase={self.phase},cycle={cycle_text}"
+            )
         self._k = 0
 
     def reset(self, seed: int | None = None) -> None:
         self._k = 0
+        self._last = self.cycle[0]
+
+    def in_session(self, k: int) -> bool:
+        """Whether step ``k`` images (always without ``session``)."""
+        return self.session is None or (k - self.phase) % self.period < self.session
 
     def scheduled(self, k: int) -> int:
-        """Position in the cycle scheduled at step ``k``."""
-        return (k // self.period) % len(self.cycle)
+        """Position in the cycle scheduled at step ``k`` (with ``session``: of the session ``k`` is in or
+        last was in)."""
+        if self.session is None:
+            return (k // self.period) % len(self.cycle)
+        return ((k - self.phase) // self.period) % len(self.cycle)
 
     def choose_target(self, obs: ParsedObservation, info: dict[str, Any]) -> int:
-        pos = self.scheduled(self._k)
+        k = self._k
         self._k += 1
+        if self.session is not None and not self.in_session(k):
+            return self._last if self._stay is None else self._stay
+        self._last = self._imaged(obs, self.scheduled(k))
+        return self._last
+
+    def _imaged(self, obs: ParsedObservation, pos: int) -> int:
+        """The planet imaged for cycle position ``pos``: it, or the next visible one (``skip_invisible``)."""
         if not self.skip_invisible:
             return self.cycle[pos]
         visible = obs.planet_observable
