@@ -34,6 +34,10 @@ score is divided by the horizon. An integration under way is always finished.
 ``lookahead_s`` (default 0) scores the position covariance coasted that far ahead instead of the current
 one (``r + T v``: velocity information counts): a velocity-aware variant. Every lookahead tried raises the
 day's mean 1σ on both cruises (``docs/training.md``), so the default stays 0.
+
+``threshold`` θ (operations scenarios only, ``greedy:threshold=1``): the deadline- and cost-aware session
+rule of :mod:`planetnav_agents.operations` instead (sessions of ``session`` steps, default 2 h; stay at the
+mission attitude otherwise). Without it, greedy is unchanged.
 """
 
 from __future__ import annotations
@@ -46,6 +50,7 @@ import numpy as np
 
 from planetnav_agents.base import ParsedObservation, TargetAgent
 from planetnav_agents.gain import DEFAULT_HORIZON, PD_SLOWDOWN, SlewModel, lost_steps, planet_scores
+from planetnav_agents.operations import DeadlineSessionRule
 from planetnav_env.core import layout as L
 from planetnav_env.core.what_if import coasted_position_trace, predicted_planet_trace, predicted_pulsar_trace
 from planetnav_env.sensors.pulsar import ambiguity_resolvable_kernel
@@ -63,8 +68,17 @@ class GreedyAgent(TargetAgent):
         horizon: int = DEFAULT_HORIZON,
         pd_slowdown: float = PD_SLOWDOWN,
         lookahead_s: float = 0.0,
+        threshold: float | None = None,
+        session: int | None = None,
     ) -> None:
         super().__init__(env)
+        # Operations scenarios: the deadline- and cost-aware session rule (planetnav_agents.operations).
+        self.sessions = None
+        if threshold is not None or session is not None:
+            if threshold is None:
+                raise ValueError(f"greedy: session={session!r} needs threshold=<theta> (operations)")
+            self.sessions = DeadlineSessionRule(env, threshold, session)
+            self.name = f"greedy:threshold={threshold:g}" + (f",session={session}" if session else "")
         if horizon < 1:
             raise ValueError(f"horizon must be >= 1 step, got {horizon}")
         if isinstance(lookahead_s, bool) or not (
@@ -119,8 +133,14 @@ class GreedyAgent(TargetAgent):
         )
         return out[0]
 
+    def reset(self, seed: int | None = None) -> None:
+        if self.sessions is not None:
+            self.sessions.reset()
+
     def choose_target(self, obs: ParsedObservation, info: dict[str, Any]) -> int:
         p = np.asarray(info["filter"]["P"], dtype=float)
+        if self.sessions is not None:
+            return self.sessions.choose(obs, self.estimate(obs, info), p)
         n_p = self.n_planets
         boresight = obs.boresight_inertial
         trace0 = self.trace_now(p)
