@@ -56,7 +56,7 @@ def _gravity_step(env, x: np.ndarray) -> np.ndarray:
     prm = env.unwrapped.core.params
     empty = np.zeros((0, 3))
     out = x[None, :].copy()
-    rk4_batch_kernel(out, DT, prm.s[L.S_MU], empty, empty, empty, prm.mus)  # in place
+    rk4_batch_kernel(out, DT, float(prm.scalars[0]["mu"]), empty, empty, empty, prm.mus)  # in place
     return out[0]
 
 

@@ -61,30 +61,9 @@ from planetnav_env.core.layout import (
     MODE_HYBRID,
     MODE_TARGET,
     MODE_TORQUE,
-    N_CH_CENTRAL,
-    N_EULER,
-    N_MODE,
-    N_N_COARSE,
-    N_N_SUB,
-    N_NP,
-    N_OPS,
     REASON_NONE,
     REASON_TOO_LARGE,
     REASON_VISIBLE,
-    S_ALPHA_MAX,
-    S_COARSE_S,
-    S_K_A,
-    S_K_W,
-    S_MU,
-    S_OPS_ACC,
-    S_OPS_COS_TOL,
-    S_OPS_Q_PAR,
-    S_OPS_Q_PERP,
-    S_SETTLE_ANGLE,
-    S_SETTLE_RATE,
-    S_STEP_S,
-    S_SUBSTEP_S,
-    S_TORQUE_SCALE,
     SENSOR_CAMERA,
     SENSOR_NONE,
     SENSOR_XRAY,
@@ -138,7 +117,7 @@ def _pointing_settled(prm, f, n, sc) -> bool:  # pragma: no cover - compiled
     w = f[n, F_W : F_W + 3]
     rate = math.sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2])
     # tr > 1 rules out the 180-degree equilibria, where S also vanishes.
-    return tr > 1.0 and sin_err < prm.s[S_SETTLE_ANGLE] and rate < prm.s[S_SETTLE_RATE]
+    return tr > 1.0 and sin_err < prm.scalars[0].settle_angle and rate < prm.scalars[0].settle_rate
 
 
 @row_kernel
@@ -146,26 +125,26 @@ def step_row(prm, f, p, i, rng, eph, n, target, torque, sc) -> bool:  # pragma: 
     """Advance row ``n`` by one step with the decoded action: ``target`` (planet/pulsar index, -1 for
     none) and ``torque`` (3,) as a fraction of the wheel limit (ignored in ``target`` mode).
 
-    With an operations scenario (``N_OPS``), target -1 is "stay at the mission attitude": the PD law points
+    With an operations scenario (``ops``), target -1 is "stay at the mission attitude": the PD law points
     the thrust axis (the boresight) along the planned direction (the estimated velocity), and the thrust,
     its execution error and the filter's matching prediction follow :mod:`planetnav_env.core.operations`.
 
     Returns True when ``sc.central`` and ``sc.planets`` hold the bodies at the row's new time (the
     camera branch evaluated them), so that :func:`observe_row` need not evaluate them again."""
-    s, nn = prm.s, prm.n
-    mode = nn[N_MODE]
-    dt = s[S_STEP_S]
+    ps = prm.scalars[0]
+    mode = ps.mode
+    dt = ps.step_s
     k = i[n, I_K]
     t = row_time(prm, f, i, n)
     x = f[n, F_X : F_X + 6]
     xe = f[n, F_XE : F_XE + 6]
     pm = p[n]
-    n_p = nn[N_NP]
+    n_p = ps.n_planets
     i[n, I_STATUS] = STATUS_OK
 
     # --- attitude: PD law toward the estimated direction of the target, and/or the agent's torque ---
-    eval_channel(prm, eph, f, n, t, nn[N_CH_CENTRAL], sc.central)
-    ops = nn[N_OPS] != 0
+    eval_channel(prm, eph, f, n, t, ps.ch_central, sc.central)
+    ops = ps.ops != 0
     if ops:
         planned_direction(xe, sc.z)  # the planned thrust direction u (inertial), fixed over the step
     use_pd = (target >= 0 or ops) and mode != MODE_TORQUE
@@ -184,7 +163,7 @@ def step_row(prm, f, p, i, rng, eph, n, target, torque, sc) -> bool:  # pragma: 
         for j in range(3):
             sc.roll[j] = xe[j] + sc.central[j]  # roll reference: the estimated heliocentric position
         frame_kernel(sc.dirv, sc.roll, sc.frame)
-    scale = s[S_TORQUE_SCALE]
+    scale = ps.torque_scale
     for j in range(3):
         sc.bias[j] = torque[j] * scale * prm.tau_max[j] if mode != MODE_TARGET else 0.0
     slewing = use_pd and target != prev and (prev >= 0 or ops)
@@ -195,9 +174,9 @@ def step_row(prm, f, p, i, rng, eph, n, target, torque, sc) -> bool:  # pragma: 
     elif mode == MODE_TARGET:
         i[n, I_TARGET] = -1
     # Held target, settled attitude, no agent torque: coarse sub-steps (the loop is near equilibrium).
-    coarse = use_pd and mode == MODE_TARGET and target == prev and i[n, I_SETTLED] == 1 and nn[N_N_COARSE] > 0
-    n_sub = nn[N_N_COARSE] if coarse else nn[N_N_SUB]
-    h_dt = s[S_COARSE_S] if coarse else s[S_SUBSTEP_S]
+    coarse = use_pd and mode == MODE_TARGET and target == prev and i[n, I_SETTLED] == 1 and ps.n_coarse > 0
+    n_sub = ps.n_coarse if coarse else ps.n_sub
+    h_dt = ps.coarse_s if coarse else ps.substep_s
     q = f[n, F_Q : F_Q + 4]
     w = f[n, F_W : F_W + 3]
     hw = f[n, F_HW : F_HW + 3]
@@ -213,20 +192,20 @@ def step_row(prm, f, p, i, rng, eph, n, target, torque, sc) -> bool:  # pragma: 
         for j in range(n_sub):
             substeps_kernel(
                 sc.y, hw, use_pd, sc.frame, sc.bias, sc.zero3, 1, h_dt, prm.jm, prm.jinv, prm.tau_max,
-                prm.h_max, s[S_K_A], s[S_K_W], sc.work, sc.rq, sc.a, sc.u_cmd, f[n, F_U : F_U + 3],
+                prm.h_max, ps.k_a, ps.k_w, sc.work, sc.rq, sc.a, sc.u_cmd, f[n, F_U : F_U + 3],
             )  # fmt: skip
-            on = thrust_axis_on(sc.y, prm.boresight, sc.z, s[S_OPS_COS_TOL])
+            on = thrust_axis_on(sc.y, prm.boresight, sc.z, ps.ops_cos_tol)
             if on:
                 t_on += h_dt
                 moment += h_dt * (dt - (j + 0.5) * h_dt)
         f[n, F_THRUSTING] = 1.0 if on else 0.0
-        dv_step = s[S_OPS_ACC] * (dt - t_on) * 1000.0  # [m/s]
+        dv_step = ps.ops_acc * (dt - t_on) * 1000.0  # [m/s]
         f[n, F_DV_STEP] = dv_step
         f[n, F_DV_LOST] += dv_step
     else:
         substeps_kernel(
             sc.y, hw, use_pd, sc.frame, sc.bias, sc.zero3, n_sub, h_dt, prm.jm, prm.jinv, prm.tau_max,
-            prm.h_max, s[S_K_A], s[S_K_W], sc.work, sc.rq, sc.a, sc.u_cmd, f[n, F_U : F_U + 3],
+            prm.h_max, ps.k_a, ps.k_w, sc.work, sc.rq, sc.a, sc.u_cmd, f[n, F_U : F_U + 3],
         )  # fmt: skip
     if not store_state_kernel(sc.y, hw, q, w, hw):
         i[n, I_STATUS] = STATUS_ATTITUDE_NONFINITE
@@ -237,21 +216,21 @@ def step_row(prm, f, p, i, rng, eph, n, target, torque, sc) -> bool:  # pragma: 
     # --- orbit truth (state only: it needs no STM) and filter prediction (same dynamics, perturbers from
     # the row's table) ---
     perturbers_at(prm, eph, f, n, t, dt, sc.pert)
-    rk4_kernel(x, dt, s[S_MU], sc.pert[0], sc.pert[1], sc.pert[2], prm.mus, sc.x_new, sc.w6, sc.v6)
+    rk4_kernel(x, dt, ps.mu, sc.pert[0], sc.pert[1], sc.pert[2], prm.mus, sc.x_new, sc.w6, sc.v6)
     for j in range(6):
         x[j] = sc.x_new[j]
     predict_kernel(
-        xe, pm, dt, s[S_MU], sc.pert[0], sc.pert[1], sc.pert[2], prm.mus, prm.qproc, nn[N_EULER] != 0,
+        xe, pm, dt, ps.mu, sc.pert[0], sc.pert[1], sc.pert[2], prm.mus, prm.qproc, ps.euler != 0,
         sc.w6, sc.v6, sc.phi, sc.tmp,
     )  # fmt: skip
     if ops and t_on > 0.0:
         # Truth: nominal thrust + execution error drawn from frac * Q_thrust; filter: nominal thrust and
         # the same Q (the filter knows when the engine was on: it commands it).
         frac = t_on / dt
-        apply_thrust(x, s[S_OPS_ACC], sc.z, t_on, moment)
-        thrust_noise(prm, i, rng, n, x, dt, frac, s[S_OPS_Q_PAR], s[S_OPS_Q_PERP], sc.z, sc)
-        apply_thrust(xe, s[S_OPS_ACC], sc.z, t_on, moment)
-        add_thrust_q(pm, dt, frac, s[S_OPS_Q_PAR], s[S_OPS_Q_PERP], sc.z)
+        apply_thrust(x, ps.ops_acc, sc.z, t_on, moment)
+        thrust_noise(prm, i, rng, n, x, dt, frac, ps.ops_q_par, ps.ops_q_perp, sc.z, sc)
+        apply_thrust(xe, ps.ops_acc, sc.z, t_on, moment)
+        add_thrust_q(pm, dt, frac, ps.ops_q_par, ps.ops_q_perp, sc.z)
     k += 1
     i[n, I_K] = k
     t = t + dt
@@ -264,7 +243,7 @@ def step_row(prm, f, p, i, rng, eph, n, target, torque, sc) -> bool:  # pragma: 
     reason = REASON_NONE
     sensor = SENSOR_NONE
     f[n, F_NIS] = np.nan
-    eval_channel(prm, eph, f, n, t, nn[N_CH_CENTRAL], sc.central)
+    eval_channel(prm, eph, f, n, t, ps.ch_central, sc.central)
     if target >= n_p:
         measured, rejected, reason = time_pulsar(prm, f, p, i, rng, eph, n, target - n_p, t, sc)
         sensor = SENSOR_XRAY if measured else SENSOR_NONE
@@ -293,7 +272,7 @@ def step_row(prm, f, p, i, rng, eph, n, target, torque, sc) -> bool:  # pragma: 
                 return False
             reason = int(sc.vals[V_REASON])
             # A disk wider than the sensor's field gives neither its centre nor its diameter.
-            if reason == REASON_VISIBLE and sc.vals[V_ALPHA] > s[S_ALPHA_MAX]:
+            if reason == REASON_VISIBLE and sc.vals[V_ALPHA] > ps.alpha_max:
                 reason = REASON_TOO_LARGE
             if reason == REASON_VISIBLE:
                 measured, rejected = measure_planet(prm, f, p, i, rng, n, idx, sc)
@@ -326,7 +305,7 @@ def reset_row(prm, f, p, i, rng, eph, obs, n, sc) -> None:  # pragma: no cover -
     f[n, F_PIX + 1] = np.nan
     for j in range(4):
         f[n, F_QE + j] = f[n, F_Q + j]  # a stale fix to keep if the first one fails
-    if prm.n[N_OPS]:
+    if prm.scalars[0].ops:
         reset_operations(f, n)
     star_fix_stage(prm, f, i, rng, n, sc)
     rate_measurement(prm, f, i, rng, n, sc)

@@ -1,4 +1,4 @@
-"""Array layouts of the batch core: the per-row state columns, the parameter slots and the observation.
+"""Array layouts of the batch core: the per-row state columns and the observation.
 
 The compiled kernels take a handful of arrays instead of dozens of arguments (numba's dispatcher pays
 per argument: a named tuple of 80 fields costs ~17 us a call, more than a whole environment step).
@@ -120,48 +120,6 @@ SENSOR_NONE, SENSOR_CAMERA, SENSOR_XRAY = range(3)
 #: Row status codes (:class:`~planetnav_env.codes.RowStatus` as ints, BatchState.i[:, I_STATUS]); the
 #: shells turn non-zero ones into named errors.
 STATUS_OK, STATUS_ATTITUDE_NONFINITE, STATUS_CAMERA = (int(s) for s in RowStatus)
-
-# ------------------------------------------------------------------------------------------------
-# Parameter slots (CoreParams.s floats, CoreParams.n integers)
-# ------------------------------------------------------------------------------------------------
-_S = _slots(
-    "STEP_S", "SUBSTEP_S", "COARSE_S", "K_A", "K_W", "MU", "SIG_DIR", "SIG_SIZE", "GATE1", "GATE2", "GATE3",
-    "RATE_NOISE", "COS_HALF_DIAG", "ALPHA_MAX", "SIGMA_ALPHA",
-    "PSR_INT_S", "DET_HALF_FOV", "SUN_AVOID", "AMBIG_K", "CENTRAL_RADIUS", "REWARD_SCALE", "TORQUE_PENALTY",
-    "DIVERGENCE", "POS_SCALE", "VEL_SCALE", "SEGMENT_S", "SETTLE_ANGLE", "SETTLE_RATE", "TORQUE_SCALE",
-    # operations (EnvConfig.operations): thrust acceleration [km/s^2], PSDs along / across the thrust
-    # [km^2/s^3], cos(attitude tolerance), encounter epoch [s from episode start], cost weight [km/(m/s)],
-    # then the deadline epochs [s from episode start] in MAX_DEADLINES slots
-    "OPS_ACC", "OPS_Q_PAR", "OPS_Q_PERP", "OPS_COS_TOL", "OPS_ENCOUNTER", "OPS_WEIGHT",
-    "OPS_DL0", "_OPS_DL1", "_OPS_DL2", "_OPS_DL3", "_OPS_DL4", "_OPS_DL5", "_OPS_DL6", "_OPS_DL7",
-)  # fmt: skip
-NS = len(_S)
-(
-    S_STEP_S, S_SUBSTEP_S, S_COARSE_S, S_K_A, S_K_W, S_MU, S_SIG_DIR, S_SIG_SIZE, S_GATE1, S_GATE2, S_GATE3,
-    S_RATE_NOISE, S_COS_HALF_DIAG, S_ALPHA_MAX, S_SIGMA_ALPHA,
-    S_PSR_INT_S, S_DET_HALF_FOV, S_SUN_AVOID, S_AMBIG_K, S_CENTRAL_RADIUS, S_REWARD_SCALE, S_TORQUE_PENALTY,
-    S_DIVERGENCE, S_POS_SCALE, S_VEL_SCALE, S_SEGMENT_S, S_SETTLE_ANGLE, S_SETTLE_RATE, S_TORQUE_SCALE,
-) = range(_S["OPS_ACC"])  # fmt: skip
-S_OPS_ACC, S_OPS_Q_PAR, S_OPS_Q_PERP, S_OPS_COS_TOL, S_OPS_ENCOUNTER, S_OPS_WEIGHT, S_OPS_DL0 = (
-    _S[k]
-    for k in ("OPS_ACC", "OPS_Q_PAR", "OPS_Q_PERP", "OPS_COS_TOL", "OPS_ENCOUNTER", "OPS_WEIGHT", "OPS_DL0")
-)
-
-_N = _slots(
-    "MODE", "NP", "NQ", "NT", "N_SUB", "N_COARSE", "KIND", "EULER", "IDEAL_STAR", "REWARD_TRUTH",
-    "EPISODE_STEPS", "CH_CENTRAL", "CH_PLANET0", "CH_PERT0", "N_PERT", "CH_SSB", "APPROACH",
-    "OBS_PLANETS", "OBS_PULSARS", "OBS_TARGET", "OBS_ELAPSED", "NOISE_PER_STEP",
-    "OPS", "OPS_N_DL", "OBS_OPS",  # operations on (0/1), deadlines, first index of the observation's block
-    "OBS_IN_FIELD",  # first index of the observation's in-field block (-1: none; EnvConfig.observe_in_field)
-)  # fmt: skip
-NN = len(_N)
-(
-    N_MODE, N_NP, N_NQ, N_NT, N_N_SUB, N_N_COARSE, N_KIND, N_EULER, N_IDEAL_STAR, N_REWARD_TRUTH,
-    N_EPISODE_STEPS, N_CH_CENTRAL, N_CH_PLANET0, N_CH_PERT0, N_N_PERT, N_CH_SSB, N_APPROACH,
-    N_OBS_PLANETS, N_OBS_PULSARS, N_OBS_TARGET, N_OBS_ELAPSED, N_NOISE_PER_STEP,
-) = range(_N["OPS"])  # fmt: skip
-N_OPS, N_OPS_N_DL, N_OBS_OPS = (_N[k] for k in ("OPS", "OPS_N_DL", "OBS_OPS"))
-N_OBS_IN_FIELD = _N["OBS_IN_FIELD"]
 
 MODE_TARGET, MODE_TORQUE, MODE_TARGET_TORQUE, MODE_HYBRID = range(4)
 MODE_CODES = {

@@ -17,32 +17,9 @@ from planetnav_env.core.layout import (
     F_XE,
     I_K,
     I_TARGET,
-    N_APPROACH,
-    N_CH_CENTRAL,
-    N_EPISODE_STEPS,
-    N_NP,
-    N_NQ,
-    N_NT,
-    N_OBS_ELAPSED,
-    N_OBS_IN_FIELD,
-    N_OBS_OPS,
-    N_OBS_PLANETS,
-    N_OBS_PULSARS,
-    N_OBS_TARGET,
-    N_OPS,
-    N_OPS_N_DL,
     OPS_DAYS_SCALE,
     OPS_DV_SCALE,
     REASON_VISIBLE,
-    S_ALPHA_MAX,
-    S_CENTRAL_RADIUS,
-    S_OPS_DL0,
-    S_POS_SCALE,
-    S_PSR_INT_S,
-    S_SIGMA_ALPHA,
-    S_STEP_S,
-    S_SUN_AVOID,
-    S_VEL_SCALE,
     SC_ATTITUDE,
     SC_LOG_SIGMA,
     SC_POSITION,
@@ -78,14 +55,14 @@ def observe_row(prm, f, p, i, eph, obs, n, sc, bodies_ready) -> None:  # pragma:
 
     ``bodies_ready``: ``sc.central`` and ``sc.planets`` already hold the bodies at the row's current
     time (what :func:`step_row` returns); they are evaluated here otherwise."""
-    s, nn = prm.s, prm.n
+    ps = prm.scalars[0]
     o = obs[n]
     xe = f[n, F_XE : F_XE + 6]
     pm = p[n]
     qe = f[n, F_QE : F_QE + 4]
     for j in range(3):
-        o[SC_POSITION + j] = xe[j] / s[S_POS_SCALE]
-        o[SC_VELOCITY + j] = xe[3 + j] / s[S_VEL_SCALE]
+        o[SC_POSITION + j] = xe[j] / ps.pos_scale
+        o[SC_VELOCITY + j] = xe[3 + j] / ps.vel_scale
         o[SC_LOG_SIGMA + j] = math.log10(math.sqrt(max(pm[j, j], 1e-30))) / 4.0
         o[SC_LOG_SIGMA + 3 + j] = math.log10(math.sqrt(max(pm[3 + j, 3 + j], 1e-30)) * 1e3) / 4.0
         o[SC_RATES + j] = f[n, F_WM + j] / (math.pi / 180.0)
@@ -94,33 +71,33 @@ def observe_row(prm, f, p, i, eph, obs, n, sc, bodies_ready) -> None:  # pragma:
         o[SC_ATTITUDE + j] = qe[j]
     if not bodies_ready:
         t = row_time(prm, f, i, n)
-        eval_channel(prm, eph, f, n, t, nn[N_CH_CENTRAL], sc.central)
+        eval_channel(prm, eph, f, n, t, ps.ch_central, sc.central)
         planets_at(prm, eph, f, n, t, sc.planets)
     for j in range(3):
         sc.dirv[j] = xe[j] + sc.central[j]  # estimated heliocentric position
     _planet_features(prm, sc.dirv, qe, pm, sc)
-    base = nn[N_OBS_PLANETS]
+    base = ps.obs_planets
     for a in range(sc.feat.shape[0]):
         for c in range(TARGET_FEATURES):
             o[base + TARGET_FEATURES * a + c] = sc.feat[a, c]
-    n_q = nn[N_NQ]
+    n_q = ps.n_pulsars
     if n_q:
-        _pulsar_features(prm, f, p, i, n, qe, sc, o, nn[N_OBS_PULSARS])
-    base = nn[N_OBS_TARGET]
-    for j in range(nn[N_NT]):
+        _pulsar_features(prm, f, p, i, n, qe, sc, o, ps.obs_pulsars)
+    base = ps.obs_target
+    for j in range(ps.n_targets):
         o[base + j] = 0.0
     if i[n, I_TARGET] >= 0:
         o[base + i[n, I_TARGET]] = 1.0
-    o[nn[N_OBS_ELAPSED]] = i[n, I_K] / nn[N_EPISODE_STEPS]
-    if nn[N_OBS_IN_FIELD] >= 0:
-        _in_field(prm, sc.dirv, qe, sc, o, nn[N_OBS_IN_FIELD])
-    if nn[N_OPS]:
+    o[ps.obs_elapsed] = i[n, I_K] / ps.episode_steps
+    if ps.obs_in_field >= 0:
+        _in_field(prm, sc.dirv, qe, sc, o, ps.obs_in_field)
+    if ps.ops:
         # Operations block: time to each deadline [d] (0 once reached), delta-v lost [m/s], thrusting.
-        base = nn[N_OBS_OPS]
-        n_dl = nn[N_OPS_N_DL]
-        elapsed = i[n, I_K] * s[S_STEP_S]
+        base = ps.obs_ops
+        n_dl = ps.ops_n_dl
+        elapsed = i[n, I_K] * ps.step_s
         for d in range(n_dl):
-            o[base + d] = max(s[S_OPS_DL0 + d] - elapsed, 0.0) / 86400.0 / OPS_DAYS_SCALE
+            o[base + d] = max(prm.ops_deadlines[d] - elapsed, 0.0) / 86400.0 / OPS_DAYS_SCALE
         o[base + n_dl] = f[n, F_DV_LOST] / OPS_DV_SCALE
         o[base + n_dl + 1] = f[n, F_THRUSTING]
 
@@ -130,7 +107,7 @@ def _planet_features(prm, r_est, qe, pm, sc) -> None:  # pragma: no cover - comp
     """Per-planet block from the estimate: direction in body axes (3), log10(distance / AU), apparent
     diameter / sigma_alpha, observable if pointed at (the camera's own rules for the attitude that
     centres the planet; the disk must fit the field), log10(position 1-sigma across the LOS [km]) / 4."""
-    s = prm.s
+    ps = prm.scalars[0]
     out = sc.feat
     dcm_body_to_inertial_kernel(qe[0], qe[1], qe[2], qe[3], sc.rq)
     r = sc.rq
@@ -167,8 +144,8 @@ def _planet_features(prm, r_est, qe, pm, sc) -> None:  # pragma: no cover - comp
             prm.cam, sc.m, sc.u6, sc.vals,
         )  # fmt: skip
         visible = st == 0 and int(sc.vals[V_REASON]) == REASON_VISIBLE
-        out[a, TF_OBSERVABLE] = 1.0 if (visible and alpha < s[S_ALPHA_MAX]) else 0.0
-        out[a, TF_SIZE] = alpha / s[S_SIGMA_ALPHA]
+        out[a, TF_OBSERVABLE] = 1.0 if (visible and alpha < ps.alpha_max) else 0.0
+        out[a, TF_SIZE] = alpha / ps.sigma_alpha
 
 
 @row_kernel
@@ -177,7 +154,7 @@ def _in_field(prm, r_est, qe, sc, o, base) -> None:  # pragma: no cover - compil
     own visibility rule (:func:`~planetnav_env.sensors.camera.visibility_row_kernel`: field of view,
     occultation, Sun exclusion, detection threshold) passes at the star-tracker attitude ``qe`` from the
     estimated heliocentric position ``r_est`` [km], and the disk is not wider than the field (the step's
-    rule, ``S_ALPHA_MAX``); else 0.0. ``sc.planets`` holds the planets at the row's time."""
+    rule, ``alpha_max``); else 0.0. ``sc.planets`` holds the planets at the row's time."""
     for a in range(sc.planets.shape[0]):
         for c in range(3):
             sc.r_tile[a, c] = r_est[c]
@@ -187,7 +164,11 @@ def _in_field(prm, r_est, qe, sc, o, base) -> None:  # pragma: no cover - compil
             sc.r_tile, sc.q_tile, sc.planets, a, prm.radii[a], sc.planets, prm.radii, True, prm.c2b,
             prm.cam, sc.m, sc.u6, sc.vals,
         )  # fmt: skip
-        ok = st == 0 and int(sc.vals[V_REASON]) == REASON_VISIBLE and sc.vals[V_ALPHA] <= prm.s[S_ALPHA_MAX]
+        ok = (
+            st == 0
+            and int(sc.vals[V_REASON]) == REASON_VISIBLE
+            and sc.vals[V_ALPHA] <= prm.scalars[0].alpha_max
+        )
         o[base + a] = 1.0 if ok else 0.0
 
 
@@ -196,16 +177,16 @@ def _pulsar_features(prm, f, p, i, n, qe, sc, o, base) -> None:  # pragma: no co
     """Per-pulsar block: direction in body axes (star-tracker attitude), integration progress (current
     target only), log10 predicted phase 1-sigma [cycles], observable from the estimate (Sun, occultation),
     log10(position 1-sigma along the pulsar [km]) / 4."""
-    s, nn = prm.s, prm.n
-    n_p = nn[N_NP]
+    ps = prm.scalars[0]
+    n_p = ps.n_planets
     pm = p[n]
     dcm_body_to_inertial_kernel(qe[0], qe[1], qe[2], qe[3], sc.rq)
-    for j in range(nn[N_NQ]):
+    for j in range(ps.n_pulsars):
         nv = prm.psr[j, 0:3]
         off = base + TARGET_FEATURES * j
         for c in range(3):
             o[off + TF_DIR + c] = sc.rq[0, c] * nv[0] + sc.rq[1, c] * nv[1] + sc.rq[2, c] * nv[2]
-        o[off + TF_PROGRESS] = f[n, F_INTEGRATED] / s[S_PSR_INT_S] if i[n, I_TARGET] == n_p + j else 0.0
+        o[off + TF_PROGRESS] = f[n, F_INTEGRATED] / ps.psr_int_s if i[n, I_TARGET] == n_p + j else 0.0
         var = 0.0
         for a in range(3):
             for c in range(3):
@@ -213,7 +194,7 @@ def _pulsar_features(prm, f, p, i, n, qe, sc, o, base) -> None:  # pragma: no co
         lam, sig = prm.psr[j, 3], prm.psr[j, 4]
         o[off + TF_LOG_PHASE_SIGMA] = math.log10(math.sqrt(var / (lam * lam) + sig * sig))
         vis = pulsar_visibility_row(
-            sc.dirv, nv, s[S_SUN_AVOID], sc.central, s[S_CENTRAL_RADIUS], nn[N_APPROACH] != 0
+            sc.dirv, nv, ps.sun_avoid, sc.central, ps.central_radius, ps.approach != 0
         )
         o[off + TF_OBSERVABLE] = 1.0 if vis == REASON_VISIBLE else 0.0
         o[off + TF_LOG_SIGMA] = math.log10(math.sqrt(max(var, 1e-12))) / 4.0

@@ -40,12 +40,6 @@ from planetnav_env.core.layout import (
     F_X,
     F_XE,
     I_K,
-    N_OPS_N_DL,
-    N_REWARD_TRUTH,
-    S_OPS_DL0,
-    S_OPS_ENCOUNTER,
-    S_OPS_WEIGHT,
-    S_STEP_S,
 )  # fmt: skip
 from planetnav_env.core.row_noise import NOISE_THRUST, next_normal, noise_begin
 from planetnav_env.core.what_if import coasted_position_trace
@@ -158,17 +152,17 @@ def score_operations(prm, f, p, i, n) -> float:  # pragma: no cover - compiled
     """The step's cost [km] of row ``n`` after its step: ``w * dv_step`` plus the term of each deadline
     reached at this step (sigma_k with ``reward: covariance``, the true mapped error with ``truth``);
     records the deadlines' sigma and error and adds the cost to the objective J."""
-    s = prm.s
-    elapsed = i[n, I_K] * s[S_STEP_S]
-    cost = s[S_OPS_WEIGHT] * f[n, F_DV_STEP]
+    ps = prm.scalars[0]
+    elapsed = i[n, I_K] * ps.step_s
+    cost = ps.ops_weight * f[n, F_DV_STEP]
     pm = p[n]
-    for d in range(prm.n[N_OPS_N_DL]):
-        t_d = s[S_OPS_DL0 + d]
+    for d in range(ps.ops_n_dl):
+        t_d = prm.ops_deadlines[d]
         # Reached at the first step end at or after its epoch: this step, if the previous end was before it.
         t_hit = t_d * (1.0 - _EPOCH_RTOL)
-        if elapsed < t_hit or elapsed - s[S_STEP_S] >= t_hit:
+        if elapsed < t_hit or elapsed - ps.step_s >= t_hit:
             continue
-        t_go = max(s[S_OPS_ENCOUNTER] - elapsed, 0.0)
+        t_go = max(ps.ops_encounter - elapsed, 0.0)
         sig = math.sqrt(max(coasted_position_trace(pm, t_go), 0.0))
         e2 = 0.0
         for j in range(3):
@@ -177,6 +171,6 @@ def score_operations(prm, f, p, i, n) -> float:  # pragma: no cover - compiled
         err = math.sqrt(e2)
         f[n, F_DL_SIGMA + d] = sig
         f[n, F_DL_ERR + d] = err
-        cost += err if prm.n[N_REWARD_TRUTH] else sig
+        cost += err if ps.reward_truth else sig
     f[n, F_OBJECTIVE] += cost
     return cost

@@ -1,7 +1,8 @@
 """The core's parameter record, built once from an :class:`~planetnav_env.config.EnvConfig`.
 
-:func:`build_params` turns the validated configuration into a :class:`CoreParams` (arrays only, shared
-by every row); :class:`ChannelPlan` says which ephemeris channel of a row's table holds which body.
+:func:`build_params` turns the validated configuration into a :class:`CoreParams` (arrays, shared by
+every row; its scalars in the named record ``scalars``); :class:`ChannelPlan` says which ephemeris channel
+of a row's table holds which body.
 """
 
 from __future__ import annotations
@@ -15,7 +16,7 @@ from planetnav_env.bodies import body
 from planetnav_env.config import EnvConfig
 from planetnav_env.core import layout as L
 from planetnav_env.core.ephemeris_table import SEGMENT_S
-from planetnav_env.core.records import CoreParams
+from planetnav_env.core.records import CoreParams, make_scalars
 from planetnav_env.estimation.ekf import process_noise
 from planetnav_env.estimation.ekf_kernels import KIND_CODES
 from planetnav_env.sensors import pulsar as psr
@@ -87,71 +88,73 @@ def build_params(cfg: EnvConfig, plan: ChannelPlan, mu_central: float, mus: np.n
     cam = cfg.camera
     layout = L.ObservationLayout.for_config(cfg)
     approach = cfg.scenario == "mars-approach"
-    s = np.zeros(L.NS)
-    n = np.zeros(L.NN, dtype=np.int64)
-    s[L.S_STEP_S] = cfg.step_s
-    s[L.S_SUBSTEP_S] = cfg.attitude_substep_s
     coarse_s = cfg.settled_substep_s
-    s[L.S_COARSE_S] = coarse_s
-    s[L.S_K_A] = att.k_a
-    s[L.S_K_W] = att.k_w
-    s[L.S_MU] = mu_central
-    s[L.S_SIG_DIR] = math.hypot(cam.sigma_direction_rad, cfg.star_tracker_sigma_arcsec * ARCSEC)
-    s[L.S_SIG_SIZE] = cam.sigma_alpha_rad
-    for m in (1, 2, 3):
-        s[L.S_GATE1 + m - 1] = cfg.filter.gate_threshold(m)
-    s[L.S_RATE_NOISE] = math.radians(att.rate_noise_deg_s)
-    s[L.S_COS_HALF_DIAG] = math.cos(cam.half_fov_diagonal_rad)
-    s[L.S_ALPHA_MAX] = 2.0 * min(cam.half_fov_rad)
-    s[L.S_SIGMA_ALPHA] = cam.sigma_alpha_rad
-    s[L.S_PSR_INT_S] = cfg.detector.integration_time_s
-    s[L.S_DET_HALF_FOV] = math.radians(0.5 * cfg.detector_fov_deg)
-    s[L.S_SUN_AVOID] = math.radians(cfg.detector.sun_avoidance_deg)
-    s[L.S_AMBIG_K] = cfg.ambiguity_k_sigma
-    s[L.S_CENTRAL_RADIUS] = body(plan.central_body).radius
-    s[L.S_REWARD_SCALE] = cfg.reward_scale_km
-    s[L.S_TORQUE_PENALTY] = cfg.torque_penalty
-    s[L.S_TORQUE_SCALE] = cfg.torque_action_scale
-    s[L.S_DIVERGENCE] = cfg.divergence_km
-    s[L.S_POS_SCALE], s[L.S_VEL_SCALE] = L.observation_scales(cfg.scenario)
-    s[L.S_SEGMENT_S] = SEGMENT_S
-    s[L.S_SETTLE_ANGLE] = SETTLE_ANGLE_RAD
-    s[L.S_SETTLE_RATE] = SETTLE_RATE_RAD_S
-    n[L.N_MODE] = L.MODE_CODES[cfg.action_mode]
-    n[L.N_NP] = cfg.n_planets
-    n[L.N_NQ] = cfg.n_pulsars
-    n[L.N_NT] = cfg.n_targets
-    n[L.N_N_SUB] = cfg.n_substeps
-    n[L.N_N_COARSE] = round(cfg.step_s / coarse_s) if coarse_s > 0 else 0
-    n[L.N_KIND] = KIND_CODES[cfg.measurement_model]
-    n[L.N_EULER] = cfg.filter.stm == "euler"
-    n[L.N_IDEAL_STAR] = cfg.star_tracker == "ideal"
-    n[L.N_REWARD_TRUTH] = cfg.reward == "truth"
-    n[L.N_EPISODE_STEPS] = cfg.episode_steps
-    n[L.N_CH_CENTRAL] = plan.central
-    n[L.N_CH_PLANET0] = plan.planet0
-    n[L.N_CH_PERT0] = plan.pert0
-    n[L.N_N_PERT] = len(plan.perturbers)
-    n[L.N_CH_SSB] = plan.ssb
-    n[L.N_APPROACH] = approach
-    n[L.N_OBS_PLANETS] = layout.planets_start
-    n[L.N_OBS_PULSARS] = layout.pulsars_start
-    n[L.N_OBS_TARGET] = layout.target_start
-    n[L.N_OBS_ELAPSED] = layout.elapsed_index
-    n[L.N_NOISE_PER_STEP] = cfg.noise_streams == "per_step"
-    n[L.N_OBS_IN_FIELD] = layout.in_field_start if layout.in_field else -1
     ops = cfg.operations
+    deadlines = np.zeros(L.MAX_DEADLINES)
     if ops is not None:
-        n[L.N_OPS] = 1
-        n[L.N_OPS_N_DL] = len(ops.deadlines_s)
-        n[L.N_OBS_OPS] = layout.operations_start
-        s[L.S_OPS_ACC] = ops.thrust_accel_km_s2
-        s[L.S_OPS_Q_PAR], s[L.S_OPS_Q_PERP] = ops.psd_km2_s3
-        s[L.S_OPS_COS_TOL] = math.cos(math.radians(ops.attitude_tolerance_deg))
-        s[L.S_OPS_ENCOUNTER] = ops.encounter_s
-        s[L.S_OPS_WEIGHT] = ops.cost_weight
-        for k, t in enumerate(ops.deadlines_s):
-            s[L.S_OPS_DL0 + k] = t
+        deadlines[: len(ops.deadlines_s)] = ops.deadlines_s
+    pos_scale, vel_scale = L.observation_scales(cfg.scenario)
+    ops_q_par, ops_q_perp = ops.psd_km2_s3 if ops is not None else (0.0, 0.0)
+    scalars = make_scalars(
+        step_s=cfg.step_s,
+        substep_s=cfg.attitude_substep_s,
+        coarse_s=coarse_s,
+        n_sub=cfg.n_substeps,
+        n_coarse=round(cfg.step_s / coarse_s) if coarse_s > 0 else 0,
+        episode_steps=cfg.episode_steps,
+        segment_s=SEGMENT_S,
+        k_a=att.k_a,
+        k_w=att.k_w,
+        rate_noise=math.radians(att.rate_noise_deg_s),
+        settle_angle=SETTLE_ANGLE_RAD,
+        settle_rate=SETTLE_RATE_RAD_S,
+        torque_scale=cfg.torque_action_scale,
+        mode=L.MODE_CODES[cfg.action_mode],
+        mu=mu_central,
+        central_radius=body(plan.central_body).radius,
+        euler=cfg.filter.stm == "euler",
+        kind=KIND_CODES[cfg.measurement_model],
+        sig_dir=math.hypot(cam.sigma_direction_rad, cfg.star_tracker_sigma_arcsec * ARCSEC),
+        sig_size=cam.sigma_alpha_rad,
+        cos_half_diag=math.cos(cam.half_fov_diagonal_rad),
+        alpha_max=2.0 * min(cam.half_fov_rad),
+        sigma_alpha=cam.sigma_alpha_rad,
+        ideal_star=cfg.star_tracker == "ideal",
+        psr_int_s=cfg.detector.integration_time_s,
+        det_half_fov=math.radians(0.5 * cfg.detector_fov_deg),
+        sun_avoid=math.radians(cfg.detector.sun_avoidance_deg),
+        ambig_k=cfg.ambiguity_k_sigma,
+        reward_scale=cfg.reward_scale_km,
+        torque_penalty=cfg.torque_penalty,
+        divergence=cfg.divergence_km,
+        reward_truth=cfg.reward == "truth",
+        n_planets=cfg.n_planets,
+        n_pulsars=cfg.n_pulsars,
+        n_targets=cfg.n_targets,
+        ch_central=plan.central,
+        ch_planet0=plan.planet0,
+        ch_pert0=plan.pert0,
+        n_pert=len(plan.perturbers),
+        ch_ssb=plan.ssb,
+        approach=approach,
+        noise_per_step=cfg.noise_streams == "per_step",
+        pos_scale=pos_scale,
+        vel_scale=vel_scale,
+        obs_planets=layout.planets_start,
+        obs_pulsars=layout.pulsars_start,
+        obs_target=layout.target_start,
+        obs_elapsed=layout.elapsed_index,
+        obs_in_field=layout.in_field_start if layout.in_field else -1,
+        obs_ops=layout.operations_start if ops is not None else 0,
+        ops=ops is not None,
+        ops_n_dl=len(ops.deadlines_s) if ops is not None else 0,
+        ops_acc=ops.thrust_accel_km_s2 if ops is not None else 0.0,
+        ops_q_par=ops_q_par,
+        ops_q_perp=ops_q_perp,
+        ops_cos_tol=math.cos(math.radians(ops.attitude_tolerance_deg)) if ops is not None else 0.0,
+        ops_encounter=ops.encounter_s if ops is not None else 0.0,
+        ops_weight=ops.cost_weight if ops is not None else 0.0,
+    )
     # The thesis's star camera is one instrument: the stars in the planet image give the attitude.
     # Sharing the boresight matters: a tracker's weak axis is roll about its own boresight, which would
     # swing a camera mounted elsewhere by ~14" (measured) instead of ~1.4".
@@ -166,8 +169,9 @@ def build_params(cfg: EnvConfig, plan: ChannelPlan, mu_central: float, mus: np.n
     ).reshape(-1, 5)
     jm = np.diag(np.asarray(att.inertia, dtype=float))
     return CoreParams(
-        s=s,
-        n=n,
+        scalars=scalars,
+        gate=np.array([cfg.filter.gate_threshold(m) for m in (1, 2, 3)], dtype=float),
+        ops_deadlines=deadlines,
         jm=jm,
         jinv=np.linalg.inv(jm),
         tau_max=np.full(3, att.wheel_torque_limit),

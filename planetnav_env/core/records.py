@@ -1,5 +1,6 @@
-"""The records a row kernel receives: :class:`CoreParams` (shared, read-only parameters) and
-:class:`Scratch` (work arrays of one chunk of rows, allocated once per call by :func:`make_scratch`)."""
+"""The records a row kernel receives: :class:`CoreParams` (shared, read-only parameters, its scalars in the
+named record :data:`SCALARS_DTYPE`) and :class:`Scratch` (work arrays of one chunk of rows, allocated
+once per call by :func:`make_scratch`)."""
 
 from __future__ import annotations
 
@@ -15,14 +16,105 @@ from planetnav_env.sensors.camera_kernels import (
 )
 from planetnav_env.sensors.star_tracker import FIX_WORK_SHAPE
 
+#: The scalar parameters, one definition each: (name, numpy type, meaning [unit]). Kernels read them by
+#: name from the one-element structured array ``CoreParams.scalars``: ``c = prm.scalars[0]``, ``c.mu``
+#: (numba compiles a field read to one load at a fixed offset, as fast as the former numbered slots, and
+#: the dispatcher types the array as cheaply as any other). Flags are int64 0/1.
+SCALAR_FIELDS: tuple[tuple[str, str, str], ...] = (
+    # time steps
+    ("step_s", "f8", "agent step [s]"),
+    ("substep_s", "f8", "attitude sub-step [s]"),
+    ("coarse_s", "f8", "coarse attitude sub-step of a settled, held target [s] (0: none)"),
+    ("n_sub", "i8", "attitude sub-steps per step"),
+    ("n_coarse", "i8", "coarse sub-steps per step (0: no coarse stepping)"),
+    ("episode_steps", "i8", "steps of an episode"),
+    ("segment_s", "f8", "span of one ephemeris-table segment [s]"),
+    # attitude
+    ("k_a", "f8", "PD pointing law: angle gain [1/s^2]"),
+    ("k_w", "f8", "PD pointing law: rate gain [1/s]"),
+    ("rate_noise", "f8", "gyro rate noise [rad/s]"),
+    ("settle_angle", "f8", "pointing error below which a held target counts as settled [rad]"),
+    ("settle_rate", "f8", "body rate below which a held target counts as settled [rad/s]"),
+    ("torque_scale", "f8", "torque per unit of a torque action [N m]"),
+    ("mode", "i8", "action mode (layout.MODE_CODES)"),
+    # orbit and filter
+    ("mu", "f8", "central body's GM [km^3/s^2]"),
+    ("central_radius", "f8", "central body's radius [km]"),
+    ("euler", "i8", "1: the filter's STM by one Euler step (EnvConfig.filter.stm), 0: RK4"),
+    ("kind", "i8", "measurement model (estimation.ekf_kernels.KIND_CODES)"),
+    # camera
+    ("sig_dir", "f8", "direction sigma of a planet fix, camera and star tracker combined [rad]"),
+    ("sig_size", "f8", "apparent-size sigma of a planet fix [rad]"),
+    ("cos_half_diag", "f8", "cosine of the camera's half diagonal field of view"),
+    ("alpha_max", "f8", "largest apparent diameter the camera measures [rad]"),
+    ("sigma_alpha", "f8", "apparent-diameter sigma, the observation's size scale [rad]"),
+    ("ideal_star", "i8", "1: the star tracker returns the true attitude"),
+    # pulsars
+    ("psr_int_s", "f8", "X-ray detector integration time [s]"),
+    ("det_half_fov", "f8", "detector half field of view [rad]"),
+    ("sun_avoid", "f8", "detector Sun-avoidance angle [rad]"),
+    ("ambig_k", "f8", "k-sigma phase-ambiguity threshold [-]"),
+    # reward and termination
+    ("reward_scale", "f8", "reward scale [km]"),
+    ("torque_penalty", "f8", "reward penalty per squared torque action [-]"),
+    ("divergence", "f8", "position error ending an episode [km]"),
+    ("reward_truth", "i8", "1: reward from the true error, 0: from the filter's sigma"),
+    # counts and ephemeris channels
+    ("n_planets", "i8", "planets P"),
+    ("n_pulsars", "i8", "pulsars Q"),
+    ("n_targets", "i8", "targets of the observation's target block"),
+    ("ch_central", "i8", "ephemeris channel of the central body (-1: the Sun)"),
+    ("ch_planet0", "i8", "ephemeris channel of the first planet"),
+    ("ch_pert0", "i8", "ephemeris channel of the first perturber"),
+    ("n_pert", "i8", "perturbers"),
+    ("ch_ssb", "i8", "ephemeris channel of the Solar-system barycentre (-1: none)"),
+    ("approach", "i8", "1: a planetary approach (central body not the Sun)"),
+    ("noise_per_step", "i8", "1: noise from a per-step stream (EnvConfig.noise_streams 'per_step')"),
+    # observation
+    ("pos_scale", "f8", "observation's position scale [km]"),
+    ("vel_scale", "f8", "observation's velocity scale [km/s]"),
+    ("obs_planets", "i8", "first index of the observation's planet block"),
+    ("obs_pulsars", "i8", "first index of the observation's pulsar block"),
+    ("obs_target", "i8", "first index of the observation's target block"),
+    ("obs_elapsed", "i8", "index of the observation's elapsed fraction"),
+    ("obs_in_field", "i8", "first index of the observation's in-field block (-1: none)"),
+    ("obs_ops", "i8", "first index of the observation's operations block"),
+    # operations (EnvConfig.operations; zero without)
+    ("ops", "i8", "1: an operations scenario"),
+    ("ops_n_dl", "i8", "deadlines (the first ops_n_dl entries of CoreParams.ops_deadlines)"),
+    ("ops_acc", "f8", "thrust acceleration [km/s^2]"),
+    ("ops_q_par", "f8", "thrust acceleration PSD along the thrust [km^2/s^3]"),
+    ("ops_q_perp", "f8", "thrust acceleration PSD across the thrust [km^2/s^3]"),
+    ("ops_cos_tol", "f8", "cosine of the thrust attitude tolerance"),
+    ("ops_encounter", "f8", "encounter epoch [s from episode start]"),
+    ("ops_weight", "f8", "cost weight of delta-v [km/(m/s)]"),
+)
+#: The record of :data:`SCALAR_FIELDS` (aligned: every field at a multiple of 8 bytes).
+SCALARS_DTYPE = np.dtype([(name, kind) for name, kind, _ in SCALAR_FIELDS], align=True)
+
+
+def make_scalars(**values: float) -> np.ndarray:
+    """The one-element :data:`SCALARS_DTYPE` array of ``values``, given by keyword: every field exactly
+    once (a missing or unknown name is an error, so no field is left at a silent zero)."""
+    names = SCALARS_DTYPE.names
+    missing = [k for k in names if k not in values]
+    unknown = sorted(set(values) - set(names))
+    if missing or unknown:
+        raise TypeError(f"make_scalars: missing fields {missing}, unknown fields {unknown}")
+    rec = np.zeros(1, SCALARS_DTYPE)
+    for k in names:
+        rec[k][0] = values[k]
+    return rec
+
 
 class CoreParams(NamedTuple):
     """Everything a row kernel needs that is the same for every row, built once from an ``EnvConfig``
-    by :func:`planetnav_env.core.params.build_params`. Scalars sit in ``s`` (float) and ``n`` (int) at
-    the ``S_*``/``N_*`` slots of :mod:`planetnav_env.core.layout`."""
+    by :func:`planetnav_env.core.params.build_params`. Scalars sit in ``scalars``, read by name
+    (:data:`SCALAR_FIELDS`)."""
 
-    s: np.ndarray  # (NS,) float64
-    n: np.ndarray  # (NN,) int64
+    scalars: np.ndarray  # (1,) SCALARS_DTYPE
+    gate: np.ndarray  # (3,) chi-square gate thresholds of a 1-, 2- and 3-dimensional measurement
+    ops_deadlines: np.ndarray  # (layout.MAX_DEADLINES,) deadline epochs [s from episode start] (operations)
     jm: np.ndarray  # (3, 3) inertia [kg m^2]
     jinv: np.ndarray  # (3, 3)
     tau_max: np.ndarray  # (3,) wheel torque limits [N m]

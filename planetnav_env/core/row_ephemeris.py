@@ -7,19 +7,13 @@ from planetnav_env.core.ephemeris_table import position_kernel, positions_kernel
 from planetnav_env.core.layout import (
     F_T0,
     I_K,
-    N_CH_PERT0,
-    N_CH_PLANET0,
-    N_N_PERT,
-    N_NP,
-    S_SEGMENT_S,
-    S_STEP_S,
 )  # fmt: skip
 from planetnav_env.jit import row_kernel
 
 
 @row_kernel
 def row_time(prm, f, i, n):  # pragma: no cover - compiled
-    return f[n, F_T0] + i[n, I_K] * prm.s[S_STEP_S]
+    return f[n, F_T0] + i[n, I_K] * prm.scalars[0].step_s
 
 
 @row_kernel
@@ -27,22 +21,24 @@ def eval_channel(prm, eph, f, n, t, channel, out) -> bool:  # pragma: no cover -
     if channel < 0:
         out[0] = out[1] = out[2] = 0.0
         return True
-    return position_kernel(eph[n], f[n, F_T0], prm.s[S_SEGMENT_S], t, channel, out)
+    return position_kernel(eph[n], f[n, F_T0], prm.scalars[0].segment_s, t, channel, out)
 
 
 @row_kernel
 def planets_at(prm, eph, f, n, t, out) -> bool:  # pragma: no cover - compiled
-    c0 = prm.n[N_CH_PLANET0]
-    return positions_kernel(eph[n], f[n, F_T0], prm.s[S_SEGMENT_S], t, c0, c0 + prm.n[N_NP], out)
+    ps = prm.scalars[0]
+    c0 = ps.ch_planet0
+    return positions_kernel(eph[n], f[n, F_T0], ps.segment_s, t, c0, c0 + ps.n_planets, out)
 
 
 @row_kernel
 def perturbers_at(prm, eph, f, n, t, dt, out) -> bool:  # pragma: no cover - compiled
-    k = prm.n[N_N_PERT]
+    ps = prm.scalars[0]
+    k = ps.n_pert
     if k == 0:
         return True
-    c0 = prm.n[N_CH_PERT0]
-    seg = prm.s[S_SEGMENT_S]
+    c0 = ps.ch_pert0
+    seg = ps.segment_s
     ok = positions_kernel(eph[n], f[n, F_T0], seg, t, c0, c0 + k, out[0])
     ok = ok and positions_kernel(eph[n], f[n, F_T0], seg, t + 0.5 * dt, c0, c0 + k, out[1])
     return ok and positions_kernel(eph[n], f[n, F_T0], seg, t + dt, c0, c0 + k, out[2])

@@ -6,7 +6,6 @@ from __future__ import annotations
 from planetnav_env.core import rng as crng
 from planetnav_env.core.layout import (
     I_K,
-    N_NOISE_PER_STEP,
 )  # fmt: skip
 from planetnav_env.jit import row_kernel
 
@@ -21,13 +20,13 @@ def noise_begin(prm, i, rng, n, stream, sc) -> None:  # pragma: no cover - compi
     """Start drawing sensor ``stream``'s noise at the row's current step. With per-step streams this
     derives ``sc.sub`` from the row's key (``rng[n]``, then never advanced), the step index and the
     stream id; with the sequential stream it does nothing (draws continue ``rng[n]``)."""
-    if prm.n[N_NOISE_PER_STEP]:
+    if prm.scalars[0].noise_per_step:
         crng.substream(rng[n], i[n, I_K], stream, sc.sub)
 
 
 @row_kernel
 def next_normal(prm, rng, n, sc) -> float:  # pragma: no cover - compiled
     """The next N(0, 1) of the noise begun by :func:`noise_begin`."""
-    if prm.n[N_NOISE_PER_STEP]:
+    if prm.scalars[0].noise_per_step:
         return crng.standard_normal(sc.sub)
     return crng.standard_normal(rng[n])

@@ -17,14 +17,6 @@ from planetnav_env.core.layout import (
     I_TERMINATED,
     I_TRUNCATED,
     MODE_TARGET,
-    N_EPISODE_STEPS,
-    N_MODE,
-    N_OPS,
-    N_REWARD_TRUTH,
-    S_DIVERGENCE,
-    S_REWARD_SCALE,
-    S_TORQUE_PENALTY,
-    S_TORQUE_SCALE,
 )  # fmt: skip
 from planetnav_env.core.operations import score_operations
 from planetnav_env.estimation.ekf_kernels import (
@@ -37,9 +29,9 @@ from planetnav_env.jit import row_kernel
 def score_row(prm, f, p, i, n, torque, sc) -> None:  # pragma: no cover - compiled
     """Errors, NEES, 1-sigma, reward, termination and truncation of row ``n`` after its step.
 
-    Operations scenarios (``N_OPS``): the reward is ``-(w * dv_step + sum of the deadline terms reached
+    Operations scenarios (``ops``): the reward is ``-(w * dv_step + sum of the deadline terms reached
     this step) / reward_scale_km`` (:func:`planetnav_env.core.operations.score_operations`), km and m/s."""
-    s = prm.s
+    ps = prm.scalars[0]
     x = f[n, F_X : F_X + 6]
     xe = f[n, F_XE : F_XE + 6]
     pm = p[n]
@@ -52,14 +44,14 @@ def score_row(prm, f, p, i, n, torque, sc) -> None:  # pragma: no cover - compil
     sig = math.sqrt(max(pm[0, 0] + pm[1, 1] + pm[2, 2], 0.0))
     f[n, F_POS_SIGMA] = sig
     # A non-finite covariance shows in its trace; a non-finite estimate in pos_err.
-    term = not (math.isfinite(pos_err) and math.isfinite(sig)) or pos_err > s[S_DIVERGENCE]
+    term = not (math.isfinite(pos_err) and math.isfinite(sig)) or pos_err > ps.divergence
     i[n, I_TERMINATED] = term
-    i[n, I_TRUNCATED] = i[n, I_K] >= prm.n[N_EPISODE_STEPS] and not term
-    if prm.n[N_OPS]:
-        r = -score_operations(prm, f, p, i, n) / s[S_REWARD_SCALE]
+    i[n, I_TRUNCATED] = i[n, I_K] >= ps.episode_steps and not term
+    if ps.ops:
+        r = -score_operations(prm, f, p, i, n) / ps.reward_scale
     else:
-        err = pos_err if prm.n[N_REWARD_TRUTH] else sig
-        r = -err / s[S_REWARD_SCALE]
-    if prm.n[N_MODE] != MODE_TARGET and s[S_TORQUE_PENALTY] > 0.0:
-        r -= s[S_TORQUE_PENALTY] * s[S_TORQUE_SCALE] ** 2 * (torque[0] ** 2 + torque[1] ** 2 + torque[2] ** 2)
-    f[n, F_REWARD] = r if math.isfinite(r) else -s[S_DIVERGENCE] / s[S_REWARD_SCALE]
+        err = pos_err if ps.reward_truth else sig
+        r = -err / ps.reward_scale
+    if ps.mode != MODE_TARGET and ps.torque_penalty > 0.0:
+        r -= ps.torque_penalty * ps.torque_scale**2 * (torque[0] ** 2 + torque[1] ** 2 + torque[2] ** 2)
+    f[n, F_REWARD] = r if math.isfinite(r) else -ps.divergence / ps.reward_scale

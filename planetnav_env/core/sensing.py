@@ -23,25 +23,10 @@ from planetnav_env.core.layout import (
     F_XE,
     I_SKIPPED,
     I_STARS,
-    N_APPROACH,
-    N_CH_SSB,
-    N_IDEAL_STAR,
-    N_KIND,
     REASON_AMBIGUOUS,
     REASON_INTEGRATING,
     REASON_OUT_OF_FOV,
     REASON_VISIBLE,
-    S_AMBIG_K,
-    S_CENTRAL_RADIUS,
-    S_COS_HALF_DIAG,
-    S_DET_HALF_FOV,
-    S_GATE1,
-    S_PSR_INT_S,
-    S_RATE_NOISE,
-    S_SIG_DIR,
-    S_SIG_SIZE,
-    S_STEP_S,
-    S_SUN_AVOID,
 )  # fmt: skip
 from planetnav_env.core.row_ephemeris import eval_channel
 from planetnav_env.core.row_noise import (
@@ -77,7 +62,7 @@ def star_fix_stage(prm, f, i, rng, n, sc):  # pragma: no cover - compiled
     (stale) and ATT_ERR is NaN; ``star_tracker="ideal"`` copies the true attitude."""
     q = f[n, F_Q : F_Q + 4]
     qe = f[n, F_QE : F_QE + 4]
-    if prm.n[N_IDEAL_STAR]:
+    if prm.scalars[0].ideal_star:
         for j in range(4):
             sc.q_fix[j] = q[j]
         i[n, I_STARS] = -1
@@ -119,7 +104,7 @@ def _apply_bias(prm, q, q_fix, qe, err) -> float:  # pragma: no cover - compiled
 
 @row_kernel
 def rate_measurement(prm, f, i, rng, n, sc):  # pragma: no cover - compiled
-    sig = prm.s[S_RATE_NOISE]
+    sig = prm.scalars[0].rate_noise
     noise_begin(prm, i, rng, n, NOISE_RATE, sc)
     for j in range(3):
         f[n, F_WM + j] = f[n, F_W + j] + sig * next_normal(prm, rng, n, sc)
@@ -144,14 +129,14 @@ def nearest_in_view(prm, sc) -> int:  # pragma: no cover - compiled
         if c > best:
             best = c
             idx = j
-    return idx if best > prm.s[S_COS_HALF_DIAG] else -1
+    return idx if best > prm.scalars[0].cos_half_diag else -1
 
 
 @row_kernel
 def measure_planet(prm, f, p, i, rng, n, idx, sc):  # pragma: no cover - compiled
     """Camera measurement of planet ``idx`` (visible), rotated to inertial with the star-tracker attitude;
     EKF update. Returns (measured, rejected)."""
-    s = prm.s
+    ps = prm.scalars[0]
     noise_begin(prm, i, rng, n, NOISE_CAMERA, sc)
     for j in range(3):
         sc.noise3[j] = next_normal(prm, rng, n, sc)
@@ -163,18 +148,18 @@ def measure_planet(prm, f, p, i, rng, n, idx, sc):  # pragma: no cover - compile
     f[n, F_PIX] = sc.pix[0]
     f[n, F_PIX + 1] = sc.pix[1]
     xe = f[n, F_XE : F_XE + 6]
-    kind = prm.n[N_KIND]
+    kind = ps.kind
     for j in range(3):
         sc.dirv[j] = sc.planets[idx, j] - sc.central[j]  # the planet in the filter's frame
     m = measurement_vector_kernel(
         sc.los, alpha, f[n, F_QE : F_QE + 4], sc.dirv, xe, kind, sc.z, sc.basis, sc.rq
     )
     planet_model_kernel(
-        xe[:3], sc.dirv, 2.0 * prm.radii[idx], kind, s[S_SIG_DIR], s[S_SIG_SIZE], sc.basis, sc.h, sc.jac,
+        xe[:3], sc.dirv, 2.0 * prm.radii[idx], kind, ps.sig_dir, ps.sig_size, sc.basis, sc.h, sc.jac,
         sc.rcov,
     )  # fmt: skip
     nis, ok = update_kernel(
-        xe, p[n], sc.z, sc.h, sc.jac, sc.rcov, m, 1 if kind <= 1 else -1, s[S_GATE1 + m - 1], sc.uw
+        xe, p[n], sc.z, sc.h, sc.jac, sc.rcov, m, 1 if kind <= 1 else -1, prm.gate[m - 1], sc.uw
     )
     f[n, F_NIS] = nis
     return True, not ok
@@ -186,7 +171,7 @@ def time_pulsar(prm, f, p, i, rng, eph, n, j, t, sc):  # pragma: no cover - comp
     time a phase (range along the pulsar's direction from the barycentre) updates the filter, with the
     cycle count resolved against the prediction only when it can be trusted. Returns
     (measured, rejected, reason)."""
-    s, nn = prm.s, prm.n
+    ps = prm.scalars[0]
     x = f[n, F_X : F_X + 6]
     xe = f[n, F_XE : F_XE + 6]
     nvec = prm.psr[j, 0:3]
@@ -202,19 +187,19 @@ def time_pulsar(prm, f, p, i, rng, eph, n, j, t, sc):  # pragma: no cover - comp
         cb += (sc.rq[k, 0] * b[0] + sc.rq[k, 1] * b[1] + sc.rq[k, 2] * b[2]) * nvec[k]
     off = math.acos(min(max(cb, -1.0), 1.0))
     reason = pulsar_visibility_row(
-        sc.r1[0], nvec, s[S_SUN_AVOID], sc.central, s[S_CENTRAL_RADIUS], nn[N_APPROACH] != 0
+        sc.r1[0], nvec, ps.sun_avoid, sc.central, ps.central_radius, ps.approach != 0
     )
     if reason != REASON_VISIBLE:
         f[n, F_INTEGRATED] = 0.0
         return False, False, reason
-    if off > s[S_DET_HALF_FOV]:
+    if off > ps.det_half_fov:
         f[n, F_INTEGRATED] = 0.0
         return False, False, REASON_OUT_OF_FOV
-    f[n, F_INTEGRATED] += s[S_STEP_S]
-    if f[n, F_INTEGRATED] + 1e-9 < s[S_PSR_INT_S]:
+    f[n, F_INTEGRATED] += ps.step_s
+    if f[n, F_INTEGRATED] + 1e-9 < ps.psr_int_s:
         return False, False, REASON_INTEGRATING
     f[n, F_INTEGRATED] = 0.0
-    eval_channel(prm, eph, f, n, t, nn[N_CH_SSB], sc.ssb)
+    eval_channel(prm, eph, f, n, t, ps.ch_ssb, sc.ssb)
     total = 0.0
     h = 0.0
     for k in range(3):
@@ -231,12 +216,12 @@ def time_pulsar(prm, f, p, i, rng, eph, n, j, t, sc):  # pragma: no cover - comp
     for a in range(3):
         for c in range(3):
             var += sc.jac[0, a] * pm[a, c] * sc.jac[0, c]
-    if not ambiguity_resolvable_kernel(math.sqrt(var), s[S_AMBIG_K]):
+    if not ambiguity_resolvable_kernel(math.sqrt(var), ps.ambig_k):
         i[n, I_SKIPPED] += 1  # the whole number of cycles cannot be trusted: skip, count
         return False, False, REASON_AMBIGUOUS
     sc.z[0] = resolve_cycle_kernel(frac, h)
     sc.h[0] = h
     sc.rcov[0, 0] = sigma * sigma
-    nis, ok = update_kernel(xe, pm, sc.z, sc.h, sc.jac, sc.rcov, 1, -1, s[S_GATE1], sc.uw)
+    nis, ok = update_kernel(xe, pm, sc.z, sc.h, sc.jac, sc.rcov, 1, -1, prm.gate[0], sc.uw)
     f[n, F_NIS] = nis
     return True, not ok, REASON_VISIBLE

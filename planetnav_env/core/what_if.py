@@ -6,11 +6,6 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from planetnav_env.core.layout import (
-    N_KIND,
-    S_SIG_DIR,
-    S_SIG_SIZE,
-)  # fmt: skip
 from planetnav_env.estimation.ekf_kernels import (
     planet_model_kernel,
     update_kernel,
@@ -38,8 +33,8 @@ def predicted_planet_trace(prm, x, p, planet, idx, n_meas, lookahead_s=0.0) -> f
     and Joseph update, with R / n_meas (n identical measurements of a nearly static state equal one with
     R / n) and zero innovation (the covariance does not depend on it). Ungated. With ``lookahead_s`` > 0,
     the trace of the updated position covariance coasted that far ahead (:func:`coasted_position_trace`)."""
-    s = prm.s
-    kind = prm.n[N_KIND]
+    ps = prm.scalars[0]
+    kind = ps.kind
     xc = x.copy()
     pc = p.copy()
     basis = np.zeros((2, 3))
@@ -49,7 +44,7 @@ def predicted_planet_trace(prm, x, p, planet, idx, n_meas, lookahead_s=0.0) -> f
     jac = np.empty((3, 6))
     rcov = np.empty((3, 3))
     m = planet_model_kernel(
-        xc[:3], planet, 2.0 * prm.radii[idx], kind, s[S_SIG_DIR], s[S_SIG_SIZE], basis, h, jac, rcov
+        xc[:3], planet, 2.0 * prm.radii[idx], kind, ps.sig_dir, ps.sig_size, basis, h, jac, rcov
     )
     for a in range(m):
         for c in range(m):
