@@ -27,6 +27,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import play_episode
 
 from planetnav_agents import (
     AGENTS,
@@ -52,12 +53,7 @@ def _final_errors(name: str) -> np.ndarray:
     eph = DEEphemeris()
     out = []
     for seed in SEEDS:
-        agent.reset(seed=seed)
-        obs, info = env.reset(seed=seed)
-        done = False
-        while not done:
-            obs, _, terminated, truncated, info = env.step(agent.act(obs, info))
-            done = terminated or truncated
+        info = play_episode(agent, env, seed)
         x = env.truth["x"]
         e = info["filter"]["x"][:3] - x[:3]
         u = eph.position("venus", info["time_s"]) - x[:3]

@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import play_episode
 
 import planetnav_env  # noqa: F401  (registers the ids)
 from planetnav_agents import make_agent
@@ -39,13 +40,7 @@ def _final_objectives(spec: str, cfg: EnvConfig) -> list[float]:
     agent = make_agent(spec, env)
     out = []
     for seed in range(SEED, SEED + EPISODES):
-        agent.reset(seed=seed)
-        obs, info = env.reset(seed=seed)
-        done = False
-        while not done:
-            obs, _, terminated, truncated, info = env.step(agent.act(obs, info))
-            done = terminated or truncated
-        out.append(float(info["objective"]))
+        out.append(float(play_episode(agent, env, seed)["objective"]))
     env.close()
     return out
 
