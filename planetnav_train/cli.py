@@ -44,7 +44,6 @@ from planetnav_agents.stats import paired_difference
 from planetnav_env.config import NOISE_STREAMS, EnvConfig
 from planetnav_env.errors import ConfigError
 from planetnav_train.config import (
-    DEFAULT_AGENTS,
     DEFAULT_CONFIG,
     EVAL_EPISODES,
     EVAL_SEED,
@@ -155,11 +154,13 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
 
 def cmd_compare(args: argparse.Namespace) -> int:
     """``compare``: several agents on the same seeds in one table, with the JSON and the report on request."""
-    env_cfg, ev = _eval_env_config(args, args.agents)
+    env_cfg, ev = _eval_env_config(args, args.agents or [])
+    # --agents, else the config's eval.agents (the defaults without a config)
+    agents = list(args.agents or ev.agents)
     episodes = args.episodes or ev.episodes
     seed = ev.seed if args.seed is None else args.seed
     reference = args.reference or ev.reference
-    results = compare_agents(args.agents, env_cfg, episodes, seed, not args.no_progress, reference)
+    results = compare_agents(agents, env_cfg, episodes, seed, not args.no_progress, reference)
     print_table(results)
     if args.json:
         _write_json(args.json, results_json(results))
@@ -355,7 +356,11 @@ def build_parser() -> argparse.ArgumentParser:
     e.set_defaults(func=cmd_evaluate)
 
     c = sub.add_parser("compare", help="evaluate several agents on the same seeds and print one table")
-    c.add_argument("--agents", nargs="+", default=list(DEFAULT_AGENTS), help="names and/or model paths")
+    c.add_argument(
+        "--agents",
+        nargs="+",
+        help="names and/or model paths (default: the config's eval.agents, else the default agents)",
+    )
     c.add_argument("--report", help="also write report.md, plots and eval.json into this directory")
     c.add_argument("--reference", help=f"paired differences against this agent (default {REFERENCE})")
     common(c)

@@ -95,6 +95,15 @@ def test_compare_prints_one_table(tmp_path: Path, capsys: pytest.CaptureFixture[
     assert (tmp_path / "rep" / "report.md").is_file() and (tmp_path / "rep" / "pos_err.png").is_file()
 
 
+def test_compare_without_agents_runs_the_configs_eval_agents(tmp_path: Path) -> None:
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text("env: {episode_steps: 12}\neval: {agents: [greedy, idle], reference: greedy}\n")
+    out = tmp_path / "c.json"
+    rc = main(["compare", "--config", str(cfg), "--episodes", "1", "--json", str(out), "--no-progress"])
+    assert rc == 0
+    assert set(json.loads(out.read_text())["agents"]) == {"greedy", "idle"}
+
+
 @pytest.mark.parametrize(
     ("text", "named"),
     [
