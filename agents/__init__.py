@@ -33,6 +33,15 @@ agent accepts. :func:`not_applicable` says why an agent cannot run in an environ
 
 from __future__ import annotations
 
+# ruff: noqa: E402  (the stale-cache check below must run before the submodules declare their kernels)
+from pathlib import Path
+
+import planetnav_env
+from planetnav_env.numba_cache import drop_stale_cache
+
+# gain.py's compiled kernels call the environment's: a change on either side makes them stale.
+drop_stale_cache(Path(__file__).parent, [Path(__file__).parent, Path(planetnav_env.__file__).parent])
+
 import functools
 import inspect
 from collections.abc import Callable
