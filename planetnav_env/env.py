@@ -68,17 +68,6 @@ def resolve_config(config: EnvConfig | Mapping | str | None, overrides: dict[str
     return EnvConfig.from_dict(config or {}, **overrides)
 
 
-def row_info(core: BatchCore, row: int) -> dict[str, Any]:
-    """Row ``row``'s ``info`` in the single environment's form (Python scalars, names as text), with the
-    numeric codes the vector environment also reports: ``target_index`` (index into ``planets +
-    pulsars``, -1: none) and ``visibility_code`` (index into
-    :data:`planetnav_env.core.layout.REASONS`)."""
-    info = core.info_row(row)
-    info["target_index"] = int(core.i[row, L.I_TARGET])
-    info["visibility_code"] = int(core.i[row, L.I_REASON])
-    return info
-
-
 def check_reset_options(options: Any, known: tuple[str, ...], owner: str) -> None:
     """Raise :class:`~planetnav_env.errors.InvalidParameterError` naming any key of ``options`` that
     ``owner`` does not know (a misspelt option must not be ignored in silence)."""
@@ -219,7 +208,7 @@ class PlanetNavEnv(EpisodeLengthSpec, gym.Env):
         self.core.reset_rows(np.zeros(1, dtype=np.int64), [self.np_random])
         self._started = True
         self._done = False
-        info = row_info(self.core, 0)
+        info = self.core.info_row(0)
         self.history = [(info["pos_err_km"], info["pos_sigma_km"])]
         return format_observation(self.config, self.layout, self.core.obs[0]), info
 
@@ -249,7 +238,7 @@ class PlanetNavEnv(EpisodeLengthSpec, gym.Env):
         self._decode(action)
         core = self.core
         core.step(self._targets, self._torques)
-        info = row_info(core, 0)
+        info = core.info_row(0)
         terminated = bool(core.i[0, L.I_TERMINATED])
         truncated = bool(core.i[0, L.I_TRUNCATED])
         self._done = terminated or truncated

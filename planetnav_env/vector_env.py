@@ -34,9 +34,8 @@ from gymnasium.vector.utils import batch_space
 
 from planetnav_env.config import EnvConfig
 from planetnav_env.core import layout as L
-from planetnav_env.core.batch import BatchCore
-from planetnav_env.core.params import ARCSEC
-from planetnav_env.env import EpisodeLengthSpec, check_reset_options, resolve_config, row_info
+from planetnav_env.core.batch import BatchCore, attitude_err_arcsec
+from planetnav_env.env import EpisodeLengthSpec, check_reset_options, resolve_config
 from planetnav_env.errors import InvalidParameterError
 from planetnav_env.spaces import (
     action_space,
@@ -204,7 +203,7 @@ class PlanetNavVectorEnv(EpisodeLengthSpec, VectorEnv):
                     infos["final_obs"][r] = (
                         obs_now[r] if cfg.observation == "box" else {k: v[r] for k, v in obs_now.items()}
                     )
-                    infos["final_info"][r] = row_info(self.core, int(r))
+                    infos["final_info"][r] = self.core.info_row(int(r))
                 infos["_final_obs"] = done.copy()
                 infos["_final_info"] = done.copy()
                 core.reset_rows(rows, [self._generators[r] for r in rows])
@@ -227,10 +226,7 @@ class PlanetNavVectorEnv(EpisodeLengthSpec, VectorEnv):
         info["sensor"] = self._sensor_names[codes[:, L.I_SENSOR]]
         info["visibility"] = self._reason_names[codes[:, L.I_REASON]]
         info["ambiguous_skipped"] = codes[:, L.I_SKIPPED].copy()
-        att = core.f[:, L.F_ATT_ERR]
-        with np.errstate(invalid="ignore"):
-            # The single env's rule: a non-finite fix (no star fix) reads NaN, never +-inf.
-            info["attitude_err_arcsec"] = np.where(np.isfinite(att), att / ARCSEC, np.nan)
+        info["attitude_err_arcsec"] = attitude_err_arcsec(core.f[:, L.F_ATT_ERR])
         x, p = core.filter_state()
         info["filter"] = {"x": x, "P": p, "_x": self._all_rows, "_P": self._all_rows}
         for k in list(info):
@@ -247,7 +243,7 @@ class PlanetNavVectorEnv(EpisodeLengthSpec, VectorEnv):
 
     def info_row(self, row: int) -> dict[str, Any]:
         """Row ``row``'s info in the single environment's form (dicts, Python scalars)."""
-        return row_info(self.core, int(row))
+        return self.core.info_row(int(row))
 
     def close_extras(self, **kwargs: Any) -> None:
         return None

@@ -13,10 +13,10 @@ observation 47 floats, random state 32 bytes, ephemeris table 936 bytes: about 2
 
 from __future__ import annotations
 
-import math
 import os
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -36,6 +36,13 @@ from planetnav_env.scenarios import Episode, approach_episode, draw_episode
 #: handing chunks to threads costs ~20-50 us a step).
 PARALLEL_MIN_ROWS = 64
 
+
+
+def attitude_err_arcsec(att_rad: Any) -> Any:
+    """The star tracker's attitude error [rad] in arcsec; a non-finite value (no star fix) reads NaN,
+    never +-inf. Scalars and arrays alike (the single env's info and the vector env's)."""
+    with np.errstate(invalid="ignore"):
+        return np.where(np.isfinite(att_rad), np.asarray(att_rad) / ARCSEC, np.nan)
 
 def default_threads() -> int:
     """Threads for large batches: ``PLANETNAV_THREADS`` or the CPUs this process may use."""
@@ -179,7 +186,10 @@ class BatchCore:
         return float(self.f[row, L.F_T0] + self.i[row, L.I_K] * self.config.step_s)
 
     def info_row(self, row: int) -> dict:
-        """The ``info`` of one row as the single environment reports it (see PlanetNavEnv)."""
+        """The ``info`` of one row as the single environment reports it (see PlanetNavEnv), with the
+        numeric codes the vector environment also reports: ``target_index`` (index into ``planets +
+        pulsars``, -1: none) and ``visibility_code`` (index into
+        :data:`planetnav_env.core.layout.REASONS`)."""
         f, i = self.f[row], self.i[row]
         cfg = self.config
         target = int(i[L.I_TARGET])
@@ -193,11 +203,13 @@ class BatchCore:
             "measured": bool(i[L.I_MEASURED]),
             "rejected": bool(i[L.I_REJECTED]),
             "target": names[target] if target >= 0 else None,
+            "target_index": target,
             "sensor": L.SENSORS[int(i[L.I_SENSOR])],
             "ambiguous_skipped": int(i[L.I_SKIPPED]),
             "visibility": L.REASONS[int(i[L.I_REASON])],
+            "visibility_code": int(i[L.I_REASON]),
             "slewing": bool(i[L.I_SLEWING]),
-            "attitude_err_arcsec": float(att) / ARCSEC if math.isfinite(att) else float("nan"),
+            "attitude_err_arcsec": float(attitude_err_arcsec(att)),
             "time_s": self.time_s(row),
             "filter": {"x": f[L.F_XE : L.F_XE + 6].copy(), "P": self.p[row].copy()},
         }
