@@ -137,15 +137,23 @@ def _planet_features(prm, r_est, qe, pm, sc) -> None:  # pragma: no cover - comp
             w, c0, c1, c2 = 0.0, -b1, b0, 0.0 if abs(b2) < 0.9 else b0
         nq = math.sqrt(w * w + c0 * c0 + c1 * c1 + c2 * c2)
         sc.q_tile[a, 0], sc.q_tile[a, 1], sc.q_tile[a, 2], sc.q_tile[a, 3] = w / nq, c0 / nq, c1 / nq, c2 / nq
-        for c in range(3):
-            sc.r_tile[a, c] = r_est[c]
-        st = visibility_row_kernel(
-            sc.r_tile, sc.q_tile, sc.planets, a, prm.radii[a], sc.planets, prm.radii, True, prm.c2b,
-            prm.cam, sc.m, sc.u6, sc.vals,
-        )  # fmt: skip
-        visible = st == 0 and int(sc.vals[V_REASON]) == REASON_VISIBLE
+        visible = _camera_sees(prm, r_est, a, sc)
         out[a, TF_OBSERVABLE] = 1.0 if (visible and alpha < ps.alpha_max) else 0.0
         out[a, TF_SIZE] = alpha / ps.sigma_alpha
+
+
+@row_kernel
+def _camera_sees(prm, r_est, a, sc) -> bool:  # pragma: no cover - compiled
+    """The camera's own visibility rule (field of view, occultation, Sun exclusion, detection threshold)
+    for planet ``a`` from the estimated heliocentric position ``r_est`` [km] at the attitude already in
+    ``sc.q_tile[a]``; its values (``V_*``, e.g. the apparent diameter) are left in ``sc.vals``."""
+    for c in range(3):
+        sc.r_tile[a, c] = r_est[c]
+    st = visibility_row_kernel(
+        sc.r_tile, sc.q_tile, sc.planets, a, prm.radii[a], sc.planets, prm.radii, True, prm.c2b,
+        prm.cam, sc.m, sc.u6, sc.vals,
+    )  # fmt: skip
+    return st == 0 and int(sc.vals[V_REASON]) == REASON_VISIBLE
 
 
 @row_kernel
@@ -156,19 +164,9 @@ def _in_field(prm, r_est, qe, sc, o, base) -> None:  # pragma: no cover - compil
     estimated heliocentric position ``r_est`` [km], and the disk is not wider than the field (the step's
     rule, ``alpha_max``); else 0.0. ``sc.planets`` holds the planets at the row's time."""
     for a in range(sc.planets.shape[0]):
-        for c in range(3):
-            sc.r_tile[a, c] = r_est[c]
         for c in range(4):
             sc.q_tile[a, c] = qe[c]
-        st = visibility_row_kernel(
-            sc.r_tile, sc.q_tile, sc.planets, a, prm.radii[a], sc.planets, prm.radii, True, prm.c2b,
-            prm.cam, sc.m, sc.u6, sc.vals,
-        )  # fmt: skip
-        ok = (
-            st == 0
-            and int(sc.vals[V_REASON]) == REASON_VISIBLE
-            and sc.vals[V_ALPHA] <= prm.scalars[0].alpha_max
-        )
+        ok = _camera_sees(prm, r_est, a, sc) and sc.vals[V_ALPHA] <= prm.scalars[0].alpha_max
         o[base + a] = 1.0 if ok else 0.0
 
 
