@@ -16,6 +16,8 @@ random         a uniformly random action each step
 idle           never measures (needs ``idle_action=True``, so ``action_mode="target"`` only)
 periodic       fixed schedule: the planets of a cycle in turn, ``period`` steps each
                (:mod:`planetnav_agents.periodic`)
+optimum        operations scenarios: the best open-loop session schedule found at reset on the filter's
+               covariance prediction (:mod:`planetnav_agents.optimum`)
 planner        non-myopic rollout planner on copies of the environment, scored by the filter's
                covariance (:mod:`planetnav_agents.planner`)
 PATH           a saved SB3 model (``.zip`` or a ``runs/<name>/`` directory), deterministic actions
@@ -53,6 +55,7 @@ import gymnasium as gym
 from planetnav_agents.base import Agent, NotApplicableError, ParsedObservation, TargetAgent, parse_observation
 from planetnav_agents.baseline import BaselineAgent
 from planetnav_agents.greedy import GreedyAgent, greedy_pd
+from planetnav_agents.optimum import OptimumAgent
 from planetnav_agents.periodic import PeriodicAgent
 from planetnav_agents.planner import PlannerAgent
 from planetnav_agents.rllib import RLlibAgent
@@ -71,6 +74,7 @@ AGENTS: dict[str, Callable[..., Agent]] = {
     "baseline-size": functools.partial(BaselineAgent, criterion="size"),
     "greedy": GreedyAgent,
     "greedy-pd": greedy_pd,
+    "optimum": OptimumAgent,
     "periodic": PeriodicAgent,
     "planner": PlannerAgent,
     "random": RandomAgent,
@@ -198,6 +202,7 @@ __all__ = [
     "GreedyAgent",
     "IdleAgent",
     "NotApplicableError",
+    "OptimumAgent",
     "ParsedObservation",
     "PeriodicAgent",
     "PlannerAgent",
