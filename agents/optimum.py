@@ -382,11 +382,11 @@ class ScheduleModel:
         self._empty_cache = np.zeros((0, 6, 6))
         self._empty_j = np.zeros(0)
 
-    def actions(self, sessions: list[tuple[int, int]], session: int) -> np.ndarray:
-        """(K,) step actions (-1 stay, else the planet) of sessions ``(start step, planet)``."""
+    def actions(self, sessions: list[tuple[int, int, int]]) -> np.ndarray:
+        """(K,) step actions (-1 stay, else the planet) of sessions ``(start step, planet, steps)``."""
         acts = np.full(self.n_steps, -1, dtype=np.int64)
-        for s, a in sessions:
-            acts[s : s + session] = a
+        for s, a, n in sessions:
+            acts[s : s + n] = a
         return acts
 
     def objective(
@@ -431,6 +431,9 @@ class ScheduleModel:
         )
 
 
+Session = tuple[int, int, int]  # (start step, planet, length in steps)
+
+
 class ScheduleSearch:
     """Local search over session schedules on a :class:`ScheduleModel` (module docstring)."""
 
@@ -441,60 +444,68 @@ class ScheduleSearch:
         self.session = session
         self.g = model.grid
         self.n_grid = model.n_steps // self.g
-        self.span = -(-session // self.g)  # grid slots a session occupies
+        # Insertions on every other grid start: the moves' shifts of ±1 slot refine the placement.
+        self.stride = 2
+        self.lengths = sorted({self.g, session})
         self.evaluations = 0
         n_g = self.n_grid + 1
         self._pc = np.zeros((n_g, 6, 6))
         self._jc = np.zeros(n_g)
 
-    def _ok(self, sessions: list[tuple[int, int]]) -> bool:
-        """Sessions inside the episode, after the first grid slot, not overlapping."""
+    def _ok(self, sessions: list[Session]) -> bool:
+        """Sessions inside the episode, after the first grid slot, at least one grid slot long, not
+        overlapping."""
         last = -1
-        for s, _ in sorted(sessions):
-            if s < self.g or s + self.session > self.m.n_steps or s < last:
+        for s, _, n in sorted(sessions):
+            if s < self.g or n < self.g or s + n > self.m.n_steps or s < last:
                 return False
-            last = s + self.session
+            last = s + n
         return True
 
-    def full(self, sessions: list[tuple[int, int]]) -> float:
+    def full(self, sessions: list[Session]) -> float:
         """J of ``sessions``, filling the prefix cache."""
         self.evaluations += 1
-        acts = self.m.actions(sessions, self.session)
-        return self.m.objective(acts, cache=(self._pc, self._jc))
+        return self.m.objective(self.m.actions(sessions), cache=(self._pc, self._jc))
 
-    def from_cache(self, sessions: list[tuple[int, int]], first_step: int) -> float:
+    def from_cache(self, sessions: list[Session], first_step: int) -> float:
         """J of ``sessions``, which differ from the cached schedule only from step ``first_step`` on."""
         self.evaluations += 1
         gi = max(first_step // self.g, 0)
-        acts = self.m.actions(sessions, self.session)
+        acts = self.m.actions(sessions)
         return self.m.objective(acts, gi * self.g, self._pc[gi], float(self._jc[gi]))
 
-    def insert_best(self, sessions: list[tuple[int, int]], j_now: float) -> tuple[list, float]:
-        """The best schedule with one more session (every free grid start x planet), if it lowers J."""
+    def insert_best(self, sessions: list[Session], j_now: float) -> tuple[list[Session], float]:
+        """The best schedule with one more session of ``session`` steps (every other free grid start x
+        planet), if it lowers J."""
         self.full(sessions)
         best, best_j = None, j_now
-        for gs in range(1, self.n_grid - self.span + 1):
+        span = -(-self.session // self.g)
+        for gs in range(1, self.n_grid - span + 1, self.stride):
             s = gs * self.g
-            for a in range(self.m.n_planets):
-                cand = sorted([*sessions, (s, a)])
-                if not self._ok(cand):
-                    break
-                j = self.from_cache(cand, s)
-                if j < best_j - 1e-9:
-                    best, best_j = cand, j
+            for n in self.lengths:
+                for a in range(self.m.n_planets):
+                    cand = sorted([*sessions, (s, a, n)])
+                    if not self._ok(cand):
+                        break
+                    j = self.from_cache(cand, s)
+                    if j < best_j - 1e-9:
+                        best, best_j = cand, j
         return (best, best_j) if best is not None else (sessions, j_now)
 
-    def moves(self, sessions: list[tuple[int, int]], j_now: float) -> tuple[list, float]:
-        """First-improvement moves of one session (remove, change planet, shift) until none lowers J."""
+    def moves(self, sessions: list[Session], j_now: float) -> tuple[list[Session], float]:
+        """First-improvement moves of one session (remove, change planet, shift, one grid slot longer or
+        shorter at either end) until none lowers J."""
+        g = self.g
         improved = True
         while improved:
             improved = False
             self.full(sessions)
-            for idx, (s, a) in enumerate(sessions):
+            for idx, (s, a, n) in enumerate(sessions):
                 rest = sessions[:idx] + sessions[idx + 1 :]
-                cands = [rest]
-                cands += [sorted([*rest, (s, b)]) for b in range(self.m.n_planets) if b != a]
-                cands += [sorted([*rest, (s + d * self.g, a)]) for d in self.SHIFTS]
+                alts = [(s, b, n) for b in range(self.m.n_planets) if b != a]
+                alts += [(s + d * g, a, n) for d in self.SHIFTS]
+                alts += [(s, a, n + g), (s, a, n - g), (s - g, a, n + g), (s + g, a, n - g)]
+                cands = [rest] + [sorted([*rest, c]) for c in alts]
                 for cand in cands:
                     if not self._ok(cand):
                         continue
@@ -507,7 +518,7 @@ class ScheduleSearch:
                     break
         return sessions, j_now
 
-    def improve(self, sessions: list[tuple[int, int]]) -> tuple[list, float]:
+    def improve(self, sessions: list[Session]) -> tuple[list[Session], float]:
         """Insertion and moves alternated until neither lowers J."""
         sessions = sorted(sessions)
         j_now = self.full(sessions)
@@ -519,7 +530,7 @@ class ScheduleSearch:
             sessions, j_now = new, j_new
 
 
-def periodic_sessions(model: ScheduleModel, session: int) -> list[tuple[int, int]]:
+def periodic_sessions(model: ScheduleModel, session: int) -> list[Session]:
     """The tuned periodic rule's sessions (:data:`PERIODIC_START`) moved to the search grid: the cycle's
     planet, or its next planet visible at the session's start."""
     period, _, phase, cycle = PERIODIC_START
@@ -534,7 +545,7 @@ def periodic_sessions(model: ScheduleModel, session: int) -> list[tuple[int, int
                 a = b
                 break
         if a < model.n_planets and sg + session <= model.n_steps:
-            out.append((sg, a))
+            out.append((sg, a, session))
         n += 1
     return out
 
@@ -570,7 +581,7 @@ class OptimumAgent(TargetAgent):
     def reset(self, seed: int | None = None) -> None:
         self.k = 0
         self.acts: np.ndarray | None = None
-        self.sessions: list[tuple[int, int]] = []
+        self.sessions: list[Session] = []
         self.predicted_objective_km = math.nan
         self.evaluations = 0
 
@@ -587,7 +598,7 @@ class OptimumAgent(TargetAgent):
                 best, best_j = s, j
         self.model = model
         self.sessions = best
-        self.acts = model.actions(best, self.session)
+        self.acts = model.actions(best)
         self.predicted_objective_km = best_j
         self.evaluations = search.evaluations
 
