@@ -4,6 +4,9 @@ bad parameters raise errors that name the value."""
 
 from __future__ import annotations
 
+import json
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -13,6 +16,7 @@ from planetnav_agents.optimum import ScheduleSearch, periodic_sessions
 from planetnav_env.config import EnvConfig
 from planetnav_env.env import PlanetNavEnv
 from planetnav_env.registration import ENV_IDS
+from planetnav_train.cli import main
 
 ID = "planetnav/ThrustArc-TCM-v0"
 DT = ENV_IDS[ID]["step_s"]
@@ -97,3 +101,18 @@ def test_bad_parameters_name_the_value(spec: str, match: str) -> None:
 def test_needs_an_operations_scenario() -> None:
     with pytest.raises(ValueError, match="optimum needs an operations scenario"):
         make_agent("optimum", PlanetNavEnv(episode_steps=5))
+
+
+def test_compare_runs_optimum_from_the_shipped_config(tmp_path: Path) -> None:
+    """The evaluation path of configs/operations/thrust_arc_tcm.yaml with optimum, cut to 60 steps."""
+    cfg = Path(__file__).resolve().parents[1] / "configs" / "operations" / "thrust_arc_tcm.yaml"
+    out = tmp_path / "c.json"
+    rc = main(
+        ["compare", "--config", str(cfg), "--episode-steps", "60", "--episodes", "1", "--agents", "optimum",
+         "idle", "--reference", "idle", "--json", str(out), "--no-progress"]
+    )  # fmt: skip
+    assert rc == 0
+    agents = json.loads(out.read_text())["agents"]
+    assert set(agents) == {"optimum", "idle"}
+    # No deadline inside 60 steps: only the Δv counts, and the best schedule images nothing.
+    assert agents["optimum"]["objective_mean"] == pytest.approx(agents["idle"]["objective_mean"], rel=1e-9)
