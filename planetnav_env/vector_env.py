@@ -16,8 +16,12 @@ Stable-Baselines3 expects; :class:`planetnav_env.sb3_vec.PlanetNavSB3VecEnv` use
 ``info`` has the single environment's keys, each an array over the rows (Gymnasium's vector convention,
 with the ``_key`` masks): numbers as numeric arrays, names (``target``, ``sensor``, ``visibility``) as
 object arrays of str or None, and ``filter`` as ``{"x": (N, 6), "P": (N, 6, 6)}``; the table is in
-docs/environment.md ("Info keys"). :meth:`PlanetNavVectorEnv.info_row` gives one row's info in the single
-environment's form and :meth:`PlanetNavVectorEnv.filter_state` the filters.
+docs/environment.md ("Info keys"). ``info_keys="numeric"`` gives the keys whose values are numbers only,
+flat (for clients that turn every info value into a tensor, as TorchRL's ``same_step`` reader does): the
+names are left out (``target_index`` and ``visibility_code`` carry two of them as codes) and the filter is
+``filter_x`` (N, 6) [km, km/s] and ``filter_P`` (N, 6, 6); ``final_info`` rows take the same form.
+:meth:`PlanetNavVectorEnv.info_row` gives one row's info in the single environment's form and
+:meth:`PlanetNavVectorEnv.filter_state` the filters.
 Bad actions (wrong shape, NaN in a row, out of range) raise before any row is stepped, naming the row.
 A row whose filter diverges terminates alone.
 """
@@ -47,6 +51,10 @@ from planetnav_env.spaces import (
 )
 
 _MODES = {"next_step": AutoresetMode.NEXT_STEP, "same_step": AutoresetMode.SAME_STEP}
+#: ``info_keys`` choices: the documented key set, or its numeric, flat form (module docstring).
+INFO_KEY_SETS = ("all", "numeric")
+#: The info keys whose values are names (str or None); ``info_keys="numeric"`` leaves them out.
+NAME_KEYS = ("target", "sensor", "visibility")
 #: Gymnasium >= 1.1 has a mode without autoreset (TorchRL's preferred one); 1.0 does not.
 _DISABLED = getattr(AutoresetMode, "DISABLED", None)
 if _DISABLED is not None:
@@ -64,6 +72,7 @@ class PlanetNavVectorEnv(EpisodeLengthSpec, VectorEnv):
         config: EnvConfig | Mapping | str | None = None,
         autoreset_mode: str | AutoresetMode = "next_step",
         render_mode: str | None = None,
+        info_keys: str = "all",
         **overrides: Any,
     ) -> None:
         if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
@@ -73,6 +82,9 @@ class PlanetNavVectorEnv(EpisodeLengthSpec, VectorEnv):
                 f"the vector environment does not render (got render_mode={render_mode!r}); "
                 "render a single PlanetNavEnv"
             )
+        if not isinstance(info_keys, str) or info_keys not in INFO_KEY_SETS:
+            raise InvalidParameterError(f"info_keys must be one of {list(INFO_KEY_SETS)}, got {info_keys!r}")
+        self.info_keys = info_keys
         mode = (
             _MODES.get(autoreset_mode, autoreset_mode) if isinstance(autoreset_mode, str) else autoreset_mode
         )
@@ -203,7 +215,7 @@ class PlanetNavVectorEnv(EpisodeLengthSpec, VectorEnv):
                     infos["final_obs"][r] = (
                         obs_now[r] if cfg.observation == "box" else {k: v[r] for k, v in obs_now.items()}
                     )
-                    infos["final_info"][r] = self.core.info_row(int(r))
+                    infos["final_info"][r] = self._final_info_row(int(r))
                 infos["_final_obs"] = done.copy()
                 infos["_final_info"] = done.copy()
                 core.reset_rows(rows, [self._generators[r] for r in rows])
@@ -218,19 +230,38 @@ class PlanetNavVectorEnv(EpisodeLengthSpec, VectorEnv):
 
     def _infos(self) -> dict[str, Any]:
         """The single environment's info keys as arrays over the rows (module docstring), each with its
-        ``_key`` mask (all True: every row has every key)."""
+        ``_key`` mask (all True: every row has every key); with ``info_keys="numeric"`` the numeric, flat
+        form."""
         core = self.core
         codes = core.i
         info = core.info_batch()
-        info["target"] = self._target_names[codes[:, L.I_TARGET]]
-        info["sensor"] = self._sensor_names[codes[:, L.I_SENSOR]]
-        info["visibility"] = self._reason_names[codes[:, L.I_REASON]]
+        numeric = self.info_keys == "numeric"
+        if not numeric:
+            info["target"] = self._target_names[codes[:, L.I_TARGET]]
+            info["sensor"] = self._sensor_names[codes[:, L.I_SENSOR]]
+            info["visibility"] = self._reason_names[codes[:, L.I_REASON]]
         info["ambiguous_skipped"] = codes[:, L.I_SKIPPED].copy()
         info["attitude_err_arcsec"] = attitude_err_arcsec(core.f[:, L.F_ATT_ERR])
         x, p = core.filter_state()
-        info["filter"] = {"x": x, "P": p, "_x": self._all_rows, "_P": self._all_rows}
+        if numeric:
+            info["filter_x"], info["filter_P"] = x, p
+        else:
+            info["filter"] = {"x": x, "P": p, "_x": self._all_rows, "_P": self._all_rows}
         for k in list(info):
             info["_" + k] = self._all_rows  # every key holds a value for every row
+        return info
+
+    def _final_info_row(self, row: int) -> dict[str, Any]:
+        """Row ``row``'s info for ``final_info``: the single environment's form, or with
+        ``info_keys="numeric"`` its numeric, flat form (the names left out, the filter as ``filter_x``
+        and ``filter_P``), the form of this env's ``info`` keys."""
+        info = self.core.info_row(row)
+        if self.info_keys == "all":
+            return info
+        flt = info.pop("filter")
+        for k in NAME_KEYS:
+            del info[k]
+        info["filter_x"], info["filter_P"] = flt["x"], flt["P"]
         return info
 
     def filter_state(self) -> tuple[np.ndarray, np.ndarray]:

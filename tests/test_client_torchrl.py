@@ -5,14 +5,18 @@
 * ``GymWrapper(gym.make_vec(id, num_envs=4, autoreset_mode="disabled"))``: the native vector env under
   TorchRL, which refuses Gymnasium's default ``next_step`` autoreset and resets finished rows itself
   through ``reset_mask``; a short rollout with a small torch policy runs through two episode ends.
-* ``autoreset_mode="same_step"``, the other mode TorchRL accepts, needs an info dict of flat numbers
-  (TorchRL 0.14 stacks every info value into a tensor); planetnav's holds names and the filter's
-  ``{"x", "P"}``, so that test is an expected failure that reports if TorchRL starts to accept it.
+* ``autoreset_mode="same_step"``, the other mode TorchRL accepts, with ``info_keys="numeric"`` (TorchRL 0.14
+  stacks every info value into a tensor; the default keys hold names and the filter's ``{"x", "P"}``):
+  the docs' snippet run verbatim, and a rollout whose rows end apart and together compared step for step
+  with the vector env replayed (final observations and infos in ``next``, reset ones at the next root).
 
 CI installs torchrl in the Ray environment (Makefile).
 """
 
 from __future__ import annotations
+
+import textwrap
+from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
@@ -21,6 +25,7 @@ import pytest
 pytest.importorskip("torchrl", reason="torchrl is not installed (the [clients] extra)")
 
 import torch
+from tensordict import TensorDict
 from tensordict.nn import TensorDictModule
 from torchrl.envs import GymEnv, GymWrapper
 from torchrl.envs.utils import check_env_specs
@@ -75,13 +80,121 @@ def test_gym_wrapper_over_the_native_vector_env_rolls_out() -> None:
     assert (td["action"].sum(-1) == 1).all()  # one-hot actions reached the env
 
 
-@pytest.mark.xfail(
-    reason="TorchRL 0.14's same_step reader stacks every info value into tensors; planetnav's info "
-    "holds names (object arrays) and the filter dict",
-    strict=False,
-)
-def test_gym_wrapper_same_step() -> None:
+def _docs_example(marker: str) -> str:
+    """The python block of docs/environment.md's Clients section that contains ``marker`` (run as is)."""
+    text = (Path(__file__).parents[1] / "docs" / "environment.md").read_text()
+    section = text.split("## Clients", 1)[1].split("\n## ", 1)[0]
+    blocks = [textwrap.dedent(b.split("```", 1)[0]) for b in section.split("```python\n")[1:]]
+    found = [b for b in blocks if marker in b]
+    assert len(found) == 1, f"expected one example with {marker!r} in docs/environment.md, got {len(found)}"
+    return found[0]
+
+
+@needs_disabled
+def test_docs_disabled_example_runs() -> None:
+    """docs/environment.md's ``disabled`` snippet, run verbatim."""
+    scope: dict = {}
+    exec(_docs_example('autoreset_mode="disabled"'), scope)
+    td = scope["td"]
+    assert td.batch_size == torch.Size([4, 100])
+    assert torch.isfinite(td["next", "observation"]).all() and torch.isfinite(td["next", "reward"]).all()
+
+
+def test_docs_same_step_example_runs() -> None:
+    """docs/environment.md's ``same_step`` snippet, run verbatim: 100 steps of 4 rows with numeric info."""
+    scope: dict = {}
+    exec(_docs_example('autoreset_mode="same_step"'), scope)
+    td = scope["td"]
+    assert td.batch_size == torch.Size([4, 100])
+    assert torch.isfinite(td["next", "observation"]).all() and torch.isfinite(td["next", "reward"]).all()
+    assert torch.isfinite(td["next", "pos_sigma_km"]).all() and td["next", "filter_P"].shape == (4, 100, 6, 6)
+    assert not td["next", "done"].any()  # episodes are 1,440 steps
+
+
+def test_gym_wrapper_same_step_equals_the_env_step_for_step() -> None:
+    """``autoreset_mode="same_step"`` with ``info_keys="numeric"``: TorchRL's tensordict holds exactly what
+    planetnav returned, replayed on a second vector env with the same seed and actions. A row that ends puts
+    its last observation and info (``final_obs``, ``final_info``) in ``next`` and the same step's reset
+    observation and info at the root of the following step; when every row ends at once TorchRL calls
+    ``reset()`` itself. ``divergence_km`` = 1,500 km ends some rows at their first steps (the initial error
+    is drawn with 1,000 km per axis), so rows end at different steps as well as together."""
+    kwargs = dict(
+        num_envs=4, autoreset_mode="same_step", info_keys="numeric", episode_steps=3, divergence_km=1500.0
+    )
+    steps, seed = 12, 3
+    env = GymWrapper(gym.make_vec("planetnav/Cruise-Target-v0", **kwargs))
+    env.set_seed(seed)  # TorchRL: reset(seed=3); the rollout then calls reset()
+    td = env.rollout(steps, _argmax_policy(47, 3), break_when_any_done=False)
+    assert td.batch_size == torch.Size([4, steps])
+    assert torch.isfinite(td["next", "observation"]).all() and torch.isfinite(td["next", "reward"]).all()
+
+    ref = gym.make_vec("planetnav/Cruise-Target-v0", **kwargs)
+    ref.reset(seed=seed)
+    obs, info = ref.reset()
+    keys = [k for k in info if not k.startswith("_")]
+    assert "filter_P" in keys and "target" not in keys
+    actions = td["action"].argmax(-1).numpy()
+    partial = together = 0
+    since_reset = np.zeros(4, dtype=int)
+    for t in range(steps):
+        assert np.array_equal(td["observation"][:, t].numpy(), obs)
+        for k in keys:
+            assert np.array_equal(td[k][:, t].numpy(), info[k]), (k, t)
+        obs, reward, terminated, truncated, info = ref.step(actions[:, t])
+        done = terminated | truncated
+        # What the step ended on: the final observation and info of the rows that ended.
+        last_obs, last_info = obs.copy(), {k: info[k].copy() for k in keys}
+        for r in np.flatnonzero(done):
+            last_obs[r] = info["final_obs"][r]
+            for k in keys:
+                last_info[k][r] = info["final_info"][r][k]
+        assert np.array_equal(td["next", "observation"][:, t].numpy(), last_obs), t
+        for k in keys:
+            assert np.array_equal(td["next", k][:, t].numpy(), last_info[k]), (k, t)
+        assert np.array_equal(td["next", "reward"][:, t, 0].numpy(), reward.astype(np.float32))
+        assert np.array_equal(td["next", "terminated"][:, t, 0].numpy(), terminated)
+        assert np.array_equal(td["next", "truncated"][:, t, 0].numpy(), truncated)
+        since_reset += 1
+        assert (since_reset[truncated] == 3).all() and (since_reset <= 3).all()  # 3-step episodes
+        since_reset[done] = 0
+        if done.all():
+            together += 1
+            obs, info = ref.reset()  # TorchRL's own reset when every row has ended
+        elif done.any():
+            partial += 1
+    assert partial >= 2 and together >= 1, (partial, together)
+    check_env_specs(env)  # TorchRL's conformance check, after the rollout (see the docs' caveat on reset)
+
+
+def test_same_step_full_reset_right_after_rows_end_apart() -> None:
+    """The docs' TorchRL 0.14 caveat: after a step on which some but not all rows ended, a plain
+    ``env.reset()`` (the vector env is reset for real) returns the observations that
+    ``VecGymEnvTransform`` saved at that step, not the rows' new ones; a reset with an all-True ``_reset``
+    returns the new ones. If TorchRL fixes its transform the first assertion fails: drop the caveat."""
+    kwargs = dict(
+        num_envs=4, autoreset_mode="same_step", info_keys="numeric", episode_steps=3, divergence_km=1500.0
+    )
+    env = GymWrapper(gym.make_vec("planetnav/Cruise-Target-v0", **kwargs))
+    venv = env.base_env._env.unwrapped
+    env.set_seed(3)
+    policy = _argmax_policy(47, 3)
+    root = env.reset()
+    for _ in range(30):
+        out, root = env.step_and_maybe_reset(policy(root))
+        ended = int(out["next", "done"].sum())
+        if 0 < ended < 4:
+            break
+    assert 0 < ended < 4, "no step ended some but not all rows"
+    stale = env.reset()
+    assert not np.array_equal(stale["observation"].numpy(), venv.observations())
+    fresh = env.reset(TensorDict({"_reset": torch.ones(4, 1, dtype=torch.bool)}, batch_size=[4]))
+    assert np.array_equal(fresh["observation"].numpy(), venv.observations())
+
+
+def test_gym_wrapper_same_step_needs_numeric_info() -> None:
+    """With the default keys (names, the nested filter) TorchRL 0.14's same_step reader cannot build its
+    tensors: the reason ``info_keys="numeric"`` exists. If this starts to pass, TorchRL accepts the
+    default keys and the docs can drop the option from the example."""
     venv = gym.make_vec("planetnav/Cruise-Target-v0", num_envs=4, autoreset_mode="same_step", episode_steps=3)
-    td = GymWrapper(venv).rollout(7, break_when_any_done=False)
-    assert td["next", "done"].squeeze(-1).any(0).tolist() == [False, False, True] * 2 + [False]
-    assert np.isfinite(td["next", "reward"].numpy()).all()
+    with pytest.raises(IndexError):  # its reader on the all-None `target` names at reset
+        GymWrapper(venv).rollout(7, break_when_any_done=False)

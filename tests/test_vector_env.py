@@ -423,3 +423,61 @@ def test_info_keys_table_in_the_docs_lists_exactly_the_keys() -> None:
     section = text.split("## Info keys", 1)[1].split("\n## ", 1)[0]
     documented = {line.split("`")[1] for line in section.splitlines() if line.startswith("| `")}
     assert documented == INFO_KEYS | OPERATIONS_INFO_KEYS
+
+
+def _assert_numeric_form(numeric: dict, full: dict) -> None:
+    """``numeric`` is ``full`` without the names, with the filter flat: same values, no object arrays."""
+    private = {k for k in numeric if k.startswith("_")}
+    expected = (set(full) - {"target", "sensor", "visibility", "filter"}) | {"filter_x", "filter_P"}
+    assert set(numeric) - private == {k for k in expected if not k.startswith("_")}
+    for k in set(numeric) - private:
+        value = numeric[k]
+        ref = full["filter"]["x" if k == "filter_x" else "P"] if k.startswith("filter_") else full[k]
+        assert not isinstance(value, dict) and np.asarray(value).dtype != object, k
+        assert np.asarray(value).dtype == np.asarray(ref).dtype, k
+        assert np.array_equal(value, ref, equal_nan=True), k
+
+
+@pytest.mark.parametrize("env_id", ["planetnav/Cruise-Target-v0", "planetnav/ThrustArc-TCM-v0"])
+def test_numeric_info_keys_are_the_default_ones_without_names_and_flat(env_id: str) -> None:
+    """``info_keys="numeric"`` (for TorchRL's same_step reader, docs/environment.md): the default keys
+    without ``target``, ``sensor``, ``visibility``, the filter as ``filter_x`` / ``filter_P``, row for row
+    equal to the default ones, masks included, and ``final_info`` rows in the same form; the steps
+    themselves are unchanged. A value other than "all" or "numeric" raises naming it."""
+    kw = dict(num_envs=3, autoreset_mode="same_step", episode_steps=4)
+    full = gym.make_vec(env_id, **kw)
+    numeric = gym.make_vec(env_id, info_keys="numeric", **kw)
+    assert numeric.unwrapped.info_keys == "numeric" and full.unwrapped.info_keys == "all"
+    _, finfo = full.reset(seed=5)
+    _, ninfo = numeric.reset(seed=5)
+    _assert_numeric_form(ninfo, finfo)
+    assert all(ninfo["_" + k].all() for k in ninfo if not k.startswith("_"))  # each key's mask, all True
+    rng = np.random.default_rng(0)
+    ended = 0
+    for _ in range(9):
+        acts = _actions(full.single_action_space, 3, rng)
+        fobs, frew, fterm, ftrunc, finfo = full.step(acts)
+        nobs, nrew, nterm, ntrunc, ninfo = numeric.step(acts)
+        assert _equal_obs(nobs, fobs) and np.array_equal(nrew, frew)
+        assert np.array_equal(nterm, fterm) and np.array_equal(ntrunc, ftrunc)
+        rows = np.flatnonzero(fterm | ftrunc)
+        assert ("final_info" in ninfo) == ("final_info" in finfo) == (rows.size > 0)
+        for r in rows:
+            ended += 1
+            assert _equal_obs(ninfo["final_obs"][r], finfo["final_obs"][r])
+            assert set(finfo["final_info"][r]) == set(full.unwrapped.info_row(r))
+            row = {k: np.asarray(v) for k, v in finfo["final_info"][r].items() if k != "filter"}
+            _assert_numeric_form(
+                {k: np.asarray(v) for k, v in ninfo["final_info"][r].items()},
+                {**row, "filter": finfo["final_info"][r]["filter"]},
+            )
+        _assert_numeric_form(*({k: v for k, v in i.items() if "final_" not in k} for i in (ninfo, finfo)))
+        assert all(ninfo["_" + k].all() for k in ninfo if not k.startswith("_") and "final_" not in k)
+    assert ended >= 3  # two episode ends of 3 rows were inside the run
+    for bad in ("names", "ALL", None, 1):
+        with pytest.raises(
+            InvalidParameterError, match=rf"info_keys must be one of \['all', 'numeric'\], got {bad!r}"
+        ):
+            PlanetNavVectorEnv(2, info_keys=bad)
+    with pytest.raises(InvalidParameterError, match="info_keys"):
+        gym.make_vec("planetnav/Cruise-Target-v0", num_envs=2, info_keys="tensor")
