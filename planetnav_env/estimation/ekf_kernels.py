@@ -24,7 +24,7 @@ from planetnav_env.dynamics.orbit import GravityModel, PerturberFn
 from planetnav_env.errors import InvalidParameterError, NonFiniteError, require_finite, require_positive
 from planetnav_env.estimation.ekf import FilterConfig, process_noise, validate_initial
 from planetnav_env.estimation.measurements import MeasurementModel
-from planetnav_env.jit import row_kernel
+from planetnav_env.jit import ROW_KERNEL_OPTIONS, row_kernel
 
 #: Configuration string -> MeasurementKind as an int (what the kernels take).
 KIND_CODES = {k.label: int(k) for k in MeasurementKind}
@@ -133,6 +133,18 @@ def rk4_kernel(x, dt, mu, p0, p1, p2, mus, x_out, w6, v6):
     _rk4(x, dt, mu, p0, p1, p2, mus, x_out, w6[2], w6, v6, False)
 
 
+@njit(inline="always", **ROW_KERNEL_OPTIONS)  # inlined into numba IR: the callers' constant sizes unroll
+def _matmul(a, b, rows, cols, inner, out):
+    """``out[:rows, :cols] = a[:rows, :inner] @ b[:inner, :cols]``, summed in index order from 0.0 (the one
+    matrix product of the predict and update kernels; loops, because BLAS on 6x6 costs more in overhead)."""
+    for i in range(rows):
+        for j in range(cols):
+            acc = 0.0
+            for k in range(inner):
+                acc += a[i, k] * b[k, j]
+            out[i, j] = acc
+
+
 @row_kernel
 def predict_kernel(x, p, dt, mu, p0, p1, p2, mus, q, euler_stm, w6, v6, phi, tmp):
     """In place: x <- RK4(x); P <- Phi P Phi^T + Q (symmetric by construction).
@@ -152,15 +164,20 @@ def predict_kernel(x, p, dt, mu, p0, p1, p2, mus, q, euler_stm, w6, v6, phi, tmp
             phi[i, 3 + i] = dt
             for j in range(3):
                 phi[3 + i, j] = g[i, j] * dt
-    # Hand-written loops: BLAS calls on 6x6 matrices cost more in overhead than in arithmetic.
-    for i in range(6):
-        for j in range(6):
-            acc = 0.0
-            for k in range(6):
-                acc += phi[i, k] * p[k, j]
-            tmp[i, j] = acc
     for i in range(6):
         x[i] = x_new[i]
+    covariance_predict_kernel(p, phi, q, tmp)
+
+
+@njit(inline="always", **ROW_KERNEL_OPTIONS)
+def covariance_predict_kernel(p, phi, q, tmp):
+    """In place: ``P <- Phi P Phi^T + Q`` (6, 6), symmetric by construction (the upper triangle is formed
+    and mirrored). ``tmp`` (6, 6) is scratch. The one compiled covariance prediction: callers with a stored
+    ``Phi`` (planners' what-if covariances) call it rather than writing the product again.
+    """
+    # Hand-written loops: BLAS calls on 6x6 matrices cost more in overhead than in arithmetic.
+    _matmul(phi, p, 6, 6, 6, tmp)
+    for i in range(6):
         for j in range(i, 6):
             acc = 0.0
             for k in range(6):
@@ -255,12 +272,7 @@ def update_kernel(x, p, z, h, jac, rcov, m, wrap_index, gate, uw):
             nis += y[i] * s_inv[i, j] * y[j]
     if not nis <= gate:
         return nis, False
-    for i in range(6):
-        for j in range(m):
-            acc = 0.0
-            for k in range(m):
-                acc += pht[i, k] * s_inv[k, j]
-            kg[i, j] = acc
+    _matmul(pht, s_inv, 6, m, m, kg)
     # Joseph form: P+ = (I - K H) P (I - K H)^T + K R K^T.
     for i in range(6):
         for j in range(6):
@@ -268,18 +280,8 @@ def update_kernel(x, p, z, h, jac, rcov, m, wrap_index, gate, uw):
             for k in range(m):
                 acc += kg[i, k] * jac[k, j]
             ikh[i, j] = -acc
-    for i in range(6):
-        for j in range(6):
-            acc = 0.0
-            for k in range(6):
-                acc += ikh[i, k] * p[k, j]
-            tmp[i, j] = acc
-    for i in range(6):
-        for j in range(m):
-            acc = 0.0
-            for k in range(m):
-                acc += kg[i, k] * rcov[k, j]
-            kr[i, j] = acc
+    _matmul(ikh, p, 6, 6, 6, tmp)
+    _matmul(kg, rcov, 6, m, m, kr)
     for i in range(6):
         acc = 0.0
         for j in range(m):
@@ -393,22 +395,9 @@ def update_batch_kernel(
     x, p, z, planet, diameter, kind, sig_dir, sig_size, basis, active, gate, nis_out, acc_out
 ):
     """Update N filters in place, one planet measurement each; planet (N, 3), z (N, m), basis (N, 2, 3)."""
+    n = x.shape[0]
     _update_range(
-        x,
-        p,
-        z,
-        planet,
-        diameter,
-        kind,
-        sig_dir,
-        sig_size,
-        basis,
-        active,
-        gate,
-        nis_out,
-        acc_out,
-        0,
-        x.shape[0],
+        x, p, z, planet, diameter, kind, sig_dir, sig_size, basis, active, gate, nis_out, acc_out, 0, n
     )
 
 
@@ -427,35 +416,12 @@ def update_batch_parallel(
 
 
 @njit(cache=True)
-def cycle_batch_kernel(
-    x,
-    p,
-    dt,
-    mu,
-    p0,
-    p1,
-    p2,
-    mus,
-    q,
-    euler_stm,
-    z,
-    planet,
-    diameter,
-    kind,
-    sig_dir,
-    sig_size,
-    basis,
-    active,
-    gate,
-    nis_out,
-    acc_out,
-):
-    """Predict + update for N filters (leading axis): :func:`predict_batch_kernel` then
-    :func:`update_batch_kernel` (the measurement and basis must not depend on the prediction)."""
+def cycle_batch_kernel(x, p, dt, mu, p0, p1, p2, mus, q, euler_stm, *update_args):
+    """Predict + update for N filters (leading axis): :func:`predict_batch_kernel` with the arguments up
+    to ``euler_stm``, then :func:`update_batch_kernel` on the same ``x``, ``p`` with the rest (``z`` to
+    ``acc_out``, in its order). The measurement and basis must not depend on the prediction."""
     predict_batch_kernel(x, p, dt, mu, p0, p1, p2, mus, q, euler_stm)
-    update_batch_kernel(
-        x, p, z, planet, diameter, kind, sig_dir, sig_size, basis, active, gate, nis_out, acc_out
-    )
+    update_batch_kernel(x, p, *update_args)
 
 
 @row_kernel
