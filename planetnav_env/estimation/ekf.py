@@ -1,7 +1,11 @@
 """Extended Kalman filter for the spacecraft's position and velocity.
 
 A batched numpy core (leading axis = independent filters, so one filter is a batch of one)
-and an adapter onto filterpy's ``ExtendedKalmanFilter`` used to cross-check it.
+and an adapter onto filterpy's ``ExtendedKalmanFilter`` used to cross-check it. The numpy core is the
+oracle of the compiled kernels (:mod:`planetnav_env.estimation.ekf_kernels`, the environments' filter):
+``tests/test_fast_ekf.py`` holds them to it, so its equations are written separately on purpose (matrix
+algebra here, scalar loops there); what both filters' front ends share that is not an equation (their
+construction and the Q cache) is written once, in :class:`EKFBase`.
 
 Cycle (thesis, section 2.1, with the choices below):
 
@@ -167,11 +171,13 @@ def nees(x_est: np.ndarray, p: np.ndarray, x_true: np.ndarray) -> np.ndarray:
     return np.einsum("...i,...i->...", e, np.linalg.solve(p, e[..., None])[..., 0])
 
 
-class BatchEKF:
-    """N independent EKFs over one gravity model, advanced in lock step.
+class EKFBase:
+    """What a filter front end holds: gravity model, settings, perturbers' positions function, Q per step.
 
-    ``x`` (N, 6) [km, km/s] and ``P`` (N, 6, 6) are public arrays. ``rejected`` counts gated
-    measurements per filter.
+    ``x0`` (6,) or (N, 6) [km, km/s] and ``p0`` (6, 6) or (N, 6, 6) [km^2, km^2/s^2, km^2/s] are checked by
+    :func:`validate_initial`; the subclass's ``_start(x, p)`` makes its state arrays of them.
+    ``perturbers(t) -> (K, 3)`` gives perturbing bodies' positions relative to the central body [km] when
+    the gravity model has any.
     """
 
     def __init__(
@@ -185,20 +191,34 @@ class BatchEKF:
         self.model = model
         self.config = config or FilterConfig()
         self.perturbers = perturbers
-        x, p = validate_initial(x0, p0)
+        self._q_cache: dict[float, np.ndarray] = {}
+        self._start(*validate_initial(x0, p0))
+
+    def _start(self, x: np.ndarray, p: np.ndarray) -> None:
+        raise NotImplementedError
+
+    def q(self, dt: float) -> np.ndarray:
+        """Process noise Q (6, 6) over ``dt`` [s] (:func:`process_noise`), computed once per ``dt``."""
+        if dt not in self._q_cache:
+            self._q_cache[dt] = process_noise(dt, self.config.accel_psd)
+        return self._q_cache[dt]
+
+
+class BatchEKF(EKFBase):
+    """N independent EKFs over one gravity model, advanced in lock step.
+
+    ``x`` (N, 6) [km, km/s] and ``P`` (N, 6, 6) are public arrays. ``rejected`` counts gated
+    measurements per filter.
+    """
+
+    def _start(self, x: np.ndarray, p: np.ndarray) -> None:
         self.x = np.atleast_2d(x)
         self.P = np.broadcast_to(p, self.x.shape[:-1] + (6, 6)).copy()
         self.rejected = np.zeros(self.x.shape[0], dtype=int)
-        self._q_cache: dict[float, np.ndarray] = {}
 
     @property
     def n(self) -> int:
         return self.x.shape[0]
-
-    def q(self, dt: float) -> np.ndarray:
-        if dt not in self._q_cache:
-            self._q_cache[dt] = process_noise(dt, self.config.accel_psd)
-        return self._q_cache[dt]
 
     def predict(self, t: float, dt: float) -> np.ndarray:
         """Advance every filter from ``t`` to ``t + dt``; returns Phi (N, 6, 6)."""

@@ -20,9 +20,8 @@ import numpy as np
 from numba import njit, prange
 
 from planetnav_env.codes import MeasurementKind
-from planetnav_env.dynamics.orbit import GravityModel, PerturberFn
 from planetnav_env.errors import InvalidParameterError, NonFiniteError, require_finite, require_positive
-from planetnav_env.estimation.ekf import FilterConfig, process_noise, validate_initial
+from planetnav_env.estimation.ekf import EKFBase
 from planetnav_env.estimation.measurements import MeasurementModel
 from planetnav_env.jit import ROW_KERNEL_OPTIONS, row_kernel
 
@@ -466,31 +465,19 @@ def nees_batch_kernel(x_est, x_true, p, out):  # pragma: no cover - compiled
 _EMPTY = np.zeros((0, 3))
 
 
-class SingleEKF:
+class SingleEKF(EKFBase):
     """One EKF on the compiled kernels (the environment's filter).
 
-    Same settings and equations as :class:`~planetnav_env.estimation.ekf.BatchEKF`; ``x`` (6,)
-    [km, km/s] and ``P`` (6, 6) are public. ``perturbers(t) -> (K, 3)`` gives perturbing bodies'
-    positions relative to the central body when the gravity model has any.
+    Same settings and equations as :class:`~planetnav_env.estimation.ekf.BatchEKF` (its oracle) and the
+    same construction (:class:`~planetnav_env.estimation.ekf.EKFBase`); ``x`` (6,) [km, km/s] and
+    ``P`` (6, 6) are public.
     """
 
-    def __init__(
-        self,
-        model: GravityModel,
-        x0: np.ndarray,
-        p0: np.ndarray,
-        config: FilterConfig | None = None,
-        perturbers: PerturberFn | None = None,
-    ) -> None:
-        self.model = model
-        self.config = config or FilterConfig()
-        self.perturbers = perturbers
-        x, p = validate_initial(x0, p0)
+    def _start(self, x: np.ndarray, p: np.ndarray) -> None:
         if x.shape != (6,) or p.shape != (6, 6):
             raise InvalidParameterError(f"one filter needs x0 (6,) and P0 (6, 6), got {x.shape}, {p.shape}")
         self.x, self.P = x, p
-        self._mus = np.asarray(model.mu_perturbers, dtype=float)
-        self._q: dict[float, np.ndarray] = {}
+        self._mus = np.asarray(self.model.mu_perturbers, dtype=float)
         self._gate = {m: self.config.gate_threshold(m) for m in (1, 2, 3)}
         self.rejected = 0
         self._h = np.empty(3)
@@ -501,11 +488,6 @@ class SingleEKF:
         self._phi = np.empty((6, 6))
         self._tmp = np.empty((6, 6))
         self._uw = np.empty((5, 6, 6))
-
-    def q(self, dt: float) -> np.ndarray:
-        if dt not in self._q:
-            self._q[dt] = process_noise(dt, self.config.accel_psd)
-        return self._q[dt]
 
     def _pert(self, t: float, dt: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         if not self.model.n_perturbers:
