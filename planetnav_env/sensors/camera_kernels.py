@@ -120,6 +120,31 @@ def _camera_los(
     return dist, _OK
 
 
+@row_kernel
+def _target_los(
+    r: np.ndarray,
+    q: np.ndarray,
+    t: np.ndarray,
+    i: int,
+    rt: float,
+    c2b: np.ndarray,
+    m: np.ndarray,
+    u: np.ndarray,
+) -> tuple[float, int]:
+    """:func:`_camera_los` to target ``t[i]`` of radius ``rt`` [km], then the target's own checks (finite,
+    positive radius, spacecraft outside it): the one entry of both row kernels. Returns (L [km], status)."""
+    dist, st = _camera_los(r, q, t, i, c2b, m, u)
+    if st != _OK:
+        return dist, st
+    if not math.isfinite(rt):
+        return dist, _ERR_NONFINITE
+    if rt <= 0.0:
+        return dist, _ERR_RADIUS
+    if dist <= rt:
+        return dist, _ERR_INSIDE_TARGET
+    return dist, _OK
+
+
 #: Slots of the per-element visibility record written by :func:`visibility_row_kernel`.
 V_REASON, V_IN_FOV, V_SUN_EX, V_OCCULTED, V_SMALL, V_OCCULTER, V_ALPHA, V_ANG_B, V_ANG_T, V_PIX_X, V_PIX_Y = (
     range(11)
@@ -152,15 +177,9 @@ def visibility_row_kernel(
     occulter -2 the Sun, -1 none, else k). ``m`` (3, 3) and ``u`` (6,) are scratch. Returns a status
     (``_OK`` or an ``_ERR_*`` code). Allocates nothing.
     """
-    dist, st = _camera_los(r, q, t, i, c2b, m, u)
+    dist, st = _target_los(r, q, t, i, rt, c2b, m, u)
     if st != _OK:
         return st
-    if not math.isfinite(rt):
-        return _ERR_NONFINITE
-    if rt <= 0.0:
-        return _ERR_RADIUS
-    if dist <= rt:
-        return _ERR_INSIDE_TARGET
     f_px, cx, cy, w, h = p[_P_FPX], p[_P_CX], p[_P_CY], p[_P_W], p[_P_H]
     excl, min_px, r_sun = p[_P_EXCL], p[_P_MINPX], p[_P_RSUN]
     a = 2.0 * math.asin(rt / dist)
@@ -301,15 +320,9 @@ def measure_row_kernel(
     (2,) [mm] and ``pix`` (2,) [px]; returns (status, noisy angular diameter, true angular diameter)
     [rad]. ``m`` (3, 3) and ``u`` (6,) are scratch. Allocates nothing.
     """
-    dist, st = _camera_los(r, q, t, i, c2b, m, u)
+    dist, st = _target_los(r, q, t, i, rt, c2b, m, u)
     if st != _OK:
         return st, 0.0, 0.0
-    if not math.isfinite(rt):
-        return _ERR_NONFINITE, 0.0, 0.0
-    if rt <= 0.0:
-        return _ERR_RADIUS, 0.0, 0.0
-    if dist <= rt:
-        return _ERR_INSIDE_TARGET, 0.0, 0.0
     f_px, cx, cy, f_mm = p[_P_FPX], p[_P_CX], p[_P_CY], p[_P_FMM]
     s_dir, s_alpha = p[_P_SDIR], p[_P_SALPHA]
     a = 2.0 * math.asin(rt / dist)
@@ -374,22 +387,15 @@ def _measure_kernel(
     return _OK, -1, los, alpha, mm, pix, los_true, alpha_true
 
 
+# The two wrappers below forward their arguments unchanged (names, units and shapes as in the kernel they
+# call, so not annotated again here); they exist for callers that want plain arrays back.
+
+
 @njit(cache=True, nogil=True)
-def visibility_codes_kernel(
-    r: np.ndarray,
-    q: np.ndarray,
-    t: np.ndarray,
-    trad: np.ndarray,
-    occ: np.ndarray,
-    occ_rad: np.ndarray,
-    include_sun: bool,
-    c2b: np.ndarray,
-    p: np.ndarray,
-    out: np.ndarray,
-) -> int:
-    """Reason codes only (into ``out``), for callers inside a step loop: returning the full result
-    tuple boxes ten arrays, which costs more than the geometry. Same semantics as
-    :func:`_visibility_kernel` with occulters shared by the batch; returns its status."""
+def visibility_codes_kernel(r, q, t, trad, occ, occ_rad, include_sun, c2b, p, out) -> int:
+    """Reason codes only (into ``out`` (n,)) of :func:`_visibility_kernel` with occulters shared by the
+    batch (``occ[0]`` (K, 3) for every element); returns its status. Unboxed: returning the full result
+    tuple boxes ten arrays, which costs more than the geometry."""
     st, _, res = _visibility_kernel(r, q, t, trad, occ, occ_rad, False, include_sun, c2b, p)
     if st == _OK:
         for i in range(out.shape[0]):
@@ -398,20 +404,10 @@ def visibility_codes_kernel(
 
 
 @njit(cache=True, nogil=True)
-def measure_into_kernel(
-    r: np.ndarray,
-    q: np.ndarray,
-    t: np.ndarray,
-    trad: np.ndarray,
-    z: np.ndarray,
-    c2b: np.ndarray,
-    p: np.ndarray,
-    los_out: np.ndarray,
-    alpha_out: np.ndarray,
-    pix_out: np.ndarray,
-) -> int:
-    """:func:`_measure_kernel` writing the noisy body-frame LOS, angular diameter and pixel of
-    element 0..n-1 into caller arrays (no boxing); returns its status."""
+def measure_into_kernel(r, q, t, trad, z, c2b, p, los_out, alpha_out, pix_out) -> int:
+    """:func:`_measure_kernel` writing the noisy body-frame LOS ``los_out`` (n, 3), angular diameter
+    ``alpha_out`` (n,) [rad] and pixel ``pix_out`` (n, 2) of element 0..n-1 into caller arrays (no boxing);
+    returns its status."""
     st, _, los, alpha, _, pix, _, _ = _measure_kernel(r, q, t, trad, z, c2b, p)
     if st == _OK:
         for i in range(los.shape[0]):
