@@ -52,24 +52,14 @@ from planetnav_env.errors import (
     NotVisibleError,
     require_finite,
 )
+from planetnav_env.sensors import camera_geometry
 from planetnav_env.sensors.camera_config import (
     ARCSEC_RAD,
     DEFAULT_CAMERA,
     DEFAULT_CAMERA_TO_BODY,
     CameraConfig,
 )
-from planetnav_env.sensors.camera_geometry import (
-    apparent_diameter,
-    apparent_diameter_model,
-    body_to_camera,
-    camera_to_body,
-    camera_to_image_mm,
-    camera_to_pixel,
-    inertial_to_camera,
-    on_sensor,
-    pixel_to_camera,
-    sun_angle,
-)
+from planetnav_env.sensors.camera_geometry import *  # noqa: F403 - the geometry is part of this API
 from planetnav_env.sensors.camera_kernels import (
     _ERR_INSIDE_OCC,
     _ERR_INSIDE_TARGET,
@@ -92,19 +82,11 @@ __all__ = [
     "CameraMeasurement",
     "VisibilityReason",
     "VisibilityResult",
-    "apparent_diameter",
-    "apparent_diameter_model",
-    "body_to_camera",
-    "camera_to_body",
-    "camera_to_image_mm",
-    "camera_to_pixel",
-    "inertial_to_camera",
     "measure",
-    "on_sensor",
-    "pixel_to_camera",
-    "sun_angle",
     "visibility",
 ]
+#: The geometry helpers, re-exported as they are listed at their home (one list, in camera_geometry).
+__all__ += camera_geometry.__all__
 
 #: ``VisibilityResult.occulter`` when nothing hides the target / when the Sun does.
 NO_OCCULTER = -1
