@@ -51,7 +51,7 @@ from planetnav_env.config import EnvConfig
 from planetnav_env.errors import ConfigError
 from planetnav_rl import require_ray
 from planetnav_train.algorithms import algo_kwargs
-from planetnav_train.config import ROOT, TrainConfig, is_rllib_algo, parse_config
+from planetnav_train.config import ROOT, TrainConfig, is_rllib_algo, parse_config, read_yaml_mapping
 from planetnav_train.envs import make_training_env
 from planetnav_train.evaluate import evaluate_agent
 
@@ -140,12 +140,7 @@ def load_sweep(path: str | Path) -> SweepConfig:
     key (each is set to a representative value and the result validated like ``train.py train`` would),
     so that a bad algo or key fails here, before Ray starts."""
     path = Path(path)
-    if not path.is_file():
-        raise ConfigError(f"no sweep configuration file {path}")
-    with open(path) as fh:
-        data = yaml.safe_load(fh) or {}
-    if not isinstance(data, Mapping):
-        raise ConfigError(f"{path}: expected a mapping at the top level")
+    data = read_yaml_mapping(path, "sweep configuration file")
     known = {f.name for f in dataclasses.fields(SweepConfig)} - {"base_config"}
     unknown = sorted(set(data) - known)
     if unknown:
@@ -174,8 +169,7 @@ def load_sweep(path: str | Path) -> SweepConfig:
     base_path = (path.parent / sc.base) if not Path(sc.base).is_absolute() else Path(sc.base)
     if not base_path.is_file():
         raise ConfigError(f"{path}: base training configuration {sc.base!r} not found at {base_path}")
-    with open(base_path) as fh:
-        base = yaml.safe_load(fh) or {}
+    base = dict(read_yaml_mapping(base_path, "base training configuration"))
     base.setdefault("name", sc.name)
     sc.base_config = _merge(base, sc.train or {})
     try:

@@ -185,15 +185,23 @@ def resolve_config_path(path: str | Path) -> Path:
     return p if p.is_absolute() or p.is_file() else ROOT / p
 
 
-def load_config(path: str | Path) -> TrainConfig:
-    """Read and validate a YAML training configuration; the run name defaults to the file's stem."""
-    path = Path(path)
+def read_yaml_mapping(path: Path, what: str) -> Mapping[str, Any]:
+    """The top-level mapping of the YAML file ``path`` (an empty file reads as ``{}``), or a ConfigError:
+    ``no {what} {path}`` when the file is missing, or naming the file when its top level is not a mapping.
+    The one reader of the training and sweep configuration files."""
     if not path.is_file():
-        raise ConfigError(f"no configuration file {path}")
+        raise ConfigError(f"no {what} {path}")
     with open(path) as fh:
         data = yaml.safe_load(fh) or {}
     if not isinstance(data, Mapping):
         raise ConfigError(f"{path}: expected a mapping at the top level")
+    return data
+
+
+def load_config(path: str | Path) -> TrainConfig:
+    """Read and validate a YAML training configuration; the run name defaults to the file's stem."""
+    path = Path(path)
+    data = read_yaml_mapping(path, "configuration file")
     try:
         return parse_config(data, name=path.stem)
     except ConfigError as exc:
