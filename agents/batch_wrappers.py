@@ -69,6 +69,20 @@ class Rows:
     observation_space: spaces.Space
     action_space: spaces.Space
 
+    def __init__(
+        self,
+        num_rows: int,
+        config: EnvConfig,
+        core_params: Any,
+        observation_space: spaces.Space,
+        action_space: spaces.Space,
+    ) -> None:
+        self.num_rows = num_rows
+        self.config = config
+        self.core_params = core_params
+        self.observation_space = observation_space
+        self.action_space = action_space
+
     def reset_rows(self, mask: np.ndarray, seed: Any = None, options: dict | None = None) -> None:
         raise NotImplementedError
 
@@ -100,12 +114,10 @@ class RowsWrapper(Rows):
     """A layer over ``inner``: delegates everything it does not change."""
 
     def __init__(self, inner: Rows) -> None:
+        super().__init__(
+            inner.num_rows, inner.config, inner.core_params, inner.observation_space, inner.action_space
+        )
         self.inner = inner
-        self.num_rows = inner.num_rows
-        self.config = inner.config
-        self.core_params = inner.core_params
-        self.observation_space = inner.observation_space
-        self.action_space = inner.action_space
 
     def reset_rows(self, mask: np.ndarray, seed: Any = None, options: dict | None = None) -> None:
         self.inner.reset_rows(mask, seed, options)
@@ -129,17 +141,22 @@ class RowsWrapper(Rows):
         return self.inner.row_info(row)
 
 
-class VectorRows(Rows):
+class VectorRows(RowsWrapper):
     """The native vector env's rows (its public accessors; it must not autoreset: the layers and the
-    adapters reset finished rows themselves)."""
+    adapters reset finished rows themselves). The vector env has ``step_rows``, ``observations`` and
+    ``filter_state`` with the meaning :class:`Rows` gives them, so they pass through to it as to any inner
+    layer; the other accessors have other names there."""
 
     def __init__(self, venv: Any) -> None:
-        self.venv = venv
-        self.num_rows = venv.num_envs
-        self.config = venv.config
-        self.core_params = venv.core_params
-        self.observation_space = venv.single_observation_space
-        self.action_space = venv.single_action_space
+        Rows.__init__(
+            self,
+            venv.num_envs,
+            venv.config,
+            venv.core_params,
+            venv.single_observation_space,
+            venv.single_action_space,
+        )
+        self.inner = self.venv = venv
 
     def reset_rows(self, mask: np.ndarray, seed: Any = None, options: dict | None = None) -> None:
         mask = np.asarray(mask, dtype=bool)
@@ -148,20 +165,11 @@ class VectorRows(Rows):
         else:
             self.venv.reset(seed=seed, options={**(options or {}), "reset_mask": mask})
 
-    def step_rows(self, actions: Any, active: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        return self.venv.step_rows(actions, active)
-
-    def observations(self) -> Any:
-        return self.venv.observations()
-
     def measured(self) -> np.ndarray:
         return self.venv.measured_flags()
 
     def targets(self) -> np.ndarray:
         return self.venv.current_targets()
-
-    def filter_state(self) -> tuple[np.ndarray, np.ndarray]:
-        return self.venv.filter_state()
 
     def row_info(self, row: int) -> dict[str, Any]:
         return self.venv.info_row(row)
@@ -172,12 +180,10 @@ class SingleEnvRows(Rows):
     needs from the env's step results (``info``), so any Gymnasium wrapper may sit in between."""
 
     def __init__(self, env: gym.Env) -> None:
+        super().__init__(
+            1, unwrapped_config(env), env.unwrapped.core_params, env.observation_space, env.action_space
+        )
         self.env = env
-        self.num_rows = 1
-        self.config = unwrapped_config(env)
-        self.core_params = env.unwrapped.core_params
-        self.observation_space = env.observation_space
-        self.action_space = env.action_space
         self._obs: Any = None
         self._info: dict[str, Any] = {}
 
