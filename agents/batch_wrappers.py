@@ -38,6 +38,7 @@ from __future__ import annotations
 
 import warnings
 from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import gymnasium as gym
@@ -321,25 +322,40 @@ class RelativeTargetRows(RowsWrapper):
         return self.inner.step_rows(env_actions, active)
 
 
-def training_rows(
-    inner: Rows,
-    features: Sequence[str] = (),
-    action_repeat: int = 1,
-    relative_actions: bool = False,
-    pointing: float | None = None,
-    gamma: float = 0.99,
-) -> Rows:
-    """``inner`` with the recipe's options in their order: the pointing shaping of weight ``pointing``
-    [reward units] and discount ``gamma`` (None / 0: none), the observation ``features``, ``action_repeat``
-    steps per decision, relative target actions."""
-    rows = inner
-    if pointing:
-        rows = PointingShapingRows(rows, pointing, gamma)
-    if features:
-        rows = FeatureRows(rows, features)
-    if check_action_repeat(action_repeat) > 1:
-        rows = ActionRepeatRows(rows, action_repeat)
-    return RelativeTargetRows(rows) if relative_actions else rows
+@dataclass(frozen=True)
+class TrainingOptions:
+    """The training recipe's options over the environment (``docs/training.md``): the one list of them,
+    whose fields (positionally in this order, or by keyword) are the options of :func:`training_rows`,
+    :func:`single_training_env` and :class:`planetnav_agents.vec_training.NavTrainingVecEnv`.
+
+    ``features``: observation features appended (``since_measured``, ``gain``, ``pd_torque``);
+    ``action_repeat``: environment steps per decision; ``relative_actions``: "stay" / "move k places"
+    target actions; ``pointing``: the pointing shaping's weight [reward units] (None / 0: none);
+    ``gamma``: its discount (the algorithm's). The layers validate them.
+    """
+
+    features: Sequence[str] = ()
+    action_repeat: int = 1
+    relative_actions: bool = False
+    pointing: float | None = None
+    gamma: float = 0.99
+
+    def stack(self, inner: Rows) -> Rows:
+        """``inner`` with these options in the recipe's order: the pointing shaping, the features,
+        action repeat, relative target actions."""
+        rows = inner
+        if self.pointing:
+            rows = PointingShapingRows(rows, self.pointing, self.gamma)
+        if self.features:
+            rows = FeatureRows(rows, self.features)
+        if check_action_repeat(self.action_repeat) > 1:
+            rows = ActionRepeatRows(rows, self.action_repeat)
+        return RelativeTargetRows(rows) if self.relative_actions else rows
+
+
+def training_rows(inner: Rows, *args: Any, **kwargs: Any) -> Rows:
+    """``inner`` with the recipe's options (:class:`TrainingOptions`' fields) stacked in their order."""
+    return TrainingOptions(*args, **kwargs).stack(inner)
 
 
 class RowsEnv(gym.Wrapper):
@@ -368,20 +384,11 @@ class RowsEnv(gym.Wrapper):
         return obs, float(reward[0]), bool(terminated[0]), bool(truncated[0]), self.rows.row_info(0)
 
 
-def single_training_env(
-    env: gym.Env,
-    features: Sequence[str] = (),
-    action_repeat: int = 1,
-    relative_actions: bool = False,
-    pointing: float | None = None,
-    gamma: float = 0.99,
-) -> RowsEnv:
-    """A single planetnav env with the recipe's options (:func:`training_rows`, N = 1): what each env of
-    SB3's ``DummyVecEnv`` path runs (``vec_env: dummy``)."""
-    return RowsEnv(
-        env,
-        lambda rows: training_rows(rows, features, action_repeat, relative_actions, pointing, gamma),
-    )
+def single_training_env(env: gym.Env, *args: Any, **kwargs: Any) -> RowsEnv:
+    """A single planetnav env with the recipe's options (:class:`TrainingOptions`' fields; the stack of
+    :func:`training_rows` with N = 1): what each env of SB3's ``DummyVecEnv`` path runs
+    (``vec_env: dummy``)."""
+    return RowsEnv(env, TrainingOptions(*args, **kwargs).stack)
 
 
 # ------------------------------------------------------------------------------------------------

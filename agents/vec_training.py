@@ -2,7 +2,7 @@
 
 :class:`NavTrainingVecEnv` is :class:`planetnav_env.sb3_vec.PlanetNavSB3VecEnv` (the compiled vector
 environment as a Stable-Baselines3 ``VecEnv``) with the recipe's options (``docs/training.md``) stacked
-over its rows by :func:`planetnav_agents.batch_wrappers.training_rows`: the pointing shaping, the
+over its rows by :meth:`planetnav_agents.batch_wrappers.TrainingOptions.stack`: the pointing shaping, the
 observation features (``since_measured``, ``gain``, ``pd_torque``), action repeat and relative target
 actions. Those layers are the only implementation of the options; a single env runs them with N = 1
 (:func:`planetnav_agents.batch_wrappers.single_training_env`), so row ``i`` here equals that single env
@@ -15,12 +15,11 @@ its last observation travels in ``infos[i]["terminal_observation"]`` (SB3's conv
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
 
-from planetnav_agents.batch_wrappers import VectorRows, training_rows
+from planetnav_agents.batch_wrappers import TrainingOptions, VectorRows
 from planetnav_agents.features import FEATURES
 from planetnav_env.config import EnvConfig
 from planetnav_env.sb3_vec import INFO_KEYS, PlanetNavSB3VecEnv
@@ -32,8 +31,12 @@ NATIVE_FEATURES = FEATURES
 class NavTrainingVecEnv(PlanetNavSB3VecEnv):
     """``num_envs`` rows of the compiled vector env with the recipe's options (module docstring).
 
-    features, action_repeat, relative_actions: as the config keys of the same names; pointing: the
-    pointing shaping's weight [reward units] (None: no shaping), gamma: its discount (the algorithm's).
+    After ``num_envs``, ``config`` and ``seed``: the recipe's options, the fields of
+    :class:`planetnav_agents.batch_wrappers.TrainingOptions` (``features``, ``action_repeat``,
+    ``relative_actions``: as the config keys of the same names; ``pointing``: the pointing shaping's weight
+    [reward units], None: no shaping; ``gamma``: its discount, the algorithm's), positionally or by keyword;
+    ``options`` holds them.
+
     Wrap it in SB3's ``VecMonitor``: episode lengths and returns are then counted in decisions, as
     ``Monitor`` counts them on single envs.
     """
@@ -43,20 +46,16 @@ class NavTrainingVecEnv(PlanetNavSB3VecEnv):
         num_envs: int,
         config: EnvConfig | dict | None = None,
         seed: int | None = None,
-        features: Sequence[str] = (),
-        action_repeat: int = 1,
-        relative_actions: bool = False,
-        pointing: float | None = None,
-        gamma: float = 0.99,
+        *args: Any,
+        **kwargs: Any,
     ) -> None:
         super().__init__(num_envs, config, seed=seed)
-        self.rows = training_rows(
-            VectorRows(self.venv), features, action_repeat, relative_actions, pointing, gamma
-        )
-        self.features = tuple(features)
-        self.action_repeat = int(action_repeat)
-        self.relative_actions = bool(relative_actions)
-        self.pointing = pointing
+        self.options = TrainingOptions(*args, **kwargs)
+        self.rows = self.options.stack(VectorRows(self.venv))
+        self.features = tuple(self.options.features)
+        self.action_repeat = int(self.options.action_repeat)
+        self.relative_actions = bool(self.options.relative_actions)
+        self.pointing = self.options.pointing
         self.observation_space = self.rows.observation_space
         self._all = np.ones(self.num_envs, dtype=bool)
         self._all.flags.writeable = False
