@@ -5,6 +5,11 @@ same run, plus the training env alone (seeded random actions, no learning).
     python benchmarks/bench_train_modes.py                    # configs/torque.yaml, 2 PPO updates per path
     python benchmarks/bench_train_modes.py --quick            # 1 short update per path (~1 min)
     python benchmarks/bench_train_modes.py --config configs/target_torque.yaml --n-envs 8 32
+    python benchmarks/bench_train_modes.py --config configs/torque_control.yaml old.yaml --quick  # 2 configs
+
+Several configs (or ``--n-envs`` values) are timed in the same run, so that they share the machine's load;
+each line also prints this process's CPU time over the wall time of its PPO runs (below 1: other processes
+took the CPU) and the load average, since the rates on a shared machine scale with both.
 
 Both paths run the same option layers (``planetnav_agents.batch_wrappers``: the torque recipe's
 ``pd_torque`` feature and pointing shaping included), which ``tests/test_vec_training.py`` holds equal:
@@ -17,6 +22,7 @@ training on the native path. The rate counts environment steps (decisions x ``ac
 from __future__ import annotations
 
 import argparse
+import os
 import time
 
 import numpy as np
@@ -43,46 +49,65 @@ def env_rate(tc: TrainConfig, vec_env: str, decisions: int) -> float:
 
 
 def config(path: str, n_envs: int | None, quick: bool) -> TrainConfig:
-    """The training config of ``path`` with ``n_envs`` rows (None: the file's); ``quick``: 128-step
-    rollouts."""
+    """The training config of ``path`` with ``n_envs`` rows (None: the file's); ``quick``: rollouts of at
+    most 128 steps (a config's shorter ones are kept)."""
     tc = load_config(path)
     if n_envs is not None:
         tc.n_envs = n_envs
     if quick:
-        tc.hyperparams["n_steps"] = 128
-        tc.hyperparams["batch_size"] = min(int(tc.hyperparams.get("batch_size", 64)), 128 * tc.n_envs)
+        n_steps = min(int(tc.hyperparams.get("n_steps", 2048)), 128)
+        tc.hyperparams["n_steps"] = n_steps
+        tc.hyperparams["batch_size"] = min(int(tc.hyperparams.get("batch_size", 64)), n_steps * tc.n_envs)
     return tc
+
+
+def timed_rate(tc: TrainConfig, vec_env: str, decisions: int) -> tuple[float, float]:
+    """(env steps/s of PPO training, this process's CPU seconds / wall seconds) on the ``vec_env`` path."""
+    cpu, wall = time.process_time(), time.perf_counter()
+    steps_per_s = rate(tc, vec_env, decisions)
+    return steps_per_s, (time.process_time() - cpu) / (time.perf_counter() - wall)
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--config", default="configs/torque.yaml")
+    ap.add_argument("--config", nargs="+", default=["configs/torque.yaml"], help="one or more configs")
     ap.add_argument("--updates", type=int, default=2, help="PPO rollouts + updates timed per path")
     ap.add_argument("--n-envs", type=int, nargs="*", default=[None], help="rows (default: the config's)")
     ap.add_argument("--quick", action="store_true", help="one 128-step rollout + update per path")
     args = ap.parse_args()
     updates = 1 if args.quick else args.updates
-    print("| config | env rows | training env | PPO env steps/s (env + learning) | env alone | ratio |")
-    print("|---|---|---|---|---|---|")
-    for n_envs in args.n_envs:
-        tc = config(args.config, n_envs, args.quick)
-        per_update = int(tc.hyperparams.get("n_steps", 2048)) * tc.n_envs
-        decisions = updates * per_update
-        # Warm-up: compile the kernels and build torch's caches outside the timing.
-        rate(config(args.config, n_envs, args.quick), "native", per_update)
-        results = {}
-        for path in ("native", "dummy"):
-            ppo = rate(config(args.config, n_envs, args.quick), path, decisions)
-            alone = env_rate(config(args.config, n_envs, args.quick), path, decisions)
-            results[path] = (ppo, alone)
-        base = results["dummy"][0]
-        names = {"native": "native vector env", "dummy": "DummyVecEnv of single envs"}
-        for path in ("dummy", "native"):
-            ppo, alone = results[path]
-            row = f"| {args.config} | {tc.n_envs} | {names[path]} | {ppo:,.0f} | {alone:,.0f} |"
-            print(f"{row} {ppo / base:.2f}x |")
     print(
-        f"{updates} PPO update(s) of n_steps x n_envs decisions per path, action_repeat {tc.action_repeat}. "
+        "| config | env rows | n_steps, batch, epochs | training env | PPO env steps/s (env + learning) "
+        "| CPU / wall | env alone | ratio to the first DummyVecEnv line |"
+    )
+    print("|---|---|---|---|---|---|---|---|")
+    # Warm-up of both paths: compile the kernels (the serial and the threaded step, the single env's) and
+    # build torch's caches outside the timing; without it the first path timed pays seconds of compiling.
+    for warm_rows in (1, 16, 256):
+        for path in ("native", "dummy"):
+            tc = config(args.config[0], warm_rows, True)
+            tc.hyperparams.update(n_steps=8, batch_size=8 * warm_rows, n_epochs=1)
+            rate(tc, path, 8 * warm_rows)
+    base = None
+    for path_cfg in args.config:
+        for n_envs in args.n_envs:
+            tc = config(path_cfg, n_envs, args.quick)
+            hp = tc.hyperparams
+            decisions = updates * int(hp.get("n_steps", 2048)) * tc.n_envs
+            for path in ("dummy", "native"):
+                ppo, cpu = timed_rate(config(path_cfg, n_envs, args.quick), path, decisions)
+                alone = env_rate(config(path_cfg, n_envs, args.quick), path, decisions)
+                base = base or ppo
+                names = {"native": "native vector env", "dummy": "DummyVecEnv of single envs"}
+                print(
+                    f"| {path_cfg} | {tc.n_envs} | {hp.get('n_steps')}, {hp.get('batch_size')}, "
+                    f"{hp.get('n_epochs', 10)} | {names[path]} | {ppo:,.0f} | {cpu:.2f} | {alone:,.0f} "
+                    f"| {ppo / base:.2f}x |",
+                    flush=True,
+                )
+    print(
+        f"{updates} PPO update(s) of n_steps x n_envs decisions per path; load average "
+        f"{', '.join(f'{x:.1f}' for x in os.getloadavg())} over {os.cpu_count()} CPUs at the end. "
         "Target (issue 18): native torque-mode PPO training >= 20,000 env steps/s."
     )
 

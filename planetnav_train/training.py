@@ -103,7 +103,16 @@ def train(tc: TrainConfig, run_dir: Path, progress: bool = True) -> tuple[Path, 
         pretrain_stats.update(samples=len(obs), nll=nll, seconds=time.perf_counter() - t0)
         print(f"pretrained on {len(obs)} decisions of {teacher} (final NLL {nll:.2f})")
     callback = _nav_callback_class()()
-    model.learn(total_timesteps=tc.n_timesteps, callback=callback, progress_bar=progress, tb_log_name=tc.algo)
+    interrupted = False
+    try:
+        model.learn(
+            total_timesteps=tc.n_timesteps, callback=callback, progress_bar=progress, tb_log_name=tc.algo
+        )
+    except KeyboardInterrupt:
+        # Ctrl-C (SIGINT) ends training early but keeps what it learnt: the model is saved and the run goes
+        # on to its evaluation, which then reports the steps actually trained (stats["interrupted"]).
+        interrupted = True
+        print(f"\ninterrupted at {model.num_timesteps} of {tc.n_timesteps} decisions: saving the model")
     elapsed = time.perf_counter() - t0
     model_path = run_dir / "model.zip"
     model.save(model_path)
@@ -120,5 +129,6 @@ def train(tc: TrainConfig, run_dir: Path, progress: bool = True) -> tuple[Path, 
         "steps_per_s": (env_steps + teacher_steps) / max(elapsed, 1e-9),
         "episodes": callback.episodes,
         "pretrain": pretrain_stats,
+        "interrupted": interrupted,
     }
     return model_path, stats
