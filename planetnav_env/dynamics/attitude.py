@@ -60,7 +60,7 @@ from numba import njit
 from planetnav_env import quaternion as qt
 from planetnav_env.codes import AttitudeStatus
 from planetnav_env.errors import InvalidParameterError, NonFiniteError, require_finite, require_positive
-from planetnav_env.jit import row_kernel
+from planetnav_env.jit import ROW_KERNEL_OPTIONS, row_kernel
 
 __all__ = [
     "AttitudeConfig",
@@ -357,7 +357,7 @@ STATUS_NONFINITE_RESULT = int(AttitudeStatus.NONFINITE_RESULT)
 STATUS_ZERO_DIRECTION = int(AttitudeStatus.ZERO_DIRECTION)
 
 
-@row_kernel
+@njit(inline="always", **ROW_KERNEL_OPTIONS)
 def plant_substep_kernel(
     y: np.ndarray,
     h_w: np.ndarray,
@@ -375,7 +375,10 @@ def plant_substep_kernel(
     limits -> RK4, in place on ``y = (q, omega)`` and ``h_w``; ``u`` receives the applied wheel torque.
 
     Every sub-step loop (open loop here, closed loop in :mod:`planetnav_env.attitude.pointing`) calls it,
-    so the plant is written once and the controller only chooses the command."""
+    so the plant is written once and the controller only chooses the command. Numba inlines it into its
+    callers (``inline="always"``, at numba's IR level: the arithmetic is the same): compiled as a function
+    of its own, this one extra call level per sub-step made every slewing or torque step of the core ~9 %
+    slower (issue 20; bisected to the commit that introduced it, numbers in README "Speed")."""
     wheel_torque_kernel(u_cmd, h_w, dt, tau_max, h_max, u)
     rk4_substep_kernel(y, h_w, u, u_ext, dt, jm, jinv, work)
 
