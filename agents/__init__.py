@@ -74,12 +74,16 @@ AGENTS: dict[str, Callable[..., Agent]] = {
     "baseline-size": functools.partial(BaselineAgent, criterion="size"),
     "greedy": GreedyAgent,
     "greedy-pd": greedy_pd,
-    "optimum": OptimumAgent,
     "periodic": PeriodicAgent,
     "planner": PlannerAgent,
     "random": RandomAgent,
     "idle": IdleAgent,
 }
+
+#: Agents that act only in an operations scenario (``config.operations``, e.g. ThrustArc-TCM): routed by
+#: name like :data:`AGENTS`, reported by :func:`not_applicable` elsewhere (kept out of :data:`AGENTS`, the
+#: agents every environment can run).
+OPERATIONS_AGENTS: dict[str, Callable[..., Agent]] = {"optimum": OptimumAgent}
 
 #: Agents that need the environment's "camera off" action (the harness builds their env with it).
 NEEDS_IDLE_ACTION = frozenset({"idle"})
@@ -118,6 +122,11 @@ def _accepted_keys(factory: Callable[..., Agent]) -> list[str]:
     return [k for k in params if k not in {"self", "env", *fixed}]
 
 
+def _factory(name: str) -> Callable[..., Agent] | None:
+    """The constructor of a registered agent name (:data:`AGENTS` or :data:`OPERATIONS_AGENTS`)."""
+    return AGENTS.get(name, OPERATIONS_AGENTS.get(name))
+
+
 def parse_spec(spec: str | Path) -> tuple[str, dict[str, Any]]:
     """``"NAME:key=value,..."`` -> (NAME, {key: value}) for a registered NAME; anything else (a model
     path, ``PATH@sampled``) -> (spec, {}).
@@ -126,9 +135,9 @@ def parse_spec(spec: str | Path) -> tuple[str, dict[str, Any]]:
     """
     text = str(spec)
     name, sep, rest = text.partition(":")
-    if not sep or name not in AGENTS:
+    if not sep or _factory(name) is None:
         return text, {}
-    accepted = _accepted_keys(AGENTS[name])
+    accepted = _accepted_keys(_factory(name))
     params: dict[str, Any] = {}
     for item in filter(None, (p.strip() for p in rest.split(","))):
         key, eq, value = item.partition("=")
@@ -152,10 +161,12 @@ def not_applicable(name_or_path: str, config: EnvConfig) -> str | None:
     """Why agent ``name_or_path`` cannot act in an environment of ``config``, or None when it can.
 
     Only what is known before building the agent: ``idle`` needs the discrete "camera off" action, which
-    exists in ``target`` mode only. (A saved model whose spaces do not match raises
-    :class:`NotApplicableError` when it is built.)
+    exists in ``target`` mode only; an agent of :data:`OPERATIONS_AGENTS` needs ``config.operations``. (A
+    saved model whose spaces do not match raises :class:`NotApplicableError` when it is built.)
     """
     name, _ = parse_spec(name_or_path)
+    if name in OPERATIONS_AGENTS and config.operations is None:
+        return f"{name} needs an operations scenario (config.operations), e.g. planetnav/ThrustArc-TCM-v0"
     if name in NEEDS_IDLE_ACTION and config.action_mode != "target":
         return (
             f"{name} needs the discrete 'camera off' action, which only action_mode 'target' has "
@@ -173,7 +184,7 @@ def make_agent(name_or_path: str | Path, env: gym.Env, **kwargs: Any) -> Agent:
     key, params = parse_spec(name_or_path)
     if params:
         try:
-            agent = AGENTS[key](env, **params, **kwargs)
+            agent = _factory(key)(env, **params, **kwargs)
         except TypeError as exc:  # e.g. a keyword given both in the spec and in kwargs
             raise ValueError(f"agent spec {name_or_path!r}: {exc}") from None
         if agent.name == key:
@@ -184,19 +195,21 @@ def make_agent(name_or_path: str | Path, env: gym.Env, **kwargs: Any) -> Agent:
         # "PATH@sampled": the saved policy's actions are sampled, not its argmax (seeded by reset(seed)).
         key = key[: -len(SAMPLED_SUFFIX)]
         kwargs.setdefault("deterministic", False)
-    if key in AGENTS:
-        return AGENTS[key](env, **kwargs)
+    if _factory(key) is not None:
+        return _factory(key)(env, **kwargs)
     path = Path(key)
     if find_rllib_checkpoint(path) is not None:
         kwargs.pop("algo", None)  # an RLlib checkpoint names its own algorithm
         return RLlibAgent(path, env, **kwargs)
     if path.exists() or path.with_suffix(".zip").exists():
         return SB3Agent(path, env, **kwargs)
-    raise ValueError(f"unknown agent {key!r}: not one of {sorted(AGENTS)} and no model file at that path")
+    known = sorted({*AGENTS, *OPERATIONS_AGENTS})
+    raise ValueError(f"unknown agent {key!r}: not one of {known} and no model file at that path")
 
 
 __all__ = [
     "AGENTS",
+    "OPERATIONS_AGENTS",
     "Agent",
     "BaselineAgent",
     "GreedyAgent",

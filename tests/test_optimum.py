@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import planetnav_env  # noqa: F401  (registers the ids)
-from planetnav_agents import make_agent
+from planetnav_agents import make_agent, not_applicable
 from planetnav_agents.optimum import ScheduleSearch, periodic_sessions
 from planetnav_env.config import EnvConfig
 from planetnav_env.env import PlanetNavEnv
@@ -101,6 +101,9 @@ def test_bad_parameters_name_the_value(spec: str, match: str) -> None:
 def test_needs_an_operations_scenario() -> None:
     with pytest.raises(ValueError, match="optimum needs an operations scenario"):
         make_agent("optimum", PlanetNavEnv(episode_steps=5))
+    # The harness skips it there with the reason (it is not one of the agents every env can run).
+    assert "needs an operations scenario" in not_applicable("optimum:grid=3", EnvConfig())
+    assert not_applicable("optimum", _env().config) is None
 
 
 def test_compare_runs_optimum_from_the_shipped_config(tmp_path: Path) -> None:
