@@ -6,6 +6,7 @@ same run, plus the training env alone (seeded random actions, no learning).
     python benchmarks/bench_train_modes.py --quick            # 1 short update per path (~1 min)
     python benchmarks/bench_train_modes.py --config configs/target_torque.yaml --n-envs 8 32
     python benchmarks/bench_train_modes.py --config configs/torque_control.yaml old.yaml --quick  # 2 configs
+    python benchmarks/bench_train_modes.py --config configs/torque_control.yaml --profile  # where time goes
 
 Several configs (or ``--n-envs`` values) are timed in the same run, so that they share the machine's load;
 each line also prints this process's CPU time over the wall time of its PPO runs (below 1: other processes
@@ -24,6 +25,7 @@ from __future__ import annotations
 import argparse
 import os
 import time
+from pathlib import Path
 
 import numpy as np
 from bench_train import rate
@@ -68,14 +70,70 @@ def timed_rate(tc: TrainConfig, vec_env: str, decisions: int) -> tuple[float, fl
     return steps_per_s, (time.process_time() - cpu) / (time.perf_counter() - wall)
 
 
+def profile(tc: TrainConfig, decisions: int) -> dict[str, float]:
+    """Microseconds per environment step of native-path PPO training, split by ``cProfile`` into the
+    environment stack (``VecEnv.step``: compiled step, option layers, adapter, ``VecMonitor``), the rest of
+    the rollout (policy forward pass, rollout buffer, callbacks) and the update (``PPO.train``), over
+    ``decisions`` decisions after one warm-up update."""
+    import cProfile
+    import pstats
+
+    import torch
+
+    from planetnav_agents.sb3 import algorithm_class
+    from planetnav_train.algorithms import algo_kwargs
+
+    torch.set_num_threads(tc.torch_threads)
+    venv = make_training_env(tc, None)
+    model = algorithm_class(tc.algo)(
+        tc.policy, venv, seed=tc.seed, device="cpu", verbose=0, **algo_kwargs(tc)
+    )
+    model.learn(total_timesteps=int(tc.hyperparams.get("n_steps", 2048)) * tc.n_envs)  # warm-up
+    prof = cProfile.Profile()
+    prof.enable()
+    model.learn(total_timesteps=decisions)
+    prof.disable()
+    venv.close()
+    cum = {f"{Path(k[0]).name}:{k[2]}": v[3] for k, v in pstats.Stats(prof).stats.items()}  # type: ignore[attr-defined]
+    steps = model.num_timesteps * tc.action_repeat
+    rollout, env = cum["on_policy_algorithm.py:collect_rollouts"], cum["base_vec_env.py:step"]
+    return {
+        "environment stack": 1e6 * env / steps,
+        "rest of the rollout": 1e6 * (rollout - env) / steps,
+        "update": 1e6 * cum["ppo.py:train"] / steps,
+    }
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--config", nargs="+", default=["configs/torque.yaml"], help="one or more configs")
     ap.add_argument("--updates", type=int, default=2, help="PPO rollouts + updates timed per path")
     ap.add_argument("--n-envs", type=int, nargs="*", default=[None], help="rows (default: the config's)")
     ap.add_argument("--quick", action="store_true", help="one 128-step rollout + update per path")
+    ap.add_argument(
+        "--profile", action="store_true", help="only the native path, its time per env step split by cProfile"
+    )
     args = ap.parse_args()
     updates = 1 if args.quick else args.updates
+    if args.profile:
+        print(
+            "| config | env rows | n_steps, batch, epochs | us per env step: environment stack "
+            "| rest of the rollout | update | total (profiled) |"
+        )
+        print("|---|---|---|---|---|---|---|")
+        for path_cfg in args.config:
+            for n_envs in args.n_envs:
+                tc = config(path_cfg, n_envs, args.quick)
+                hp = tc.hyperparams
+                us = profile(tc, updates * int(hp.get("n_steps", 2048)) * tc.n_envs)
+                cells = " | ".join(f"{v:.1f}" for v in us.values())
+                print(
+                    f"| {path_cfg} | {tc.n_envs} | {hp.get('n_steps')}, {hp.get('batch_size')}, "
+                    f"{hp.get('n_epochs', 10)} | {cells} | {sum(us.values()):.1f} |",
+                    flush=True,
+                )
+        print(f"load average {', '.join(f'{x:.1f}' for x in os.getloadavg())} over {os.cpu_count()} CPUs")
+        return
     print(
         "| config | env rows | n_steps, batch, epochs | training env | PPO env steps/s (env + learning) "
         "| CPU / wall | env alone | ratio to the first DummyVecEnv line |"
