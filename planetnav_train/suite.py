@@ -60,17 +60,25 @@ DEFAULT_ASSISTS = ROOT / "configs" / "suite" / "assisted.yaml"
 @dataclass(frozen=True)
 class Objective:
     """How a task's objective (lower is better) is read from an evaluation's metrics
-    (:func:`planetnav_train.evaluate.evaluate_agent`): the mean over episodes of ``per_episode``."""
+    (:func:`planetnav_train.evaluate.evaluate_agent`): the mean over episodes of ``per_episode``. With
+    ``kind`` set, the evaluation's ``objective_kind`` must be it (an operations J read from an environment
+    without operations would silently be the mean position error)."""
 
     name: str
     per_episode: str  # the metrics key with one value per evaluation seed
     unit: str
     description: str
+    kind: str | None = None  # the evaluation's "objective_kind" this objective needs, when it needs one
 
     def values(self, metrics: Mapping[str, Any]) -> np.ndarray:
         """The objective's per-episode values from evaluation ``metrics``."""
         if self.per_episode not in metrics:
             raise ConfigError(f"objective {self.name!r}: the evaluation has no {self.per_episode!r}")
+        if self.kind is not None and metrics.get("objective_kind") != self.kind:
+            raise ConfigError(
+                f"objective {self.name!r} needs an evaluation of kind {self.kind!r}, got "
+                f"{metrics.get('objective_kind')!r}"
+            )
         return np.asarray(metrics[self.per_episode], dtype=float)
 
 
@@ -80,6 +88,16 @@ OBJECTIVES: dict[str, Objective] = {
         "per_episode_mean_pos_err_km",
         "km",
         "mean over the episode's steps of the true position error of the filter, averaged over the seeds",
+    ),
+    # The one definition of J is planetnav_train.evaluate.episode_objective (compare reports the same
+    # per_episode_objective): info["objective"] at the episode's end.
+    "operations_J_km": Objective(
+        "operations_J_km",
+        "per_episode_objective",
+        "km",
+        "the scenario's J at the episode's end (info['objective']: the knowledge mapped to the encounter at "
+        "each TCM deadline plus w x delta-v lost; docs/operations.md §3.2), averaged over the seeds",
+        kind="operations J",
     ),
 }
 
@@ -100,14 +118,16 @@ class Task:
     noise_streams: str = "per_step"  # common random numbers: every agent draws the same sensor noise
 
     def __post_init__(self) -> None:
-        if self.env_id not in ENV_IDS:
-            raise ConfigError(f"task {self.env_id!r}: not a registered id; the ids are {sorted(ENV_IDS)}")
-        if self.action_kind not in ACTION_KINDS:
-            raise ConfigError(f"task {self.id}: action_kind {self.action_kind!r} not in {ACTION_KINDS}")
-        if self.objective not in OBJECTIVES:
-            raise ConfigError(f"task {self.id}: objective {self.objective!r} not in {sorted(OBJECTIVES)}")
+        # Every field with a closed set of values, checked in one pass (one error names every bad value).
+        choices: dict[str, Sequence[str]] = {
+            "env_id": sorted(ENV_IDS), "action_kind": ACTION_KINDS, "objective": sorted(OBJECTIVES),
+        }  # fmt: skip
+        bad = [f"{k} {getattr(self, k)!r} is not one of {list(v)}" for k, v in choices.items()
+               if getattr(self, k) not in v]  # fmt: skip
         if self.budget < 1 or not self.references:
-            raise ConfigError(f"task {self.id}: needs a positive budget and at least one reference")
+            bad.append(f"budget {self.budget!r} must be >= 1 and references {self.references!r} non-empty")
+        if bad:
+            raise ConfigError(f"task {self.env_id!r}: " + "; ".join(bad))
 
     @property
     def id(self) -> str:
@@ -139,16 +159,27 @@ class Task:
 
 
 _TARGET_REFS = ("greedy", "periodic", "planner")
+#: Mars approach: one planet (periodic's cycles are over planets, so it has no schedule to run there).
+_APPROACH_REFS = ("greedy", "planner", "baseline")
 _TORQUE_REFS = ("greedy", "periodic", "planner", "baseline")
+#: Wheel torques at 1 s (issue 18): greedy's choice executed by the PD law (docs/training.md).
+_TORQUE_1S_REFS = ("greedy-pd",)
+#: The thrust arc (issue 17, docs/operations.md §7): the tuned periodic schedule (2-h sessions every 3 d
+#: from day 0.75), the tuned deadline-aware greedy and the open-loop optimum (§3.5); the lower J on the
+#: task's seeds is the best. Another candidate is one more entry here (only it is then evaluated).
+_THRUST_ARC_REFS = ("periodic:period=432,session=12,phase=108,cycle=0-1-2", "greedy:threshold=4", "optimum")
 #: The task list. Budgets: docs/suite.md ("Budgets") derives them from measured training speed so the
 #: published table (both tracks, 5 seeds) re-runs in under 8 hours on 2 cores.
 TASKS: tuple[Task, ...] = (
     Task("planetnav/Cruise-Target-v0", "discrete", 200_000, _TARGET_REFS),
     Task("planetnav/RandomCruise-Target-v0", "discrete", 200_000, _TARGET_REFS),
-    Task("planetnav/MarsApproach-Tasking-v0", "discrete", 200_000, _TARGET_REFS),
+    Task("planetnav/MarsApproach-Tasking-v0", "discrete", 200_000, _APPROACH_REFS),
     # Off-policy learners train at 120-190 env steps/s here even at one gradient step per 4 env steps.
     Task("planetnav/Cruise-Torque-v0", "continuous", 30_000, _TORQUE_REFS),
     Task("planetnav/Cruise-TargetTorque-v0", "continuous", 30_000, _TORQUE_REFS),
+    Task("planetnav/Cruise-TorqueControl-v0", "continuous", 30_000, _TORQUE_1S_REFS),
+    Task("planetnav/Cruise-Hybrid-v0", "continuous", 30_000, _TORQUE_1S_REFS),
+    Task("planetnav/ThrustArc-TCM-v0", "discrete", 100_000, _THRUST_ARC_REFS, objective="operations_J_km"),
 )
 TASKS_BY_ID: dict[str, Task] = {t.id: t for t in TASKS}
 
@@ -387,10 +418,13 @@ def rerun_command(cell: Cell, settings: Settings) -> str:
 # ---------------------------------------------------------------------------------------------------------
 
 
-def _eval_key(task: Task, settings: Settings) -> str:
-    """The reference cache's key: the task and the evaluation settings its values depend on."""
-    spec = json.dumps([task.to_dict(), settings.episode_steps, settings.eval_episodes, SUITE_VERSION])
-    return hashlib.sha256(spec.encode()).hexdigest()[:12]
+def _agent_key(task: Task, spec: str, settings: Settings) -> str:
+    """The reference cache's key of agent ``spec`` on ``task``: what its values depend on (the env, the
+    objective, the seeds, the episode length, the noise streams, the protocol), not the task's budget or
+    its other candidates, so adding a candidate evaluates that one agent only."""
+    what = [task.env_id, task.objective, spec, task.eval_seed, settings.eval_episodes or task.eval_episodes,
+            settings.episode_steps, task.noise_streams, SUITE_VERSION]  # fmt: skip
+    return hashlib.sha256(json.dumps(what).encode()).hexdigest()[:12]
 
 
 def _agent_summary(objective: Objective, metrics: Mapping[str, Any]) -> dict[str, Any]:
@@ -399,22 +433,35 @@ def _agent_summary(objective: Objective, metrics: Mapping[str, Any]) -> dict[str
     return {"objective": ci.mean, "ci95": [ci.low, ci.high], "per_episode": values.tolist()}
 
 
-def task_references(task: Task, settings: Settings) -> dict[str, Any]:
-    """The task's reference values on its evaluation seeds: every candidate and ``random`` with 95 %
-    t-intervals, and the best candidate (lowest objective). Cached in ``OUT/references/`` (computed once
-    per task and evaluation settings; the planner takes seconds per episode)."""
+def reference_agent(task: Task, spec: str, settings: Settings) -> dict[str, Any]:
+    """Agent ``spec``'s objective on ``task``'s evaluation seeds (mean, 95 % t-interval, per-episode
+    values, wall seconds), cached in ``OUT/references/agents/`` per agent (the planner and the 3,000-step
+    tasks take minutes per agent)."""
     from planetnav_train.evaluate import evaluate_agent
 
-    path = settings.out / "references" / f"{task.id}__{_eval_key(task, settings)}.json"
+    path = settings.out / "references" / "agents" / f"{task.id}__{_agent_key(task, spec, settings)}.json"
     if path.is_file():
         return json.loads(path.read_text())
-    objective = OBJECTIVES[task.objective]
+    env_cfg = task.eval_config(settings.episode_steps)
+    episodes = settings.eval_episodes or task.eval_episodes
+    t0 = time.perf_counter()
+    result = evaluate_agent(spec, env_cfg, episodes, task.eval_seed, progress=settings.progress)
+    summary = {"agent": spec, **_agent_summary(OBJECTIVES[task.objective], result.metrics),
+               "wall_seconds": time.perf_counter() - t0}  # fmt: skip
+    _write_json_atomic(path, summary)
+    return summary
+
+
+def task_references(task: Task, settings: Settings) -> dict[str, Any]:
+    """The task's reference values on its evaluation seeds: ``random`` and every candidate with 95 %
+    t-intervals (:func:`reference_agent`, cached per agent), and the best candidate: the one with the
+    lowest objective, chosen from the data. Written to ``OUT/references/<task>.json``."""
     env_cfg = task.eval_config(settings.episode_steps)
     episodes = settings.eval_episodes or task.eval_episodes
     agents = {}
     for spec in (task.random, *task.references):
-        result = evaluate_agent(spec, env_cfg, episodes, task.eval_seed, progress=settings.progress)
-        agents[spec] = _agent_summary(objective, result.metrics)
+        summary = reference_agent(task, spec, settings)
+        agents[spec] = {k: summary[k] for k in ("objective", "ci95", "per_episode")}
     best = min(task.references, key=lambda s: agents[s]["objective"])
     refs = {
         "task": task.id,
@@ -429,7 +476,7 @@ def task_references(task: Task, settings: Settings) -> dict[str, Any]:
         "J_random": agents[task.random]["objective"],
         "J_best": agents[best]["objective"],
     }
-    _write_json_atomic(path, refs)
+    _write_json_atomic(settings.out / "references" / f"{task.id}.json", refs)
     return refs
 
 
