@@ -23,6 +23,7 @@ import numpy as np
 
 import planetnav_env  # noqa: F401
 from planetnav_env.core import kernels as K
+from planetnav_env.core.records import Actions
 from planetnav_env.env import PlanetNavEnv
 from planetnav_env.vector_env import PlanetNavVectorEnv
 
@@ -81,9 +82,9 @@ def ceiling_per_core(
             return a.astype(np.int64), np.zeros((n, 3))
         return np.full(n, -1, dtype=np.int64), np.ascontiguousarray(a, dtype=float)
 
-    dec = [decoded(a) for a in acts]
-    args = (core.params, core.f, core.p, core.i, core.rng, core.eph, core.obs)
-    return _best_rate(lambda d: K.step_batch(*args, *d, active), dec, steps, n)
+    dec = [Actions(targets=t, torques=u, active=active) for t, u in (decoded(a) for a in acts)]
+    prm, st = core.params, core.state
+    return _best_rate(lambda act: K.step_batch(prm, st, act), dec, steps, n)
 
 
 def single_rate(mode: str, stream: str, steps: int) -> float:
@@ -160,8 +161,10 @@ def main() -> None:
     print()
     seq = ceiling_per_core(1024, "target", "held", row_steps)
     per = ceiling_per_core(1024, "target", "held", row_steps, "per_step")
-    print(f"noise_streams per_step (one SplitMix64 derivation per sensor and step): ceiling per core "
-          f"{per:,.0f} against sequential {seq:,.0f} row-steps/s, ratio {per / seq:.2f} (target, held)")
+    print(
+        f"noise_streams per_step (one SplitMix64 derivation per sensor and step): ceiling per core "
+        f"{per:,.0f} against sequential {seq:,.0f} row-steps/s, ratio {per / seq:.2f} (target, held)"
+    )
     print()
     print("Targets (issue 8): native at N >= 1024 >= 10x single for held targets, >= 4x for random actions;")
     print("~150,000 env steps/s held on a quiet machine; single env within 12x of CartPole.")

@@ -27,6 +27,7 @@ from planetnav_env.core import layout as L
 from planetnav_env.core import rng as crng
 from planetnav_env.core.ephemeris_table import SEGMENT_S, TableSpec, fit_table
 from planetnav_env.core.params import ARCSEC, ChannelPlan, build_params, episode_duration_s
+from planetnav_env.core.records import Actions, RowState
 from planetnav_env.dynamics.orbit import GravityModel
 from planetnav_env.ephemeris import DEEphemeris
 from planetnav_env.errors import NonFiniteError, PlanetNavError
@@ -37,12 +38,12 @@ from planetnav_env.scenarios import Episode, approach_episode, draw_episode
 PARALLEL_MIN_ROWS = 64
 
 
-
 def attitude_err_arcsec(att_rad: Any) -> Any:
     """The star tracker's attitude error [rad] in arcsec; a non-finite value (no star fix) reads NaN,
     never +-inf. Scalars and arrays alike (the single env's info and the vector env's)."""
     with np.errstate(invalid="ignore"):
         return np.where(np.isfinite(att_rad), np.asarray(att_rad) / ARCSEC, np.nan)
+
 
 def default_threads() -> int:
     """Threads for large batches: ``PLANETNAV_THREADS`` or the CPUs this process may use."""
@@ -106,6 +107,11 @@ class BatchCore:
         self.threads = default_threads() if n >= PARALLEL_MIN_ROWS else 1
         self._pool: ThreadPoolExecutor | None = None
 
+    @property
+    def state(self) -> RowState:
+        """The state arrays as the kernels' record (the arrays themselves, not copies)."""
+        return RowState(f=self.f, p=self.p, i=self.i, rng=self.rng, eph=self.eph, obs=self.obs)
+
     # ------------------------------------------------------------------------------------------
     def bytes_per_row(self) -> int:
         """Bytes of state one row holds (all arrays of the batch divided by the rows)."""
@@ -151,13 +157,13 @@ class BatchCore:
             self.p[r] = self._p0
             f[r, L.F_Q : L.F_Q + 4] = qt.normalize(gen.normal(size=4))
             self.rng[r] = crng.seed_state(gen)
-        K.reset_rows(self.params, f, self.p, self.i, self.rng, self.eph, self.obs, rows)
+        K.reset_rows(self.params, self.state, rows)
 
     def step(self, targets: np.ndarray, torques: np.ndarray, active: np.ndarray | None = None) -> None:
         """Advance the ``active`` rows (all by default) by one step with decoded actions: ``targets``
         (N,) int64 (-1: none) and ``torques`` (N, 3) float64 fractions of the wheel limit in [-1, 1]."""
-        act = self._all if active is None else active
-        args = (self.params, self.f, self.p, self.i, self.rng, self.eph, self.obs, targets, torques, act)
+        act = Actions(targets=targets, torques=torques, active=self._all if active is None else active)
+        args = (self.params, self.state, act)
         if self.threads > 1:
             # The kernels release the GIL; rows are independent, so the chunking changes no result.
             if self._pool is None:

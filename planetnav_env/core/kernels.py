@@ -3,10 +3,11 @@
 Every environment row ``n`` is advanced by :func:`step_row` and observed by :func:`observe_row`; the
 batch functions loop over a range of rows; :class:`~planetnav_env.core.batch.BatchCore` runs chunks of
 rows on Python threads (the kernels release the GIL). A row reads and writes
-only its own slices of the state arrays (``f``, ``p``, ``i``, ``rng``, ``eph``, ``obs``; columns in
-:mod:`planetnav_env.core.layout`), and its parameters are shared read-only: rows are independent, so
-the result does not depend on the batch size, the chunking or the thread, and the single environment
-(a batch of one) equals row ``n`` of the vector environment bit for bit.
+only its own slices of the state arrays (the record ``st``, :class:`~planetnav_env.core.records.RowState`:
+``f``, ``p``, ``i``, ``rng``, ``eph``, ``obs``; columns in :mod:`planetnav_env.core.layout`), and its
+parameters (``prm``, :class:`~planetnav_env.core.records.CoreParams`) are shared read-only: rows are
+independent, so the result does not depend on the batch size, the chunking or the thread, and the
+single environment (a batch of one) equals row ``n`` of the vector environment bit for bit.
 
 No Python objects and no allocation inside the row kernels (scratch space is allocated once per chunk
 and passed down as :class:`Scratch`): the same row kernels could run one row per GPU thread
@@ -121,9 +122,9 @@ def _pointing_settled(prm, f, n, sc) -> bool:  # pragma: no cover - compiled
 
 
 @row_kernel
-def step_row(prm, f, p, i, rng, eph, n, target, torque, sc) -> bool:  # pragma: no cover - compiled
-    """Advance row ``n`` by one step with the decoded action: ``target`` (planet/pulsar index, -1 for
-    none) and ``torque`` (3,) as a fraction of the wheel limit (ignored in ``target`` mode).
+def step_row(prm, st, n, target, torque, sc) -> bool:  # pragma: no cover - compiled
+    """Advance row ``n`` of the state ``st`` by one step with the decoded action: ``target`` (planet/pulsar
+    index, -1 for none) and ``torque`` (3,) as a fraction of the wheel limit (ignored in ``target`` mode).
 
     With an operations scenario (``ops``), target -1 is "stay at the mission attitude": the PD law points
     the thrust axis (the boresight) along the planned direction (the estimated velocity), and the thrust,
@@ -131,6 +132,7 @@ def step_row(prm, f, p, i, rng, eph, n, target, torque, sc) -> bool:  # pragma: 
 
     Returns True when ``sc.central`` and ``sc.planets`` hold the bodies at the row's new time (the
     camera branch evaluated them), so that :func:`observe_row` need not evaluate them again."""
+    f, p, i, rng, eph = st.f, st.p, st.i, st.rng, st.eph
     ps = prm.scalars[0]
     mode = ps.mode
     dt = ps.step_s
@@ -236,8 +238,8 @@ def step_row(prm, f, p, i, rng, eph, n, target, torque, sc) -> bool:  # pragma: 
     t = t + dt
 
     # --- sensors ---
-    star_fix_stage(prm, f, i, rng, n, sc)
-    rate_measurement(prm, f, i, rng, n, sc)
+    star_fix_stage(prm, st, n, sc)
+    rate_measurement(prm, st, n, sc)
     measured = False
     rejected = False
     reason = REASON_NONE
@@ -245,7 +247,7 @@ def step_row(prm, f, p, i, rng, eph, n, target, torque, sc) -> bool:  # pragma: 
     f[n, F_NIS] = np.nan
     eval_channel(prm, eph, f, n, t, ps.ch_central, sc.central)
     if target >= n_p:
-        measured, rejected, reason = time_pulsar(prm, f, p, i, rng, eph, n, target - n_p, t, sc)
+        measured, rejected, reason = time_pulsar(prm, st, n, target - n_p, t, sc)
         sensor = SENSOR_XRAY if measured else SENSOR_NONE
     else:
         planets_at(prm, eph, f, n, t, sc.planets)
@@ -262,11 +264,11 @@ def step_row(prm, f, p, i, rng, eph, n, target, torque, sc) -> bool:  # pragma: 
         if idx >= 0:
             for j in range(3):
                 sc.t1[0, j] = sc.planets[idx, j]
-            st = visibility_row_kernel(
+            vis_status = visibility_row_kernel(
                 sc.r1, sc.q1, sc.t1, 0, prm.radii[idx], sc.planets, prm.radii, True, prm.c2b, prm.cam,
                 sc.m, sc.u6, sc.vals,
             )  # fmt: skip
-            if st != 0:
+            if vis_status != 0:
                 i[n, I_STATUS] = STATUS_CAMERA
                 i[n, I_TERMINATED] = 1
                 return False
@@ -275,20 +277,21 @@ def step_row(prm, f, p, i, rng, eph, n, target, torque, sc) -> bool:  # pragma: 
             if reason == REASON_VISIBLE and sc.vals[V_ALPHA] > ps.alpha_max:
                 reason = REASON_TOO_LARGE
             if reason == REASON_VISIBLE:
-                measured, rejected = measure_planet(prm, f, p, i, rng, n, idx, sc)
+                measured, rejected = measure_planet(prm, st, n, idx, sc)
                 sensor = SENSOR_CAMERA
     i[n, I_MEASURED] = measured
     i[n, I_REJECTED] = rejected
     i[n, I_REASON] = reason
     i[n, I_SLEWING] = slewing
     i[n, I_SENSOR] = sensor
-    score_row(prm, f, p, i, n, torque, sc)
+    score_row(prm, st, n, torque, sc)
     return target < n_p  # the camera branch evaluated the planets at t (the pulsar branch does not)
 
 
 @row_kernel
-def reset_row(prm, f, p, i, rng, eph, obs, n, sc) -> None:  # pragma: no cover - compiled
-    """First star fix, rate measurement, errors and observation of a freshly drawn row."""
+def reset_row(prm, st, n, sc) -> None:  # pragma: no cover - compiled
+    """First star fix, rate measurement, errors and observation of the freshly drawn row ``n``."""
+    f, i = st.f, st.i
     i[n, I_K] = 0
     i[n, I_TARGET] = -1
     i[n, I_SKIPPED] = 0
@@ -307,43 +310,47 @@ def reset_row(prm, f, p, i, rng, eph, obs, n, sc) -> None:  # pragma: no cover -
         f[n, F_QE + j] = f[n, F_Q + j]  # a stale fix to keep if the first one fails
     if prm.scalars[0].ops:
         reset_operations(f, n)
-    star_fix_stage(prm, f, i, rng, n, sc)
-    rate_measurement(prm, f, i, rng, n, sc)
-    score_row(prm, f, p, i, n, sc.zero3, sc)
+    star_fix_stage(prm, st, n, sc)
+    rate_measurement(prm, st, n, sc)
+    score_row(prm, st, n, sc.zero3, sc)
     i[n, I_TERMINATED] = 0
     i[n, I_TRUNCATED] = 0
     f[n, F_REWARD] = 0.0
-    observe_row(prm, f, p, i, eph, obs, n, sc, False)
+    observe_row(prm, f, st.p, i, st.eph, st.obs, n, sc, False)
 
 
 @row_kernel
-def _step_rows(prm, f, p, i, rng, eph, obs, targets, torques, active, lo, hi, sc) -> None:  # pragma: no cover
+def _step_rows(prm, st, act, lo, hi, sc) -> None:  # pragma: no cover - compiled
     # The row loop itself is a row kernel: with reference counting, taking the view torques[n] would
     # touch the count of the torques array, shared by every thread, twice per row.
+    i = st.i
     for n in range(lo, hi):
-        if active[n]:
-            bodies_ready = step_row(prm, f, p, i, rng, eph, n, targets[n], torques[n], sc)
+        if act.active[n]:
+            bodies_ready = step_row(prm, st, n, act.targets[n], act.torques[n], sc)
             if i[n, I_STATUS] == STATUS_OK:
-                observe_row(prm, f, p, i, eph, obs, n, sc, bodies_ready)
+                observe_row(prm, st.f, st.p, i, st.eph, st.obs, n, sc, bodies_ready)
 
 
 @njit(cache=True, nogil=True)
-def step_range(prm, f, p, i, rng, eph, obs, targets, torques, active, lo, hi) -> None:  # pragma: no cover
-    """Step the ``active`` rows ``lo .. hi - 1`` (releases the GIL: chunks run on Python threads)."""
-    _step_rows(prm, f, p, i, rng, eph, obs, targets, torques, active, lo, hi, make_scratch(prm))
+def step_range(prm, st, act, lo, hi) -> None:  # pragma: no cover - compiled
+    """Step the rows ``lo .. hi - 1`` of the state ``st`` (:class:`~planetnav_env.core.records.RowState`)
+    that ``act`` (:class:`~planetnav_env.core.records.Actions`) marks active (releases the GIL: chunks
+    run on Python threads)."""
+    _step_rows(prm, st, act, lo, hi, make_scratch(prm))
 
 
 @njit(cache=True, nogil=True)
-def step_batch(prm, f, p, i, rng, eph, obs, targets, torques, active) -> None:  # pragma: no cover
-    """Step every ``active`` row on the calling thread."""
-    step_range(prm, f, p, i, rng, eph, obs, targets, torques, active, 0, f.shape[0])
+def step_batch(prm, st, act) -> None:  # pragma: no cover - compiled
+    """Step every active row on the calling thread."""
+    step_range(prm, st, act, 0, st.f.shape[0])
 
 
 @njit(cache=True, nogil=True)
-def reset_rows(prm, f, p, i, rng, eph, obs, rows) -> None:  # pragma: no cover - compiled
+def reset_rows(prm, st, rows) -> None:  # pragma: no cover - compiled
+    """:func:`reset_row` for each of ``rows`` (int64 indices into the state ``st``)."""
     sc = make_scratch(prm)
     for r in range(rows.shape[0]):
-        reset_row(prm, f, p, i, rng, eph, obs, rows[r], sc)
+        reset_row(prm, st, rows[r], sc)
 
 
 # Names that moved out of this module (issue 20) resolve here with a DeprecationWarning.

@@ -1,6 +1,10 @@
 """The records a row kernel receives: :class:`CoreParams` (shared, read-only parameters, its scalars in the
-named record :data:`SCALARS_DTYPE`) and :class:`Scratch` (work arrays of one chunk of rows, allocated
-once per call by :func:`make_scratch`)."""
+named record :data:`SCALARS_DTYPE`), :class:`RowState` (the state arrays of the batch, each row's slices
+read and written only by its own row), :class:`Actions` (the decoded actions of a step) and
+:class:`Scratch` (work arrays of one chunk of rows, allocated once per call by :func:`make_scratch`).
+
+Named tuples of arrays: numba passes one as its arrays, so a field read compiles to the same code as a
+separate argument; the kernels take a few records instead of long positional lists."""
 
 from __future__ import annotations
 
@@ -128,6 +132,26 @@ class CoreParams(NamedTuple):
     qproc: np.ndarray  # (6, 6) process noise over one step
     stars: tuple  # star_tracker.StarFixTables
     q_bias: np.ndarray  # (4,) fixed star-tracker misalignment composed with every fix (identity: none)
+
+
+class RowState(NamedTuple):
+    """The state arrays of ``N`` rows (leading axis; columns in :mod:`planetnav_env.core.layout`), built by
+    keyword by :attr:`planetnav_env.core.batch.BatchCore.state`."""
+
+    f: np.ndarray  # (N, NF) float state
+    p: np.ndarray  # (N, 6, 6) filter covariance
+    i: np.ndarray  # (N, NI) int64 state
+    rng: np.ndarray  # (N, STATE_WORDS) uint64 random streams
+    eph: np.ndarray  # (N, ...) per-row ephemeris tables
+    obs: np.ndarray  # (N, obs_dim) observations
+
+
+class Actions(NamedTuple):
+    """The decoded actions of one step of ``N`` rows."""
+
+    targets: np.ndarray  # (N,) int64 planet/pulsar index (-1: none)
+    torques: np.ndarray  # (N, 3) float64 fractions of the wheel torque limit
+    active: np.ndarray  # (N,) bool: the rows to step
 
 
 class Scratch(NamedTuple):

@@ -26,11 +26,13 @@ from planetnav_env.jit import row_kernel
 
 
 @row_kernel
-def score_row(prm, f, p, i, n, torque, sc) -> None:  # pragma: no cover - compiled
-    """Errors, NEES, 1-sigma, reward, termination and truncation of row ``n`` after its step.
+def score_row(prm, st, n, torque, sc) -> None:  # pragma: no cover - compiled
+    """Errors, NEES, 1-sigma, reward, termination and truncation of row ``n`` of the state ``st`` after its
+    step (``torque``: the step's torque action, fractions of the wheel limit).
 
     Operations scenarios (``ops``): the reward is ``-(w * dv_step + sum of the deadline terms reached
     this step) / reward_scale_km`` (:func:`planetnav_env.core.operations.score_operations`), km and m/s."""
+    f, p, i = st.f, st.p, st.i
     ps = prm.scalars[0]
     x = f[n, F_X : F_X + 6]
     xe = f[n, F_XE : F_XE + 6]

@@ -56,10 +56,12 @@ from planetnav_env.sensors.star_tracker import error_angle_kernel, select_stars,
 
 
 @row_kernel
-def star_fix_stage(prm, f, i, rng, n, sc):  # pragma: no cover - compiled
-    """Star-tracker attitude into QE: q-method on the stars in the camera's own field, their directions
-    perturbed by the row's random stream. With too few stars or a degenerate field the last fix is kept
-    (stale) and ATT_ERR is NaN; ``star_tracker="ideal"`` copies the true attitude."""
+def star_fix_stage(prm, st, n, sc):  # pragma: no cover - compiled
+    """Star-tracker attitude into QE of row ``n`` of the state ``st``: q-method on the stars in the camera's
+    own field, their directions perturbed by the row's random stream. With too few stars or a degenerate
+    field the last fix is kept (stale) and ATT_ERR is NaN; ``star_tracker="ideal"`` copies the true
+    attitude."""
+    f, i, rng = st.f, st.i, st.rng
     q = f[n, F_Q : F_Q + 4]
     qe = f[n, F_QE : F_QE + 4]
     if prm.scalars[0].ideal_star:
@@ -103,7 +105,9 @@ def _apply_bias(prm, q, q_fix, qe, err) -> float:  # pragma: no cover - compiled
 
 
 @row_kernel
-def rate_measurement(prm, f, i, rng, n, sc):  # pragma: no cover - compiled
+def rate_measurement(prm, st, n, sc):  # pragma: no cover - compiled
+    """Gyro rates of row ``n`` [rad/s]: the true rates plus white noise of sigma ``rate_noise``."""
+    f, i, rng = st.f, st.i, st.rng
     sig = prm.scalars[0].rate_noise
     noise_begin(prm, i, rng, n, NOISE_RATE, sc)
     for j in range(3):
@@ -133,9 +137,10 @@ def nearest_in_view(prm, sc) -> int:  # pragma: no cover - compiled
 
 
 @row_kernel
-def measure_planet(prm, f, p, i, rng, n, idx, sc):  # pragma: no cover - compiled
-    """Camera measurement of planet ``idx`` (visible), rotated to inertial with the star-tracker attitude;
-    EKF update. Returns (measured, rejected)."""
+def measure_planet(prm, st, n, idx, sc):  # pragma: no cover - compiled
+    """Camera measurement of planet ``idx`` (visible) from row ``n``, rotated to inertial with the
+    star-tracker attitude; EKF update. Returns (measured, rejected)."""
+    f, p, i, rng = st.f, st.p, st.i, st.rng
     ps = prm.scalars[0]
     noise_begin(prm, i, rng, n, NOISE_CAMERA, sc)
     for j in range(3):
@@ -166,11 +171,12 @@ def measure_planet(prm, f, p, i, rng, n, idx, sc):  # pragma: no cover - compile
 
 
 @row_kernel
-def time_pulsar(prm, f, p, i, rng, eph, n, j, t, sc):  # pragma: no cover - compiled
-    """Accumulate X-ray photons from pulsar ``j`` while the detector points at it; after the integration
-    time a phase (range along the pulsar's direction from the barycentre) updates the filter, with the
-    cycle count resolved against the prediction only when it can be trusted. Returns
-    (measured, rejected, reason)."""
+def time_pulsar(prm, st, n, j, t, sc):  # pragma: no cover - compiled
+    """Row ``n`` at time ``t`` [TDB s]: accumulate X-ray photons from pulsar ``j`` while the detector
+    points at it; after the integration time a phase (range along the pulsar's direction from the
+    barycentre) updates the filter, with the cycle count resolved against the prediction only when it can
+    be trusted. Returns (measured, rejected, reason)."""
+    f, p, i, rng, eph = st.f, st.p, st.i, st.rng, st.eph
     ps = prm.scalars[0]
     x = f[n, F_X : F_X + 6]
     xe = f[n, F_XE : F_XE + 6]
