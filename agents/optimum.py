@@ -26,8 +26,9 @@ attitude, the reported rates and wheels, the ephemeris table), every piece the e
   found by running the env's closed-loop PD sub-steps (``attitude.pointing.substeps_kernel``,
   ``core.operations.thrust_axis_on``) from the settled attitude (``frame_kernel``) of the previous target;
   the first ``grid`` steps from the star-tracker attitude, reported rates and wheels at reset;
-* per step ``P <- Φ_k P Φ_k^T + Q_proc`` (what ``predict_kernel`` does, with the stored Φ_k: the search
-  evaluates thousands of schedules and recomputing the RK4 STM each time would cost ~10x), then
+* per step ``P <- Φ_k P Φ_k^T + Q_proc`` (``covariance_predict_kernel``, the product ``predict_kernel``
+  forms, with the stored Φ_k: the search evaluates thousands of schedules and recomputing the RK4 STM
+  each time would cost ~10x), then
   ``core.operations.add_thrust_q`` with f_k, then for an image of a visible planet the core's Joseph
   update ``update_kernel`` (zero innovation: P does not depend on it); at each deadline
   ``sqrt(coasted_position_trace(P, E - t_k))`` (``core.what_if``), the env's σ_k.
@@ -66,7 +67,13 @@ from planetnav_env.core.operations import add_thrust_q, apply_thrust, planned_di
 from planetnav_env.core.records import make_scratch
 from planetnav_env.core.row_ephemeris import eval_channel, perturbers_at, planets_at
 from planetnav_env.core.what_if import coasted_position_trace
-from planetnav_env.estimation.ekf_kernels import planet_model_kernel, predict_kernel, update_kernel
+from planetnav_env.estimation.ekf_kernels import (
+    _matmul,
+    covariance_predict_kernel,
+    planet_model_kernel,
+    predict_kernel,
+    update_kernel,
+)
 from planetnav_env.estimation.measurement_kernels import los_basis_kernel
 
 #: The tuned periodic rule (docs/operations.md §7.1) whose schedule is one start of the search.
@@ -185,24 +192,6 @@ def _slew_table(prm, q_from, q_to_frames, us, ks, hw0, out):  # pragma: no cover
 
 
 @njit(cache=True)
-def _congruence(p, phi, q, tmp) -> None:  # pragma: no cover - compiled
-    """``p <- phi p phi^T + q`` in place (the product ``predict_kernel`` forms, with a stored Φ)."""
-    for i in range(6):
-        for j in range(6):
-            acc = 0.0
-            for k in range(6):
-                acc += phi[i, k] * p[k, j]
-            tmp[i, j] = acc
-    for i in range(6):
-        for j in range(i, 6):
-            acc = 0.0
-            for k in range(6):
-                acc += tmp[i, k] * phi[j, k]
-            p[i, j] = acc + q[i, j]
-            p[j, i] = p[i, j]
-
-
-@njit(cache=True)
 def _stay_blocks(phis, qproc, us, grid, dt, q_par, q_perp):  # pragma: no cover - compiled
     """Per grid slot b, the map of its ``grid`` held-stay steps composed: ``phi_b`` (the product of the
     steps' Φ) and ``q_b`` (their process and thrust noise, f = 1, carried to the slot's end), so that
@@ -215,14 +204,9 @@ def _stay_blocks(phis, qproc, us, grid, dt, q_par, q_perp):  # pragma: no cover 
         for i in range(6):
             phi_b[b, i, i] = 1.0
         for k in range(b * grid, (b + 1) * grid):
-            _congruence(q_b[b], phis[k], qproc, tmp)
+            covariance_predict_kernel(q_b[b], phis[k], qproc, tmp)
             add_thrust_q(q_b[b], dt, 1.0, q_par, q_perp, us[k])
-            for i in range(6):
-                for j in range(6):
-                    acc = 0.0
-                    for c in range(6):
-                        acc += phis[k, i, c] * phi_b[b, c, j]
-                    tmp[i, j] = acc
+            _matmul(phis[k], phi_b[b], 6, 6, 6, tmp)  # the estimation kernels' one 6x6 product
             phi_b[b] = tmp
     return phi_b, q_b
 
@@ -295,7 +279,7 @@ def _objective(
                     if k + 1 <= dl_step[d] < k + grid:
                         inner = True
                 if held and not inner:
-                    _congruence(p, phi_b[k // grid], q_b[k // grid], tmp)
+                    covariance_predict_kernel(p, phi_b[k // grid], q_b[k // grid], tmp)
                     k += grid
                     for d in range(n_dl):
                         if dl_step[d] == k:
@@ -313,7 +297,7 @@ def _objective(
             t_on = 0.0
         jv += cost_rate * (dt - t_on)
         if k < k_end:
-            _congruence(p, phis[k], qproc, tmp)
+            covariance_predict_kernel(p, phis[k], qproc, tmp)
             if t_on > 0.0:
                 add_thrust_q(p, dt, t_on / dt, q_par, q_perp, us[k])
             if a >= 0 and vis[k, a]:
