@@ -81,15 +81,21 @@ from planetnav_env.dynamics.attitude import (
     STATUS_ZERO_DIRECTION,
     STATUS_ZERO_Q,
     AttitudeConfig,
+    AttitudeRows,
+    Plant,
     all_finite_kernel,
     as_state_arrays,
+    attitude_rows,
     dcm_body_to_inertial_kernel,
-    load_state_kernel,
+    finish_rows,
+    load_row_kernel,
     normalize_quaternion_kernel,
+    plant_of,
     plant_substep_kernel,
     raise_state_error,
     require_substeps,
-    store_state_kernel,
+    rows_finite_kernel,
+    store_row_kernel,
 )
 from planetnav_env.errors import InvalidParameterError, require_finite, require_positive
 from planetnav_env.jit import row_kernel
@@ -275,59 +281,37 @@ def substeps_kernel(
 
 @njit(cache=True)
 def propagate_batch_kernel(
-    q: np.ndarray,
-    omega: np.ndarray,
-    h_w: np.ndarray,
+    rows: AttitudeRows,
     use_pd: bool,
     direction: np.ndarray,
     roll_ref: np.ndarray,
     u_bias: np.ndarray,
-    u_ext: np.ndarray,
     dt: float,
     n_substeps: int,
-    jm: np.ndarray,
-    jinv: np.ndarray,
-    tau_max: np.ndarray,
-    h_max: np.ndarray,
+    plant: Plant,
     k_a: float,
     k_w: float,
-    q_out: np.ndarray,
-    w_out: np.ndarray,
-    h_out: np.ndarray,
 ) -> int:
-    """:func:`substeps_kernel` for every row ``b`` of a batch: the PD law toward ``direction[b]`` (if
-    ``use_pd``; ``direction`` and ``roll_ref`` are then ignored otherwise) plus the constant command
+    """:func:`substeps_kernel` for every row ``b`` of ``rows``: the PD law toward ``direction[b]`` (if
+    ``use_pd``; ``direction`` and ``roll_ref`` are ignored otherwise) plus the constant command
     ``u_bias[b]`` -> wheel limits -> RK4 (the closed loop of :func:`propagate_pointing`; the open loop
     is :func:`planetnav_env.dynamics.attitude.propagate_open_loop_batch`). Returns a status code."""
     if not (
-        all_finite_kernel(q)
-        and all_finite_kernel(omega)
-        and all_finite_kernel(h_w)
-        and all_finite_kernel(direction)
-        and all_finite_kernel(roll_ref)
-        and all_finite_kernel(u_bias)
-        and all_finite_kernel(u_ext)
+        rows_finite_kernel(rows, u_bias) and all_finite_kernel(direction) and all_finite_kernel(roll_ref)
     ):
         return STATUS_NONFINITE_INPUT
-    work = np.empty((8, 7))
-    rq = np.empty((3, 3))
-    a = np.empty((3, 3))
-    frame = np.empty((3, 3))
-    y = np.empty(7)
-    h = np.empty(3)
-    u_cmd = np.empty(3)
-    u = np.empty(3)
-    for b in range(q.shape[0]):
-        if not load_state_kernel(q[b], omega[b], y):
+    work, rq, a, frame = np.empty((8, 7)), np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3))
+    y, h, u_cmd, u = np.empty(7), np.empty(3), np.empty(3), np.empty(3)
+    for b in range(rows.q.shape[0]):
+        if not load_row_kernel(rows, b, y, h):
             return STATUS_ZERO_Q
         if use_pd and not frame_kernel(direction[b], roll_ref[b], frame):
             return STATUS_ZERO_DIRECTION
-        h[:] = h_w[b]
         substeps_kernel(
-            y, h, use_pd, frame, u_bias[b], u_ext[b], n_substeps, dt, jm, jinv, tau_max, h_max, k_a, k_w,
-            work, rq, a, u_cmd, u,
+            y, h, use_pd, frame, u_bias[b], rows.u_ext[b], n_substeps, dt, plant.jm, plant.jinv,
+            plant.tau_max, plant.h_max, k_a, k_w, work, rq, a, u_cmd, u,
         )  # fmt: skip
-        if not store_state_kernel(y, h, q_out[b], w_out[b], h_out[b]):
+        if not store_row_kernel(rows, b, y, h):
             return STATUS_NONFINITE_RESULT
     return STATUS_OK
 
@@ -496,16 +480,9 @@ def propagate_pointing(
         ("roll_ref_inertial", _roll_ref_or_default(roll_ref_inertial), 3),
         ("torque_ext", torque_ext, 3),
     ]
-    batch, arrays = as_state_arrays(named)
-    qa, wa, ha, pa, xa, ea = arrays
-    q_out = np.empty_like(qa)
-    w_out = np.empty_like(wa)
-    h_out = np.empty_like(ha)
-    wheels = config.wheels
-    status = propagate_batch_kernel(
-        qa, wa, ha, True, pa, xa, np.zeros_like(ea), ea, dt, n, config.inertia_matrix, config.inertia_inverse,
-        wheels.torque_limit_array, wheels.momentum_capacity_array, k_a, k_w, q_out, w_out, h_out,
-    )  # fmt: skip
-    if status:
-        raise_state_error(status, [(name, a) for (name, _, _), a in zip(named, arrays, strict=True)])
-    return q_out.reshape(batch + (4,)), w_out.reshape(batch + (3,)), h_out.reshape(batch + (3,))
+    batch, arrays, rows = attitude_rows(named)
+    _, _, _, pa, xa, ea = arrays
+    status = propagate_batch_kernel(rows, True, pa, xa, np.zeros_like(ea), dt, n, plant_of(config), k_a, k_w)
+    return finish_rows(
+        batch, rows, status, [(name, a) for (name, _, _), a in zip(named, arrays, strict=True)]
+    )

@@ -53,6 +53,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
@@ -383,44 +384,114 @@ def plant_substep_kernel(
     rk4_substep_kernel(y, h_w, u, u_ext, dt, jm, jinv, work)
 
 
+class Plant(NamedTuple):
+    """The plant's constants a sub-step reads (:func:`plant_of` builds it from an :class:`AttitudeConfig`)."""
+
+    jm: np.ndarray  # (3, 3) inertia J [kg m^2]
+    jinv: np.ndarray  # (3, 3) J^-1 [1/(kg m^2)]
+    tau_max: np.ndarray  # (3,) wheel torque limits [N m]
+    h_max: np.ndarray  # (3,) wheel momentum capacities [N m s]
+
+
+class AttitudeRows(NamedTuple):
+    """A batch of ``N`` spacecraft for the batch kernels: the inputs (read) and the outputs (written)."""
+
+    q: np.ndarray  # (N, 4) attitude, body -> inertial, scalar first
+    omega: np.ndarray  # (N, 3) body rate [rad/s]
+    h_w: np.ndarray  # (N, 3) wheel momentum [N m s]
+    u_ext: np.ndarray  # (N, 3) external torque [N m]
+    q_out: np.ndarray  # (N, 4)
+    w_out: np.ndarray  # (N, 3)
+    h_out: np.ndarray  # (N, 3)
+
+
+def plant_of(config: AttitudeConfig) -> Plant:
+    """The :class:`Plant` record of ``config`` (its read-only arrays, not copies)."""
+    wheels = config.wheels
+    return Plant(
+        jm=config.inertia_matrix,
+        jinv=config.inertia_inverse,
+        tau_max=wheels.torque_limit_array,
+        h_max=wheels.momentum_capacity_array,
+    )
+
+
+def attitude_rows(named: Sequence[tuple[str, object, int]]) -> tuple[tuple[int, ...], list, AttitudeRows]:
+    """:func:`as_state_arrays` of ``named``, whose first three entries are ``q``, ``omega``, ``h_w`` and last
+    one ``torque_ext``, and the :class:`AttitudeRows` record over them with fresh output arrays. Returns
+    the batch shape, the arrays (in the order of ``named``) and the record."""
+    batch, arrays = as_state_arrays(named)
+    qa, wa, ha, ea = arrays[0], arrays[1], arrays[2], arrays[-1]
+    rows = AttitudeRows(
+        q=qa,
+        omega=wa,
+        h_w=ha,
+        u_ext=ea,
+        q_out=np.empty_like(qa),
+        w_out=np.empty_like(wa),
+        h_out=np.empty_like(ha),
+    )
+    return batch, arrays, rows
+
+
+@row_kernel
+def rows_finite_kernel(rows: AttitudeRows, u: np.ndarray) -> bool:
+    """True if every input of ``rows`` and the (N, 3) command ``u`` are finite."""
+    return (
+        all_finite_kernel(rows.q)
+        and all_finite_kernel(rows.omega)
+        and all_finite_kernel(rows.h_w)
+        and all_finite_kernel(rows.u_ext)
+        and all_finite_kernel(u)
+    )
+
+
+@row_kernel
+def load_row_kernel(rows: AttitudeRows, b: int, y: np.ndarray, h: np.ndarray) -> bool:
+    """y = (q / |q|, omega) and h = h_w of row ``b``; False for a zero quaternion."""
+    for j in range(3):
+        h[j] = rows.h_w[b, j]
+    return load_state_kernel(rows.q[b], rows.omega[b], y)
+
+
+@row_kernel
+def store_row_kernel(rows: AttitudeRows, b: int, y: np.ndarray, h: np.ndarray) -> bool:
+    """:func:`store_state_kernel` into the outputs of row ``b``."""
+    return store_state_kernel(y, h, rows.q_out[b], rows.w_out[b], rows.h_out[b])
+
+
+def finish_rows(
+    batch: tuple[int, ...], rows: AttitudeRows, status: int, named: Sequence[tuple[str, np.ndarray]]
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Raise the error of a batch kernel's ``status`` (:func:`raise_state_error`), else return the outputs
+    of ``rows`` as ``(q, omega, h_w)`` of the batch shape."""
+    if status:
+        raise_state_error(status, named)
+    return (
+        rows.q_out.reshape(batch + (4,)),
+        rows.w_out.reshape(batch + (3,)),
+        rows.h_out.reshape(batch + (3,)),
+    )
+
+
 @njit(cache=True)
 def propagate_open_loop_batch(
-    q: np.ndarray,
-    omega: np.ndarray,
-    h_w: np.ndarray,
-    u_cmd: np.ndarray,
-    u_ext: np.ndarray,
-    dt: float,
-    n_substeps: int,
-    jm: np.ndarray,
-    jinv: np.ndarray,
-    tau_max: np.ndarray,
-    h_max: np.ndarray,
-    q_out: np.ndarray,
-    w_out: np.ndarray,
-    h_out: np.ndarray,
+    rows: AttitudeRows, u_cmd: np.ndarray, dt: float, n_substeps: int, plant: Plant
 ) -> int:
-    """``n_substeps`` :func:`plant_substep_kernel` steps of every row ``b`` under the constant command
-    ``u_cmd[b]``; returns a status code (``STATUS_*``)."""
-    if not (
-        all_finite_kernel(q)
-        and all_finite_kernel(omega)
-        and all_finite_kernel(h_w)
-        and all_finite_kernel(u_cmd)
-        and all_finite_kernel(u_ext)
-    ):
+    """``n_substeps`` :func:`plant_substep_kernel` steps of ``dt`` [s] of every row ``b`` under the constant
+    command ``u_cmd[b]`` [N m]; returns a status code (``STATUS_*``)."""
+    if not rows_finite_kernel(rows, u_cmd):
         return STATUS_NONFINITE_INPUT
     work = np.empty((8, 7))
-    y = np.empty(7)
-    h = np.empty(3)
-    u = np.empty(3)
-    for b in range(q.shape[0]):
-        if not load_state_kernel(q[b], omega[b], y):
+    y, h, u = np.empty(7), np.empty(3), np.empty(3)
+    for b in range(rows.q.shape[0]):
+        if not load_row_kernel(rows, b, y, h):
             return STATUS_ZERO_Q
-        h[:] = h_w[b]
         for _ in range(n_substeps):
-            plant_substep_kernel(y, h, u_cmd[b], u_ext[b], dt, jm, jinv, tau_max, h_max, work, u)
-        if not store_state_kernel(y, h, q_out[b], w_out[b], h_out[b]):
+            plant_substep_kernel(
+                y, h, u_cmd[b], rows.u_ext[b], dt, plant.jm, plant.jinv, plant.tau_max, plant.h_max, work, u
+            )
+        if not store_row_kernel(rows, b, y, h):
             return STATUS_NONFINITE_RESULT
     return STATUS_OK
 
@@ -564,19 +635,9 @@ def propagate_attitude(
         torque_ext = np.zeros(3)
     names = ("q", "omega", "h_w", "torque_cmd", "torque_ext")
     raw = (q, omega, h_w, torque_cmd, torque_ext)
-    batch, arrays = as_state_arrays(list(zip(names, raw, (4, 3, 3, 3, 3), strict=True)))
-    qa, wa, ha, ua, ea = arrays
-    q_out = np.empty_like(qa)
-    w_out = np.empty_like(wa)
-    h_out = np.empty_like(ha)
-    wheels = config.wheels
-    status = propagate_open_loop_batch(
-        qa, wa, ha, ua, ea, dt, n, config.inertia_matrix, config.inertia_inverse, wheels.torque_limit_array,
-        wheels.momentum_capacity_array, q_out, w_out, h_out,
-    )  # fmt: skip
-    if status:
-        raise_state_error(status, list(zip(names, arrays, strict=True)))
-    return q_out.reshape(batch + (4,)), w_out.reshape(batch + (3,)), h_out.reshape(batch + (3,))
+    batch, arrays, rows = attitude_rows(list(zip(names, raw, (4, 3, 3, 3, 3), strict=True)))
+    status = propagate_open_loop_batch(rows, arrays[3], dt, n, plant_of(config))
+    return finish_rows(batch, rows, status, list(zip(names, arrays, strict=True)))
 
 
 def attitude_rk4_step(
