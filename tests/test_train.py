@@ -240,6 +240,62 @@ def test_every_shipped_config_trains_and_evaluates(tmp_path: Path, name: str) ->
     assert (run_dir / "report.md").read_text().count("|") > 10
 
 
+def _operations_configs() -> list[str]:
+    """The training configs of the operations scenarios (issue 17; docs/operations.md)."""
+    return sorted(p.name for p in (ROOT / "configs" / "operations").glob("*.yaml"))
+
+
+def _operations_smoke_version(path: Path, tmp_path: Path, steps: int = 30) -> Path:
+    """:func:`_smoke_version` of an operations config, with the knowledge deadlines and the encounter
+    scaled by ``steps / episode_steps`` so that a ``steps``-step episode still reaches every deadline
+    (a 3024-step, 21-day episode cut to 30 steps would otherwise reach none and score only the
+    delta-v), and a cloning stage (``pretrain``) cut to one episode and one epoch."""
+    data = yaml.safe_load(path.read_text())
+    env = dict(data.get("env") or {})
+    ops = dict(env.get("operations") or {})
+    full_s = float(env["episode_steps"]) * float(env["step_s"])
+    scale = steps * float(env["step_s"]) / full_s
+    ops["deadlines_s"] = [float(t) * scale for t in ops["deadlines_s"]]
+    ops["encounter_s"] = float(ops.get("encounter_s", full_s)) * scale
+    data["env"] = {**env, "operations": ops}
+    if data.get("pretrain"):
+        data["pretrain"] = {**data["pretrain"], "episodes": 1, "epochs": 1}
+    scaled = tmp_path / "scaled"
+    scaled.mkdir(exist_ok=True)
+    (scaled / path.name).write_text(yaml.safe_dump(data))
+    out = _smoke_version(scaled / path.name, tmp_path)
+    assert yaml.safe_load(out.read_text())["env"]["episode_steps"] == steps
+    return out
+
+
+def test_operations_configs_are_found() -> None:
+    """The smoke test below is not vacuous: issue 17 ships at least one config per operations scenario."""
+    assert "thrust_arc_tcm.yaml" in _operations_configs()
+
+
+@pytest.mark.parametrize("name", _operations_configs())
+def test_every_operations_config_trains_and_evaluates(
+    tmp_path: Path, name: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """CI smoke test of each configs/operations/*.yaml (cloning stage, training, evaluation with the
+    config's rules and references): every agent reports the scenario objective J [km] per episode."""
+    cfg = _operations_smoke_version(ROOT / "configs" / "operations" / name, tmp_path)
+    run_dir = tmp_path / "run"
+    rc = main(["train", "--config", str(cfg), "--run-dir", str(run_dir), "--no-progress"])
+    assert rc == 0
+    data = json.loads((run_dir / "eval.json").read_text())
+    tc = load_config(cfg)
+    assert data["skipped"] == {}
+    assert len(data["agents"]) == 2 + len(tc.eval.agents)
+    for agent, m in data["agents"].items():
+        j = np.asarray(m["per_episode_objective"], float)
+        # J = the sigma at the (scaled) deadlines + the delta-v price: positive and finite for any schedule.
+        assert m["episodes"] == 2 and j.shape == (2,) and np.all(np.isfinite(j)) and np.all(j > 0), agent
+        assert m["objective_mean"] == pytest.approx(j.mean()), agent
+    if tc.pretrain:  # the cloning stage ran on the teacher's demonstrations
+        assert f"decisions of {tc.pretrain['teacher']}" in capsys.readouterr().out
+
+
 def test_seed_override(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     """``--seed`` trains another seed of a config (the spread across training runs in docs/training.md)."""
     run_dir = tmp_path / "s3"
