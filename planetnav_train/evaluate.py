@@ -1,7 +1,19 @@
 """Evaluation on held-out seeds: every agent (rule-based, an SB3 model or an RLlib checkpoint) on the
 same seeds, metrics with 95 % t-intervals (:func:`evaluate_agent`), paired differences from a reference
 agent (:func:`add_paired`), the JSON written by the commands (:func:`results_json`), and the periodic
-schedule sweep (:func:`sweep_periodic`)."""
+schedule sweep (:func:`sweep_periodic`).
+
+A saved SB3 model is evaluated with its seeds as rows of the native vector env (:func:`batch_reason` says
+when it cannot be): one batched ``model.predict`` per decision for all rows, through the training
+recipe's layers (:class:`planetnav_agents.batch_wrappers.TrainingOptions`: features, action repeat,
+relative actions) over :class:`~planetnav_env.vector_env.PlanetNavVectorEnv`, each row one episode from
+its own seed. Row ``i`` of the vector env is the single env seeded alike, bit for bit, and the layers are
+the same code, so the per-episode results equal the one-episode-at-a-time path's given the same actions
+(``tests/test_eval_batched.py``). The one difference is the policy's forward pass: a batched float32
+matrix product rounds differently from the 1-row product (another BLAS blocking), in the last bits. A
+discrete policy's argmax does not see it (equal results); a continuous action does, and its episode then
+differs from the single env's by float rounding (relative 1e-9 on 30-step episodes; the benchmark prints
+the largest difference on full episodes). ``benchmarks/bench_eval.py`` measures the speed-up."""
 
 from __future__ import annotations
 
@@ -13,6 +25,7 @@ from typing import Any
 import numpy as np
 
 from planetnav_agents import NotApplicableError, make_agent, not_applicable, requires_idle_action
+from planetnav_agents.batch_wrappers import RowsWrapper, TrainingOptions, VectorRows
 from planetnav_agents.stats import mean_ci, paired_difference
 from planetnav_env.config import EnvConfig
 from planetnav_train.config import REFERENCE
@@ -87,6 +100,149 @@ def episode_objective(final_info: dict[str, Any], pos_err_km: np.ndarray) -> flo
     return float(np.mean(pos_err_km))
 
 
+#: Rows per vector env in the batched evaluation (the suite's 100 seeds make one batch).
+EVAL_BATCH_ROWS = 100
+
+
+def batch_reason(agent: Any) -> str | None:
+    """Why ``agent`` cannot be evaluated with its seeds as rows of one vector env, or None when it can.
+
+    Batched: a saved SB3 model with deterministic actions (recurrent policies too: each row carries its
+    own LSTM state). Not batched (one episode at a time, as before): rule agents and RLlib checkpoints (no
+    batched action here), sampled actions (``PATH@sampled``: seeded per episode through torch's global
+    generator, which rows cannot share), and a target-choice policy run in a target+torque env (its
+    action conversion is per-env)."""
+    from planetnav_agents.sb3 import SB3Agent
+
+    if not isinstance(agent, SB3Agent):
+        return f"{type(agent).__name__} has no batched action"
+    if not agent.deterministic:
+        return "sampled actions are seeded per episode through torch's global generator"
+    if agent._as_target_torque:
+        return "a target-choice policy in a target+torque env converts its action per env"
+    return None
+
+
+class _RecordingRows(RowsWrapper):
+    """The vector env's rows, recording every environment step of the rows stepped: the per-step values
+    :func:`_episode` collects from ``info`` (position error and 1-sigma [km], velocity error [km/s],
+    measured, slewing), the environment's reward summed in step order (as ``_episode`` sums it: the same
+    float64 additions), and how each row's last step ended. Innermost under the recipe's layers, so action
+    repeat's held steps are recorded one by one."""
+
+    def __init__(self, inner: VectorRows, max_steps: int, on_steps: Callable[[int], None]) -> None:
+        super().__init__(inner)
+        self.venv = inner.venv
+        n = self.num_rows
+        self.steps = np.zeros(n, dtype=np.int64)
+        self.err = np.zeros((n, max_steps))
+        self.sig = np.zeros((n, max_steps))
+        self.vel = np.zeros((n, max_steps))
+        self.measured_count = np.zeros(n, dtype=np.int64)
+        self.slews = np.zeros(n, dtype=np.int64)
+        self.ret = np.zeros(n)
+        self.terminated = np.zeros(n, dtype=bool)
+        self.on_steps = on_steps
+
+    def step_rows(self, actions: Any, active: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        reward, terminated, truncated = self.inner.step_rows(actions, active)
+        rows = np.flatnonzero(active)
+        info = self.venv.info_arrays()
+        k = self.steps[rows]
+        if k.size and k.max() >= self.err.shape[1]:
+            raise RuntimeError(f"a row ran past the episode length {self.err.shape[1]} without ending")
+        self.err[rows, k] = info["pos_err_km"][rows]
+        self.sig[rows, k] = info["pos_sigma_km"][rows]
+        self.vel[rows, k] = info["vel_err_km_s"][rows]
+        self.measured_count[rows] += info["measured"][rows]
+        self.slews[rows] += info["slewing"][rows]
+        self.ret[rows] += reward[rows]
+        self.terminated[rows] = terminated[rows]
+        self.steps[rows] += 1
+        self.on_steps(len(rows))
+        return reward, terminated, truncated
+
+
+def _batched_episodes(
+    agent: Any, env_cfg: EnvConfig, seeds: Sequence[int], on_steps: Callable[[int], None]
+) -> list[dict[str, Any]]:
+    """One episode per seed of the SB3 model behind ``agent`` (:func:`batch_reason` is None), the seeds
+    as rows of one :class:`~planetnav_env.vector_env.PlanetNavVectorEnv`: one ``model.predict`` per
+    decision for all rows, the training recipe's layers (the model's features, action repeat, relative
+    actions) over the rows, as :func:`planetnav_train.envs.make_training_env` stacks them (without the
+    pointing shaping: evaluation reports the environment's own reward, as the single-env path does).
+    Returns :func:`_episode`'s dicts; ``seconds`` is the batch's wall time over its rows."""
+    from planetnav_env.vector_env import PlanetNavVectorEnv
+
+    n = len(seeds)
+    venv = PlanetNavVectorEnv(n, env_cfg)  # stepped by step_rows only: no autoreset happens
+    rec = _RecordingRows(VectorRows(venv), env_cfg.episode_steps, on_steps)
+    options = TrainingOptions(
+        features=agent.features.features if agent.features is not None else (),
+        action_repeat=agent.action_repeat,
+        relative_actions=agent.relative,
+    )
+    rows = options.stack(rec)
+    model = agent.model
+    import torch
+
+    # One torch thread: the batch's products are small (100 rows x a 64-unit layer), and with two threads
+    # on this 2-core machine the second one's spin-waiting made each predict 10x slower (7 ms per linear
+    # layer for 8 rows, profiled; benchmarks/bench_eval.py).
+    threads = torch.get_num_threads()
+    torch.set_num_threads(1)
+    try:
+        return _run_rows(rows, rec, venv, model, n, seeds)
+    finally:
+        torch.set_num_threads(threads)
+        venv.close()
+
+
+def _run_rows(
+    rows: Any, rec: _RecordingRows, venv: Any, model: Any, n: int, seeds: Sequence[int]
+) -> list[dict[str, Any]]:
+    """The loop of :func:`_batched_episodes`: reset every row to its seed, one batched decision per
+    step until every row's episode has ended, then each row's :func:`_episode` dict."""
+    recurrent = hasattr(model.policy, "lstm_actor")
+    t0 = time.perf_counter()
+    rows.reset_rows(np.ones(n, dtype=bool), [int(s) for s in seeds])
+    running = np.ones(n, dtype=bool)
+    state: Any = None
+    first = True
+    while running.any():
+        obs = rows.observations()
+        # Every row is predicted (the finished ones too: their stale actions are never applied), so the
+        # batch keeps one shape; a recurrent policy carries one LSTM state per row from episode_start.
+        if recurrent:
+            action, state = model.predict(
+                obs, state=state, episode_start=np.full(n, first), deterministic=True
+            )
+        else:
+            action, _ = model.predict(obs, deterministic=True)
+        first = False
+        _, terminated, truncated = rows.step_rows(action, running)
+        running &= ~(terminated | truncated)
+    seconds = (time.perf_counter() - t0) / n
+    runs = []
+    for r in range(n):
+        k = int(rec.steps[r])
+        err = rec.err[r, :k].copy()
+        runs.append(
+            {
+                "pos_err": err,
+                "pos_sigma": rec.sig[r, :k].copy(),
+                "mean_vel_err_km_s": float(np.mean(rec.vel[r, :k])),
+                "measured_fraction": int(rec.measured_count[r]) / k,
+                "slews": int(rec.slews[r]),
+                "return": float(rec.ret[r]),
+                "diverged": bool(rec.terminated[r]),
+                "seconds": seconds,
+                "objective": episode_objective(venv.info_row(r), err),
+            }
+        )
+    return runs
+
+
 def _padded_mean(curves: Sequence[np.ndarray]) -> np.ndarray:
     """Mean over curves of unequal length, step by step (the shorter ones padded with NaN)."""
     n = max(len(c) for c in curves)
@@ -97,9 +253,20 @@ def _padded_mean(curves: Sequence[np.ndarray]) -> np.ndarray:
 
 
 def evaluate_agent(
-    spec: str, env_cfg: EnvConfig, episodes: int, seed: int, progress: bool = True
+    spec: str,
+    env_cfg: EnvConfig,
+    episodes: int,
+    seed: int,
+    progress: bool = True,
+    batched: bool = True,
+    batch_rows: int = EVAL_BATCH_ROWS,
 ) -> EvalResult:
     """Run agent ``spec`` (name, ``name:key=value,...`` or model path) on seeds ``seed, seed+1, ...``.
+
+    ``batched``: an agent that can (:func:`batch_reason`) plays its seeds as rows of the native vector
+    env, ``batch_rows`` seeds per batch (:func:`_batched_episodes`); the others, or ``batched=False``,
+    play one episode at a time. Both give the same per-episode results; ``metrics["batched"]`` says which
+    ran, ``metrics["batch_fallback"]`` why an agent did not batch.
 
     Raises :class:`planetnav_agents.NotApplicableError` when the agent cannot act in this environment.
     """
@@ -122,7 +289,16 @@ def evaluate_agent(
         disable=not progress,
         leave=False,
     )
-    runs = [_episode(agent, env, seed + i, lambda: bar.update(1)) for i in range(episodes)]
+    if isinstance(batch_rows, bool) or not isinstance(batch_rows, (int, np.integer)) or batch_rows < 1:
+        raise ValueError(f"batch_rows must be a positive integer, got {batch_rows!r}")
+    fallback = batch_reason(agent) if batched else "batched=False"
+    if fallback is None:
+        runs = []
+        for start in range(0, episodes, batch_rows):
+            seeds = range(seed + start, seed + min(start + batch_rows, episodes))
+            runs += _batched_episodes(agent, env_cfg, seeds, bar.update)
+    else:
+        runs = [_episode(agent, env, seed + i, lambda: bar.update(1)) for i in range(episodes)]
     bar.close()
     env.close()
     final = np.array([r["pos_err"][-1] for r in runs])
@@ -149,7 +325,11 @@ def evaluate_agent(
         "slews": float(np.mean([r["slews"] for r in runs])),
         "return": float(np.mean([r["return"] for r in runs])),
         "diverged": int(sum(r["diverged"] for r in runs)),
+        # Wall seconds per episode; batched, a batch's wall time over its rows.
         "seconds_per_episode": float(np.mean([r["seconds"] for r in runs])),
+        "batched": fallback is None,
+        # Why a saved model did not batch (rule agents never do: no note for them).
+        **({"batch_fallback": fallback} if fallback and batched and hasattr(agent, "model") else {}),
         "per_episode_mean_pos_err_km": per_episode.tolist(),
         "per_episode_mean_pos_sigma_km": per_episode_sigma,
         # Scenario objective J [km] per episode (episode_objective): info["objective"] at the end on an
