@@ -93,6 +93,8 @@ CASES = [
     ("planetnav/ThrustArc-TCM-v0", "ppo", {}, 30),
     # A recurrent policy: one LSTM state per row.
     ("planetnav/Cruise-Target-v0", "recurrent_ppo", {"action_repeat": 2}, 30),
+    # MaskablePPO: the mask is read from each row's observation in predict.
+    ("planetnav/Cruise-Target-v0", "maskable_ppo", {}, 30),
 ]
 
 
