@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import textwrap
 from pathlib import Path
+from typing import Any
 
 import gymnasium as gym
 import numpy as np
@@ -90,23 +91,26 @@ def _docs_example(marker: str) -> str:
     return found[0]
 
 
-@needs_disabled
-def test_docs_disabled_example_runs() -> None:
-    """docs/environment.md's ``disabled`` snippet, run verbatim."""
+def _run_docs_example(marker: str) -> Any:
+    """Run docs/environment.md's snippet containing ``marker`` verbatim; its rollout of 100 steps of 4 rows
+    must be finite."""
     scope: dict = {}
-    exec(_docs_example('autoreset_mode="disabled"'), scope)
+    exec(_docs_example(marker), scope)
     td = scope["td"]
     assert td.batch_size == torch.Size([4, 100])
     assert torch.isfinite(td["next", "observation"]).all() and torch.isfinite(td["next", "reward"]).all()
+    return td
+
+
+@needs_disabled
+def test_docs_disabled_example_runs() -> None:
+    """docs/environment.md's ``disabled`` snippet, run verbatim."""
+    _run_docs_example('autoreset_mode="disabled"')
 
 
 def test_docs_same_step_example_runs() -> None:
     """docs/environment.md's ``same_step`` snippet, run verbatim: 100 steps of 4 rows with numeric info."""
-    scope: dict = {}
-    exec(_docs_example('autoreset_mode="same_step"'), scope)
-    td = scope["td"]
-    assert td.batch_size == torch.Size([4, 100])
-    assert torch.isfinite(td["next", "observation"]).all() and torch.isfinite(td["next", "reward"]).all()
+    td = _run_docs_example('autoreset_mode="same_step"')
     assert torch.isfinite(td["next", "pos_sigma_km"]).all() and td["next", "filter_P"].shape == (4, 100, 6, 6)
     assert not td["next", "done"].any()  # episodes are 1,440 steps
 

@@ -81,18 +81,19 @@ def test_search_ends_at_or_below_its_starts() -> None:
     assert agent.predicted_objective_km < m.objective(m.actions([]))
 
 
-@pytest.mark.parametrize(
-    ("spec", "match"),
-    [
-        ("optimum:session=0", "session must be an integer number of steps >= 1, got 0"),
-        ("optimum:grid=-2", "grid must be an integer number of steps >= 1, got -2"),
-        ("optimum:session=true", "session must be an integer number of steps >= 1, got True"),
-        ("optimum:session=1.5", "session must be an integer number of steps >= 1, got 1.5"),
-        ("optimum:session=10,grid=4", "session=10 must be a multiple of grid=4"),
-        ("optimum:session=240,grid=6", "session=240 \\+ grid=6 steps exceed the episode \\(240 steps\\)"),
-        ("optimum:horizon=3", "unknown parameter 'horizon'"),
-    ],
-)
+#: Bad optimum specs and the error each must raise (the value named).
+BAD_SPECS = [
+    ("optimum:session=0", "session must be an integer number of steps >= 1, got 0"),
+    ("optimum:grid=-2", "grid must be an integer number of steps >= 1, got -2"),
+    ("optimum:session=true", "session must be an integer number of steps >= 1, got True"),
+    ("optimum:session=1.5", "session must be an integer number of steps >= 1, got 1.5"),
+    ("optimum:session=10,grid=4", "session=10 must be a multiple of grid=4"),
+    ("optimum:session=240,grid=6", "session=240 \\+ grid=6 steps exceed the episode \\(240 steps\\)"),
+    ("optimum:horizon=3", "unknown parameter 'horizon'"),
+]
+
+
+@pytest.mark.parametrize(("spec", "match"), BAD_SPECS)
 def test_bad_parameters_name_the_value(spec: str, match: str) -> None:
     with pytest.raises(ValueError, match=match):
         make_agent(spec, _env())
