@@ -9,11 +9,15 @@ recipe's layers (:class:`planetnav_agents.batch_wrappers.TrainingOptions`: featu
 relative actions) over :class:`~planetnav_env.vector_env.PlanetNavVectorEnv`, each row one episode from
 its own seed. Row ``i`` of the vector env is the single env seeded alike, bit for bit, and the layers are
 the same code, so the per-episode results equal the one-episode-at-a-time path's given the same actions
-(``tests/test_eval_batched.py``). The one difference is the policy's forward pass: a batched float32
+(``tests/test_eval_batched.py``). The one difference can be the policy's forward pass: a batched float32
 matrix product rounds differently from the 1-row product (another BLAS blocking), in the last bits. A
-discrete policy's argmax does not see it (equal results); a continuous action does, and its episode then
-differs from the single env's by float rounding (relative 1e-9 on 30-step episodes; the benchmark prints
-the largest difference on full episodes). ``benchmarks/bench_eval.py`` measures the speed-up."""
+discrete policy's argmax does not see it, so discrete (and multi-discrete) policies predict all rows in
+one call. A continuous action is those bits, and an episode amplifies them (a measurement accepted in
+one and rejected in the other: 1.5 % on one Cruise-Torque seed's J, ``benchmarks/bench_eval.py``), so by
+default (``exact_actions=True``) a continuous policy predicts row by row, each row the very call the
+single-env path makes, while the env steps stay batched; ``exact_actions=False`` batches its predict
+too (faster; results equal only to float rounding on short episodes). ``benchmarks/bench_eval.py``
+measures the speed-ups."""
 
 from __future__ import annotations
 
@@ -104,7 +108,7 @@ def episode_objective(final_info: dict[str, Any], pos_err_km: np.ndarray) -> flo
 EVAL_BATCH_ROWS = 100
 
 
-def batch_reason(agent: Any) -> str | None:
+def batch_reason(agent: Any, exact_actions: bool = True) -> str | None:
     """Why ``agent`` cannot be evaluated with its seeds as rows of one vector env, or None when it can.
 
     Batched: a saved SB3 model with deterministic actions (recurrent policies too: each row carries its
@@ -120,7 +124,17 @@ def batch_reason(agent: Any) -> str | None:
         return "sampled actions are seeded per episode through torch's global generator"
     if agent._as_target_torque:
         return "a target-choice policy in a target+torque env converts its action per env"
+    if exact_actions and not _argmax_actions(agent.model) and hasattr(agent.model.policy, "lstm_actor"):
+        return "a recurrent policy with continuous actions predicts exactly only one episode at a time"
     return None
+
+
+def _argmax_actions(model: Any) -> bool:
+    """Whether ``model``'s deterministic action is an argmax (Discrete / MultiDiscrete): unchanged by the
+    last-bit rounding of a batched forward pass, so its rows predict in one call (module docstring)."""
+    from gymnasium import spaces
+
+    return isinstance(model.action_space, (spaces.Discrete, spaces.MultiDiscrete))
 
 
 class _RecordingRows(RowsWrapper):
@@ -164,13 +178,18 @@ class _RecordingRows(RowsWrapper):
 
 
 def _batched_episodes(
-    agent: Any, env_cfg: EnvConfig, seeds: Sequence[int], on_steps: Callable[[int], None]
+    agent: Any,
+    env_cfg: EnvConfig,
+    seeds: Sequence[int],
+    on_steps: Callable[[int], None],
+    exact_actions: bool = True,
 ) -> list[dict[str, Any]]:
     """One episode per seed of the SB3 model behind ``agent`` (:func:`batch_reason` is None), the seeds
     as rows of one :class:`~planetnav_env.vector_env.PlanetNavVectorEnv`: one ``model.predict`` per
     decision for all rows, the training recipe's layers (the model's features, action repeat, relative
     actions) over the rows, as :func:`planetnav_train.envs.make_training_env` stacks them (without the
     pointing shaping: evaluation reports the environment's own reward, as the single-env path does).
+    ``exact_actions``: a continuous policy predicts row by row (module docstring).
     Returns :func:`_episode`'s dicts; ``seconds`` is the batch's wall time over its rows."""
     from planetnav_env.vector_env import PlanetNavVectorEnv
 
@@ -192,17 +211,25 @@ def _batched_episodes(
     threads = torch.get_num_threads()
     torch.set_num_threads(1)
     try:
-        return _run_rows(rows, rec, venv, model, n, seeds)
+        per_row = exact_actions and not _argmax_actions(model)
+        return _run_rows(rows, rec, venv, model, n, seeds, per_row)
     finally:
         torch.set_num_threads(threads)
         venv.close()
 
 
 def _run_rows(
-    rows: Any, rec: _RecordingRows, venv: Any, model: Any, n: int, seeds: Sequence[int]
+    rows: Any,
+    rec: _RecordingRows,
+    venv: Any,
+    model: Any,
+    n: int,
+    seeds: Sequence[int],
+    per_row: bool,
 ) -> list[dict[str, Any]]:
-    """The loop of :func:`_batched_episodes`: reset every row to its seed, one batched decision per
-    step until every row's episode has ended, then each row's :func:`_episode` dict."""
+    """The loop of :func:`_batched_episodes`: reset every row to its seed, one decision for all rows per
+    step (``per_row``: ``model.predict`` on each running row alone, as the single-env path calls it)
+    until every row's episode has ended, then each row's :func:`_episode` dict."""
     recurrent = hasattr(model.policy, "lstm_actor")
     t0 = time.perf_counter()
     rows.reset_rows(np.ones(n, dtype=bool), [int(s) for s in seeds])
@@ -213,7 +240,12 @@ def _run_rows(
         obs = rows.observations()
         # Every row is predicted (the finished ones too: their stale actions are never applied), so the
         # batch keeps one shape; a recurrent policy carries one LSTM state per row from episode_start.
-        if recurrent:
+        if per_row:
+            # Finished rows keep their last action (never applied; the batch keeps its shape).
+            action = np.zeros((n, *model.action_space.shape), dtype=model.action_space.dtype)
+            for r in np.flatnonzero(running):
+                action[r] = model.predict(obs[r], deterministic=True)[0]
+        elif recurrent:
             action, state = model.predict(
                 obs, state=state, episode_start=np.full(n, first), deterministic=True
             )
@@ -260,13 +292,16 @@ def evaluate_agent(
     progress: bool = True,
     batched: bool = True,
     batch_rows: int = EVAL_BATCH_ROWS,
+    exact_actions: bool = True,
 ) -> EvalResult:
     """Run agent ``spec`` (name, ``name:key=value,...`` or model path) on seeds ``seed, seed+1, ...``.
 
     ``batched``: an agent that can (:func:`batch_reason`) plays its seeds as rows of the native vector
     env, ``batch_rows`` seeds per batch (:func:`_batched_episodes`); the others, or ``batched=False``,
     play one episode at a time. Both give the same per-episode results; ``metrics["batched"]`` says which
-    ran, ``metrics["batch_fallback"]`` why an agent did not batch.
+    ran, ``metrics["batch_fallback"]`` why an agent did not batch. ``exact_actions`` (default): a
+    continuous policy's predict runs row by row, so its results equal the single env's too (module
+    docstring); False: one predict for all rows (faster; equal to float rounding only).
 
     Raises :class:`planetnav_agents.NotApplicableError` when the agent cannot act in this environment.
     """
@@ -291,12 +326,12 @@ def evaluate_agent(
     )
     if isinstance(batch_rows, bool) or not isinstance(batch_rows, (int, np.integer)) or batch_rows < 1:
         raise ValueError(f"batch_rows must be a positive integer, got {batch_rows!r}")
-    fallback = batch_reason(agent) if batched else "batched=False"
+    fallback = batch_reason(agent, exact_actions) if batched else "batched=False"
     if fallback is None:
         runs = []
         for start in range(0, episodes, batch_rows):
             seeds = range(seed + start, seed + min(start + batch_rows, episodes))
-            runs += _batched_episodes(agent, env_cfg, seeds, bar.update)
+            runs += _batched_episodes(agent, env_cfg, seeds, bar.update, exact_actions)
     else:
         runs = [_episode(agent, env, seed + i, lambda: bar.update(1)) for i in range(episodes)]
     bar.close()
@@ -328,6 +363,7 @@ def evaluate_agent(
         # Wall seconds per episode; batched, a batch's wall time over its rows.
         "seconds_per_episode": float(np.mean([r["seconds"] for r in runs])),
         "batched": fallback is None,
+        **({"exact_actions": bool(exact_actions)} if fallback is None else {}),
         # Why a saved model did not batch (rule agents never do: no note for them).
         **({"batch_fallback": fallback} if fallback and batched and hasattr(agent, "model") else {}),
         "per_episode_mean_pos_err_km": per_episode.tolist(),

@@ -1,12 +1,14 @@
 """Batched evaluation (``planetnav_train.evaluate``): an SB3 model played on its seeds as rows of the
 native vector env gives the same per-episode results as one episode at a time.
 
-Discrete actions, exact equality (``==`` on every metric but the wall time): row ``i`` of the vector env
-is the single env seeded alike, bit for bit, and the recipe's layers are the same code on both paths; the
-policy's batched forward pass rounds its float32 products differently from the 1-row one in the last
-bits, which an argmax does not see. Continuous actions: those last bits are the action, so the episode
-differs by float rounding; the metrics are compared to a relative 1e-6 (measured: about 1e-9 on these
-30-step episodes) and the counts (measured steps, slews, divergence) exactly.
+Exact equality (``==`` on every metric but the wall time and the path's own flags): row ``i`` of the
+vector env is the single env seeded alike, bit for bit, and the recipe's layers are the same code on both
+paths. A discrete policy predicts all rows in one call (its batched forward pass rounds its float32
+products differently from the 1-row one in the last bits, which an argmax does not see); a continuous one
+predicts row by row by default (``exact_actions``). With ``exact_actions=False`` a continuous policy's
+batched actions differ in those last bits: its metrics are compared to a relative 1e-6 (measured: about
+1e-9 on these 30-step episodes; full episodes amplify it, ``benchmarks/bench_eval.py``) and the counts
+(measured steps, slews, divergence) exactly.
 """
 
 from __future__ import annotations
@@ -28,8 +30,8 @@ from planetnav_train.evaluate import batch_reason, evaluate_agent
 
 SEED = 10_000
 EPISODES = 3
-#: The wall time differs between the paths by design; ``batched`` says which path ran.
-TIMING_KEYS = {"seconds_per_episode", "batched", "batch_fallback"}
+#: The wall time differs between the paths by design; the flags say which path ran.
+TIMING_KEYS = {"seconds_per_episode", "batched", "batch_fallback", "exact_actions"}
 
 
 def _cfg(env_id: str, steps: int) -> EnvConfig:
@@ -107,9 +109,17 @@ def test_batched_equals_single_env_evaluation(
     single = evaluate_agent(str(run), cfg, EPISODES, SEED, progress=False, batched=False)
     # batch_rows=2: the 3 seeds as a batch of 2 rows and one of 1 (the chunking joins them in seed order).
     batched = evaluate_agent(str(run), cfg, EPISODES, SEED, progress=False, batch_rows=2)
-    exact = cfg.action_mode == "target"  # a Discrete action space: the policy's argmax
-    _assert_same(single, batched, exact)
+    _assert_same(single, batched, exact=True)
     assert len(set(single.metrics["per_episode_objective"])) == EPISODES  # the seeds differ
+
+
+def test_batched_continuous_predict_equals_to_float_rounding(tmp_path: Path) -> None:
+    cfg = _cfg("planetnav/Cruise-Torque-v0", 30)
+    run = _save_model(tmp_path, "ppo", cfg, {})
+    single = evaluate_agent(str(run), cfg, EPISODES, SEED, progress=False, batched=False)
+    batched = evaluate_agent(str(run), cfg, EPISODES, SEED, progress=False, exact_actions=False)
+    assert batched.metrics["exact_actions"] is False
+    _assert_same(single, batched, exact=False)
 
 
 def test_rule_agents_and_sampled_models_fall_back(tmp_path: Path) -> None:
