@@ -60,13 +60,14 @@ from numba import njit
 
 from planetnav_agents.base import ParsedObservation, TargetAgent, unwrapped_config
 from planetnav_env import quaternion as qt
-from planetnav_env.attitude.pointing import frame_kernel, substeps_kernel
+from planetnav_env.attitude.pointing import LoopScratch, PdLoop, frame_kernel, substeps_kernel
 from planetnav_env.core import layout as L
 from planetnav_env.core.observation import observe_row
 from planetnav_env.core.operations import add_thrust_q, apply_thrust, planned_direction, thrust_axis_on
 from planetnav_env.core.records import make_scratch
 from planetnav_env.core.row_ephemeris import eval_channel, perturbers_at, planets_at
 from planetnav_env.core.what_if import coasted_position_trace
+from planetnav_env.dynamics.attitude import Plant
 from planetnav_env.estimation.ekf_kernels import (
     _matmul,
     covariance_predict_kernel,
@@ -162,13 +163,14 @@ def _slew_on_time(prm, sc, y0, hw0, frame, u, n_steps, out_on):  # pragma: no co
     hw = hw0.copy()
     u_last = np.zeros(3)
     zero = np.zeros(3)
+    loop = PdLoop(
+        plant=Plant(jm=prm.jm, jinv=prm.jinv, tau_max=prm.tau_max, h_max=prm.h_max), k_a=ps.k_a, k_w=ps.k_w
+    )
+    ws = LoopScratch(work=sc.work, rq=sc.rq, a=sc.a, u_cmd=sc.u_cmd)
     for s in range(n_steps):
         t_on = 0.0
         for _ in range(ps.n_sub):
-            substeps_kernel(
-                y, hw, True, frame, zero, zero, 1, ps.substep_s, prm.jm, prm.jinv, prm.tau_max, prm.h_max,
-                ps.k_a, ps.k_w, sc.work, sc.rq, sc.a, sc.u_cmd, u_last,
-            )  # fmt: skip
+            substeps_kernel(y, hw, True, frame, zero, zero, 1, ps.substep_s, loop, ws, u_last)
             if thrust_axis_on(y, prm.boresight, u, ps.ops_cos_tol):
                 t_on += ps.substep_s
         out_on[s] = t_on

@@ -69,6 +69,7 @@ the default limits).
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
@@ -241,6 +242,24 @@ def _pd_torque_batch(
     return STATUS_OK
 
 
+class PdLoop(NamedTuple):
+    """The closed loop's constants: the plant a sub-step integrates and the PD law's gains (module
+    docstring). Built by keyword once per call of a batch or per row step, outside the sub-step loop."""
+
+    plant: Plant  # inertia, its inverse, wheel torque and momentum limits
+    k_a: float  # angle gain [N m per unit of S]
+    k_w: float  # rate gain [N m s]
+
+
+class LoopScratch(NamedTuple):
+    """Work arrays of :func:`substeps_kernel` (no allocation in the sub-step loop)."""
+
+    work: np.ndarray  # (8, 7) attitude RK4 stages
+    rq: np.ndarray  # (3, 3) R(q)
+    a: np.ndarray  # (3, 3) error matrix A
+    u_cmd: np.ndarray  # (3,) commanded torque [N m]
+
+
 @row_kernel
 def substeps_kernel(
     y: np.ndarray,
@@ -251,32 +270,28 @@ def substeps_kernel(
     u_ext: np.ndarray,
     n_substeps: int,
     dt: float,
-    jm: np.ndarray,
-    jinv: np.ndarray,
-    tau_max: np.ndarray,
-    h_max: np.ndarray,
-    k_a: float,
-    k_w: float,
-    work: np.ndarray,
-    rq: np.ndarray,
-    a: np.ndarray,
-    u_cmd: np.ndarray,
+    loop: PdLoop,
+    ws: LoopScratch,
     u: np.ndarray,
 ) -> None:
-    """``n_substeps`` closed-loop sub-steps of one spacecraft, in place on ``y = (q, omega)`` and ``h``:
-    command = PD torque toward ``frame`` (if ``use_pd``) + ``u_bias`` -> wheel limits -> RK4 (the one
-    closed-loop sub-step loop: :func:`propagate_pointing` and the environment both run it; the plant's
-    sub-step is :func:`~planetnav_env.dynamics.attitude.plant_substep_kernel`). ``u`` holds the last
-    applied wheel torque; ``work``, ``rq``, ``a``, ``u_cmd`` are scratch."""
+    """``n_substeps`` closed-loop sub-steps of ``dt`` [s] of one spacecraft, in place on ``y = (q, omega)``
+    and ``h`` [N m s]: command = PD torque toward ``frame`` (if ``use_pd``) + ``u_bias`` [N m] -> wheel
+    limits -> RK4 under the external torque ``u_ext`` [N m] (the one closed-loop sub-step loop:
+    :func:`propagate_pointing` and the environment both run it; the plant's sub-step is
+    :func:`~planetnav_env.dynamics.attitude.plant_substep_kernel`). ``u`` holds the last applied wheel
+    torque [N m]."""
+    plant = loop.plant
     for _ in range(n_substeps):
         if use_pd:
-            pd_torque_kernel(y[:4], y[4:], h, frame, jm, k_a, k_w, rq, a, u_cmd)
+            pd_torque_kernel(y[:4], y[4:], h, frame, plant.jm, loop.k_a, loop.k_w, ws.rq, ws.a, ws.u_cmd)
             for i in range(3):
-                u_cmd[i] += u_bias[i]
+                ws.u_cmd[i] += u_bias[i]
         else:
             for i in range(3):
-                u_cmd[i] = u_bias[i]
-        plant_substep_kernel(y, h, u_cmd, u_ext, dt, jm, jinv, tau_max, h_max, work, u)
+                ws.u_cmd[i] = u_bias[i]
+        plant_substep_kernel(
+            y, h, ws.u_cmd, u_ext, dt, plant.jm, plant.jinv, plant.tau_max, plant.h_max, ws.work, u
+        )
 
 
 @njit(cache=True)
@@ -288,9 +303,7 @@ def propagate_batch_kernel(
     u_bias: np.ndarray,
     dt: float,
     n_substeps: int,
-    plant: Plant,
-    k_a: float,
-    k_w: float,
+    loop: PdLoop,
 ) -> int:
     """:func:`substeps_kernel` for every row ``b`` of ``rows``: the PD law toward ``direction[b]`` (if
     ``use_pd``; ``direction`` and ``roll_ref`` are ignored otherwise) plus the constant command
@@ -300,17 +313,14 @@ def propagate_batch_kernel(
         rows_finite_kernel(rows, u_bias) and all_finite_kernel(direction) and all_finite_kernel(roll_ref)
     ):
         return STATUS_NONFINITE_INPUT
-    work, rq, a, frame = np.empty((8, 7)), np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3))
-    y, h, u_cmd, u = np.empty(7), np.empty(3), np.empty(3), np.empty(3)
+    ws = LoopScratch(work=np.empty((8, 7)), rq=np.empty((3, 3)), a=np.empty((3, 3)), u_cmd=np.empty(3))
+    frame, y, h, u = np.empty((3, 3)), np.empty(7), np.empty(3), np.empty(3)
     for b in range(rows.q.shape[0]):
         if not load_row_kernel(rows, b, y, h):
             return STATUS_ZERO_Q
         if use_pd and not frame_kernel(direction[b], roll_ref[b], frame):
             return STATUS_ZERO_DIRECTION
-        substeps_kernel(
-            y, h, use_pd, frame, u_bias[b], rows.u_ext[b], n_substeps, dt, plant.jm, plant.jinv,
-            plant.tau_max, plant.h_max, k_a, k_w, work, rq, a, u_cmd, u,
-        )  # fmt: skip
+        substeps_kernel(y, h, use_pd, frame, u_bias[b], rows.u_ext[b], n_substeps, dt, loop, ws, u)
         if not store_row_kernel(rows, b, y, h):
             return STATUS_NONFINITE_RESULT
     return STATUS_OK
@@ -482,7 +492,8 @@ def propagate_pointing(
     ]
     batch, arrays, rows = attitude_rows(named)
     _, _, _, pa, xa, ea = arrays
-    status = propagate_batch_kernel(rows, True, pa, xa, np.zeros_like(ea), dt, n, plant_of(config), k_a, k_w)
+    loop = PdLoop(plant=plant_of(config), k_a=k_a, k_w=k_w)
+    status = propagate_batch_kernel(rows, True, pa, xa, np.zeros_like(ea), dt, n, loop)
     return finish_rows(
         batch, rows, status, [(name, a) for (name, _, _), a in zip(named, arrays, strict=True)]
     )

@@ -31,7 +31,13 @@ import numpy as np
 from numba import njit
 
 from planetnav_env._deprecation import moved_names
-from planetnav_env.attitude.pointing import error_matrix_kernel, frame_kernel, substeps_kernel
+from planetnav_env.attitude.pointing import (
+    LoopScratch,
+    PdLoop,
+    error_matrix_kernel,
+    frame_kernel,
+    substeps_kernel,
+)
 from planetnav_env.core.layout import (
     F_DV_LOST,
     F_DV_STEP,
@@ -91,7 +97,7 @@ from planetnav_env.core.sensing import (
     star_fix_stage,
     time_pulsar,
 )
-from planetnav_env.dynamics.attitude import store_state_kernel
+from planetnav_env.dynamics.attitude import Plant, store_state_kernel
 from planetnav_env.estimation.ekf_kernels import (
     predict_kernel,
     rk4_kernel,
@@ -186,16 +192,19 @@ def step_row(prm, st, n, target, torque, sc) -> bool:  # pragma: no cover - comp
         sc.y[j] = q[j]
     for j in range(3):
         sc.y[4 + j] = w[j]
+    # The closed loop's records, built by keyword once per row step (views of prm and sc: no copies).
+    loop = PdLoop(
+        plant=Plant(jm=prm.jm, jinv=prm.jinv, tau_max=prm.tau_max, h_max=prm.h_max), k_a=ps.k_a, k_w=ps.k_w
+    )
+    ws = LoopScratch(work=sc.work, rq=sc.rq, a=sc.a, u_cmd=sc.u_cmd)
+    u_out = f[n, F_U : F_U + 3]  # the last applied wheel torque [N m]
     t_on = 0.0  # thrusting time [s] and its position moment [s^2] (operations)
     moment = 0.0
     if ops:
         # One sub-step at a time (the same loop as one call with n_sub), checking the thrust axis.
         on = False
         for j in range(n_sub):
-            substeps_kernel(
-                sc.y, hw, use_pd, sc.frame, sc.bias, sc.zero3, 1, h_dt, prm.jm, prm.jinv, prm.tau_max,
-                prm.h_max, ps.k_a, ps.k_w, sc.work, sc.rq, sc.a, sc.u_cmd, f[n, F_U : F_U + 3],
-            )  # fmt: skip
+            substeps_kernel(sc.y, hw, use_pd, sc.frame, sc.bias, sc.zero3, 1, h_dt, loop, ws, u_out)
             on = thrust_axis_on(sc.y, prm.boresight, sc.z, ps.ops_cos_tol)
             if on:
                 t_on += h_dt
@@ -205,10 +214,7 @@ def step_row(prm, st, n, target, torque, sc) -> bool:  # pragma: no cover - comp
         f[n, F_DV_STEP] = dv_step
         f[n, F_DV_LOST] += dv_step
     else:
-        substeps_kernel(
-            sc.y, hw, use_pd, sc.frame, sc.bias, sc.zero3, n_sub, h_dt, prm.jm, prm.jinv, prm.tau_max,
-            prm.h_max, ps.k_a, ps.k_w, sc.work, sc.rq, sc.a, sc.u_cmd, f[n, F_U : F_U + 3],
-        )  # fmt: skip
+        substeps_kernel(sc.y, hw, use_pd, sc.frame, sc.bias, sc.zero3, n_sub, h_dt, loop, ws, u_out)
     if not store_state_kernel(sc.y, hw, q, w, hw):
         i[n, I_STATUS] = STATUS_ATTITUDE_NONFINITE
         i[n, I_TERMINATED] = 1
