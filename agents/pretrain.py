@@ -115,13 +115,20 @@ def clone(
     lr: float = 1e-3,
     batch: int = 256,
     keep_std: bool = False,
+    balance: bool = False,
 ) -> float:
     """Fits ``model.policy`` to (obs, actions) by maximum likelihood; returns the last epoch's mean
     negative log-likelihood.
 
     ``keep_std``: a Gaussian policy's state-independent ``log_std`` is put back to its value before the
     fit. Maximum likelihood on a deterministic teacher shrinks it towards zero (NLL ~ -6), and PPO then
-    has no exploration left to improve on the clone; with ``keep_std`` only the mean is the clone's."""
+    has no exploration left to improve on the clone; with ``keep_std`` only the mean is the clone's.
+
+    ``balance`` (discrete actions): each sample's log-likelihood is weighted by ``N / (C n_c)`` (``n_c`` the
+    samples of its action, ``C`` the actions present), so every action weighs the same in the loss. Why: a
+    teacher that images at ~3 % of the decisions (``optimum`` on ThrustArc-TCM-v0) is otherwise fitted as
+    "stay" wherever its session timing is not a function of the observation, and the argmax never images
+    there (docs/operations.md §7.4)."""
     import torch
 
     policy = model.policy
@@ -130,6 +137,13 @@ def clone(
     opt = torch.optim.Adam(policy.parameters(), lr=lr)
     o = torch.as_tensor(obs)
     a = torch.as_tensor(actions)
+    if balance:
+        if a.ndim != 1:
+            raise ValueError(f"clone: balance needs discrete actions (one integer per sample), got {a.shape}")
+        values, inverse, counts = np.unique(actions, return_inverse=True, return_counts=True)
+        w = torch.as_tensor(len(actions) / (len(values) * counts[inverse]), dtype=torch.float32)
+    else:
+        w = torch.ones(len(o))
     gen = torch.Generator().manual_seed(0)
     nll = float("nan")
     policy.set_training_mode(True)
@@ -139,7 +153,7 @@ def clone(
         for i in range(0, len(o), batch):
             idx = perm[i : i + batch]
             _, log_prob, _ = policy.evaluate_actions(o[idx], a[idx])
-            loss = -log_prob.mean()
+            loss = -(w[idx] * log_prob).sum() / w[idx].sum()
             opt.zero_grad()
             loss.backward()
             opt.step()
@@ -164,6 +178,7 @@ def dagger(
     action_repeat: int = 1,
     relative_actions: bool = False,
     keep_std: bool = False,
+    balance: bool = False,
 ) -> tuple[np.ndarray, np.ndarray, float]:
     """DAgger (Ross, Gordon & Bagnell 2011) after a first :func:`clone` on ``data``: ``rounds`` times, the
     clone drives ``episodes`` new demonstration episodes, the teacher labels every decision it visits, and
@@ -181,7 +196,7 @@ def dagger(
         )  # fmt: skip
         obs = np.concatenate([obs, new_obs])
         actions = np.concatenate([actions, new_actions])
-        nll = clone(model, obs, actions, epochs, keep_std=keep_std)
+        nll = clone(model, obs, actions, epochs, keep_std=keep_std, balance=balance)
     return obs, actions, nll
 
 

@@ -151,12 +151,16 @@ def parse_config(data: Mapping[str, Any] | None, name: str = "run") -> TrainConf
     if tc.pretrain:
         _check_keys(
             tc.pretrain,
-            {"teacher", "teacher_config", "episodes", "epochs", "keep_std", "dagger_rounds"},
+            {"teacher", "teacher_config", "episodes", "epochs", "keep_std", "dagger_rounds", "balance"},
             "config.pretrain",
         )
         if not isinstance(tc.pretrain.setdefault("keep_std", False), bool):
             raise ConfigError(
                 f"config.pretrain: keep_std must be true or false, got {tc.pretrain['keep_std']!r}"
+            )
+        if not isinstance(tc.pretrain.setdefault("balance", False), bool):
+            raise ConfigError(
+                f"config.pretrain: balance must be true or false, got {tc.pretrain['balance']!r}"
             )
         if ("teacher" in tc.pretrain) == ("teacher_config" in tc.pretrain):
             raise ConfigError(

@@ -93,12 +93,16 @@ def train(tc: TrainConfig, run_dir: Path, progress: bool = True) -> tuple[Path, 
             tc.env_config(), teacher, tc.pretrain["episodes"], tc.features,
             action_repeat=tc.action_repeat, relative_actions=tc.relative_actions,
         )  # fmt: skip
-        nll = clone(model, obs, actions, tc.pretrain["epochs"], keep_std=tc.pretrain["keep_std"])
+        nll = clone(
+            model, obs, actions, tc.pretrain["epochs"], keep_std=tc.pretrain["keep_std"],
+            balance=tc.pretrain.get("balance", False),
+        )  # fmt: skip
         if tc.pretrain["dagger_rounds"]:
             obs, actions, nll = dagger(
                 model, tc.env_config(), teacher, tc.pretrain["dagger_rounds"], tc.pretrain["episodes"],
                 tc.pretrain["epochs"], tc.features, (obs, actions), action_repeat=tc.action_repeat,
                 relative_actions=tc.relative_actions, keep_std=tc.pretrain["keep_std"],
+                balance=tc.pretrain.get("balance", False),
             )  # fmt: skip
         pretrain_stats.update(samples=len(obs), nll=nll, seconds=time.perf_counter() - t0)
         print(f"pretrained on {len(obs)} decisions of {teacher} (final NLL {nll:.2f})")

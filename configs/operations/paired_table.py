@@ -9,6 +9,14 @@ all seeds also the imaging fraction and the wall seconds per episode. Printed fo
 seeds and for all.
 
     .venv/bin/python configs/operations/paired_table.py /tmp/opt/cmp_a.json /tmp/opt/cmp_b.json
+
+A block may be several files joined by commas (``a.json,c.json``: runs of the same seeds, e.g. a trained
+policy run later beside the stored rules and references); an agent present in more than one of them must
+have the same per-episode J in each (the check that the seeds and noise streams are the same), else the
+script stops naming it. For every agent that is neither a rule nor a reference (a trained policy), and
+for every reference (names beginning with ``optimum`` or ``planner``), it also prints the fraction of the
+gap from the best rule to that reference that the agent closes, ``(J_rule - J_agent) / (J_rule - J_ref)``,
+and the paired interval of ``J_agent - (J_rule + J_ref) / 2`` (negative: more than half the gap closed).
 """
 
 from __future__ import annotations
@@ -21,12 +29,31 @@ import numpy as np
 from planetnav_agents.stats import mean_ci, paired_difference
 
 
+def _block(spec: str) -> dict:
+    """One seed block: the ``compare --json`` file(s) of ``spec`` (comma-separated), agents merged."""
+    paths = spec.split(",")
+    merged: dict = {"agents": {}}
+    for path in paths:
+        for name, a in json.load(open(path))["agents"].items():
+            old = merged["agents"].get(name)
+            if old is not None and (
+                old["seed"] != a["seed"]
+                or not np.array_equal(old["per_episode_objective"], a["per_episode_objective"])
+            ):
+                raise SystemExit(f"{spec}: agent {name!r} differs between the joined files (other seeds?)")
+            merged["agents"].setdefault(name, a)
+    firsts = {(a["seed"], a["episodes"]) for a in merged["agents"].values()}
+    if len(firsts) != 1:
+        raise SystemExit(f"{spec}: the joined files cover different seeds {sorted(firsts)}")
+    return merged
+
+
 def main() -> None:
     ap = argparse.ArgumentParser()
-    ap.add_argument("files", nargs="+", help="compare --json files, in seed order")
+    ap.add_argument("files", nargs="+", help="compare --json files in seed order (a,b: one block's files)")
     ap.add_argument("--first", type=int, default=20, help="also the table of the first N seeds")
     args = ap.parse_args()
-    parts = [json.load(open(p)) for p in args.files]
+    parts = [_block(spec) for spec in args.files]
     names = list(parts[0]["agents"])
     seed = parts[0]["agents"][names[0]]["seed"]
     for p in parts:
@@ -66,6 +93,16 @@ def main() -> None:
             if n_seeds == len(j[names[0]]):  # the blocks' own means: all seeds only
                 line += f"  imaging {imaging[n]:.3f}  s/ep {sec[n]:.1f}"
             print(line)
+        others = [n for n in names if not n.startswith(("periodic", "greedy", "optimum", "planner"))]
+        for ref in (n for n in names if n.startswith(("optimum", "planner"))):
+            gap = m_best - j[ref][:n_seeds].mean()
+            for n in others:
+                closed = (m_best - j[n][:n_seeds].mean()) / gap
+                d = paired_difference(j[n][:n_seeds], 0.5 * (j[best][:n_seeds] + j[ref][:n_seeds]))
+                print(
+                    f"{n} closes {100 * closed:.1f} % of the gap {best} -> {ref} ({gap:.1f} km); "
+                    f"J - (J_rule + J_ref)/2 = {d.mean:+.1f} [{d.low:+.1f}, {d.high:+.1f}] km"
+                )
 
 
 if __name__ == "__main__":
