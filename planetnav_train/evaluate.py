@@ -218,6 +218,26 @@ def _batched_episodes(
         venv.close()
 
 
+def _predict_each_row(policy: Any, obs: np.ndarray) -> np.ndarray:
+    """Deterministic actions of a continuous SB3 ``policy`` for the rows of ``obs``, each row's forward
+    pass on that row alone (the tensor ``policy.predict(obs[r])`` builds: the single path's arithmetic);
+    ``predict``'s once-per-call work (eval mode, ``no_grad``, the Box post-processing, elementwise and so
+    the same on a stack) done once for all rows. ``tests/test_eval_batched.py`` checks it equals the
+    single path's actions."""
+    import torch
+    from gymnasium import spaces
+
+    policy.set_training_mode(False)
+    with torch.no_grad():
+        parts = [policy._predict(policy.obs_to_tensor(row)[0], deterministic=True) for row in obs]
+    actions = torch.cat(parts).cpu().numpy().reshape((-1, *policy.action_space.shape))
+    if isinstance(policy.action_space, spaces.Box):  # as BasePolicy.predict does after its forward pass
+        if policy.squash_output:
+            return policy.unscale_action(actions)
+        return np.clip(actions, policy.action_space.low, policy.action_space.high)
+    return actions
+
+
 def _run_rows(
     rows: Any,
     rec: _RecordingRows,
@@ -241,10 +261,7 @@ def _run_rows(
         # Every row is predicted (the finished ones too: their stale actions are never applied), so the
         # batch keeps one shape; a recurrent policy carries one LSTM state per row from episode_start.
         if per_row:
-            # Finished rows keep their last action (never applied; the batch keeps its shape).
-            action = np.zeros((n, *model.action_space.shape), dtype=model.action_space.dtype)
-            for r in np.flatnonzero(running):
-                action[r] = model.predict(obs[r], deterministic=True)[0]
+            action = _predict_each_row(model.policy, obs)
         elif recurrent:
             action, state = model.predict(
                 obs, state=state, episode_start=np.full(n, first), deterministic=True

@@ -45,7 +45,9 @@ def _save_model(tmp_path: Path, algo: str, cfg: EnvConfig, options: dict[str, An
     from planetnav_agents.sb3 import algorithm_class
 
     venv = NavTrainingVecEnv(2, cfg, seed=0, **options)
-    kwargs = {"n_steps": 8, "batch_size": 8, "policy_kwargs": {"net_arch": [16]}}
+    kwargs: dict[str, Any] = {"n_steps": 8, "batch_size": 8, "policy_kwargs": {"net_arch": [16]}}
+    if algo == "sac":
+        kwargs = {"buffer_size": 100, "policy_kwargs": {"net_arch": [16]}}
     if algo == "recurrent_ppo":
         kwargs["policy_kwargs"] = {"net_arch": [16], "lstm_hidden_size": 8}
     policy = "MlpLstmPolicy" if algo == "recurrent_ppo" else "MlpPolicy"
@@ -89,8 +91,9 @@ CASES = [
         {"features": ["since_measured", "gain"], "action_repeat": 3, "relative_actions": True},
         40,
     ),
-    # Continuous wheel torques (Box actions).
+    # Continuous wheel torques (Box actions): clipped (PPO) and squashed (SAC) actions.
     ("planetnav/Cruise-Torque-v0", "ppo", {}, 30),
+    ("planetnav/Cruise-Torque-v0", "sac", {}, 30),
     # An operations scenario: the objective J is info["objective"] at each row's end.
     ("planetnav/ThrustArc-TCM-v0", "ppo", {}, 30),
     # A recurrent policy: one LSTM state per row.
