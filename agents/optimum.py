@@ -69,6 +69,8 @@ from planetnav_env.core.row_ephemeris import eval_channel, perturbers_at, planet
 from planetnav_env.core.what_if import coasted_position_trace
 from planetnav_env.dynamics.attitude import Plant
 from planetnav_env.estimation.ekf_kernels import (
+    OrbitModel,
+    PredictScratch,
     _matmul,
     covariance_predict_kernel,
     planet_model_kernel,
@@ -102,6 +104,7 @@ def _nominal_path(prm, eph, f1, p1, i1, obs1, x0, n_steps, t0):  # pragma: no co
     vis = np.zeros((n_steps, n_p), np.bool_)
     xe = x0.copy()
     pdummy = np.zeros((6, 6))
+    pws = PredictScratch(w6=sc.w6, v6=sc.v6, phi=sc.phi, tmp=sc.tmp)
     u = np.zeros(3)
     dirv = np.zeros(3)
     roll = np.zeros(3)
@@ -123,10 +126,8 @@ def _nominal_path(prm, eph, f1, p1, i1, obs1, x0, n_steps, t0):  # pragma: no co
                 dirv[j] = sc.planets[a, j] - (xe[j] + sc.central[j])
             frame_kernel(dirv, roll, fr_pl[k, a])
         perturbers_at(prm, eph, f1, 0, t, dt, sc.pert)
-        predict_kernel(
-            xe, pdummy, dt, ps.mu, sc.pert[0], sc.pert[1], sc.pert[2], prm.mus, prm.qproc, ps.euler != 0,
-            sc.w6, sc.v6, sc.phi, sc.tmp,
-        )  # fmt: skip
+        orbit = OrbitModel(mu=ps.mu, p0=sc.pert[0], p1=sc.pert[1], p2=sc.pert[2], mus=prm.mus)
+        predict_kernel(xe, pdummy, dt, orbit, prm.qproc, ps.euler != 0, pws)
         phis[k] = sc.phi
         # The nominal thrust over a whole step: t_on = dt, position moment dt^2 / 2.
         apply_thrust(xe, ps.ops_acc, u, dt, 0.5 * dt * dt)

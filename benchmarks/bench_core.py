@@ -27,6 +27,7 @@ from planetnav_env.estimation.ekf import BatchEKF, FilterConfig, FilterpyEKF, pr
 from planetnav_env.estimation.ekf_kernels import (
     KIND_CODES,
     SingleEKF,
+    orbit_model,
     predict_batch_kernel,
     predict_batch_parallel,
     rk4_batch_kernel,
@@ -93,18 +94,17 @@ def main() -> None:
         empty = np.zeros((0, 3))
         mus = np.zeros(0)
         kind = KIND_CODES[meas.kind]
+        orbit = orbit_model(model.mu_central, empty, empty, empty, mus)
 
         def cycle():
             if threads > 1:
-                predict_batch_parallel(
-                    x, p, dt, model.mu_central, empty, empty, empty, mus, q, False, threads
-                )
+                predict_batch_parallel(x, p, dt, orbit, q, False, threads)
                 update_batch_parallel(
                     x, p, z, planets, diameter, kind, meas.sigma_dir, meas.sigma_size, basis, active, np.inf,
                     nis, acc, threads,
                 )  # fmt: skip
             else:
-                predict_batch_kernel(x, p, dt, model.mu_central, empty, empty, empty, mus, q, False)
+                predict_batch_kernel(x, p, dt, orbit, q, False)
                 update_batch_kernel(
                     x, p, z, planets, diameter, kind, meas.sigma_dir, meas.sigma_size, basis, active, np.inf,
                     nis, acc,

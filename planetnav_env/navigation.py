@@ -21,6 +21,7 @@ from planetnav_env.errors import InvalidParameterError, require_positive
 from planetnav_env.estimation.ekf import BatchEKF, FilterConfig, nees, process_noise
 from planetnav_env.estimation.ekf_kernels import (
     KIND_CODES,
+    orbit_model,
     predict_batch_kernel,
     rk4_batch_kernel,
     update_batch_kernel,
@@ -125,6 +126,7 @@ def simulate_navigation(
     x_est = x_true + rng.multivariate_normal(np.zeros(6), p0, size=n_runs)
     ekf = BatchEKF(gravity, x_est, p0, config)
     q = process_noise(dt, config.accel_psd)
+    orbit = orbit_model(gravity.mu_central, _NONE, _NONE, _NONE, _NO_MU)  # the compiled engine's field
     q_chol = (
         np.linalg.cholesky(q + 1e-300 * np.eye(6)) if truth_process_noise and config.accel_psd > 0 else None
     )
@@ -152,9 +154,7 @@ def simulate_navigation(
         if engine == "numpy":
             ekf.predict(t[k], dt)
         else:
-            predict_batch_kernel(
-                ekf.x, ekf.P, dt, gravity.mu_central, _NONE, _NONE, _NONE, _NO_MU, q, config.stm == "euler"
-            )
+            predict_batch_kernel(ekf.x, ekf.P, dt, orbit, q, config.stm == "euler")
         name = schedule(k, t[k + 1], ekf.x) if (k + 1) % measure_every == 0 else None
         targets.append(name)
         if name is not None:

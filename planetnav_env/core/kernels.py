@@ -99,6 +99,8 @@ from planetnav_env.core.sensing import (
 )
 from planetnav_env.dynamics.attitude import Plant, store_state_kernel
 from planetnav_env.estimation.ekf_kernels import (
+    OrbitModel,
+    PredictScratch,
     predict_kernel,
     rk4_kernel,
 )
@@ -224,13 +226,12 @@ def step_row(prm, st, n, target, torque, sc) -> bool:  # pragma: no cover - comp
     # --- orbit truth (state only: it needs no STM) and filter prediction (same dynamics, perturbers from
     # the row's table) ---
     perturbers_at(prm, eph, f, n, t, dt, sc.pert)
-    rk4_kernel(x, dt, ps.mu, sc.pert[0], sc.pert[1], sc.pert[2], prm.mus, sc.x_new, sc.w6, sc.v6)
+    orbit = OrbitModel(mu=ps.mu, p0=sc.pert[0], p1=sc.pert[1], p2=sc.pert[2], mus=prm.mus)
+    rk4_kernel(x, dt, orbit, sc.x_new, sc.w6, sc.v6)
     for j in range(6):
         x[j] = sc.x_new[j]
-    predict_kernel(
-        xe, pm, dt, ps.mu, sc.pert[0], sc.pert[1], sc.pert[2], prm.mus, prm.qproc, ps.euler != 0,
-        sc.w6, sc.v6, sc.phi, sc.tmp,
-    )  # fmt: skip
+    pws = PredictScratch(w6=sc.w6, v6=sc.v6, phi=sc.phi, tmp=sc.tmp)
+    predict_kernel(xe, pm, dt, orbit, prm.qproc, ps.euler != 0, pws)
     if ops and t_on > 0.0:
         # Truth: nominal thrust + execution error drawn from frac * Q_thrust; filter: nominal thrust and
         # the same Q (the filter knows when the engine was on: it commands it).

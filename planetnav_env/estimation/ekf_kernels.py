@@ -15,6 +15,7 @@ formulas of :mod:`planetnav_env.estimation.measurements`.
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit, prange
@@ -27,6 +28,40 @@ from planetnav_env.jit import ROW_KERNEL_OPTIONS, row_kernel
 
 #: Configuration string -> MeasurementKind as an int (what the kernels take).
 KIND_CODES = {k.label: int(k) for k in MeasurementKind}
+
+
+class OrbitModel(NamedTuple):
+    """The gravity field of one RK4 step of ``dt``: the central body and ``K`` perturbers (third bodies)
+    at the step's three stage epochs, positions relative to the central body. Built by keyword once per
+    step (or once per batch), outside the stage loops."""
+
+    mu: float  # central body's GM [km^3/s^2]
+    p0: np.ndarray  # (K, 3) perturbers at t [km]
+    p1: np.ndarray  # (K, 3) perturbers at t + dt/2 [km]
+    p2: np.ndarray  # (K, 3) perturbers at t + dt [km]
+    mus: np.ndarray  # (K,) perturbers' GM [km^3/s^2]
+
+
+class PredictScratch(NamedTuple):
+    """Work arrays of :func:`predict_kernel` (the kernels allocate nothing: an allocation costs about as
+    much as the arithmetic of an RK4 stage)."""
+
+    w6: np.ndarray  # (3, 6, 6) RK4 of the STM
+    v6: np.ndarray  # (4, 6) RK4 of the state; v6[3] the new state
+    phi: np.ndarray  # (6, 6) state transition matrix
+    tmp: np.ndarray  # (6, 6) covariance product
+
+
+def orbit_model(mu: float, p0: np.ndarray, p1: np.ndarray, p2: np.ndarray, mus: np.ndarray) -> OrbitModel:
+    """The :class:`OrbitModel` of the arguments (``mu`` as a float, arrays as given)."""
+    return OrbitModel(mu=float(mu), p0=p0, p1=p1, p2=p2, mus=mus)
+
+
+def predict_scratch() -> PredictScratch:
+    """A fresh :class:`PredictScratch`."""
+    return PredictScratch(
+        w6=np.empty((3, 6, 6)), v6=np.empty((4, 6)), phi=np.empty((6, 6)), tmp=np.empty((6, 6))
+    )
 
 
 @row_kernel
@@ -80,7 +115,7 @@ def _stage(x, phi, mu, pert, mus, dx, dphi, a, g, stm):
 
 
 @row_kernel
-def _rk4(x, dt, mu, p0, p1, p2, mus, x_out, phi_out, w6, v6, stm):
+def _rk4(x, dt, orbit, x_out, phi_out, w6, v6, stm):
     """RK4 of the state over dt and, if ``stm``, of the variational equations (Phi into ``phi_out``).
 
     The state's stages never read Phi, so ``stm=False`` gives the same ``x_out`` bit for bit with about a
@@ -100,8 +135,8 @@ def _rk4(x, dt, mu, p0, p1, p2, mus, x_out, phi_out, w6, v6, stm):
                 phi_out[i, j] = ps[i, j]
     # Stages 1..4: evaluate at (xs, ps), accumulate with weights 1,2,2,1, form the next stage point.
     for stage in range(4):
-        pert = p0 if stage == 0 else (p1 if stage < 3 else p2)
-        _stage(xs, ps, mu, pert, mus, dx, dphi, a, g, stm)
+        pert = orbit.p0 if stage == 0 else (orbit.p1 if stage < 3 else orbit.p2)
+        _stage(xs, ps, orbit.mu, pert, orbit.mus, dx, dphi, a, g, stm)
         wgt = h6 if (stage == 0 or stage == 3) else 2.0 * h6
         nxt = 0.5 * dt if stage < 2 else dt
         for i in range(6):
@@ -114,22 +149,22 @@ def _rk4(x, dt, mu, p0, p1, p2, mus, x_out, phi_out, w6, v6, stm):
 
 
 @row_kernel
-def rk4_stm_kernel(x, dt, mu, p0, p1, p2, mus, x_out, phi_out, w6, v6):
-    """RK4 of state and variational equations over dt; p0/p1/p2 perturbers at t, t+dt/2, t+dt.
+def rk4_stm_kernel(x, dt, orbit, x_out, phi_out, w6, v6):
+    """RK4 of state and variational equations over ``dt`` [s] in the field ``orbit`` (:class:`OrbitModel`).
 
     ``w6`` (3, 6, 6) and ``v6`` (3, 6) are scratch space: the kernel allocates nothing, because
     an allocation costs about as much as the arithmetic of a stage.
     """
-    _rk4(x, dt, mu, p0, p1, p2, mus, x_out, phi_out, w6, v6, True)
+    _rk4(x, dt, orbit, x_out, phi_out, w6, v6, True)
 
 
 @row_kernel
-def rk4_kernel(x, dt, mu, p0, p1, p2, mus, x_out, w6, v6):
+def rk4_kernel(x, dt, orbit, x_out, w6, v6):
     """:func:`rk4_stm_kernel` without the STM (the truth propagator): the same ``x_out``, bit for bit.
 
     ``w6`` (3, 6, 6) and ``v6`` (3, 6) are scratch as there (only ``v6`` and ``w6[2]`` are touched).
     """
-    _rk4(x, dt, mu, p0, p1, p2, mus, x_out, w6[2], w6, v6, False)
+    _rk4(x, dt, orbit, x_out, w6[2], w6, v6, False)
 
 
 @njit(inline="always", **ROW_KERNEL_OPTIONS)  # inlined into numba IR: the callers' constant sizes unroll
@@ -145,17 +180,19 @@ def _matmul(a, b, rows, cols, inner, out):
 
 
 @row_kernel
-def predict_kernel(x, p, dt, mu, p0, p1, p2, mus, q, euler_stm, w6, v6, phi, tmp):
-    """In place: x <- RK4(x); P <- Phi P Phi^T + Q (symmetric by construction).
+def predict_kernel(x, p, dt, orbit, q, euler_stm, ws):
+    """In place over ``dt`` [s] in the field ``orbit`` (:class:`OrbitModel`): x <- RK4(x);
+    P <- Phi P Phi^T + Q (symmetric by construction), Phi by RK4 or, if ``euler_stm``, one Euler step.
 
-    ``phi`` and ``tmp`` (6, 6) are scratch; ``w6``/``v6`` as in :func:`rk4_stm_kernel`.
+    ``ws`` (:class:`PredictScratch`) is scratch; ``ws.phi`` holds Phi afterwards.
     """
+    w6, v6, phi = ws.w6, ws.v6, ws.phi
     x_new = v6[3]
-    rk4_stm_kernel(x, dt, mu, p0, p1, p2, mus, x_new, phi, w6, v6)
+    rk4_stm_kernel(x, dt, orbit, x_new, phi, w6, v6)
     if euler_stm:
         a = v6[2, :3]
         g = w6[2, :3, :3]
-        _accel_grad(x[:3], mu, p0, mus, a, g)
+        _accel_grad(x[:3], orbit.mu, orbit.p0, orbit.mus, a, g)
         for i in range(6):
             for j in range(6):
                 phi[i, j] = 1.0 if i == j else 0.0
@@ -165,7 +202,7 @@ def predict_kernel(x, p, dt, mu, p0, p1, p2, mus, q, euler_stm, w6, v6, phi, tmp
                 phi[3 + i, j] = g[i, j] * dt
     for i in range(6):
         x[i] = x_new[i]
-    covariance_predict_kernel(p, phi, q, tmp)
+    covariance_predict_kernel(p, phi, q, ws.tmp)
 
 
 @njit(inline="always", **ROW_KERNEL_OPTIONS)
@@ -326,14 +363,13 @@ def _inv_small(s, m, out):
 
 
 @njit(cache=True)
-def _predict_range(x, p, dt, mu, p0, p1, p2, mus, q, euler_stm, lo, hi):
+def _predict_range(x, p, dt, orbit, q, euler_stm, lo, hi):
     """Predict filters lo..hi-1 of a batch in place (one scratch set for the chunk)."""
-    w6 = np.empty((3, 6, 6))
-    v6 = np.empty((4, 6))
-    phi = np.empty((6, 6))
-    tmp = np.empty((6, 6))
+    ws = PredictScratch(
+        w6=np.empty((3, 6, 6)), v6=np.empty((4, 6)), phi=np.empty((6, 6)), tmp=np.empty((6, 6))
+    )
     for n in range(lo, hi):
-        predict_kernel(x[n], p[n], dt, mu, p0, p1, p2, mus, q, euler_stm, w6, v6, phi, tmp)
+        predict_kernel(x[n], p[n], dt, orbit, q, euler_stm, ws)
 
 
 @njit(cache=True)
@@ -358,13 +394,14 @@ def _update_range(
 
 
 @njit(cache=True)
-def predict_batch_kernel(x, p, dt, mu, p0, p1, p2, mus, q, euler_stm):
-    """Predict N filters (leading axis) in place, on the calling thread."""
-    _predict_range(x, p, dt, mu, p0, p1, p2, mus, q, euler_stm, 0, x.shape[0])
+def predict_batch_kernel(x, p, dt, orbit, q, euler_stm):
+    """Predict N filters (leading axis) in place over ``dt`` [s] in the field ``orbit``
+    (:class:`OrbitModel`, shared by every filter), process noise ``q`` (6, 6), on the calling thread."""
+    _predict_range(x, p, dt, orbit, q, euler_stm, 0, x.shape[0])
 
 
 @njit(cache=True, parallel=True)
-def predict_batch_parallel(x, p, dt, mu, p0, p1, p2, mus, q, euler_stm, n_chunks):
+def predict_batch_parallel(x, p, dt, orbit, q, euler_stm, n_chunks):
     """:func:`predict_batch_kernel` in ``n_chunks`` chunks over the CPU's threads (pass
     ``numba.get_num_threads()``; filters are independent, so the result does not depend on it).
 
@@ -375,17 +412,19 @@ def predict_batch_parallel(x, p, dt, mu, p0, p1, p2, mus, q, euler_stm, n_chunks
     n_chunks = max(1, min(n_chunks, n_total))
     for c in prange(n_chunks):
         lo, hi = c * n_total // n_chunks, (c + 1) * n_total // n_chunks
-        _predict_range(x, p, dt, mu, p0, p1, p2, mus, q, euler_stm, lo, hi)
+        _predict_range(x, p, dt, orbit, q, euler_stm, lo, hi)
 
 
 @njit(cache=True)
 def rk4_batch_kernel(x, dt, mu, p0, p1, p2, mus):
-    """RK4 state step of N trajectories in place (the truth propagator; same stages as the filter)."""
+    """RK4 state step of N trajectories in place (the truth propagator; same stages as the filter);
+    ``mu`` [km^3/s^2], perturbers ``p0``/``p1``/``p2`` (K, 3) [km] at t, t + dt/2, t + dt, their ``mus``."""
+    orbit = OrbitModel(mu=mu, p0=p0, p1=p1, p2=p2, mus=mus)
     w6 = np.empty((3, 6, 6))
     v6 = np.empty((4, 6))
     x_new = np.empty(6)
     for n in range(x.shape[0]):
-        rk4_kernel(x[n], dt, mu, p0, p1, p2, mus, x_new, w6, v6)
+        rk4_kernel(x[n], dt, orbit, x_new, w6, v6)
         x[n, :] = x_new
 
 
@@ -418,8 +457,9 @@ def update_batch_parallel(
 def cycle_batch_kernel(x, p, dt, mu, p0, p1, p2, mus, q, euler_stm, *update_args):
     """Predict + update for N filters (leading axis): :func:`predict_batch_kernel` with the arguments up
     to ``euler_stm``, then :func:`update_batch_kernel` on the same ``x``, ``p`` with the rest (``z`` to
-    ``acc_out``, in its order). The measurement and basis must not depend on the prediction."""
-    predict_batch_kernel(x, p, dt, mu, p0, p1, p2, mus, q, euler_stm)
+    ``acc_out``, in its order). The measurement and basis must not depend on the prediction. The orbit
+    model is given by its parts (``mu``, ``p0``, ``p1``, ``p2``, ``mus``: :class:`OrbitModel`'s fields)."""
+    predict_batch_kernel(x, p, dt, OrbitModel(mu=mu, p0=p0, p1=p1, p2=p2, mus=mus), q, euler_stm)
     update_batch_kernel(x, p, *update_args)
 
 
@@ -483,10 +523,7 @@ class SingleEKF(EKFBase):
         self._h = np.empty(3)
         self._jac = np.empty((3, 6))
         self._r = np.empty((3, 3))
-        self._w6 = np.empty((3, 6, 6))
-        self._v6 = np.empty((4, 6))
-        self._phi = np.empty((6, 6))
-        self._tmp = np.empty((6, 6))
+        self._ws = predict_scratch()
         self._uw = np.empty((5, 6, 6))
 
     def _pert(self, t: float, dt: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -505,22 +542,8 @@ class SingleEKF(EKFBase):
         arrays at t, t+dt/2, t+dt when the caller has them cached."""
         dt = require_positive("dt", dt)
         p0, p1, p2 = perturber_positions if perturber_positions is not None else self._pert(t, dt)
-        predict_kernel(
-            self.x,
-            self.P,
-            dt,
-            self.model.mu_central,
-            p0,
-            p1,
-            p2,
-            self._mus,
-            self.q(dt),
-            self.config.stm == "euler",
-            self._w6,
-            self._v6,
-            self._phi,
-            self._tmp,
-        )
+        orbit = orbit_model(self.model.mu_central, p0, p1, p2, self._mus)
+        predict_kernel(self.x, self.P, dt, orbit, self.q(dt), self.config.stm == "euler", self._ws)
 
     def update_scalar(self, z: float, h: float, jac_row: np.ndarray, variance: float) -> tuple[float, bool]:
         """Update with one scalar measurement ``z`` of prediction ``h``, Jacobian row (6,) and noise
