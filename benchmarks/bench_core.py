@@ -26,6 +26,8 @@ from planetnav_env.ephemeris import KeplerianEphemeris
 from planetnav_env.estimation.ekf import BatchEKF, FilterConfig, FilterpyEKF, process_noise
 from planetnav_env.estimation.ekf_kernels import (
     KIND_CODES,
+    FixModel,
+    PlanetFixes,
     SingleEKF,
     orbit_model,
     predict_batch_kernel,
@@ -95,20 +97,18 @@ def main() -> None:
         mus = np.zeros(0)
         kind = KIND_CODES[meas.kind]
         orbit = orbit_model(model.mu_central, empty, empty, empty, mus)
+        fixes = PlanetFixes(z=z, planet=planets, diameter=float(diameter), basis=basis, active=active)
+        fix_model = FixModel(
+            kind=kind, sig_dir=float(meas.sigma_dir), sig_size=float(meas.sigma_size), gate=np.inf
+        )
 
         def cycle():
             if threads > 1:
                 predict_batch_parallel(x, p, dt, orbit, q, False, threads)
-                update_batch_parallel(
-                    x, p, z, planets, diameter, kind, meas.sigma_dir, meas.sigma_size, basis, active, np.inf,
-                    nis, acc, threads,
-                )  # fmt: skip
+                update_batch_parallel(x, p, fixes, fix_model, nis, acc, threads)
             else:
                 predict_batch_kernel(x, p, dt, orbit, q, False)
-                update_batch_kernel(
-                    x, p, z, planets, diameter, kind, meas.sigma_dir, meas.sigma_size, basis, active, np.inf,
-                    nis, acc,
-                )  # fmt: skip
+                update_batch_kernel(x, p, fixes, fix_model, nis, acc)
             p[:] = p0
 
         return cycle

@@ -21,6 +21,8 @@ from planetnav_env.errors import InvalidParameterError, require_positive
 from planetnav_env.estimation.ekf import BatchEKF, FilterConfig, nees, process_noise
 from planetnav_env.estimation.ekf_kernels import (
     KIND_CODES,
+    FixModel,
+    PlanetFixes,
     orbit_model,
     predict_batch_kernel,
     rk4_batch_kernel,
@@ -127,6 +129,12 @@ def simulate_navigation(
     ekf = BatchEKF(gravity, x_est, p0, config)
     q = process_noise(dt, config.accel_psd)
     orbit = orbit_model(gravity.mu_central, _NONE, _NONE, _NONE, _NO_MU)  # the compiled engine's field
+    fix_model = FixModel(
+        kind=KIND_CODES[measurement.kind],
+        sig_dir=float(measurement.sigma_dir),
+        sig_size=float(measurement.sigma_size),
+        gate=float(config.gate_threshold(measurement.dim)),
+    )
     q_chol = (
         np.linalg.cholesky(q + 1e-300 * np.eye(6)) if truth_process_noise and config.accel_psd > 0 else None
     )
@@ -142,7 +150,6 @@ def simulate_navigation(
     targets: list[str | None] = []
     all_active = np.ones(n_runs, dtype=bool)
     planet_table: dict[str, np.ndarray] = {}
-    gate = {m: config.gate_threshold(m) for m in (2, 3)}
     xs_true[0], xs_est[0], ps[0] = x_true, ekf.x, ekf.P
     for k in range(k_total):
         if engine == "numpy":
@@ -181,21 +188,14 @@ def simulate_navigation(
                 res = ekf.update(z, h, jac, cov, measurement.angle_mask)
                 nis[k], accepted[k] = res.nis, res.accepted
             else:
-                update_batch_kernel(
-                    ekf.x,
-                    ekf.P,
-                    np.ascontiguousarray(z),
-                    np.broadcast_to(planet, (n_runs, 3)),
-                    diameter,
-                    KIND_CODES[measurement.kind],
-                    measurement.sigma_dir,
-                    measurement.sigma_size,
-                    basis if basis is not None else np.zeros((n_runs, 2, 3)),
-                    all_active,
-                    gate[measurement.dim],
-                    nis[k],
-                    accepted[k],
+                fixes = PlanetFixes(
+                    z=np.ascontiguousarray(z),
+                    planet=np.broadcast_to(planet, (n_runs, 3)),
+                    diameter=float(diameter),
+                    basis=basis if basis is not None else np.zeros((n_runs, 2, 3)),
+                    active=all_active,
                 )
+                update_batch_kernel(ekf.x, ekf.P, fixes, fix_model, nis[k], accepted[k])
                 ekf.rejected += ~accepted[k]
             measured[k] = True
         xs_true[k + 1], xs_est[k + 1], ps[k + 1] = x_true, ekf.x, ekf.P

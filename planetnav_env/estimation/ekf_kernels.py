@@ -52,6 +52,25 @@ class PredictScratch(NamedTuple):
     tmp: np.ndarray  # (6, 6) covariance product
 
 
+class PlanetFixes(NamedTuple):
+    """One planet measurement per filter of a batch of ``N`` (:func:`update_batch_kernel`)."""
+
+    z: np.ndarray  # (N, m) measurements (MeasurementModel's units: rad, or unit-vector components)
+    planet: np.ndarray  # (N, 3) planet positions in the filter's frame [km]
+    diameter: float  # planet diameter [km]
+    basis: np.ndarray  # (N, 2, 3) line-of-sight bases (the los kinds; ignored by the others)
+    active: np.ndarray  # (N,) bool: the filters to update (the others get NIS NaN, not accepted)
+
+
+class FixModel(NamedTuple):
+    """The measurement model of a batch of planet fixes and its chi-square gate."""
+
+    kind: int  # MeasurementKind as an int (KIND_CODES)
+    sig_dir: float  # direction sigma [rad]
+    sig_size: float  # apparent-size sigma [rad]
+    gate: float  # NIS above which a fix is rejected [-]
+
+
 def orbit_model(mu: float, p0: np.ndarray, p1: np.ndarray, p2: np.ndarray, mus: np.ndarray) -> OrbitModel:
     """The :class:`OrbitModel` of the arguments (``mu`` as a float, arrays as given)."""
     return OrbitModel(mu=float(mu), p0=p0, p1=p1, p2=p2, mus=mus)
@@ -373,21 +392,23 @@ def _predict_range(x, p, dt, orbit, q, euler_stm, lo, hi):
 
 
 @njit(cache=True)
-def _update_range(
-    x, p, z, planet, diameter, kind, sig_dir, sig_size, basis, active, gate, nis_out, acc_out, lo, hi
-):
+def _update_range(x, p, fixes, model, nis_out, acc_out, lo, hi):
     """Update filters lo..hi-1 of a batch in place, one planet measurement each."""
     h = np.empty(3)
     jac = np.empty((3, 6))
     rcov = np.empty((3, 3))
     uw = np.empty((5, 6, 6))
+    kind = model.kind
     wrap_index = 1 if kind <= 1 else -1
     for n in range(lo, hi):
-        if active[n]:
+        if fixes.active[n]:
             m = planet_model_kernel(
-                x[n, :3], planet[n], diameter, kind, sig_dir, sig_size, basis[n], h, jac, rcov
+                x[n, :3], fixes.planet[n], fixes.diameter, kind, model.sig_dir, model.sig_size,
+                fixes.basis[n], h, jac, rcov,
+            )  # fmt: skip
+            nis_out[n], acc_out[n] = update_kernel(
+                x[n], p[n], fixes.z[n], h, jac, rcov, m, wrap_index, model.gate, uw
             )
-            nis_out[n], acc_out[n] = update_kernel(x[n], p[n], z[n], h, jac, rcov, m, wrap_index, gate, uw)
         else:
             nis_out[n] = np.nan
             acc_out[n] = False
@@ -429,38 +450,35 @@ def rk4_batch_kernel(x, dt, mu, p0, p1, p2, mus):
 
 
 @njit(cache=True)
-def update_batch_kernel(
-    x, p, z, planet, diameter, kind, sig_dir, sig_size, basis, active, gate, nis_out, acc_out
-):
-    """Update N filters in place, one planet measurement each; planet (N, 3), z (N, m), basis (N, 2, 3)."""
-    n = x.shape[0]
-    _update_range(
-        x, p, z, planet, diameter, kind, sig_dir, sig_size, basis, active, gate, nis_out, acc_out, 0, n
-    )
+def update_batch_kernel(x, p, fixes, model, nis_out, acc_out):
+    """Update N filters in place, one planet measurement each (``fixes``: :class:`PlanetFixes`, ``model``:
+    :class:`FixModel`); NIS into ``nis_out`` (N,), acceptance into ``acc_out`` (N,) bool."""
+    _update_range(x, p, fixes, model, nis_out, acc_out, 0, x.shape[0])
 
 
 @njit(cache=True, parallel=True)
-def update_batch_parallel(
-    x, p, z, planet, diameter, kind, sig_dir, sig_size, basis, active, gate, nis_out, acc_out, n_chunks
-):
+def update_batch_parallel(x, p, fixes, model, nis_out, acc_out, n_chunks):
     """:func:`update_batch_kernel` in chunks over the CPU's threads (see :func:`predict_batch_parallel`)."""
     n_total = x.shape[0]
     n_chunks = max(1, min(n_chunks, n_total))
     for c in prange(n_chunks):
         lo, hi = c * n_total // n_chunks, (c + 1) * n_total // n_chunks
-        _update_range(
-            x, p, z, planet, diameter, kind, sig_dir, sig_size, basis, active, gate, nis_out, acc_out, lo, hi
-        )
+        _update_range(x, p, fixes, model, nis_out, acc_out, lo, hi)
 
 
 @njit(cache=True)
 def cycle_batch_kernel(x, p, dt, mu, p0, p1, p2, mus, q, euler_stm, *update_args):
     """Predict + update for N filters (leading axis): :func:`predict_batch_kernel` with the arguments up
-    to ``euler_stm``, then :func:`update_batch_kernel` on the same ``x``, ``p`` with the rest (``z`` to
-    ``acc_out``, in its order). The measurement and basis must not depend on the prediction. The orbit
-    model is given by its parts (``mu``, ``p0``, ``p1``, ``p2``, ``mus``: :class:`OrbitModel`'s fields)."""
+    to ``euler_stm`` (the orbit model by its parts ``mu``, ``p0``, ``p1``, ``p2``, ``mus``: the fields of
+    :class:`OrbitModel`), then :func:`update_batch_kernel` on the same ``x``, ``p`` with the rest (``z`` to
+    ``acc_out``: the fields of :class:`PlanetFixes` and :class:`FixModel`, then the outputs, in the order
+    of the former positional form, which ``tests/test_fast_ekf.py`` calls). The measurement and basis must
+    not depend on the prediction."""
     predict_batch_kernel(x, p, dt, OrbitModel(mu=mu, p0=p0, p1=p1, p2=p2, mus=mus), q, euler_stm)
-    update_batch_kernel(x, p, *update_args)
+    z, planet, diameter, kind, sig_dir, sig_size, basis, active, gate, nis_out, acc_out = update_args
+    fixes = PlanetFixes(z=z, planet=planet, diameter=diameter, basis=basis, active=active)
+    model = FixModel(kind=kind, sig_dir=sig_dir, sig_size=sig_size, gate=gate)
+    update_batch_kernel(x, p, fixes, model, nis_out, acc_out)
 
 
 @row_kernel
