@@ -114,8 +114,9 @@ def batch_reason(agent: Any, exact_actions: bool = True) -> str | None:
     Batched: a saved SB3 model with deterministic actions (recurrent policies too: each row carries its
     own LSTM state). Not batched (one episode at a time, as before): rule agents and RLlib checkpoints (no
     batched action here), sampled actions (``PATH@sampled``: seeded per episode through torch's global
-    generator, which rows cannot share), and a target-choice policy run in a target+torque env (its
-    action conversion is per-env)."""
+    generator, which rows cannot share), a target-choice policy run in a target+torque env (its
+    action conversion is per-env), and with ``exact_actions`` a recurrent policy with continuous actions
+    (its rows would need the LSTM state split per row to predict alone; not done)."""
     from planetnav_agents.sb3 import SB3Agent
 
     if not isinstance(agent, SB3Agent):
@@ -326,6 +327,8 @@ def evaluate_agent(
 
     from planetnav_env.env import PlanetNavEnv
 
+    if isinstance(batch_rows, bool) or not isinstance(batch_rows, (int, np.integer)) or batch_rows < 1:
+        raise ValueError(f"batch_rows must be a positive integer, got {batch_rows!r}")
     reason = not_applicable(spec, env_cfg)
     if reason:
         raise NotApplicableError(reason)
@@ -341,8 +344,6 @@ def evaluate_agent(
         disable=not progress,
         leave=False,
     )
-    if isinstance(batch_rows, bool) or not isinstance(batch_rows, (int, np.integer)) or batch_rows < 1:
-        raise ValueError(f"batch_rows must be a positive integer, got {batch_rows!r}")
     fallback = batch_reason(agent, exact_actions) if batched else "batched=False"
     if fallback is None:
         runs = []

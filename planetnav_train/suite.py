@@ -517,8 +517,15 @@ def run_cell(cell: Cell, settings: Settings, references: Mapping[str, Any]) -> d
     model_path, stats = train_cell(tc, settings.out / "models" / cell.key, settings.progress)
     train_s = time.perf_counter() - t0
     episodes = settings.eval_episodes or task.eval_episodes
+    # batched: the seeds as rows of the native vector env, one predict per decision for all of them
+    # (evaluate.batch_reason says which models fall back to one episode at a time).
     result = evaluate_agent(
-        str(model_path), task.eval_config(settings.episode_steps), episodes, task.eval_seed, settings.progress
+        str(model_path),
+        task.eval_config(settings.episode_steps),
+        episodes,
+        task.eval_seed,
+        settings.progress,
+        batched=True,
     )
     summary = _agent_summary(objective, result.metrics)
     return {
