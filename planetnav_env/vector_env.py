@@ -37,6 +37,7 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from planetnav_env.config import EnvConfig
+from planetnav_env.core import batch as B
 from planetnav_env.core import layout as L
 from planetnav_env.core.batch import BatchCore, attitude_err_arcsec
 from planetnav_env.env import EpisodeLengthSpec, check_reset_options, resolve_config
@@ -234,15 +235,16 @@ class PlanetNavVectorEnv(EpisodeLengthSpec, VectorEnv):
         ``_key`` mask (all True: every row has every key); with ``info_keys="numeric"`` the numeric, flat
         form."""
         core = self.core
-        codes = core.i
-        info = core.info_batch()
+        # fc / ic: the state columns of this step, gathered into new arrays (batch.INFO_F / INFO_I);
+        # the keys below are rows of them, so no value aliases the state the next step overwrites.
+        info, fc, ic = core.info_batch_columns()
         numeric = self.info_keys == "numeric"
         if not numeric:
-            info["target"] = self._target_names[codes[:, L.I_TARGET]]
-            info["sensor"] = self._sensor_names[codes[:, L.I_SENSOR]]
-            info["visibility"] = self._reason_names[codes[:, L.I_REASON]]
-        info["ambiguous_skipped"] = codes[:, L.I_SKIPPED].copy()
-        info["attitude_err_arcsec"] = attitude_err_arcsec(core.f[:, L.F_ATT_ERR])
+            info["target"] = self._target_names[ic[B.IC_TARGET]]
+            info["sensor"] = self._sensor_names[ic[B.IC_SENSOR]]
+            info["visibility"] = self._reason_names[ic[B.IC_REASON]]
+        info["ambiguous_skipped"] = ic[B.IC_SKIPPED]
+        info["attitude_err_arcsec"] = attitude_err_arcsec(fc[B.FC_ATT_ERR])
         x, p = core.filter_state()
         if numeric:
             info["filter_x"], info["filter_P"] = x, p

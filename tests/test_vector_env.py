@@ -481,3 +481,50 @@ def test_numeric_info_keys_are_the_default_ones_without_names_and_flat(env_id: s
             PlanetNavVectorEnv(2, info_keys=bad)
     with pytest.raises(InvalidParameterError, match="info_keys"):
         gym.make_vec("planetnav/Cruise-Target-v0", num_envs=2, info_keys="tensor")
+
+
+def _snapshot(info: dict) -> dict:
+    """A deep copy of an info (arrays copied), to compare the returned one with later."""
+    return copy.deepcopy(info)
+
+
+def _assert_same_info(now: dict, then: dict) -> None:
+    assert list(now) == list(then)
+    for k, v in then.items():
+        if isinstance(v, dict):
+            _assert_same_info(now[k], v)
+        elif isinstance(v, np.ndarray) and v.dtype != object:
+            assert now[k].dtype == v.dtype and np.array_equal(now[k], v, equal_nan=True), k
+        elif isinstance(v, np.ndarray):
+            assert now[k].tolist() == v.tolist(), k
+        else:
+            assert now[k] == v or (v != v and now[k] != now[k]), k  # NaN == NaN here
+
+
+@pytest.mark.parametrize("env_id", ["planetnav/Cruise-Target-v0", "planetnav/ThrustArc-TCM-v0"])
+def test_info_values_do_not_alias_state_a_later_step_overwrites(env_id: str) -> None:
+    """An info kept from step k is unchanged after step k + 1 and k + 2 (the values are new arrays, not
+    views of the state the kernels write), for the single env and both vector key sets; the vector
+    env's numeric dtypes are those of the single env's values stacked over the rows."""
+    seed, n = 11, 2
+    rng = np.random.default_rng(0)
+    single = gym.make(env_id, **SHORT).unwrapped
+    venvs = [gym.make_vec(env_id, num_envs=n, info_keys=keys, **SHORT) for keys in ("all", "numeric")]
+    kept = [venv.reset(seed=seed)[1] for venv in venvs] + [single.reset(seed=seed)[1]]
+    kept_snaps = [_snapshot(i) for i in kept]
+    for _ in range(3):
+        acts = _actions(venvs[0].single_action_space, n, rng)
+        infos = [venv.step(acts)[4] for venv in venvs] + [single.step(acts[0])[4]]
+        for now, then in zip(infos, kept, strict=True):
+            # the state moved on (else this test could not fail) ...
+            assert np.all(np.asarray(now["time_s"]) > np.asarray(then["time_s"]))
+        for old, snap in zip(kept, kept_snaps, strict=True):
+            _assert_same_info(old, snap)  # ... and the info kept from the step before did not
+        kept, kept_snaps = infos, [_snapshot(i) for i in infos]
+        rows = [venvs[0].unwrapped.info_row(r) for r in range(n)]
+        for key, value in infos[0].items():
+            if key.startswith("_") or key in ("filter", "target", "sensor", "visibility"):
+                continue
+            assert value.dtype == np.asarray([row[key] for row in rows]).dtype, key
+    for venv in venvs:
+        venv.close()
