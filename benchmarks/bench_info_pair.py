@@ -1,0 +1,126 @@
+"""Paired step rates at small N (where the Python side, the info above all, is a large part of a step) of
+two or more commits: each commit's own ``benchmarks/bench_vec.py`` ``vector_rate`` (native vector env) and
+``single_rate`` (single env), run in alternating processes.
+
+    python benchmarks/bench_info_pair.py cf84ce8 HEAD                 # 3 rounds, N = 1 and the single env
+    python benchmarks/bench_info_pair.py cf84ce8 2ba1b11 HEAD --cases vec1/target/held,vec16/target/held
+
+Cases are ``vec<N>/<mode>/<stream>`` or ``single/<mode>/<stream>`` (``mode``: target or torque;
+``stream``: held or random, as in bench_vec.py). Trees come from ``git archive`` into ``--root`` as
+``wt_<short sha>`` with their numba caches beside them (``nb_<short sha>``), shared with
+``bench_ceiling_pair.py``, so only a commit's first run compiles. A timed block is measured with
+``time.process_time`` (the CPU time of the process): on a shared, loaded machine the time the process
+waits for a core is not counted, so paired figures stay comparable (wall-clock rates fall with the load).
+Every process prints the best of ``--repeats`` blocks per case; the summary gives, per case, the best
+over the rounds of each commit and the ratio to the first commit.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from bench_ceiling_pair import _extract, _short  # the same trees and caches
+
+#: Run in a fresh interpreter whose ``planetnav_env`` is the extracted commit's (PYTHONPATH).
+_CHILD = r"""
+import importlib.util, sys, time, types
+root, repeats, steps, cases = sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), sys.argv[4].split(",")
+spec = importlib.util.spec_from_file_location("bench_vec", root + "/benchmarks/bench_vec.py")
+bv = importlib.util.module_from_spec(spec)
+spec.loader.exec_module(bv)
+import planetnav_env
+if not planetnav_env.__file__.startswith(root):
+    raise SystemExit(f"planetnav_env imported from {planetnav_env.__file__}, not from {root}")
+bv.REPEATS = repeats
+bv.time = types.SimpleNamespace(perf_counter=time.process_time)  # CPU time of this process
+rates = []
+for case in cases:
+    kind, mode, stream = case.split("/")
+    if kind == "single":
+        rate = bv.single_rate(mode, stream, steps)
+    else:
+        n = int(kind[3:])
+        rate = bv.vector_rate(n, mode, stream, steps * n)
+    rates.append(f"{case}={rate:.1f}")
+print(" ".join(rates), flush=True)
+"""
+
+
+def _check_case(case: str) -> None:
+    parts = case.split("/")
+    ok = len(parts) == 3 and parts[1] in ("target", "torque") and parts[2] in ("held", "random")
+    kind = parts[0]
+    ok = ok and (kind == "single" or (kind.startswith("vec") and kind[3:].isdigit() and int(kind[3:]) >= 1))
+    if not ok:
+        raise SystemExit(
+            f"bench_info_pair: bad case {case!r}; expected vec<N>/<target|torque>/<held|random> "
+            "or single/<target|torque>/<held|random>"
+        )
+
+
+def _run(tree: Path, cache: Path, repeats: int, steps: int, cases: str) -> dict[str, float]:
+    env = dict(os.environ, PYTHONPATH=str(tree), NUMBA_CACHE_DIR=str(cache))
+    out = subprocess.run(
+        [sys.executable, "-c", _CHILD, str(tree), str(repeats), str(steps), cases],
+        capture_output=True, text=True, env=env, cwd=str(tree), check=False,
+    )  # fmt: skip
+    if out.returncode != 0:
+        raise SystemExit(f"bench_info_pair: {tree} failed:\n{out.stderr[-3000:]}")
+    line = out.stdout.strip().splitlines()[-1]
+    return {k: float(v) for k, v in (item.split("=") for item in line.split())}
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("commits", nargs="+", help="two or more commits; the first is the reference")
+    ap.add_argument("--rounds", type=int, default=3, help="rounds of the commits in turn")
+    ap.add_argument("--repeats", type=int, default=5, help="timed blocks per case and process (best kept)")
+    ap.add_argument("--steps", type=int, default=3000, help="env steps per timed block (each row's)")
+    ap.add_argument(
+        "--cases", default="vec1/target/held,vec1/target/random,single/target/held,single/target/random"
+    )
+    ap.add_argument(
+        "--root", type=Path, default=Path(tempfile.gettempdir()), help="where trees and caches go"
+    )
+    args = ap.parse_args()
+    if len(args.commits) < 2:
+        raise SystemExit(f"bench_info_pair: give at least two commits, got {args.commits}")
+    if args.rounds < 1 or args.repeats < 1 or args.steps < 1:
+        raise SystemExit(
+            "bench_info_pair: --rounds, --repeats and --steps must be >= 1, got "
+            f"{args.rounds}, {args.repeats}, {args.steps}"
+        )
+    cases = args.cases.split(",")
+    for c in cases:
+        _check_case(c)
+    revs = list(dict.fromkeys(_short(c) for c in args.commits))
+    if len(revs) < 2:
+        raise SystemExit(f"bench_info_pair: the commits {args.commits} are one commit")
+    trees = {sha: _extract(sha, args.root) for sha in revs}
+    best: dict[str, dict[str, float]] = {sha: dict.fromkeys(cases, 0.0) for sha in revs}
+    print(f"env steps/s (CPU time of the process, best of {args.repeats} blocks of {args.steps} steps)")
+    for k in range(args.rounds):
+        for sha in revs:
+            rates = _run(trees[sha], args.root / f"nb_{sha}", args.repeats, args.steps, args.cases)
+            print(f"round {k + 1} {sha}: " + ", ".join(f"{c} {rates[c]:,.0f}" for c in cases), flush=True)
+            for c in cases:
+                best[sha][c] = max(best[sha][c], rates[c])
+    ref = revs[0]
+    print()
+    print("| case | " + " | ".join(revs) + " | " + " | ".join(f"{b} / {ref}" for b in revs[1:]) + " |")
+    print("|---" * (2 * len(revs)) + "|")
+    for c in cases:
+        row = [f"{best[sha][c]:,.0f}" for sha in revs] + [
+            f"{best[b][c] / best[ref][c]:.3f}" for b in revs[1:]
+        ]
+        print(f"| {c} | " + " | ".join(row) + " |")
+
+
+if __name__ == "__main__":
+    main()
