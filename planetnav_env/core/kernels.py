@@ -108,6 +108,9 @@ from planetnav_env.jit import row_kernel
 from planetnav_env.sensors.camera_kernels import (
     V_ALPHA,
     V_REASON,
+    CameraModel,
+    CameraScratch,
+    Occulters,
     visibility_row_kernel,
 )
 
@@ -271,10 +274,12 @@ def step_row(prm, st, n, target, torque, sc) -> bool:  # pragma: no cover - comp
         if idx >= 0:
             for j in range(3):
                 sc.t1[0, j] = sc.planets[idx, j]
+            occulters = Occulters(pos=sc.planets, radii=prm.radii, sun=True)
+            camera = CameraModel(c2b=prm.c2b, params=prm.cam)
+            cws = CameraScratch(m=sc.m, u=sc.u6)
             vis_status = visibility_row_kernel(
-                sc.r1, sc.q1, sc.t1, 0, prm.radii[idx], sc.planets, prm.radii, True, prm.c2b, prm.cam,
-                sc.m, sc.u6, sc.vals,
-            )  # fmt: skip
+                sc.r1, sc.q1, sc.t1, 0, prm.radii[idx], occulters, camera, cws, sc.vals
+            )
             if vis_status != 0:
                 i[n, I_STATUS] = STATUS_CAMERA
                 i[n, I_TERMINATED] = 1

@@ -41,6 +41,9 @@ from planetnav_env.jit import row_kernel
 from planetnav_env.sensors.camera_kernels import (
     V_ALPHA,
     V_REASON,
+    CameraModel,
+    CameraScratch,
+    Occulters,
     visibility_row_kernel,
 )
 from planetnav_env.sensors.pulsar import (
@@ -149,10 +152,12 @@ def _camera_sees(prm, r_est, a, sc) -> bool:  # pragma: no cover - compiled
     ``sc.q_tile[a]``; its values (``V_*``, e.g. the apparent diameter) are left in ``sc.vals``."""
     for c in range(3):
         sc.r_tile[a, c] = r_est[c]
+    occulters = Occulters(pos=sc.planets, radii=prm.radii, sun=True)
+    camera = CameraModel(c2b=prm.c2b, params=prm.cam)
+    ws = CameraScratch(m=sc.m, u=sc.u6)
     st = visibility_row_kernel(
-        sc.r_tile, sc.q_tile, sc.planets, a, prm.radii[a], sc.planets, prm.radii, True, prm.c2b,
-        prm.cam, sc.m, sc.u6, sc.vals,
-    )  # fmt: skip
+        sc.r_tile, sc.q_tile, sc.planets, a, prm.radii[a], occulters, camera, ws, sc.vals
+    )
     return st == 0 and int(sc.vals[V_REASON]) == REASON_VISIBLE
 
 

@@ -17,6 +17,7 @@ codes (:class:`planetnav_env.codes.CameraStatus`), which the API turns into name
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
@@ -51,6 +52,9 @@ __all__ = [
     "V_REASON",
     "V_SMALL",
     "V_SUN_EX",
+    "CameraModel",
+    "CameraScratch",
+    "Occulters",
     "measure_into_kernel",
     "measure_row_kernel",
     "visibility_codes_kernel",
@@ -152,6 +156,28 @@ V_REASON, V_IN_FOV, V_SUN_EX, V_OCCULTED, V_SMALL, V_OCCULTER, V_ALPHA, V_ANG_B,
 N_VIS_SLOTS = 11
 
 
+class CameraModel(NamedTuple):
+    """The camera a visibility check reads: its mounting and its parameters."""
+
+    c2b: np.ndarray  # (3, 3) camera -> body rotation
+    params: np.ndarray  # (11,) CameraConfig._params (slots _P_*: focal length [px], sensor [px], ...)
+
+
+class Occulters(NamedTuple):
+    """The bodies that can hide a target: ``K`` spheres, and the Sun if ``sun``."""
+
+    pos: np.ndarray  # (K, 3) heliocentric positions [km]
+    radii: np.ndarray  # (K,) radii [km]
+    sun: bool  # the Sun occults too
+
+
+class CameraScratch(NamedTuple):
+    """Work arrays of the camera's row kernels (no allocation per row)."""
+
+    m: np.ndarray  # (3, 3) inertial -> camera
+    u: np.ndarray  # (6,) the line of sight, inertial (0:3) and camera (3:6) components
+
+
 @row_kernel
 def visibility_row_kernel(
     r: np.ndarray,
@@ -159,24 +185,21 @@ def visibility_row_kernel(
     t: np.ndarray,
     i: int,
     rt: float,
-    occ: np.ndarray,
-    occ_rad: np.ndarray,
-    include_sun: bool,
-    c2b: np.ndarray,
-    p: np.ndarray,
-    m: np.ndarray,
-    u: np.ndarray,
+    occulters: Occulters,
+    camera: CameraModel,
+    ws: CameraScratch,
     vals: np.ndarray,
 ) -> int:
     """Visibility of target ``t[i]`` (radius ``rt`` [km]) from spacecraft ``r[i]`` at attitude ``q[i]``.
 
-    The one implementation of the camera's visibility rules (field of view, occultation by the Sun and
-    the bodies ``occ`` (K, 3) of radii ``occ_rad`` (K,) [km], Sun exclusion, detection threshold): the
-    batch kernel and the simulation core both call it. Writes the record ``vals`` (``N_VIS_SLOTS``,
-    slots ``V_*``; reason code 0 visible, 1 out of field, 2 occulted, 3 Sun exclusion, 4 too small;
-    occulter -2 the Sun, -1 none, else k). ``m`` (3, 3) and ``u`` (6,) are scratch. Returns a status
-    (``_OK`` or an ``_ERR_*`` code). Allocates nothing.
+    The one implementation of the camera's visibility rules (field of view, occultation by the Sun (if
+    ``occulters.sun``) and the bodies ``occulters``, Sun exclusion, detection threshold): the batch kernel
+    and the simulation core both call it. Writes the record ``vals`` (``N_VIS_SLOTS``, slots ``V_*``;
+    reason code 0 visible, 1 out of field, 2 occulted, 3 Sun exclusion, 4 too small; occulter -2 the Sun,
+    -1 none, else k). Returns a status (``_OK`` or an ``_ERR_*`` code). Allocates nothing.
     """
+    occ, occ_rad, include_sun = occulters.pos, occulters.radii, occulters.sun
+    c2b, p, m, u = camera.c2b, camera.params, ws.m, ws.u
     dist, st = _target_los(r, q, t, i, rt, c2b, m, u)
     if st != _OK:
         return st
@@ -268,8 +291,8 @@ def _visibility_kernel(
     ang_t = np.empty(n)
     pix = np.empty((n, 2))
     res = (reason, in_fov, sun_ex, occd, small, occulter, alpha, ang_b, ang_t, pix)
-    m = np.empty((3, 3))
-    u = np.empty(6)
+    camera = CameraModel(c2b=c2b, params=p)
+    ws = CameraScratch(m=np.empty((3, 3)), u=np.empty(6))
     vals = np.empty(N_VIS_SLOTS)
     for k in range(n_occ):
         if not math.isfinite(occ_rad[k]):
@@ -277,9 +300,8 @@ def _visibility_kernel(
         if occ_rad[k] <= 0.0:
             return _ERR_OCC_RADIUS, k, res
     for i in range(n):
-        st = visibility_row_kernel(
-            r, q, t, i, trad[i], occ[i if occ_per_elem else 0], occ_rad, include_sun, c2b, p, m, u, vals
-        )
+        occulters = Occulters(pos=occ[i if occ_per_elem else 0], radii=occ_rad, sun=include_sun)
+        st = visibility_row_kernel(r, q, t, i, trad[i], occulters, camera, ws, vals)
         if st != _OK:
             return st, i, res
         reason[i] = int(vals[V_REASON])
