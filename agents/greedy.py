@@ -128,8 +128,15 @@ class GreedyAgent(TargetAgent):
         p = np.ascontiguousarray(info["filter"]["P"], dtype=float)
         out = np.empty((1, self.n_planets))
         planet_scores(
-            self._params, self.slew, self.horizon, obs.q[None], np.ascontiguousarray(obs.planets[None]),
-            x[None], p[None], out, self.lookahead_s,
+            self._params,
+            self.slew,
+            self.horizon,
+            obs.q[None],
+            np.ascontiguousarray(obs.planets[None]),
+            x[None],
+            p[None],
+            out,
+            self.lookahead_s,
         )
         return out[0]
 

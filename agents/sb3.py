@@ -37,7 +37,7 @@ def algorithm_class(name: str) -> type:
             from planetnav_env.errors import ConfigError
 
             raise ConfigError(
-                f"algorithm {key!r} needs sb3-contrib, which is not installed: pip install -e \".[bench]\""
+                f'algorithm {key!r} needs sb3-contrib, which is not installed: pip install -e ".[bench]"'
             ) from None
         if key == "maskable_ppo":
             from planetnav_agents.masking import masked_ppo_class

@@ -104,9 +104,7 @@ def main() -> None:
         f"max {hpk.max():.2f}"
     )
     gap_steps = float(np.sum(field - bound)) / args.episodes
-    print(
-        f"steps per hour a faster slew could add: {gap_steps:.0f} of 3600 ({gap_steps / 36:.1f} %)"
-    )
+    print(f"steps per hour a faster slew could add: {gap_steps:.0f} of 3600 ({gap_steps / 36:.1f} %)")
 
 
 if __name__ == "__main__":

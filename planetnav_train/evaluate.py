@@ -434,8 +434,11 @@ def add_paired(results: Sequence[EvalResult], reference: str) -> EvalResult | No
         if "per_episode_objective" in r.metrics and "per_episode_objective" in ref.metrics:
             do = paired_difference(r.metrics["per_episode_objective"], ref.metrics["per_episode_objective"])
             r.metrics["vs_reference"].update(
-                {"mean_objective_diff_km": do.mean, "objective_ci95_km": [do.low, do.high],
-                 "objective_outside_noise": do.excludes_zero()}
+                {
+                    "mean_objective_diff_km": do.mean,
+                    "objective_ci95_km": [do.low, do.high],
+                    "objective_outside_noise": do.excludes_zero(),
+                }
             )
     return ref
 

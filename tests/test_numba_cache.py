@@ -68,4 +68,3 @@ def test_the_digest_sees_paths_and_contents(tmp_path: Path) -> None:
     d0 = source_digest([pkg])
     (pkg / "a.py").rename(pkg / "c.py")
     assert source_digest([pkg]) != d0
-
