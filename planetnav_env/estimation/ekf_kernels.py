@@ -76,13 +76,6 @@ def orbit_model(mu: float, p0: np.ndarray, p1: np.ndarray, p2: np.ndarray, mus: 
     return OrbitModel(mu=float(mu), p0=p0, p1=p1, p2=p2, mus=mus)
 
 
-def predict_scratch() -> PredictScratch:
-    """A fresh :class:`PredictScratch`."""
-    return PredictScratch(
-        w6=np.empty((3, 6, 6)), v6=np.empty((4, 6)), phi=np.empty((6, 6)), tmp=np.empty((6, 6))
-    )
-
-
 @row_kernel
 def _accel_grad(r, mu, pert, mus, a, g, grad=True):
     """a = central + third-body acceleration at r; g = its gradient (3x3). pert (K,3) rel. to centre.
@@ -381,7 +374,7 @@ def _inv_small(s, m, out):
         out[2, 2] = (s[0, 0] * s[1, 1] - s[0, 1] * s[1, 0]) / det
 
 
-@njit(cache=True)
+@row_kernel  # no reference counting: it allocates nothing (the records hold the caller's arrays)
 def predict_arrays_kernel(x, p, dt, mu, p0, p1, p2, mus, q, euler_stm, w6, v6, phi, tmp):
     """:func:`predict_kernel` for a caller in Python (:class:`SingleEKF`), with the fields of
     :class:`OrbitModel` and :class:`PredictScratch` as separate arguments; the records are built here.
@@ -554,7 +547,12 @@ class SingleEKF(EKFBase):
         self._h = np.empty(3)
         self._jac = np.empty((3, 6))
         self._r = np.empty((3, 3))
-        self._ws = predict_scratch()
+        # The predict scratch as plain attributes (not a PredictScratch): SingleEKF.predict passes them
+        # from Python, where the dispatcher types arrays in C and a tuple in Python.
+        self._w6 = np.empty((3, 6, 6))
+        self._v6 = np.empty((4, 6))
+        self._phi = np.empty((6, 6))
+        self._tmp = np.empty((6, 6))
         self._uw = np.empty((5, 6, 6))
 
     def _pert(self, t: float, dt: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -573,10 +571,9 @@ class SingleEKF(EKFBase):
         arrays at t, t+dt/2, t+dt when the caller has them cached."""
         dt = require_positive("dt", dt)
         p0, p1, p2 = perturber_positions if perturber_positions is not None else self._pert(t, dt)
-        ws = self._ws
         predict_arrays_kernel(
             self.x, self.P, dt, self.model.mu_central, p0, p1, p2, self._mus, self.q(dt),
-            self.config.stm == "euler", ws.w6, ws.v6, ws.phi, ws.tmp,
+            self.config.stm == "euler", self._w6, self._v6, self._phi, self._tmp,
         )  # fmt: skip
 
     def update_scalar(self, z: float, h: float, jac_row: np.ndarray, variance: float) -> tuple[float, bool]:
