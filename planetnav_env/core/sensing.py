@@ -45,6 +45,9 @@ from planetnav_env.estimation.ekf_kernels import (
 from planetnav_env.estimation.measurement_kernels import measurement_vector_kernel
 from planetnav_env.jit import row_kernel
 from planetnav_env.sensors.camera_kernels import (
+    CameraFix,
+    CameraModel,
+    CameraScratch,
     measure_row_kernel,
 )
 from planetnav_env.sensors.pulsar import (
@@ -146,10 +149,10 @@ def measure_planet(prm, st, n, idx, sc):  # pragma: no cover - compiled
     for j in range(3):
         sc.noise3[j] = next_normal(prm, rng, n, sc)
     # visibility_row_kernel validated this geometry a moment ago: the status is OK.
-    _, alpha, _ = measure_row_kernel(
-        sc.r1, sc.q1, sc.t1, 0, prm.radii[idx], sc.noise3, prm.c2b, prm.cam, sc.m, sc.u6, sc.los,
-        sc.los_true, sc.mm, sc.pix,
-    )  # fmt: skip
+    camera = CameraModel(c2b=prm.c2b, params=prm.cam)
+    ws = CameraScratch(m=sc.m, u=sc.u6)
+    out = CameraFix(los=sc.los, los_true=sc.los_true, mm=sc.mm, pix=sc.pix)
+    _, alpha, _ = measure_row_kernel(sc.r1, sc.q1, sc.t1, 0, prm.radii[idx], sc.noise3, camera, ws, out)
     f[n, F_PIX] = sc.pix[0]
     f[n, F_PIX + 1] = sc.pix[1]
     xe = f[n, F_XE : F_XE + 6]

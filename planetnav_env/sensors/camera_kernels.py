@@ -52,6 +52,7 @@ __all__ = [
     "V_REASON",
     "V_SMALL",
     "V_SUN_EX",
+    "CameraFix",
     "CameraModel",
     "CameraScratch",
     "Occulters",
@@ -176,6 +177,15 @@ class CameraScratch(NamedTuple):
 
     m: np.ndarray  # (3, 3) inertial -> camera
     u: np.ndarray  # (6,) the line of sight, inertial (0:3) and camera (3:6) components
+
+
+class CameraFix(NamedTuple):
+    """Where a camera measurement writes its image of the target (each a view the caller owns)."""
+
+    los: np.ndarray  # (3,) noisy line of sight, body frame
+    los_true: np.ndarray  # (3,) true line of sight, body frame
+    mm: np.ndarray  # (2,) image point [mm]
+    pix: np.ndarray  # (2,) image point [px]
 
 
 @row_kernel
@@ -325,24 +335,20 @@ def measure_row_kernel(
     i: int,
     rt: float,
     z: np.ndarray,
-    c2b: np.ndarray,
-    p: np.ndarray,
-    m: np.ndarray,
-    u: np.ndarray,
-    los: np.ndarray,
-    los_true: np.ndarray,
-    mm: np.ndarray,
-    pix: np.ndarray,
+    camera: CameraModel,
+    ws: CameraScratch,
+    out: CameraFix,
 ) -> tuple[int, float, float]:
     """One camera measurement of target ``t[i]`` (radius ``rt``) from ``r[i]`` at attitude ``q[i]`` with
     the three standard-normal draws ``z`` (two across the line of sight, one for the diameter).
 
     The one implementation of the measurement model (the batch kernel and the simulation core call it).
-    Writes the noisy and true body-frame lines of sight ``los``/``los_true`` (3,), the image point ``mm``
-    (2,) [mm] and ``pix`` (2,) [px]; returns (status, noisy angular diameter, true angular diameter)
-    [rad]. ``m`` (3, 3) and ``u`` (6,) are scratch. Allocates nothing.
+    Writes the noisy and true body-frame lines of sight, the image point [mm] and [px] into ``out``;
+    returns (status, noisy angular diameter, true angular diameter) [rad]. Allocates nothing.
     """
-    dist, st = _target_los(r, q, t, i, rt, c2b, m, u)
+    c2b, p, u = camera.c2b, camera.params, ws.u
+    los, los_true, mm, pix = out.los, out.los_true, out.mm, out.pix
+    dist, st = _target_los(r, q, t, i, rt, c2b, ws.m, u)
     if st != _OK:
         return st, 0.0, 0.0
     f_px, cx, cy, f_mm = p[_P_FPX], p[_P_CX], p[_P_CY], p[_P_FMM]
@@ -398,12 +404,11 @@ def _measure_kernel(
     alpha_true = np.empty(n)
     mm = np.empty((n, 2))
     pix = np.empty((n, 2))
-    m = np.empty((3, 3))
-    u = np.empty(6)
+    camera = CameraModel(c2b=c2b, params=p)
+    ws = CameraScratch(m=np.empty((3, 3)), u=np.empty(6))
     for i in range(n):
-        st, alpha[i], alpha_true[i] = measure_row_kernel(
-            r, q, t, i, trad[i], z[i], c2b, p, m, u, los[i], los_true[i], mm[i], pix[i]
-        )
+        out = CameraFix(los=los[i], los_true=los_true[i], mm=mm[i], pix=pix[i])
+        st, alpha[i], alpha_true[i] = measure_row_kernel(r, q, t, i, trad[i], z[i], camera, ws, out)
         if st != _OK:
             return st, i, los, alpha, mm, pix, los_true, alpha_true
     return _OK, -1, los, alpha, mm, pix, los_true, alpha_true
