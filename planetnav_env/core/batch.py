@@ -28,7 +28,7 @@ from planetnav_env.core import layout as L
 from planetnav_env.core import rng as crng
 from planetnav_env.core.ephemeris_table import SEGMENT_S, TableSpec, fit_table
 from planetnav_env.core.params import ARCSEC, ChannelPlan, build_params, episode_duration_s
-from planetnav_env.core.records import Actions, RowState
+from planetnav_env.core.records import RowState
 from planetnav_env.dynamics.orbit import GravityModel
 from planetnav_env.ephemeris import DEEphemeris
 from planetnav_env.errors import NonFiniteError, PlanetNavError
@@ -185,18 +185,23 @@ class BatchCore:
     def step(self, targets: np.ndarray, torques: np.ndarray, active: np.ndarray | None = None) -> None:
         """Advance the ``active`` rows (all by default) by one step with decoded actions: ``targets``
         (N,) int64 (-1: none) and ``torques`` (N, 3) float64 fractions of the wheel limit in [-1, 1]."""
-        act = Actions(targets=targets, torques=torques, active=self._all if active is None else active)
-        args = (self.params, self.state, act)
+        # Plain arrays, not the RowState/Actions records: typing a record passed from Python costs
+        # several µs a call (K.step_range_arrays builds them in compiled code).
+        active = self._all if active is None else active
+        args = (self.params, self.f, self.p, self.i, self.rng, self.eph, self.obs, targets, torques, active)
+        n = self.num_rows
         if self.threads > 1:
             # The kernels release the GIL; rows are independent, so the chunking changes no result.
             if self._pool is None:
                 self._pool = ThreadPoolExecutor(self.threads, thread_name_prefix="planetnav-core")
-            n, c = self.num_rows, self.threads
-            jobs = [self._pool.submit(K.step_range, *args, j * n // c, (j + 1) * n // c) for j in range(c)]
+            c = self.threads
+            jobs = [
+                self._pool.submit(K.step_range_arrays, *args, j * n // c, (j + 1) * n // c) for j in range(c)
+            ]
             for job in jobs:
                 job.result()
         else:
-            K.step_batch(*args)
+            K.step_range_arrays(*args, 0, n)
         status = self.i[:, L.I_STATUS]
         if status.any():
             bad = np.flatnonzero(status)

@@ -87,7 +87,7 @@ from planetnav_env.core.operations import (
     thrust_axis_on,
     thrust_noise,
 )
-from planetnav_env.core.records import make_scratch
+from planetnav_env.core.records import Actions, RowState, make_scratch
 from planetnav_env.core.row_ephemeris import eval_channel, perturbers_at, planets_at, row_time
 from planetnav_env.core.scoring import score_row
 from planetnav_env.core.sensing import (
@@ -355,6 +355,18 @@ def step_range(prm, st, act, lo, hi) -> None:  # pragma: no cover - compiled
 def step_batch(prm, st, act) -> None:  # pragma: no cover - compiled
     """Step every active row on the calling thread."""
     step_range(prm, st, act, 0, st.f.shape[0])
+
+
+@njit(cache=True, nogil=True)
+def step_range_arrays(
+    prm, f, p, i, rng, eph, obs, targets, torques, active, lo, hi
+) -> None:  # pragma: no cover
+    """:func:`step_range` for callers in Python: the state and the actions as plain arrays, the records
+    built here. Numba types a named-tuple argument from Python far more slowly than arrays (several µs
+    per call, most of a one-row step), so the Python-facing entry takes the arrays."""
+    st = RowState(f=f, p=p, i=i, rng=rng, eph=eph, obs=obs)
+    act = Actions(targets=targets, torques=torques, active=active)
+    step_range(prm, st, act, lo, hi)
 
 
 @njit(cache=True, nogil=True)
