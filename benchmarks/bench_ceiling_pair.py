@@ -17,13 +17,12 @@ the summary gives, per case, the best over the rounds of each commit and the rat
 from __future__ import annotations
 
 import argparse
-import os
-import subprocess
 import sys
 import tempfile
 from pathlib import Path
 
-REPO = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from commit_pair import alternate, extract, key_values, ratio_table, run_child, short
 
 #: Run in a fresh interpreter whose ``planetnav_env`` is the extracted commit's (PYTHONPATH).
 _CHILD = r"""
@@ -45,38 +44,6 @@ print(" ".join(rates), flush=True)
 """
 
 
-def _short(rev: str) -> str:
-    out = subprocess.run(
-        ["git", "-C", str(REPO), "rev-parse", "--short=7", f"{rev}^{{commit}}"],
-        capture_output=True, text=True, check=False,
-    )  # fmt: skip
-    if out.returncode != 0:
-        raise SystemExit(f"bench_ceiling_pair: unknown commit {rev!r}: {out.stderr.strip()}")
-    return out.stdout.strip()
-
-
-def _extract(sha: str, root: Path) -> Path:
-    """The commit's tree under root (extracted once; a folder already there is reused)."""
-    tree = root / f"wt_{sha}"
-    if not (tree / "benchmarks" / "bench_vec.py").exists():
-        tree.mkdir(parents=True, exist_ok=True)
-        archive = subprocess.run(["git", "-C", str(REPO), "archive", sha], capture_output=True, check=True)
-        subprocess.run(["tar", "-x", "-C", str(tree)], input=archive.stdout, check=True)
-    return tree
-
-
-def _run(tree: Path, cache: Path, repeats: int, cases: str) -> dict[str, float]:
-    env = dict(os.environ, PYTHONPATH=str(tree), NUMBA_CACHE_DIR=str(cache))
-    out = subprocess.run(
-        [sys.executable, "-c", _CHILD, str(tree), str(repeats), cases],
-        capture_output=True, text=True, env=env, cwd=str(tree), check=False,
-    )  # fmt: skip
-    if out.returncode != 0:
-        raise SystemExit(f"bench_ceiling_pair: {tree} failed:\n{out.stderr[-3000:]}")
-    line = out.stdout.strip().splitlines()[-1]
-    return {k: float(v) for k, v in (item.split("=") for item in line.split())}
-
-
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("a", help="first commit (the reference)")
@@ -92,23 +59,17 @@ def main() -> None:
         raise SystemExit(
             f"bench_ceiling_pair: --rounds and --repeats must be >= 1, got {args.rounds}, {args.repeats}"
         )
-    revs = [_short(args.a), _short(args.b)]
-    trees = {sha: _extract(sha, args.root) for sha in revs}
-    cases = args.cases.split(",")
-    best: dict[str, dict[str, float]] = {sha: dict.fromkeys(cases, 0.0) for sha in revs}
+    revs = [short(args.a, "bench_ceiling_pair"), short(args.b, "bench_ceiling_pair")]
+    trees = {sha: extract(sha, args.root) for sha in revs}
     print(f"compiled ceiling, row-steps/s per core (CPU time, best of {args.repeats} blocks per process)")
-    for k in range(args.rounds):
-        for sha in revs:
-            rates = _run(trees[sha], args.root / f"nb_{sha}", args.repeats, args.cases)
-            print(f"round {k + 1} {sha}: " + ", ".join(f"{c} {rates[c]:,.0f}" for c in cases), flush=True)
-            for c in cases:
-                best[sha][c] = max(best[sha][c], rates[c])
-    a, b = revs
-    print()
-    print(f"| case | {a} | {b} | {b} / {a} |")
-    print("|---|---|---|---|")
-    for c in cases:
-        print(f"| {c} | {best[a][c]:,.0f} | {best[b][c]:,.0f} | {best[b][c] / best[a][c]:.3f} |")
+
+    def measure(sha: str) -> dict[str, float]:
+        out = run_child(
+            trees[sha], _CHILD, [str(trees[sha]), str(args.repeats), args.cases], "bench_ceiling_pair"
+        )
+        return key_values(out)
+
+    ratio_table(alternate(revs, measure, args.rounds), "case")
 
 
 if __name__ == "__main__":

@@ -18,14 +18,12 @@ over the rounds of each commit and the ratio to the first commit.
 from __future__ import annotations
 
 import argparse
-import os
-import subprocess
 import sys
 import tempfile
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench_ceiling_pair import _extract, _short  # the same trees and caches
+from commit_pair import alternate, extract, key_values, ratio_table, run_child, short
 
 #: Run in a fresh interpreter whose ``planetnav_env`` is the extracted commit's (PYTHONPATH).
 _CHILD = r"""
@@ -64,18 +62,6 @@ def _check_case(case: str) -> None:
         )
 
 
-def _run(tree: Path, cache: Path, repeats: int, steps: int, cases: str) -> dict[str, float]:
-    env = dict(os.environ, PYTHONPATH=str(tree), NUMBA_CACHE_DIR=str(cache))
-    out = subprocess.run(
-        [sys.executable, "-c", _CHILD, str(tree), str(repeats), str(steps), cases],
-        capture_output=True, text=True, env=env, cwd=str(tree), check=False,
-    )  # fmt: skip
-    if out.returncode != 0:
-        raise SystemExit(f"bench_info_pair: {tree} failed:\n{out.stderr[-3000:]}")
-    line = out.stdout.strip().splitlines()[-1]
-    return {k: float(v) for k, v in (item.split("=") for item in line.split())}
-
-
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("commits", nargs="+", help="two or more commits; the first is the reference")
@@ -99,27 +85,17 @@ def main() -> None:
     cases = args.cases.split(",")
     for c in cases:
         _check_case(c)
-    revs = list(dict.fromkeys(_short(c) for c in args.commits))
+    revs = list(dict.fromkeys(short(c, "bench_info_pair") for c in args.commits))
     if len(revs) < 2:
         raise SystemExit(f"bench_info_pair: the commits {args.commits} are one commit")
-    trees = {sha: _extract(sha, args.root) for sha in revs}
-    best: dict[str, dict[str, float]] = {sha: dict.fromkeys(cases, 0.0) for sha in revs}
+    trees = {sha: extract(sha, args.root) for sha in revs}
     print(f"env steps/s (CPU time of the process, best of {args.repeats} blocks of {args.steps} steps)")
-    for k in range(args.rounds):
-        for sha in revs:
-            rates = _run(trees[sha], args.root / f"nb_{sha}", args.repeats, args.steps, args.cases)
-            print(f"round {k + 1} {sha}: " + ", ".join(f"{c} {rates[c]:,.0f}" for c in cases), flush=True)
-            for c in cases:
-                best[sha][c] = max(best[sha][c], rates[c])
-    ref = revs[0]
-    print()
-    print("| case | " + " | ".join(revs) + " | " + " | ".join(f"{b} / {ref}" for b in revs[1:]) + " |")
-    print("|---" * (2 * len(revs)) + "|")
-    for c in cases:
-        row = [f"{best[sha][c]:,.0f}" for sha in revs] + [
-            f"{best[b][c] / best[ref][c]:.3f}" for b in revs[1:]
-        ]
-        print(f"| {c} | " + " | ".join(row) + " |")
+
+    def measure(sha: str) -> dict[str, float]:
+        argv = [str(trees[sha]), str(args.repeats), str(args.steps), args.cases]
+        return key_values(run_child(trees[sha], _CHILD, argv, "bench_info_pair"))
+
+    ratio_table(alternate(revs, measure, args.rounds), "case")
 
 
 if __name__ == "__main__":
