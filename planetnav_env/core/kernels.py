@@ -78,7 +78,7 @@ from planetnav_env.core.layout import (
     STATUS_CAMERA,
     STATUS_OK,
 )  # fmt: skip
-from planetnav_env.core.observation import observe_row
+from planetnav_env.core.observation import camera_visibility, observe_row
 from planetnav_env.core.operations import (
     add_thrust_q,
     apply_thrust,
@@ -105,14 +105,7 @@ from planetnav_env.estimation.ekf_kernels import (
     rk4_kernel,
 )
 from planetnav_env.jit import row_kernel
-from planetnav_env.sensors.camera_kernels import (
-    V_ALPHA,
-    V_REASON,
-    CameraModel,
-    CameraScratch,
-    Occulters,
-    visibility_row_kernel,
-)
+from planetnav_env.sensors.camera_kernels import V_ALPHA, V_REASON
 
 
 @row_kernel
@@ -274,12 +267,7 @@ def step_row(prm, st, n, target, torque, sc) -> bool:  # pragma: no cover - comp
         if idx >= 0:
             for j in range(3):
                 sc.t1[0, j] = sc.planets[idx, j]
-            occulters = Occulters(pos=sc.planets, radii=prm.radii, sun=True)
-            camera = CameraModel(c2b=prm.c2b, params=prm.cam)
-            cws = CameraScratch(m=sc.m, u=sc.u6)
-            vis_status = visibility_row_kernel(
-                sc.r1, sc.q1, sc.t1, 0, prm.radii[idx], occulters, camera, cws, sc.vals
-            )
+            vis_status = camera_visibility(prm, sc.r1, sc.q1, sc.t1, 0, prm.radii[idx], sc)
             if vis_status != 0:
                 i[n, I_STATUS] = STATUS_CAMERA
                 i[n, I_TERMINATED] = 1

@@ -146,18 +146,24 @@ def _planet_features(prm, r_est, qe, pm, sc) -> None:  # pragma: no cover - comp
 
 
 @row_kernel
+def camera_visibility(prm, r, q, t, i, rt, sc) -> int:  # pragma: no cover - compiled
+    """The camera's visibility rule for target ``t[i]`` (radius ``rt`` [km]) from ``r[i]`` at attitude
+    ``q[i]``, the row's planets and the Sun as occulters: the one place the core builds the camera's
+    records. Its values (``V_*``) go to ``sc.vals``; returns the kernel's status (0: geometry valid)."""
+    occulters = Occulters(pos=sc.planets, radii=prm.radii, sun=True)
+    camera = CameraModel(c2b=prm.c2b, params=prm.cam)
+    ws = CameraScratch(m=sc.m, u=sc.u6)
+    return visibility_row_kernel(r, q, t, i, rt, occulters, camera, ws, sc.vals)
+
+
+@row_kernel
 def _camera_sees(prm, r_est, a, sc) -> bool:  # pragma: no cover - compiled
     """The camera's own visibility rule (field of view, occultation, Sun exclusion, detection threshold)
     for planet ``a`` from the estimated heliocentric position ``r_est`` [km] at the attitude already in
     ``sc.q_tile[a]``; its values (``V_*``, e.g. the apparent diameter) are left in ``sc.vals``."""
     for c in range(3):
         sc.r_tile[a, c] = r_est[c]
-    occulters = Occulters(pos=sc.planets, radii=prm.radii, sun=True)
-    camera = CameraModel(c2b=prm.c2b, params=prm.cam)
-    ws = CameraScratch(m=sc.m, u=sc.u6)
-    st = visibility_row_kernel(
-        sc.r_tile, sc.q_tile, sc.planets, a, prm.radii[a], occulters, camera, ws, sc.vals
-    )
+    st = camera_visibility(prm, sc.r_tile, sc.q_tile, sc.planets, a, prm.radii[a], sc)
     return st == 0 and int(sc.vals[V_REASON]) == REASON_VISIBLE
 
 

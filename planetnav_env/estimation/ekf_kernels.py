@@ -427,6 +427,18 @@ def predict_batch_kernel(x, p, dt, orbit, q, euler_stm):
     _predict_range(x, p, dt, orbit, q, euler_stm, 0, x.shape[0])
 
 
+@njit(cache=True, inline="always")
+def _chunk_count(n_total: int, n_chunks: int) -> int:
+    """The chunks a parallel batch kernel runs: ``n_chunks`` clipped to [1, n_total]."""
+    return max(1, min(n_chunks, n_total))
+
+
+@njit(cache=True, inline="always")
+def _chunk_bounds(c: int, n_total: int, n_chunks: int) -> tuple[int, int]:
+    """Rows ``lo .. hi - 1`` of chunk ``c``: the rows split as evenly as integers allow."""
+    return c * n_total // n_chunks, (c + 1) * n_total // n_chunks
+
+
 @njit(cache=True, parallel=True)
 def predict_batch_parallel(x, p, dt, orbit, q, euler_stm, n_chunks):
     """:func:`predict_batch_kernel` in ``n_chunks`` chunks over the CPU's threads (pass
@@ -435,10 +447,9 @@ def predict_batch_parallel(x, p, dt, orbit, q, euler_stm, n_chunks):
     Worth it for large batches on an idle machine only: each parallel region waits for every
     thread, which a busy machine may not schedule for a while.
     """
-    n_total = x.shape[0]
-    n_chunks = max(1, min(n_chunks, n_total))
+    n_chunks = _chunk_count(x.shape[0], n_chunks)
     for c in prange(n_chunks):
-        lo, hi = c * n_total // n_chunks, (c + 1) * n_total // n_chunks
+        lo, hi = _chunk_bounds(c, x.shape[0], n_chunks)
         _predict_range(x, p, dt, orbit, q, euler_stm, lo, hi)
 
 
@@ -465,10 +476,9 @@ def update_batch_kernel(x, p, fixes, model, nis_out, acc_out):
 @njit(cache=True, parallel=True)
 def update_batch_parallel(x, p, fixes, model, nis_out, acc_out, n_chunks):
     """:func:`update_batch_kernel` in chunks over the CPU's threads (see :func:`predict_batch_parallel`)."""
-    n_total = x.shape[0]
-    n_chunks = max(1, min(n_chunks, n_total))
+    n_chunks = _chunk_count(x.shape[0], n_chunks)
     for c in prange(n_chunks):
-        lo, hi = c * n_total // n_chunks, (c + 1) * n_total // n_chunks
+        lo, hi = _chunk_bounds(c, x.shape[0], n_chunks)
         _update_range(x, p, fixes, model, nis_out, acc_out, lo, hi)
 
 
