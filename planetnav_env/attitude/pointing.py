@@ -333,6 +333,19 @@ def propagate_batch_kernel(
     return STATUS_OK
 
 
+@njit(cache=True)
+def propagate_batch_arrays(
+    q, omega, h_w, u_ext, q_out, w_out, h_out, use_pd, direction, roll_ref, u_bias, dt, n_substeps,
+    jm, jinv, tau_max, h_max, k_a, k_w,
+):  # fmt: skip
+    """:func:`propagate_batch_kernel` for callers in Python: the fields of :class:`AttitudeRows` and
+    :class:`Plant` as plain arrays (``*rows``, ``*plant``), the records built here (numba types a named
+    tuple passed from Python far more slowly than the arrays it holds)."""
+    rows = AttitudeRows(q=q, omega=omega, h_w=h_w, u_ext=u_ext, q_out=q_out, w_out=w_out, h_out=h_out)
+    plant = Plant(jm=jm, jinv=jinv, tau_max=tau_max, h_max=h_max)
+    return propagate_batch_kernel(rows, use_pd, direction, roll_ref, u_bias, dt, n_substeps, plant, k_a, k_w)
+
+
 # ---------------------------------------------------------------------------------------------------------
 # Public API
 # ---------------------------------------------------------------------------------------------------------
@@ -499,7 +512,8 @@ def propagate_pointing(
     ]
     batch, arrays, rows = attitude_rows(named)
     _, _, _, pa, xa, ea = arrays
-    status = propagate_batch_kernel(rows, True, pa, xa, np.zeros_like(ea), dt, n, plant_of(config), k_a, k_w)
+    plant = plant_of(config)
+    status = propagate_batch_arrays(*rows, True, pa, xa, np.zeros_like(ea), dt, n, *plant, k_a, k_w)
     return finish_rows(
         batch, rows, status, [(name, a) for (name, _, _), a in zip(named, arrays, strict=True)]
     )

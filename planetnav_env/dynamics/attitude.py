@@ -497,6 +497,19 @@ def propagate_open_loop_batch(
 
 
 @njit(cache=True)
+def open_loop_batch_arrays(
+    q, omega, h_w, u_ext, q_out, w_out, h_out, u_cmd, dt, n_substeps, jm, jinv, tau_max, h_max
+):
+    """:func:`propagate_open_loop_batch` for callers in Python: the fields of :class:`AttitudeRows` and
+    :class:`Plant` as plain arrays (``*rows``, ``*plant``), the records built here. Numba types a named
+    tuple passed from Python about 0.5 us per array slower than the array itself (bench_core's truth step
+    paid ~6 us a call)."""
+    rows = AttitudeRows(q=q, omega=omega, h_w=h_w, u_ext=u_ext, q_out=q_out, w_out=w_out, h_out=h_out)
+    plant = Plant(jm=jm, jinv=jinv, tau_max=tau_max, h_max=h_max)
+    return propagate_open_loop_batch(rows, u_cmd, dt, n_substeps, plant)
+
+
+@njit(cache=True)
 def _wheel_torque_batch(
     u_cmd: np.ndarray, h_w: np.ndarray, dt: float, tau_max: np.ndarray, h_max: np.ndarray, out: np.ndarray
 ) -> None:
@@ -636,7 +649,7 @@ def propagate_attitude(
     names = ("q", "omega", "h_w", "torque_cmd", "torque_ext")
     raw = (q, omega, h_w, torque_cmd, torque_ext)
     batch, arrays, rows = attitude_rows(list(zip(names, raw, (4, 3, 3, 3, 3), strict=True)))
-    status = propagate_open_loop_batch(rows, arrays[3], dt, n, plant_of(config))
+    status = open_loop_batch_arrays(*rows, arrays[3], dt, n, *plant_of(config))
     return finish_rows(batch, rows, status, list(zip(names, arrays, strict=True)))
 
 
