@@ -514,6 +514,4 @@ def propagate_pointing(
     _, _, _, pa, xa, ea = arrays
     plant = plant_of(config)
     status = propagate_batch_arrays(*rows, True, pa, xa, np.zeros_like(ea), dt, n, *plant, k_a, k_w)
-    return finish_rows(
-        batch, rows, status, [(name, a) for (name, _, _), a in zip(named, arrays, strict=True)]
-    )
+    return finish_rows(batch, rows, status, [name for name, _, _ in named], arrays)

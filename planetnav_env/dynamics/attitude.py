@@ -461,12 +461,17 @@ def store_row_kernel(rows: AttitudeRows, b: int, y: np.ndarray, h: np.ndarray) -
 
 
 def finish_rows(
-    batch: tuple[int, ...], rows: AttitudeRows, status: int, named: Sequence[tuple[str, np.ndarray]]
+    batch: tuple[int, ...],
+    rows: AttitudeRows,
+    status: int,
+    names: Sequence[str],
+    arrays: Sequence[np.ndarray],
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Raise the error of a batch kernel's ``status`` (:func:`raise_state_error`), else return the outputs
-    of ``rows`` as ``(q, omega, h_w)`` of the batch shape."""
+    """Raise the error of a batch kernel's ``status`` (:func:`raise_state_error` on the inputs ``arrays``
+    named ``names``), else return the outputs of ``rows`` as ``(q, omega, h_w)`` of the batch shape. The
+    name-array pairs are built only on an error: this runs on every call of the public propagators."""
     if status:
-        raise_state_error(status, named)
+        raise_state_error(status, list(zip(names, arrays, strict=True)))
     return (
         rows.q_out.reshape(batch + (4,)),
         rows.w_out.reshape(batch + (3,)),
@@ -650,7 +655,7 @@ def propagate_attitude(
     raw = (q, omega, h_w, torque_cmd, torque_ext)
     batch, arrays, rows = attitude_rows(list(zip(names, raw, (4, 3, 3, 3, 3), strict=True)))
     status = open_loop_batch_arrays(*rows, arrays[3], dt, n, *plant_of(config))
-    return finish_rows(batch, rows, status, list(zip(names, arrays, strict=True)))
+    return finish_rows(batch, rows, status, names, arrays)
 
 
 def attitude_rk4_step(
