@@ -16,24 +16,26 @@ the summary gives, per case, the best over the rounds of each commit and the rat
 
 from __future__ import annotations
 
-import argparse
 import sys
-import tempfile
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from commit_pair import alternate, extract, key_values, ratio_table, run_child, short
+from commit_pair import (
+    BENCH_VEC_CHILD,
+    alternate,
+    extract,
+    key_values,
+    pair_parser,
+    ratio_table,
+    run_child,
+    short,
+)
 
 #: Run in a fresh interpreter whose ``planetnav_env`` is the extracted commit's (PYTHONPATH).
-_CHILD = r"""
-import importlib.util, sys, time, types
-root, repeats, cases = sys.argv[1], int(sys.argv[2]), sys.argv[3].split(",")
-spec = importlib.util.spec_from_file_location("bench_vec", root + "/benchmarks/bench_vec.py")
-bv = importlib.util.module_from_spec(spec)
-spec.loader.exec_module(bv)
-import planetnav_env
-if not planetnav_env.__file__.startswith(root):
-    raise SystemExit(f"planetnav_env imported from {planetnav_env.__file__}, not from {root}")
+_CHILD = (
+    BENCH_VEC_CHILD
+    + r"""
+repeats, cases = int(sys.argv[2]), sys.argv[3].split(",")
 bv.REPEATS = repeats
 bv.time = types.SimpleNamespace(perf_counter=time.thread_time)  # CPU time of this thread
 rates = []
@@ -42,18 +44,13 @@ for case in cases:
     rates.append(f"{case}={bv.ceiling_per_core(1024, mode, stream, 20000):.0f}")
 print(" ".join(rates), flush=True)
 """
+)
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("a", help="first commit (the reference)")
-    ap.add_argument("b", help="second commit")
-    ap.add_argument("--rounds", type=int, default=2, help="alternating A, B rounds")
+    ap = pair_parser(__doc__.split("\n\n")[0], rounds=2)
     ap.add_argument("--repeats", type=int, default=5, help="timed blocks per case and process (best kept)")
     ap.add_argument("--cases", default="target/random,torque/random,torque/held,target/held")
-    ap.add_argument(
-        "--root", type=Path, default=Path(tempfile.gettempdir()), help="where trees and caches go"
-    )
     args = ap.parse_args()
     if args.rounds < 1 or args.repeats < 1:
         raise SystemExit(

@@ -11,14 +11,12 @@ is left out (its other threads' CPU time is not counted).
 
 from __future__ import annotations
 
-import argparse
 import re
 import sys
-import tempfile
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from commit_pair import alternate, extract, ratio_table, run_child, short
+from commit_pair import alternate, extract, pair_parser, ratio_table, run_child, short
 
 _CODE = (
     "import time, runpy, sys; time.perf_counter = time.thread_time; "
@@ -38,12 +36,8 @@ def _run(tree: Path, repeat: int) -> dict[str, float]:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("a", help="reference commit")
-    ap.add_argument("b", help="second commit")
-    ap.add_argument("--rounds", type=int, default=3, help="alternating A, B rounds")
+    ap = pair_parser(__doc__.split("\n")[0], rounds=3)
     ap.add_argument("--repeat", type=int, default=200, help="bench_core --repeat")
-    ap.add_argument("--root", default=tempfile.gettempdir(), help="where trees and caches go (shared)")
     args = ap.parse_args()
     revs = [short(args.a, "bench_core_pair"), short(args.b, "bench_core_pair")]
     trees = {sha: extract(sha, Path(args.root)) for sha in revs}

@@ -23,18 +23,13 @@ import tempfile
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from commit_pair import alternate, extract, key_values, ratio_table, run_child, short
+from commit_pair import BENCH_VEC_CHILD, alternate, extract, key_values, ratio_table, run_child, short
 
 #: Run in a fresh interpreter whose ``planetnav_env`` is the extracted commit's (PYTHONPATH).
-_CHILD = r"""
-import importlib.util, sys, time, types
-root, repeats, steps, cases = sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), sys.argv[4].split(",")
-spec = importlib.util.spec_from_file_location("bench_vec", root + "/benchmarks/bench_vec.py")
-bv = importlib.util.module_from_spec(spec)
-spec.loader.exec_module(bv)
-import planetnav_env
-if not planetnav_env.__file__.startswith(root):
-    raise SystemExit(f"planetnav_env imported from {planetnav_env.__file__}, not from {root}")
+_CHILD = (
+    BENCH_VEC_CHILD
+    + r"""
+repeats, steps, cases = int(sys.argv[2]), int(sys.argv[3]), sys.argv[4].split(",")
 bv.REPEATS = repeats
 bv.time = types.SimpleNamespace(perf_counter=time.process_time)  # CPU time of this process
 rates = []
@@ -48,6 +43,7 @@ for case in cases:
     rates.append(f"{case}={rate:.1f}")
 print(" ".join(rates), flush=True)
 """
+)
 
 
 def _check_case(case: str) -> None:

@@ -10,13 +10,40 @@ comparable: waits for a core are not counted, and a slow spell hits both commits
 
 from __future__ import annotations
 
+import argparse
 import os
 import subprocess
 import sys
+import tempfile
 from collections.abc import Callable
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parent.parent
+
+#: The start of a child that measures with a tree's own ``benchmarks/bench_vec.py`` (``bv``), the tree's
+#: root as ``sys.argv[1]``; it stops if ``planetnav_env`` came from anywhere else.
+BENCH_VEC_CHILD = r"""
+import importlib.util, sys, time, types
+root = sys.argv[1]
+spec = importlib.util.spec_from_file_location("bench_vec", root + "/benchmarks/bench_vec.py")
+bv = importlib.util.module_from_spec(spec)
+spec.loader.exec_module(bv)
+import planetnav_env
+if not planetnav_env.__file__.startswith(root):
+    raise SystemExit(f"planetnav_env imported from {planetnav_env.__file__}, not from {root}")
+"""
+
+
+def pair_parser(description: str, rounds: int) -> argparse.ArgumentParser:
+    """The options every paired benchmark of two commits takes: ``a``, ``b``, ``--rounds``, ``--root``."""
+    ap = argparse.ArgumentParser(description=description)
+    ap.add_argument("a", help="first commit (the reference)")
+    ap.add_argument("b", help="second commit")
+    ap.add_argument("--rounds", type=int, default=rounds, help="alternating A, B rounds")
+    ap.add_argument(
+        "--root", type=Path, default=Path(tempfile.gettempdir()), help="where trees and caches go"
+    )
+    return ap
 
 
 def short(rev: str, who: str) -> str:
