@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import math
 
+from numba import njit
+
 from planetnav_env.bodies import AU_KM
 from planetnav_env.core.layout import (
     F_DV_LOST,
@@ -37,7 +39,7 @@ from planetnav_env.core.layout import (
 )  # fmt: skip
 from planetnav_env.core.row_ephemeris import eval_channel, planets_at, row_time
 from planetnav_env.dynamics.attitude import dcm_body_to_inertial_kernel
-from planetnav_env.jit import row_kernel
+from planetnav_env.jit import ROW_KERNEL_OPTIONS, row_kernel
 from planetnav_env.sensors.camera_kernels import (
     V_ALPHA,
     V_REASON,
@@ -145,7 +147,8 @@ def _planet_features(prm, r_est, qe, pm, sc) -> None:  # pragma: no cover - comp
         out[a, TF_SIZE] = alpha / ps.sigma_alpha
 
 
-@row_kernel
+# Inlined: a call that passes the parameter and scratch records by value costs a few % of a settled step.
+@njit(inline="always", **ROW_KERNEL_OPTIONS)
 def camera_visibility(prm, r, q, t, i, rt, sc) -> int:  # pragma: no cover - compiled
     """The camera's visibility rule for target ``t[i]`` (radius ``rt`` [km]) from ``r[i]`` at attitude
     ``q[i]``, the row's planets and the Sun as occulters: the one place the core builds the camera's
