@@ -81,16 +81,36 @@ def _episode(agent: Any, env: Any, seed: int, on_step: Callable[[], None]) -> di
         if terminated or truncated:
             diverged = bool(terminated)
             break
+    return _episode_record(
+        np.asarray(err), np.asarray(sig), np.asarray(vel), measured, slews, ret, diverged,
+        time.perf_counter() - t0, info,
+    )  # fmt: skip
+
+
+def _episode_record(
+    err: np.ndarray,
+    sig: np.ndarray,
+    vel: np.ndarray,
+    measured: int,
+    slews: int,
+    ret: float,
+    diverged: bool,
+    seconds: float,
+    final_info: dict[str, Any],
+) -> dict[str, Any]:
+    """One episode's record, the one form of the single and the batched paths: per-step position error
+    ``err`` and 1-sigma ``sig`` [km], velocity error ``vel`` [km/s], the measured and slewing step counts,
+    the return, whether it diverged, its wall time [s] and the objective from its last ``final_info``."""
     return {
-        "pos_err": np.asarray(err),
-        "pos_sigma": np.asarray(sig),
+        "pos_err": err,
+        "pos_sigma": sig,
         "mean_vel_err_km_s": float(np.mean(vel)),
         "measured_fraction": measured / len(err),
         "slews": slews,
         "return": ret,
         "diverged": diverged,
-        "seconds": time.perf_counter() - t0,
-        "objective": episode_objective(info, np.asarray(err)),
+        "seconds": seconds,
+        "objective": episode_objective(final_info, err),
     }
 
 
@@ -250,7 +270,7 @@ def _run_rows(
 ) -> list[dict[str, Any]]:
     """The loop of :func:`_batched_episodes`: reset every row to its seed, one decision for all rows per
     step (``per_row``: ``model.predict`` on each running row alone, as the single-env path calls it)
-    until every row's episode has ended, then each row's :func:`_episode` dict."""
+    until every row's episode has ended, then each row's :func:`_episode_record`."""
     recurrent = hasattr(model.policy, "lstm_actor")
     t0 = time.perf_counter()
     rows.reset_rows(np.ones(n, dtype=bool), [int(s) for s in seeds])
@@ -277,19 +297,11 @@ def _run_rows(
     for r in range(n):
         k = int(rec.steps[r])
         err = rec.err[r, :k].copy()
-        runs.append(
-            {
-                "pos_err": err,
-                "pos_sigma": rec.sig[r, :k].copy(),
-                "mean_vel_err_km_s": float(np.mean(rec.vel[r, :k])),
-                "measured_fraction": int(rec.measured_count[r]) / k,
-                "slews": int(rec.slews[r]),
-                "return": float(rec.ret[r]),
-                "diverged": bool(rec.terminated[r]),
-                "seconds": seconds,
-                "objective": episode_objective(venv.info_row(r), err),
-            }
-        )
+        record = _episode_record(
+            err, rec.sig[r, :k].copy(), rec.vel[r, :k], int(rec.measured_count[r]), int(rec.slews[r]),
+            float(rec.ret[r]), bool(rec.terminated[r]), seconds, venv.info_row(r),
+        )  # fmt: skip
+        runs.append(record)
     return runs
 
 
