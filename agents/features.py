@@ -19,7 +19,9 @@ feature                    values appended (``P`` planets), each in [0, 1] unles
                            ``info["target"]``. Lets a feed-forward policy time its switches, which the
                            base observation (a snapshot of the filter) cannot express.
 ``gain``                   per planet: the greedy agent's predicted reduction of trace(P_rr) per step
-                           over its horizon (3 steps), slew time counted, relative to the best
+                           over its horizon (3 steps, and at least ``greedy-pd``'s 180 s when the
+                           step is shorter than 60 s: :func:`gain_horizon`), slew time counted,
+                           relative to the best
                            planet's (1 = greedy's choice), -1 if not observable
                            (:func:`planetnav_agents.gain.planet_gains`). Compiled, a few microseconds per
                            row.
@@ -61,19 +63,33 @@ _SINCE_LOG_SCALE = math.log1p(SINCE_SCALE_STEPS)
 _WIDTH = {"since_measured": 1, "gain": 1, "pd_torque": 3}
 
 
+def gain_horizon(step_s: float) -> int:
+    """The ``gain`` feature's horizon [steps] at an environment step of ``step_s`` seconds: greedy's
+    ``DEFAULT_HORIZON`` (3 steps), or ``greedy-pd``'s horizon kept in time
+    (``GREEDY_PD_HORIZON_S`` / ``step_s``) when that is longer. Why: at the 1-s step of the wheel-torque
+    tasks 3 steps never outweigh a ~100-s slew, and the feature's argmax should be the choice of the
+    reference those tasks clone (``greedy-pd``); at 60 s and above both give 3 steps, as before."""
+    from planetnav_agents.greedy import GREEDY_PD_HORIZON_S
+
+    if not (isinstance(step_s, int | float) and math.isfinite(step_s) and step_s > 0):
+        raise ValueError(f"step_s must be a positive number of seconds, got {step_s!r}")
+    return max(DEFAULT_HORIZON, round(GREEDY_PD_HORIZON_S / step_s))
+
+
 class GainFeature:
     """The ``gain`` feature of a configuration: :func:`planetnav_agents.gain.planet_gains` with greedy's
-    horizon and
-    slew model, for rows of box observations and the filter states that go with them."""
+    slew model and horizon (:func:`gain_horizon`), for rows of box observations and the filter states
+    that go with them."""
 
     def __init__(self, cfg: Any, params: Any) -> None:
         self.params = params
         self.slew = SlewModel.from_config(cfg)
         self.n_planets = cfg.n_planets
+        self.horizon = gain_horizon(float(cfg.step_s))
 
     def __call__(self, observations: np.ndarray, x: np.ndarray, p: np.ndarray) -> np.ndarray:
         """(N, P) float32 for observations (N, D), estimates (N, 6) and covariances (N, 6, 6)."""
-        return planet_gains(self.params, self.slew, DEFAULT_HORIZON, observations, x, p, self.n_planets)
+        return planet_gains(self.params, self.slew, self.horizon, observations, x, p, self.n_planets)
 
 
 def check_features(features: Sequence[str]) -> tuple[str, ...]:
