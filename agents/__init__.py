@@ -24,6 +24,8 @@ PATH           a saved SB3 model (``.zip`` or a ``runs/<name>/`` directory), det
 PATH           an RLlib checkpoint (a ``runs/<name>/`` directory of ``algo: rllib_ppo``, or the checkpoint
                directory itself; needs the ``[ray]`` extra), the policy's mode (:mod:`planetnav_agents.rllib`)
 PATH@sampled   the same model, actions sampled from the policy (seeded by ``reset(seed)``)
+suite:TASK     the benchmark suite's shipped baseline of TASK (``suite:Cruise-Target-v0``): the best
+               raw-track policy, stored in ``agents/baselines/`` (:mod:`planetnav_agents.shipped`)
 ============== ==========================================================================================
 
 Parameters follow the name: ``NAME:key=value,key=value`` (``periodic:period=60,cycle=0-1-2``,
@@ -61,6 +63,7 @@ from planetnav_agents.planner import PlannerAgent
 from planetnav_agents.rllib import RLlibAgent
 from planetnav_agents.rllib import find_checkpoint as find_rllib_checkpoint
 from planetnav_agents.sb3 import SB3Agent
+from planetnav_agents.shipped import is_shipped_spec, make_shipped_agent
 from planetnav_agents.simple import IdleAgent, RandomAgent
 from planetnav_env.config import EnvConfig
 
@@ -195,6 +198,8 @@ def make_agent(name_or_path: str | Path, env: gym.Env, **kwargs: Any) -> Agent:
         # "PATH@sampled": the saved policy's actions are sampled, not its argmax (seeded by reset(seed)).
         key = key[: -len(SAMPLED_SUFFIX)]
         kwargs.setdefault("deterministic", False)
+    if is_shipped_spec(key):
+        return make_shipped_agent(key, env, **kwargs)
     if _factory(key) is not None:
         return _factory(key)(env, **kwargs)
     path = Path(key)
@@ -204,7 +209,10 @@ def make_agent(name_or_path: str | Path, env: gym.Env, **kwargs: Any) -> Agent:
     if path.exists() or path.with_suffix(".zip").exists():
         return SB3Agent(path, env, **kwargs)
     known = sorted({*AGENTS, *OPERATIONS_AGENTS})
-    raise ValueError(f"unknown agent {key!r}: not one of {known} and no model file at that path")
+    raise ValueError(
+        f"unknown agent {key!r}: not one of {known}, not a shipped baseline (suite:<task>) and no model "
+        "file at that path"
+    )
 
 
 __all__ = [

@@ -40,6 +40,7 @@ import numpy as np
 from planetnav_agents import strip_sampled
 from planetnav_agents.rllib import config_sidecar as rllib_config_sidecar
 from planetnav_agents.sb3 import resolve_model_path
+from planetnav_agents.shipped import is_shipped_spec, shipped_model, task_of
 from planetnav_agents.stats import paired_difference
 from planetnav_env.config import NOISE_STREAMS, EnvConfig
 from planetnav_env.errors import ConfigError
@@ -69,12 +70,16 @@ from planetnav_train.training import train
 
 
 def _eval_env_config(args: argparse.Namespace, specs: Sequence[str]) -> tuple[EnvConfig, EvalSettings]:
-    """The env of ``--config``, else of the first model run directory's ``config.yaml``, else defaults."""
+    """The env of ``--config``, else of the first model run directory's ``config.yaml`` or shipped
+    baseline's task (``suite:<task>``), else defaults."""
     if args.config:
         tc = load_config(args.config)
     else:
         tc = parse_config({})
         for s in specs:
+            if is_shipped_spec(strip_sampled(s)):  # a shipped baseline: its task's registered env
+                tc = parse_config({"env_id": shipped_model(task_of(strip_sampled(s)))[1]["env_id"]})
+                break
             try:
                 sidecar = resolve_model_path(strip_sampled(s)).parent / "config.yaml"
             except FileNotFoundError:
@@ -301,6 +306,43 @@ def cmd_suite(args: argparse.Namespace) -> int:
     out = suite.finish(result, settings, args.json, Path(args.markdown) if args.markdown else None)
     print(f"ran {len(result['ran'])}, skipped {len(result['skipped'])} finished; {len(result['records'])} "
           f"records in {out['json']}; leaderboard: {out['markdown']}")  # fmt: skip
+    _publish(args, out["json"])
+    return 0
+
+
+def _publish(args: argparse.Namespace, suite_json: Path) -> None:
+    """``--publish-json`` and ``--readme`` of ``suite`` and ``suite-publish`` (:mod:`~.publish`)."""
+    from planetnav_train import publish
+
+    if args.publish_json:
+        print(f"published JSON: {publish.publish_json(suite_json, args.publish_json)}")
+    if args.readme:
+        readme = publish.update_readme(args.readme, publish.load_suite_json(suite_json))
+        print(f"summary written into {readme}")
+
+
+def cmd_suite_publish(args: argparse.Namespace) -> int:
+    """``suite-publish``: re-aggregate every record of ``--out`` (nothing trains), write ``OUT/suite.json``
+    and the page, then copy the JSON into the repository, update the README's summary and ship the best
+    raw-track models as named agents, as the flags ask (docs/suite.md, "Publishing")."""
+    from planetnav_train import publish, suite
+
+    settings = suite.Settings(out=Path(args.out))
+    records = suite.load_records(settings.out)
+    if not records:
+        raise ConfigError(f"no run records in {settings.out / 'runs'}: nothing to publish")
+    result = {"ran": [], "records": records, "references": {}}
+    out = suite.finish(result, settings, None, Path(args.markdown) if args.markdown else None)
+    print(f"{len(records)} records aggregated into {out['json']}; leaderboard: {out['markdown']}")
+    _publish(args, out["json"])
+    if args.baselines:
+        shipped = publish.ship_baselines(
+            settings.out, args.baselines, args.baseline_tasks, official_only=not args.allow_smoke
+        )
+        for e in shipped:
+            print(f"shipped suite:{e['task']}: {e['source_cell']} (objective {e['objective']:.1f}, "
+                  f"score {e['normalized_score']:+.2f}, {e['bytes']:,} bytes) -> "
+                  f"{args.baselines}/{e['file']}")  # fmt: skip
     return 0
 
 
@@ -420,6 +462,31 @@ def build_parser() -> argparse.ArgumentParser:
     su.add_argument("--no-ray", action="store_true", help="run sequentially even where Ray is installed")
     su.add_argument("--no-progress", action="store_true", help="no progress bars")
     su.set_defaults(func=cmd_suite)
+
+    def publishing(sp: argparse.ArgumentParser) -> None:
+        sp.add_argument(
+            "--publish-json", help="copy OUT/suite.json (all runs, aggregates) here: docs/benchmark.json"
+        )
+        sp.add_argument(
+            "--readme", help="write the summary tables between the suite-summary markers of this README"
+        )
+
+    publishing(su)
+    sp = sub.add_parser(
+        "suite-publish",
+        help="re-aggregate a suite's records (no training); publish the JSON, README summary, baselines",
+    )
+    sp.add_argument("--out", default="runs/suite", help="the suite's output folder (default %(default)s)")
+    sp.add_argument("--markdown", help="the leaderboard page (default OUT/benchmark.md)")
+    publishing(sp)
+    sp.add_argument(
+        "--baselines", help="ship each task's best raw-track model into this folder, e.g. agents/baselines"
+    )
+    sp.add_argument("--baseline-tasks", nargs="+", help="ship these tasks only (default: every raw task)")
+    sp.add_argument(
+        "--allow-smoke", action="store_true", help="tests only: ship runs with smoke settings too"
+    )
+    sp.set_defaults(func=cmd_suite_publish)
     return p
 
 

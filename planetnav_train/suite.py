@@ -770,6 +770,59 @@ def _fmt_interval(v: Mapping[str, float]) -> str:
     return f"{v['iqm']:.2f} [{v['low']:.2f}, {v['high']:.2f}]"
 
 
+#: What the normalized score and its aggregate mean, said once for the page and the README summary.
+SCORE_LEGEND = (
+    "Normalized score = (J_random − J) / (J_random − J_best): 0 is random, 1 the best non-learned "
+    "reference; IQM over runs with stratified-bootstrap 95 % intervals (rliable)."
+)
+
+
+def aggregate_rows(track_agg: Mapping[str, Any]) -> list[str]:
+    """Markdown table of one track's aggregate (:func:`aggregate`): per algorithm, the tasks it ran on, its
+    runs per task and its IQM over tasks with the 95 % interval, best first."""
+    overall = track_agg["overall"]
+    lines = ["| algorithm | tasks | runs per task | IQM [95 % CI] |", "|---|---|---|---|"]
+    for x in sorted(overall, key=lambda k: (-overall[k]["iqm"], k)):
+        lines.append(
+            f"| {x} | {len(track_agg['tasks'][x])} | {track_agg['runs'][x]} | {_fmt_interval(overall[x])} |"
+        )
+    return lines
+
+
+def best_per_task_rows(track_agg: Mapping[str, Any], references: Mapping[str, Any]) -> list[str]:
+    """Markdown table of one track: per task the algorithm with the highest IQM of the normalized score
+    (ties: the first by name) and the best non-learned reference it is scored against (its objective
+    in km, on the task's evaluation seeds)."""
+    lines = ["| task | best algorithm | IQM [95 % CI] | best non-learned reference |", "|---|---|---|---|"]
+    for task in sorted(track_agg["per_task"]):
+        per = track_agg["per_task"][task]
+        best = min(per, key=lambda k: (-per[k]["iqm"], k))
+        ref = references.get(task)
+        ref_text = f"{ref['best']} ({ref['J_best']:.1f} km)" if ref else "-"
+        lines.append(f"| {task} | {best} | {_fmt_interval(per[best])} | {ref_text} |")
+    return lines
+
+
+def summary_markdown(data: Mapping[str, Any]) -> str:
+    """The summary of a suite JSON (``OUT/suite.json``, :func:`suite_json`) as markdown: per track the
+    algorithms' IQM over tasks with 95 % intervals and per task the best algorithm. Flags smoke-setting
+    runs ("Not a leaderboard"). The README's summary block is this text (:mod:`planetnav_train.publish`)."""
+    runs, agg = list(data.get("runs") or []), dict(data.get("aggregate") or {})
+    if not runs or not agg:
+        return "No run recorded yet.\n"
+    tasks = sorted({r["task"] for r in runs})
+    lines = [f"Suite version {data.get('suite_version')}: {len(runs)} runs on {len(tasks)} task(s). "
+             + SCORE_LEGEND, ""]  # fmt: skip
+    unofficial = sum(not r.get("official", False) for r in runs)
+    if unofficial:
+        lines += [f"**Not a leaderboard**: {unofficial} of {len(runs)} runs used smoke settings.", ""]
+    for track, a in agg.items():
+        lines += [f"Track `{track}`, aggregated over tasks:", "", *aggregate_rows(a), ""]
+        lines += [f"Track `{track}`, best algorithm per task:", ""]
+        lines += [*best_per_task_rows(a, data.get("references") or {}), ""]
+    return "\n".join(lines)
+
+
 def write_leaderboard(
     records: Sequence[Mapping[str, Any]],
     references: Mapping[str, Any],
@@ -794,8 +847,7 @@ def write_leaderboard(
             "machinery only.",
             "",
         ]
-    lines += ["Normalized score = (J_random − J) / (J_random − J_best): 0 is random, 1 the best non-learned "
-              "reference; IQM over runs with stratified-bootstrap 95 % intervals (rliable).", ""]  # fmt: skip
+    lines += [SCORE_LEGEND, ""]
     lines += ["## References", "", "| task | agent | objective [95 % CI] | role |", "|---|---|---|---|"]
     for task, ref in sorted(references.items()):
         for agent, v in ref["agents"].items():
@@ -817,12 +869,8 @@ def write_leaderboard(
                 _fmt_interval(a["per_task"][task][x]) if x in a["per_task"][task] else "-" for x in algos
             ]
             lines.append(f"| {task} | " + " | ".join(cells) + " |")
-        lines += ["", "### Aggregated over tasks", "",
-                  "| algorithm | tasks | runs per task | IQM [95 % CI] |", "|---|---|---|---|"]  # fmt: skip
-        for x in sorted(algos, key=lambda k: -a["overall"][k]["iqm"]):
-            lines.append(
-                f"| {x} | {len(a['tasks'][x])} | {a['runs'][x]} | {_fmt_interval(a['overall'][x])} |"
-            )
+        lines += ["", "### Aggregated over tasks", "", *aggregate_rows(a)]
+        lines += ["", "### Best algorithm per task", "", *best_per_task_rows(a, references)]
         if a["improvement"]:
             lines += ["", "| P(X > Y) | probability [95 % CI] |", "|---|---|"]
             for row in a["improvement"]:
@@ -882,6 +930,8 @@ __all__ = [
     "Settings",
     "Task",
     "aggregate",
+    "aggregate_rows",
+    "best_per_task_rows",
     "cell_config",
     "finish",
     "get_algo",
@@ -892,6 +942,7 @@ __all__ = [
     "run_cell",
     "run_suite",
     "score_matrices",
+    "summary_markdown",
     "task_references",
     "write_leaderboard",
 ]

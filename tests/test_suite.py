@@ -228,9 +228,10 @@ def test_resume_skips_finished_runs(tmp_path, monkeypatch) -> None:
     assert len(again["skipped"]) == 2 and len(again["records"]) == 3
 
 
-def test_suite_smoke_end_to_end(tmp_path) -> None:
+def test_suite_smoke_end_to_end(tmp_path, monkeypatch) -> None:
     """CI: train a few hundred steps, evaluate on 2 seeds of 20 steps, score, aggregate, write the JSON and
-    the markdown; then re-parse the recorded command of a cell."""
+    the markdown; then re-parse the recorded command of a cell; then publish (the JSON copied, the README
+    summary, the best model shipped) and evaluate the shipped baseline by name."""
     pytest.importorskip("rliable")
     from planetnav_train.cli import build_parser, main
 
@@ -265,3 +266,32 @@ def test_suite_smoke_end_to_end(tmp_path) -> None:
         "raw",
     )
     assert (args.budget_scale, args.episode_steps, args.eval_episodes) == (0.003, 20, 2)
+
+    # Publishing (nothing trains): the JSON into the repository, the README's summary, the best model.
+    from planetnav_agents import shipped
+    from planetnav_train import publish
+
+    readme, bench_json, baselines = tmp_path / "README.md", tmp_path / "benchmark.json", tmp_path / "bl"
+    readme.write_text(f"# r\n\n{publish.README_START}\nnot yet\n{publish.README_END}\n\n## next\n")
+    pub = ["suite-publish", "--out", str(out), "--markdown", str(md), "--publish-json", str(bench_json),
+           "--readme", str(readme), "--baselines", str(baselines)]  # fmt: skip
+    assert main(pub) == 2 and not baselines.exists()  # smoke runs ship only with --allow-smoke
+    assert main([*pub, "--allow-smoke"]) == 0
+    published = json.loads((out / "suite.json").read_text())
+    assert json.loads(bench_json.read_text()) == published and len(published["runs"]) == 2
+    summary = suite.summary_markdown(published)
+    assert "| ppo | 1 | 2 |" in summary and "| Cruise-Target-v0 | ppo |" in summary
+    assert readme.read_text() == (
+        f"# r\n\n{publish.README_START}\n{summary.rstrip()}\n{publish.README_END}\n\n## next\n"
+    )
+    best = min(runs, key=lambda r: (r["objective"], r["seed"]))
+    entry = json.loads((baselines / "manifest.json").read_text())["baselines"]["Cruise-Target-v0"]
+    assert entry["source_cell"] == f"Cruise-Target-v0__ppo__raw__s{best['seed']}" and not entry["official"]
+    # The shipped name evaluates to the cell's own record on the same seeds and settings.
+    monkeypatch.setattr(shipped, "BASELINES_DIR", baselines)
+    cmp = tmp_path / "compare.json"
+    assert main(["compare", "--agents", "suite:Cruise-Target-v0", "--episodes", "2", "--seed", "50000",
+                 "--episode-steps", "20", "--noise-streams", "per_step", "--json", str(cmp),
+                 "--no-progress"]) == 0  # fmt: skip
+    got = json.loads(cmp.read_text())["agents"]["suite:Cruise-Target-v0"]
+    assert got["per_episode_mean_pos_err_km"] == best["per_episode"]

@@ -1,0 +1,214 @@
+"""Publishing the suite (planetnav_train/publish.py, planetnav_agents.shipped; docs/suite.md "Publishing"):
+the README summary block, the summary tables against direct numpy IQMs, choosing and shipping the best
+raw-track model of each task with its size limit, and loading a shipped baseline by name. The end-to-end
+path (a real smoke suite, then ``suite-publish`` and ``compare --agents suite:<task>``) is in
+tests/test_suite.py::test_suite_smoke_end_to_end."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from planetnav_agents import make_agent, shipped
+from planetnav_env.errors import ConfigError
+from planetnav_train import publish, suite
+
+README = f"# x\n\nintro\n\n{publish.README_START}\nold text\n{publish.README_END}\n\n## after\n"
+
+
+def test_replace_block_keeps_the_rest_and_names_bad_markers() -> None:
+    got = publish.replace_block(README, "| a | b |\n")
+    assert got == f"# x\n\nintro\n\n{publish.README_START}\n| a | b |\n{publish.README_END}\n\n## after\n"
+    assert publish.replace_block(got, "| a | b |") == got  # idempotent
+    with pytest.raises(ConfigError, match=r"R\.md: expected one .* found 0 and 1"):
+        publish.replace_block(README.replace(publish.README_START, ""), "t", "R.md")
+    with pytest.raises(ConfigError, match="found 2 and 2"):
+        publish.replace_block(README + README, "t")
+    swapped = f"{publish.README_END}\n{publish.README_START}\n"
+    with pytest.raises(ConfigError, match="comes before"):
+        publish.replace_block(swapped, "t")
+
+
+def _record(task: str, algo: str, seed: int, score: float, track: str = "raw", official: bool = True):
+    # objective falls as the score rises (J_random 1000 km, J_best 200 km)
+    return {"task": task, "algorithm": algo, "track": track, "seed": seed, "normalized_score": score,
+            "objective": 1000.0 - 800.0 * score, "official": official, "suite_version": suite.SUITE_VERSION,
+            "task_version": 0, "command": f"python train.py suite --tasks {task}"}  # fmt: skip
+
+
+def _iqm(values: list[float]) -> float:
+    flat = np.sort(np.asarray(values, dtype=float))
+    cut = int(0.25 * flat.size)
+    return float(flat[cut : flat.size - cut].mean())
+
+
+#: (task, algorithm) -> four seeds' scores: ppo wins on Cruise, dqn on RandomCruise.
+SCORES = {
+    ("Cruise-Target-v0", "ppo"): [0.9, 1.1, 0.7, 1.3],
+    ("Cruise-Target-v0", "dqn"): [0.2, 0.5, 0.4, 0.1],
+    ("RandomCruise-Target-v0", "ppo"): [0.3, 0.35, 0.2, 0.6],
+    ("RandomCruise-Target-v0", "dqn"): [0.8, 0.6, 0.9, 0.75],
+}
+
+
+def _row(text: str, first: str) -> list[str]:
+    (line,) = [ln for ln in text.splitlines() if ln.startswith(f"| {first} |")]
+    return [c.strip() for c in line.strip("|").split("|")]
+
+
+def test_summary_tables_match_direct_iqms() -> None:
+    pytest.importorskip("rliable")
+    records = [_record(t, a, s, v) for (t, a), vals in SCORES.items() for s, v in enumerate(vals)]
+    refs = {t: {"best": "greedy", "J_best": 200.0} for t, _ in SCORES}
+    agg = suite.aggregate(records, reps=200)
+    text = suite.summary_markdown(suite.suite_json(records, refs, agg))
+    assert "runs on 2 task(s)" in text and "Not a leaderboard" not in text
+    for algo in ("ppo", "dqn"):
+        every = [v for (_, a), vals in SCORES.items() if a == algo for v in vals]
+        row = _row(text, algo)
+        assert row[1:3] == ["2", "4"] and row[3].startswith(f"{_iqm(every):.2f} [")
+    for task in ("Cruise-Target-v0", "RandomCruise-Target-v0"):
+        per = {a: _iqm(vals) for (t, a), vals in SCORES.items() if t == task}
+        best = max(per, key=per.get)
+        row = _row(text, task)
+        assert row[1] == best and row[2].startswith(f"{per[best]:.2f} [") and row[3] == "greedy (200.0 km)"
+    smoke = suite.summary_markdown(suite.suite_json([{**records[0], "official": False}], refs, agg))
+    assert "**Not a leaderboard**: 1 of 1 runs" in smoke
+    assert suite.summary_markdown(suite.suite_json([], refs, {})) == "No run recorded yet.\n"
+
+
+def test_update_readme_writes_the_summary_block(tmp_path) -> None:
+    readme = tmp_path / "README.md"
+    readme.write_text(README)
+    data = {"runs": [], "aggregate": {}}
+    publish.update_readme(readme, data)
+    assert readme.read_text() == README.replace("old text", "No run recorded yet.")
+    with pytest.raises(ConfigError, match="no such file"):
+        publish.update_readme(tmp_path / "nope.md", data)
+
+
+def test_the_repositorys_readme_has_one_summary_block() -> None:
+    text = (Path(__file__).resolve().parents[1] / "README.md").read_text()
+    publish.replace_block(text, "x", "README.md")  # raises unless each marker occurs once, in order
+    assert "docs/benchmark.md" in text
+
+
+def test_best_raw_runs_lowest_objective_official_only() -> None:
+    records = [
+        _record("Cruise-Target-v0", "ppo", 0, 0.5),
+        _record("Cruise-Target-v0", "dqn", 3, 0.9),
+        _record("Cruise-Target-v0", "a2c", 1, 1.5, track="assisted"),  # assisted: never shipped
+        _record("Cruise-Target-v0", "ppo", 2, 1.2, official=False),  # smoke settings
+        _record("Cruise-Torque-v0", "sac", 0, 0.1, official=False),
+    ]
+    best = publish.best_raw_runs(records)
+    assert list(best) == ["Cruise-Target-v0"] and (best["Cruise-Target-v0"]["algorithm"], best[
+        "Cruise-Target-v0"]["seed"]) == ("dqn", 3)  # fmt: skip
+    smoke = publish.best_raw_runs(records, official_only=False)
+    assert smoke["Cruise-Target-v0"]["seed"] == 2 and smoke["Cruise-Torque-v0"]["algorithm"] == "sac"
+    with pytest.raises(ConfigError, match=r"task Cruise-Torque-v0: no official raw-track run .*1 raw"):
+        publish.best_raw_runs(records, tasks=["Cruise-Torque-v0"])
+    with pytest.raises(ConfigError, match="unknown task 'Nope-v0'"):
+        publish.best_raw_runs(records, tasks=["Nope-v0"])
+    with pytest.raises(ConfigError, match="no raw-track record"):
+        publish.best_raw_runs([records[2]])
+
+
+@pytest.fixture
+def suite_out(tmp_path: Path) -> Path:
+    """A suite output folder with two official raw-track records of Cruise-Target-v0 and their models (an
+    untrained PPO: shipping and loading do not need a trained one)."""
+    from stable_baselines3 import PPO
+
+    from planetnav_env.env import PlanetNavEnv
+
+    out = tmp_path / "suite"
+    env = PlanetNavEnv(suite.get_task("Cruise-Target-v0").env_config(episode_steps=10))
+    for seed, score in ((0, 0.4), (1, 0.8)):
+        rec = _record("Cruise-Target-v0", "ppo", seed, score)
+        cell = suite.Cell(rec["task"], "ppo", "raw", seed)
+        suite._write_json_atomic(suite.record_path(out, cell), rec)
+        (out / "models" / cell.key).mkdir(parents=True)
+        PPO("MlpPolicy", env, seed=seed, n_steps=16, batch_size=16).save(out / "models" / cell.key / "model")
+    return out
+
+
+def test_ship_baselines_copies_the_best_and_loads_it_by_name(suite_out, tmp_path, monkeypatch) -> None:
+    from planetnav_env.env import PlanetNavEnv
+
+    dest = tmp_path / "baselines"
+    (entry,) = publish.ship_baselines(suite_out, dest)
+    source = suite_out / "models" / "Cruise-Target-v0__ppo__raw__s1" / "model.zip"
+    assert (entry["task"], entry["seed"], entry["source_cell"]) == ("Cruise-Target-v0", 1, source.parent.name)
+    shipped_file = dest / "Cruise-Target-v0.zip"
+    assert shipped_file.read_bytes() == source.read_bytes()
+    assert entry["sha256"] == hashlib.sha256(source.read_bytes()).hexdigest()
+    assert entry["bytes"] == source.stat().st_size < shipped.MAX_BASELINE_BYTES
+    manifest = json.loads((dest / shipped.MANIFEST_NAME).read_text())
+    assert manifest["baselines"] == {"Cruise-Target-v0": entry}
+
+    monkeypatch.setattr(shipped, "BASELINES_DIR", dest)
+    env = PlanetNavEnv(suite.get_task("Cruise-Target-v0").env_config(episode_steps=10))
+    agent = make_agent("suite:Cruise-Target-v0", env)
+    direct = make_agent(str(source), env)
+    assert agent.name == "suite:Cruise-Target-v0" and type(agent.model) is type(direct.model)
+    obs, info = env.reset(seed=3)
+    agent.reset(seed=3)
+    direct.reset(seed=3)
+    assert agent.act(obs, info) == direct.act(obs, info)  # the same policy
+    assert make_agent("suite:planetnav/Cruise-Target-v0@sampled", env).name.endswith(":stochastic")
+
+    shipped_file.write_bytes(shipped_file.read_bytes() + b"x")
+    with pytest.raises(ValueError, match=r"has sha256 .* the manifest says"):
+        make_agent("suite:Cruise-Target-v0", env)
+    shipped_file.unlink()
+    with pytest.raises(FileNotFoundError, match=r"Cruise-Target-v0\.zip, which is missing"):
+        make_agent("suite:Cruise-Target-v0", env)
+
+
+def test_ship_baselines_refuses_a_large_model_before_copying(suite_out, tmp_path) -> None:
+    dest = tmp_path / "baselines"
+    size = (suite_out / "models" / "Cruise-Target-v0__ppo__raw__s1" / "model.zip").stat().st_size
+    with pytest.raises(
+        ConfigError, match=rf"is {size:,} bytes .* not under the shipped limit of 1,000 bytes"
+    ):
+        publish.ship_baselines(suite_out, dest, max_bytes=1_000)
+    assert not dest.exists()  # nothing copied, no manifest written
+    rec = _record("Cruise-Target-v0", "rllib_ppo", 0, 2.0)
+    suite._write_json_atomic(
+        suite.record_path(suite_out, suite.Cell(rec["task"], "rllib_ppo", "raw", 0)), rec
+    )
+    with pytest.raises(ConfigError, match="rllib_ppo__raw__s0 is an RLlib checkpoint"):
+        publish.ship_baselines(suite_out, dest)
+
+
+def test_unshipped_task_names_the_task(tmp_path, monkeypatch) -> None:
+    from planetnav_env.env import PlanetNavEnv
+
+    env = PlanetNavEnv(episode_steps=5)
+    monkeypatch.setattr(shipped, "BASELINES_DIR", tmp_path)  # no manifest at all
+    with pytest.raises(ValueError, match=r"no shipped baseline for task 'Cruise-Target-v0' .*none yet"):
+        make_agent("suite:Cruise-Target-v0", env)
+    with pytest.raises(ValueError, match="no task after 'suite:'"):
+        make_agent("suite:", env)
+
+
+def test_the_repositorys_baselines_load_or_say_they_are_unshipped() -> None:
+    """Every task either loads its shipped model (size and sha256 checked) or raises the clear error."""
+    from planetnav_env.env import PlanetNavEnv
+
+    manifest = shipped.load_manifest()
+    assert set(manifest["baselines"]) <= set(suite.TASKS_BY_ID)
+    for task in suite.TASKS:
+        env = PlanetNavEnv(task.env_config(episode_steps=5))
+        if task.id in manifest["baselines"]:
+            entry = manifest["baselines"][task.id]
+            assert entry["bytes"] < shipped.MAX_BASELINE_BYTES and entry["track"] == "raw"
+            assert make_agent(f"suite:{task.id}", env).name == f"suite:{task.id}"
+        else:
+            with pytest.raises(ValueError, match=f"no shipped baseline for task '{task.id}'"):
+                make_agent(f"suite:{task.id}", env)
