@@ -300,6 +300,7 @@ def cmd_suite(args: argparse.Namespace) -> int:
         eval_episodes=args.eval_episodes,
         assists_path=args.assists,
         progress=not args.no_progress,
+        exact_actions=not args.no_exact_actions,
     )
     use_ray = False if args.no_ray else None
     result = suite.run_suite(cells, settings, resume=args.resume, use_ray=use_ray, address=args.address)
@@ -460,6 +461,11 @@ def build_parser() -> argparse.ArgumentParser:
     su.add_argument("--markdown", help="the leaderboard page (default OUT/benchmark.md)")
     su.add_argument("--address", help="run the grid on the Ray cluster at HOST:PORT (needs the [ray] extra)")
     su.add_argument("--no-ray", action="store_true", help="run sequentially even where Ray is installed")
+    su.add_argument(
+        "--no-exact-actions",
+        action="store_true",
+        help="evaluate a continuous policy's rows in one predict (faster; equal to float rounding only)",
+    )
     su.add_argument("--no-progress", action="store_true", help="no progress bars")
     su.set_defaults(func=cmd_suite)
 

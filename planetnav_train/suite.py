@@ -308,6 +308,9 @@ class Settings:
     eval_episodes: int | None = None  # smoke runs: fewer evaluation seeds
     assists_path: str = str(DEFAULT_ASSISTS)
     progress: bool = False
+    # False: a continuous policy predicts all evaluation rows in one call (evaluate_agent's exact_actions;
+    # faster, equal to the one-episode evaluation to float rounding only). Recorded and in the command.
+    exact_actions: bool = True
 
     @property
     def official(self) -> bool:
@@ -408,6 +411,8 @@ def rerun_command(cell: Cell, settings: Settings) -> str:
         args += ["--episode-steps", str(settings.episode_steps)]
     if settings.eval_episodes:
         args += ["--eval-episodes", str(settings.eval_episodes)]
+    if not settings.exact_actions:
+        args += ["--no-exact-actions"]
     if cell.track == "assisted" and Path(settings.assists_path).resolve() != DEFAULT_ASSISTS.resolve():
         args += ["--assists", settings.assists_path]
     return shlex.join(args)
@@ -526,6 +531,7 @@ def run_cell(cell: Cell, settings: Settings, references: Mapping[str, Any]) -> d
         task.eval_seed,
         settings.progress,
         batched=True,
+        exact_actions=settings.exact_actions,
     )
     summary = _agent_summary(objective, result.metrics)
     return {
@@ -551,6 +557,7 @@ def run_cell(cell: Cell, settings: Settings, references: Mapping[str, Any]) -> d
         "eval_seed": task.eval_seed,
         "episode_steps": settings.episode_steps,
         "budget_scale": settings.budget_scale,
+        "exact_actions": settings.exact_actions,
         "official": settings.official,
         "config": tc.to_dict(),
         "command": rerun_command(cell, settings),

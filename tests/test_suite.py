@@ -191,6 +191,29 @@ def test_raw_and_assisted_configs(tmp_path) -> None:
         suite.cell_config(suite.Cell("Cruise-Target-v0", "maskable_ppo", "assisted", 0), settings)
 
 
+def test_exact_actions_reaches_the_evaluation_the_record_and_the_command(tmp_path, monkeypatch) -> None:
+    from planetnav_train import evaluate
+    from planetnav_train.cli import build_parser
+
+    seen: list[bool] = []
+
+    def fake_evaluate(spec, env_cfg, episodes, seed, progress=True, batched=True, exact_actions=True):
+        seen.append(exact_actions)
+        metrics = {"per_episode_mean_pos_err_km": [100.0 + k for k in range(episodes)]}
+        return evaluate.EvalResult(spec, metrics, np.zeros(0), np.zeros(0))
+
+    monkeypatch.setattr(evaluate, "evaluate_agent", fake_evaluate)
+    monkeypatch.setattr(suite, "train_cell", lambda tc, run_dir, progress: (run_dir / "model.zip", {}))
+    refs = {"random": "random", "best": "greedy", "J_random": 300.0, "J_best": 100.0}
+    cell = suite.Cell("Cruise-Torque-v0", "sac", "raw", 0)
+    for exact in (True, False):
+        settings = suite.Settings(out=tmp_path, eval_episodes=2, exact_actions=exact)
+        record = suite.run_cell(cell, settings, refs)
+        assert seen[-1] is exact and record["exact_actions"] is exact
+        args = build_parser().parse_args(shlex.split(record["command"])[2:])
+        assert args.no_exact_actions is (not exact)
+
+
 def test_contrib_algorithm_without_sb3_contrib_names_the_extra(monkeypatch) -> None:
     import sys
 
