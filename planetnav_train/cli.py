@@ -10,6 +10,9 @@ Usage::
     python train.py sweep-periodic [--periods 10 30 60 ...] [--cycles 0-1 0-1-2 ...] [--episodes N] [--seed S]
     python train.py train --config configs/rllib_ppo.yaml [--address HOST:PORT]   # RLlib, needs [ray]
     python train.py tune --config configs/sweep.yaml [--address HOST:PORT] [--resume]  # Ray Tune sweep
+    python train.py suite --tasks ... --algos ... --seeds ... [--resume]      # benchmark suite, docs/suite.md
+    python train.py suite-publish --out runs/suite [--publish-json docs/benchmark.json] \\
+        [--readme README.md] [--baselines agents/baselines]   # publish results; agents suite:<task>
 
 A training run writes ``runs/<name>/``: ``model.zip``, ``config.yaml`` (the resolved configuration; the SB3
 loader reads ``algo`` from it), ``tb/`` (TensorBoard), ``monitor/`` (episode CSVs), then, unless
