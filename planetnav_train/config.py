@@ -212,6 +212,22 @@ def load_config(path: str | Path) -> TrainConfig:
         raise ConfigError(f"{path}: {exc}") from None
 
 
+def _init_parameters(cls: type) -> dict[str, inspect.Parameter]:
+    """The named constructor parameters of ``cls``: a subclass whose ``__init__`` passes ``*args,
+    **kwargs`` through (``agents.masking``'s MaskablePPO) takes its base class's."""
+    variadic = (inspect.Parameter.VAR_POSITIONAL, inspect.Parameter.VAR_KEYWORD)
+    params: dict[str, inspect.Parameter] = {}
+    for klass in cls.__mro__:
+        init = klass.__dict__.get("__init__")
+        if init is None:
+            continue
+        own = inspect.signature(init).parameters
+        params = {**{k: v for k, v in own.items() if v.kind not in variadic}, **params}
+        if not any(v.kind == inspect.Parameter.VAR_KEYWORD for v in own.values()):
+            break
+    return params
+
+
 def _check_hyperparams(tc: TrainConfig) -> None:
     """Reject ``hyperparams`` keys the algorithm's constructor does not take (or that are set from other
     keys)."""
@@ -220,7 +236,7 @@ def _check_hyperparams(tc: TrainConfig) -> None:
 
         check_hyperparams(tc.hyperparams)
         return
-    params = inspect.signature(algorithm_class(tc.algo).__init__).parameters
+    params = _init_parameters(algorithm_class(tc.algo))
     # Set by the training code from other keys; a user value would be silently overwritten.
     reserved = {"self", "policy", "env", "seed", "tensorboard_log", "verbose", "device", "_init_setup_model"}
     known = set(params) - reserved

@@ -102,3 +102,15 @@ def test_maskable_ppo_rollout_masks_and_saved_predict(env_id: str, tmp_path) -> 
         assert all(expected[r, a] for r, a in enumerate(actions)), (expected, actions)
         obs, *_ = vec.step(actions)
         expected = observable_mask(obs, layout_of(vec), n_act)
+
+
+def test_config_check_reads_maskable_ppo_hyperparameters_through_its_subclass() -> None:
+    """The masked subclass's ``__init__`` passes ``*args, **kwargs`` through: the config check takes
+    MaskablePPO's own keywords from the base class (the suite's raw-track cells set n_steps, batch_size
+    and n_epochs), and still names a key no class in the chain takes."""
+    from planetnav_train.config import ConfigError, parse_config
+
+    hp = {"n_steps": 64, "batch_size": 32, "n_epochs": 2}
+    assert parse_config({"algo": "maskable_ppo", "hyperparams": hp}).hyperparams == hp
+    with pytest.raises(ConfigError, match=r"unknown key\(s\) \['n_stepz'\].*'n_steps'"):
+        parse_config({"algo": "maskable_ppo", "hyperparams": {"n_stepz": 64}})
