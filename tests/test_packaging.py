@@ -58,6 +58,8 @@ def test_wheel_installs_planetnav_agents_and_no_top_level_agents(tmp_path: Path)
     assert "agents" not in tops, sorted(tops)
     names = zipfile.ZipFile(wheel).namelist()
     assert "planetnav_agents/greedy.py" in names
+    # the shipped suite baselines' manifest (agents/shipped.py loads suite:<task> from the installed package)
+    assert "planetnav_agents/baselines/manifest.json" in names
 
 
 def test_checkout_import_agents_warns_and_is_planetnav_agents() -> None:
