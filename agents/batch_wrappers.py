@@ -11,6 +11,7 @@ class                                  what it does to the rows
 :class:`SingleEnvRows`                 any (wrapped) single planetnav env as one row (N = 1)
 :class:`PointingShapingRows`           adds the potential-based pointing term to the reward
                                        (:class:`planetnav_agents.shaping.PointingPotential`)
+:class:`PointingBonusRows`             adds the per-step pointing bonus ``Phi(s')`` (not potential-based)
 :class:`FeatureRows`                   appends the observation features (:class:`planetnav_agents.
                                        features.FeatureBatch`: ``since_measured``, ``gain``, ``pd_torque``)
 :class:`ActionRepeatRows`              holds each decision ``repeat`` steps, rewards summed
@@ -248,6 +249,33 @@ class PointingShapingRows(RowsWrapper):
         return info if np.isnan(self._shaping[row]) else {**info, "shaping": float(self._shaping[row])}
 
 
+class PointingBonusRows(RowsWrapper):
+    """Adds ``Phi(s')`` (:class:`planetnav_agents.shaping.PointingPotential` with weight ``weight``
+    [reward units]) of each stepped row's new observation to its reward: a per-step pointing bonus, not
+    potential-based (:mod:`planetnav_agents.shaping`: reported as shaping). ``row_info`` gains
+    ``"pointing_bonus"``, the term added at the row's last step."""
+
+    def __init__(self, inner: Rows, weight: float) -> None:
+        super().__init__(inner)
+        self.potential = PointingPotential(self.config, weight)
+        self._bonus = np.full(self.num_rows, np.nan)  # NaN: no step since the row's reset
+
+    def reset_rows(self, mask: np.ndarray, seed: Any = None, options: dict | None = None) -> None:
+        self.inner.reset_rows(mask, seed, options)
+        self._bonus[np.asarray(mask, dtype=bool)] = np.nan
+
+    def step_rows(self, actions: Any, active: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        reward, terminated, truncated = self.inner.step_rows(actions, active)
+        active = np.asarray(active, dtype=bool)
+        bonus = self.potential(self.inner.observations())
+        self._bonus[active] = bonus[active]
+        return np.where(active, reward + bonus, reward), terminated, truncated
+
+    def row_info(self, row: int) -> dict[str, Any]:
+        info = self.inner.row_info(row)
+        return info if np.isnan(self._bonus[row]) else {**info, "pointing_bonus": float(self._bonus[row])}
+
+
 class FeatureRows(RowsWrapper):
     """Appends :class:`planetnav_agents.features.FeatureBatch`'s features to the rows' box observations;
     every environment step of a row advances its feature state (``since_measured`` counts steps)."""
@@ -331,7 +359,8 @@ class TrainingOptions:
     ``features``: observation features appended (``since_measured``, ``gain``, ``pd_torque``);
     ``action_repeat``: environment steps per decision; ``relative_actions``: "stay" / "move k places"
     target actions; ``pointing``: the pointing shaping's weight [reward units] (None / 0: none);
-    ``gamma``: its discount (the algorithm's). The layers validate them.
+    ``gamma``: its discount (the algorithm's); ``pointing_bonus``: the per-step pointing bonus's weight
+    [reward units] (None / 0: none; not potential-based). The layers validate them.
     """
 
     features: Sequence[str] = ()
@@ -339,13 +368,16 @@ class TrainingOptions:
     relative_actions: bool = False
     pointing: float | None = None
     gamma: float = 0.99
+    pointing_bonus: float | None = None
 
     def stack(self, inner: Rows) -> Rows:
-        """``inner`` with these options in the recipe's order: the pointing shaping, the features,
-        action repeat, relative target actions."""
+        """``inner`` with these options in the recipe's order: the pointing shaping, the pointing bonus,
+        the features, action repeat, relative target actions."""
         rows = inner
         if self.pointing:
             rows = PointingShapingRows(rows, self.pointing, self.gamma)
+        if self.pointing_bonus:
+            rows = PointingBonusRows(rows, check_shaping(self.pointing_bonus, 1.0)[0])
         if self.features:
             rows = FeatureRows(rows, self.features)
         if check_action_repeat(self.action_repeat) > 1:

@@ -12,6 +12,13 @@ boresight is body +x in every shipped configuration, and the wrapper checks it),
 observable. ``weight`` is in reward units (the navigation reward is ``-error / reward_scale_km`` per
 step, ~-0.1..-1.7 in cruise).
 
+``pointing_bonus`` (config key ``shaping: {pointing_bonus: WEIGHT}``) is **not** potential-based: every
+environment step it adds ``Phi(s')`` of the new state (the same ``Phi`` with its own weight), a per-step
+reward for pointing the boresight at an observable planet. It changes the optimal policy (it pays for
+staring at one planet) and is reported as shaping wherever used. It exists because the potential-based
+term cannot teach the pointing loop here: its advantage signal vanishes as the critic learns ``-Phi``,
+and the navigation reward's own variance then swamps the rest (docs/training.md, issue 18, runs H7-).
+
 Used only in training (config key ``shaping: {pointing: WEIGHT}``), on arrays over the training env's
 rows (:class:`planetnav_agents.batch_wrappers.PointingShapingRows`; a single env is one row); evaluation
 reports the unshaped navigation metrics. ``PointingShaping``, the former single-env wrapper, is a
@@ -27,7 +34,8 @@ import numpy as np
 from planetnav_env.config import EnvConfig
 from planetnav_env.core import layout as L
 
-SHAPINGS = ("pointing",)
+#: Config keys of ``shaping:``: the potential-based term, the per-step pointing bonus (not potential-based).
+SHAPINGS = ("pointing", "pointing_bonus")
 
 
 def check_shaping(weight: float, gamma: float) -> tuple[float, float]:

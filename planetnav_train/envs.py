@@ -33,6 +33,7 @@ def make_training_env(tc: TrainConfig, monitor_dir: Path | None) -> Any:
         "relative_actions": tc.relative_actions,
         "pointing": tc.shaping.get("pointing"),
         "gamma": float(tc.hyperparams.get("gamma", 0.99)),  # the shaping's discount is the algorithm's
+        "pointing_bonus": tc.shaping.get("pointing_bonus"),  # per-step, not potential-based
     }
     if tc.vec_env == "native":
         if monitor_dir is not None:
