@@ -50,7 +50,7 @@ cost in hours away from Earth (downlink), deadlines at E−14, E−5, E−1.5 d.
 
 Run: `python configs/operations/prototype_deadline.py [--scenario b|a-prime] [--geometry env|family]
 [--mapping coasted|stm] [--weights ...] [--tuning 8] [--held-out 30] [--restarts 0] [--show]`; it prints
-one table per weight (B with the defaults: about 4 CPU minutes, mostly the search; A′: seconds).
+one table per weight (B with the defaults: 4-5 CPU minutes, mostly the search; A′: seconds).
 """
 
 from __future__ import annotations
@@ -201,7 +201,9 @@ class Problem:
 class Geometry(Problem):
     """Scenario B on one approach (see the module docstring), one pass phase."""
 
-    def __init__(self, ca_tdb: float, pass_phase_h: float, env: dict, mapping: str) -> None:
+    def __init__(
+        self, ca_tdb: float, pass_phase_h: float, env: dict, mapping: str, pass_h: float = PASS_H
+    ) -> None:
         key = (ca_tdb, mapping)
         if key not in _TRAJECTORIES:
             self._trajectory(ca_tdb, env, mapping)
@@ -210,9 +212,9 @@ class Geometry(Problem):
         # Passes: hours of each slot inside a pass, and the slew back when a slot starts inside one
         slot_h = SLOT_STEPS * self.step_s / 3600.0
         t_start = np.arange(self.n_slots) * slot_h
-        self.cost_h = np.array([_pass_overlap(t, t + slot_h, pass_phase_h) for t in t_start])
+        self.cost_h = np.array([_pass_overlap(t, t + slot_h, pass_phase_h, pass_h) for t in t_start])
         self.slew_h = np.array(
-            [SLEW_H if _pass_overlap(t, t + 1e-6, pass_phase_h) > 0 else 0.0 for t in t_start]
+            [SLEW_H if _pass_overlap(t, t + 1e-6, pass_phase_h, pass_h) > 0 else 0.0 for t in t_start]
         )
 
     def _trajectory(self, ca_tdb: float, env: dict, mapping: str) -> None:
@@ -318,12 +320,12 @@ class Geometry(Problem):
 _TRAJECTORIES: dict[tuple[float, str], dict] = {}
 
 
-def _pass_overlap(a: float, b: float, phase_h: float) -> float:
-    """Hours of [a, b) [h from the episode start] inside the passes [phase + 24 k, phase + 24 k + 8)."""
+def _pass_overlap(a: float, b: float, phase_h: float, pass_h: float = PASS_H) -> float:
+    """Hours of [a, b) [h from the episode start] inside the passes [phase + 24 k, phase + 24 k + pass_h)."""
     tot = 0.0
     for k in range(-2, 8):
         lo = phase_h + DAY_H * k
-        tot += max(0.0, min(b, lo + PASS_H) - max(a, lo))
+        tot += max(0.0, min(b, lo + pass_h) - max(a, lo))
     return tot
 
 
@@ -634,13 +636,15 @@ def mean_ci(x: np.ndarray) -> tuple[float, float]:
     return float(x.mean()), float(stats.t.ppf(0.975, x.size - 1) * x.std(ddof=1) / math.sqrt(x.size))
 
 
-def draw_geometries(n: int, seed: int, kind: str, env: dict, mapping: str) -> list[Geometry]:
+def draw_geometries(
+    n: int, seed: int, kind: str, env: dict, mapping: str, pass_h: float = PASS_H
+) -> list[Geometry]:
     rng = np.random.default_rng(seed)
     out = []
     for _ in range(n):
         off_d = rng.uniform(-45.0, 45.0) if kind == "family" else 0.0
         phase = rng.uniform(0.0, DAY_H)
-        out.append(Geometry(DEFAULT_CLOSEST_APPROACH_TDB + off_d * 86400.0, phase, env, mapping))
+        out.append(Geometry(DEFAULT_CLOSEST_APPROACH_TDB + off_d * 86400.0, phase, env, mapping, pass_h))
     return out
 
 
@@ -754,11 +758,12 @@ def run_b(args: argparse.Namespace) -> None:
         f"integration {env['int_s']:.0f} s; prior {env['sigma_pos0']} km, {env['sigma_vel0'] * 1e3} m/s; "
         f"process noise PSD {env['accel_psd']} km^2/s^3"
     )
-    tune = draw_geometries(args.tuning, args.seed, args.geometry, env, args.mapping)
-    held = draw_geometries(args.held_out, args.seed + 1000, args.geometry, env, args.mapping)
+    tune = draw_geometries(args.tuning, args.seed, args.geometry, env, args.mapping, args.pass_hours)
+    held = draw_geometries(args.held_out, args.seed + 1000, args.geometry, env, args.mapping, args.pass_hours)
     g = held[0]
     print(
-        f"geometry {args.geometry}, mapping {args.mapping}: {len(tune)} tuning, {len(held)} held-out; "
+        f"geometry {args.geometry}, mapping {args.mapping}, passes {args.pass_hours:g} h per 24 h: "
+        f"{len(tune)} tuning, {len(held)} held-out; "
         f"{g.n_slots} slots of {SLOT_STEPS * env['step_s'] / 60:.0f} min; deadlines at grid "
         f"{g.dl_index.tolist()}; first held-out: Mars imageable {g.mars_ok.sum()} steps, pulsar slots "
         f"visible {g.n_psr_visible.tolist()} (built in {time.time() - t0:.1f} s)"
@@ -874,9 +879,14 @@ def main() -> None:
     ap.add_argument("--held-out", type=int, default=30)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--sweeps", type=int, default=20)
+    ap.add_argument(
+        "--pass-hours", type=float, default=PASS_H, help="B: pass length per 24 h [h]; 24: every hour costs"
+    )
     ap.add_argument("--restarts", type=int, default=0, help="random starting schedules for the search")
     ap.add_argument("--show", action="store_true", help="print the first held-out geometry's schedules")
     args = ap.parse_args()
+    if not 0.0 < args.pass_hours <= DAY_H:
+        ap.error(f"--pass-hours must be in (0, 24], got {args.pass_hours}")
     if args.restarts < 0:
         ap.error(f"--restarts must be >= 0, got {args.restarts}")
     for name in ("tuning", "held_out", "sweeps"):
