@@ -371,17 +371,23 @@ class TrainingOptions:
     pointing_bonus: float | None = None
 
     def stack(self, inner: Rows) -> Rows:
-        """``inner`` with these options in the recipe's order: the pointing shaping, the pointing bonus,
-        the features, action repeat, relative target actions."""
+        """``inner`` with these options in the recipe's order: the pointing bonus, the features, action
+        repeat, the pointing shaping, relative target actions.
+
+        The shaping sits above the repeat so that ``F = gamma * Phi(s') - Phi(s)`` is taken between
+        decisions, whose discount ``gamma`` is: below it, the per-step terms summed over a decision of
+        ``k`` steps leave ``(gamma - 1) * (Phi(s_1) + ... + Phi(s_{k-1}))``, which is not potential-based
+        and penalises pointing (``Phi`` reads only the env's own observation blocks, not the appended
+        features)."""
         rows = inner
-        if self.pointing:
-            rows = PointingShapingRows(rows, self.pointing, self.gamma)
         if self.pointing_bonus:
             rows = PointingBonusRows(rows, check_shaping(self.pointing_bonus, 1.0)[0])
         if self.features:
             rows = FeatureRows(rows, self.features)
         if check_action_repeat(self.action_repeat) > 1:
             rows = ActionRepeatRows(rows, self.action_repeat)
+        if self.pointing:
+            rows = PointingShapingRows(rows, self.pointing, self.gamma)
         return RelativeTargetRows(rows) if self.relative_actions else rows
 
 

@@ -189,6 +189,36 @@ def test_pointing_shaping_is_potential_based() -> None:
         PointingShaping(PlanetNavEnv(episode_steps=5), weight=0.0, gamma=0.9)
 
 
+def test_pointing_shaping_is_potential_based_between_decisions_under_action_repeat() -> None:
+    """With ``action_repeat`` k the shaping is taken between decisions (discounted by the decision's
+    gamma): the decision-level terms telescope, and each equals gamma Phi(s') - Phi(s) of the observations
+    the agent sees. (Taken per env step below the repeat, a decision's sum would carry
+    (gamma - 1)(Phi(s_1) + ... + Phi(s_{k-1})), which is not potential-based.)"""
+    from planetnav_agents.batch_wrappers import single_training_env
+    from planetnav_agents.shaping import PointingPotential
+
+    gamma = 0.9
+    raw = PlanetNavEnv(episode_steps=20, action_mode="torque")
+    env = single_training_env(raw, features=("pd_torque",), action_repeat=4, pointing=1.0, gamma=gamma)
+    potential = PointingPotential(raw.config, 1.0)
+
+    def phi(o: np.ndarray) -> float:
+        return float(potential(np.asarray(o)[None, : raw.observation_space.shape[0]])[0])
+
+    obs, _ = env.reset(seed=2)
+    phi0 = previous = phi(obs)
+    rng = np.random.default_rng(0)
+    total, t, done = 0.0, 0, False
+    while not done:
+        obs, _, terminated, truncated, info = env.step(rng.uniform(-1, 1, 3).astype(np.float32))
+        now = 0.0 if terminated else phi(obs)
+        assert info["shaping"] == pytest.approx(gamma * now - previous, abs=1e-12)
+        total += gamma**t * info["shaping"]
+        previous, t, done = now, t + 1, terminated or truncated
+    assert t == 5  # 20 env steps, 4 per decision
+    assert total == pytest.approx(gamma**t * previous - phi0, abs=1e-12)
+
+
 def test_sb3_agent_holds_its_action_like_training(tmp_path: Path) -> None:
     """``action_repeat`` in the run's config: one decision per 3 steps, as the training wrapper did."""
     from stable_baselines3 import PPO

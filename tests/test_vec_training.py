@@ -28,12 +28,12 @@ def _deprecated_stack(cfg: EnvConfig, features, repeat: int, relative: bool, poi
     from planetnav_agents.shaping import PointingShaping
 
     env = PlanetNavEnv(cfg)
-    if pointing:
-        env = PointingShaping(env, pointing, gamma)
     if features:
         env = NavFeatures(env, features)
     if repeat > 1:
         env = ActionRepeat(env, repeat)
+    if pointing:  # above the repeat: the shaping is taken between decisions (TrainingOptions.stack)
+        env = PointingShaping(env, pointing, gamma)
     return RelativeTargets(env) if relative else env
 
 
