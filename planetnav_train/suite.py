@@ -352,6 +352,56 @@ def make_cells(tasks: Sequence[str], algos: Sequence[str], seeds: Sequence[int],
     return cells
 
 
+#: The published table's training seeds, the assisted track's algorithms and RLlib's task (docs/suite.md).
+PUBLISHED_SEEDS: tuple[int, ...] = (0, 1, 2, 3, 4)
+ASSISTED_ALGOS: tuple[str, ...] = ("ppo",)
+RLLIB_TASKS: tuple[str, ...] = ("Cruise-Target-v0",)
+
+
+def published_grid() -> list[Cell]:
+    """Every cell of the published table: raw, each task x the algorithms of its action kind (and
+    ``rllib_ppo`` on :data:`RLLIB_TASKS`); assisted, each task x :data:`ASSISTED_ALGOS`; five seeds each."""
+    cells = []
+    for t in TASKS:
+        raw = [*ALGOS_BY_KIND[t.action_kind], *(("rllib_ppo",) if t.id in RLLIB_TASKS else ())]
+        cells += make_cells([t.id], raw, PUBLISHED_SEEDS, "raw")
+        cells += make_cells([t.id], ASSISTED_ALGOS, PUBLISHED_SEEDS, "assisted")
+    return cells
+
+
+def coverage(records: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
+    """How much of :func:`published_grid` the official ``records`` cover: per task and track the cells
+    finished and expected, and the totals (``done``, ``expected``)."""
+    done = {(r["task"], r["algorithm"], r["track"], int(r["seed"])) for r in records if r.get("official")}
+    per: dict[str, dict[str, list[int]]] = {}
+    for c in published_grid():
+        row = per.setdefault(c.task, {}).setdefault(c.track, [0, 0])
+        row[0] += (c.task, c.algo, c.track, c.seed) in done
+        row[1] += 1
+    total = [sum(v[i] for t in per.values() for v in t.values()) for i in (0, 1)]
+    return {"per_task": per, "done": total[0], "expected": total[1]}
+
+
+def coverage_lines(records: Sequence[Mapping[str, Any]], table: bool = True) -> list[str]:
+    """Markdown: a line saying whether the records are the whole published table (and, with ``table``,
+    the cells finished per task and track)."""
+    cov = coverage(records)
+    if cov["done"] == cov["expected"]:
+        head = f"Complete: all {cov['expected']} cells of the published table."
+    else:
+        head = (
+            f"**Partial**: {cov['done']} of the published table's {cov['expected']} cells are finished "
+            "(the rest run in later invocations with `--resume`); aggregates over tasks cover only the "
+            "tasks listed."
+        )
+    if not table:
+        return [head, ""]
+    lines = [head, "", "| task | raw cells | assisted cells |", "|---|---|---|"]
+    for task, tracks in cov["per_task"].items():
+        lines.append(f"| {task} | " + " | ".join(f"{tracks[k][0]} / {tracks[k][1]}" for k in TRACKS) + " |")
+    return [*lines, ""]
+
+
 def _fit_rollout(algo: Algo, hp: dict[str, Any], decisions: int) -> dict[str, Any]:
     """Smoke budgets: an on-policy rollout no longer than the budget (SB3 collects at least one)."""
     if "n_steps" in hp or algo.name in ("ppo", "a2c", "recurrent_ppo", "maskable_ppo"):
@@ -823,6 +873,7 @@ def summary_markdown(data: Mapping[str, Any]) -> str:
     unofficial = sum(not r.get("official", False) for r in runs)
     if unofficial:
         lines += [f"**Not a leaderboard**: {unofficial} of {len(runs)} runs used smoke settings.", ""]
+    lines += coverage_lines(runs, table=False)
     for track, a in agg.items():
         lines += [f"Track `{track}`, aggregated over tasks:", "", *aggregate_rows(a), ""]
         lines += [f"Track `{track}`, best algorithm per task:", ""]
@@ -855,6 +906,7 @@ def write_leaderboard(
             "",
         ]
     lines += [SCORE_LEGEND, ""]
+    lines += ["## Coverage", "", *coverage_lines(records)]
     lines += ["## References", "", "| task | agent | objective [95 % CI] | role |", "|---|---|---|---|"]
     for task, ref in sorted(references.items()):
         for agent, v in ref["agents"].items():
@@ -940,11 +992,13 @@ __all__ = [
     "aggregate_rows",
     "best_per_task_rows",
     "cell_config",
+    "coverage",
     "finish",
     "get_algo",
     "get_task",
     "load_assists",
     "make_cells",
+    "published_grid",
     "rerun_command",
     "run_cell",
     "run_suite",

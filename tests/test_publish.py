@@ -212,3 +212,37 @@ def test_the_repositorys_baselines_load_or_say_they_are_unshipped() -> None:
         else:
             with pytest.raises(ValueError, match=f"no shipped baseline for task '{task.id}'"):
                 make_agent(f"suite:{task.id}", env)
+
+
+def test_coverage_counts_official_cells_of_the_published_grid() -> None:
+    """The page and the summary say how much of the published table the records are: per task and track
+    the finished official cells against the grid (every task x its kind's algorithms x 5 seeds, RLlib's
+    PPO on Cruise-Target-v0; assisted: PPO); smoke runs and cells outside the grid do not count."""
+    grid = suite.published_grid()
+    kinds = {t.id: t.action_kind for t in suite.TASKS}
+    assert len(grid) == len(set(grid))
+    raw = [c for c in grid if c.track == "raw"]
+    assert {c.algo for c in raw if kinds[c.task] == "continuous"} == {"ppo", "sac", "td3", "tqc"}
+    assert {c.algo for c in raw if c.task == "Cruise-Target-v0"} == {
+        *suite.ALGOS_BY_KIND["discrete"],
+        "rllib_ppo",
+    }
+    assert {(c.task, c.algo) for c in grid if c.track == "assisted"} == {(t.id, "ppo") for t in suite.TASKS}
+    recs = [_record(c.task, c.algo, c.seed, 0.5, track=c.track) for c in grid if c.task == "Cruise-Target-v0"]
+    recs += [
+        _record("Cruise-Target-v0", "ppo", 9, 0.5),
+        _record("Cruise-Torque-v0", "sac", 0, 0.5, official=False),
+    ]
+    cov = suite.coverage(recs)
+    n_ct = sum(c.task == "Cruise-Target-v0" for c in grid)
+    assert (cov["done"], cov["expected"]) == (n_ct, len(grid))
+    assert cov["per_task"]["Cruise-Target-v0"] == {"raw": [n_ct - 5, n_ct - 5], "assisted": [5, 5]}
+    assert cov["per_task"]["Cruise-Torque-v0"]["raw"] == [0, 20]
+    text = "\n".join(suite.coverage_lines(recs))
+    assert f"**Partial**: {n_ct} of the published table's {len(grid)} cells" in text
+    assert "| Cruise-Torque-v0 | 0 / 20 | 0 / 5 |" in text
+    full = [_record(c.task, c.algo, c.seed, 0.5, track=c.track) for c in grid]
+    assert (
+        suite.coverage_lines(full, table=False)[0]
+        == f"Complete: all {len(grid)} cells of the published table."
+    )
