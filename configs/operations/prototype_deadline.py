@@ -333,83 +333,22 @@ def _pass_overlap(a: float, b: float, phase_h: float, pass_h: float = PASS_H) ->
 # Schedule objective (compiled): a covariance pass over the slots, the gate on the covariance before it
 # ----------------------------------------------------------------------------------------------------
 @njit(cache=True)
-def _inv(a, out):  # pragma: no cover - compiled
-    """out = a^-1 (n x n, Gauss-Jordan with partial pivoting); a is overwritten."""
-    n = a.shape[0]
-    for i in range(n):
-        for j in range(n):
-            out[i, j] = 1.0 if i == j else 0.0
-    for c in range(n):
-        piv = c
-        for r in range(c + 1, n):
-            if abs(a[r, c]) > abs(a[piv, c]):
-                piv = r
-        if piv != c:
-            for j in range(n):
-                a[c, j], a[piv, j] = a[piv, j], a[c, j]
-                out[c, j], out[piv, j] = out[piv, j], out[c, j]
-        d = 1.0 / a[c, c]
-        for j in range(n):
-            a[c, j] *= d
-            out[c, j] *= d
-        for r in range(n):
-            if r != c and a[r, c] != 0.0:
-                f = a[r, c]
-                for j in range(n):
-                    a[r, j] -= f * a[c, j]
-                    out[r, j] -= f * out[c, j]
-
-
-@njit(cache=True)
 def _slot(p, s, a, pb, gated, r_b, gate, out):  # pragma: no cover - compiled
     """out = the covariance at the end of slot s after action a from p at its start; returns True when
     the gated action's phase was skipped (ambiguity rule)."""
     phi, q, info, b_row, ok_b = pb[0], pb[1], pb[2], pb[3], pb[4]
-    n = p.shape[0]
-    tmp = np.empty((n, n))
-    for i in range(n):
-        for j in range(n):
-            acc = 0.0
-            for k in range(n):
-                acc += phi[s, i, k] * p[k, j]
-            tmp[i, j] = acc
-    for i in range(n):
-        for j in range(n):
-            acc = q[s, i, j]
-            for k in range(n):
-                acc += tmp[i, k] * phi[s, j, k]
-            out[i, j] = acc
+    f = np.ascontiguousarray(phi[s])
+    out[:] = f @ p @ f.T + q[s]
     if a == 0:
         return False
     if a == gated:
         if not ok_b[s]:
             return False
-        var = r_b
-        for i in range(n):
-            for j in range(n):
-                var += b_row[i] * out[i, j] * b_row[j]
-        if math.sqrt(var) >= gate:
+        if math.sqrt(r_b + b_row @ out @ b_row) >= gate:
             return True
-    jm = info[s, a]
-    # (P^-1 + J)^-1 = P (I + J P)^-1
-    m = np.empty((n, n))
-    for i in range(n):
-        for j in range(n):
-            acc = 1.0 if i == j else 0.0
-            for k in range(n):
-                acc += jm[i, k] * out[k, j]
-            m[i, j] = acc
-    mi = np.empty((n, n))
-    _inv(m, mi)
-    for i in range(n):
-        for j in range(n):
-            acc = 0.0
-            for k in range(n):
-                acc += out[i, k] * mi[k, j]
-            tmp[i, j] = acc
-    for i in range(n):
-        for j in range(n):
-            out[i, j] = 0.5 * (tmp[i, j] + tmp[j, i])
+    # (P^-1 + J)^-1 = P (I + J P)^-1, symmetrised
+    upd = out @ np.linalg.inv(np.eye(out.shape[0]) + info[s, a] @ out)
+    out[:] = 0.5 * (upd + upd.T)
     return False
 
 
