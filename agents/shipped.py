@@ -3,13 +3,17 @@
 agent name is accepted (:func:`planetnav_agents.make_agent`, ``train.py compare --agents``, a config's
 ``eval.agents``).
 
-The folder holds ``<task>.zip`` (a Stable-Baselines3 model) per shipped task and ``manifest.json``:
+The folder holds one file per shipped task, in one of two forms (the entry's ``form``; an entry without
+one is ``"full"``): ``<task>.zip``, the Stable-Baselines3 model as trained (``"full"``), or
+``<task>.policy.zip``, its policy-only export (``"policy-only"``: the acting network alone, for a model of
+1 MB or more, :mod:`planetnav_agents.policy_only`). ``manifest.json``:
 ``{"suite_version": N, "baselines": {task: entry}}``, each entry naming the task and its environment id,
 the algorithm, training seed, objective (km) with its 95 % interval, normalized score, the suite cell it
-came from, the file's size in bytes and its sha256. The manifest is written by
+came from, the form, the file's size in bytes and its sha256 (a policy-only entry also the source model's
+``source_bytes`` and ``source_sha256``). The manifest is written by
 ``train.py suite-publish --baselines agents/baselines`` (:func:`planetnav_train.publish.ship_baselines`),
-which refuses a model of 1 MB or more. A shipped policy is a raw-track one: the env's own observation and
-actions, no features, no action repeat, no relative actions.
+which refuses a model whose shipped form would be 1 MB or more. A shipped policy is a raw-track one: the
+env's own observation and actions, no features, no action repeat, no relative actions.
 
 This module reads the folder only; it imports nothing from the training package.
 """
@@ -18,6 +22,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import threading
 from pathlib import Path
 from typing import Any
 
@@ -28,6 +33,8 @@ BASELINES_DIR = Path(__file__).resolve().parent / "baselines"
 MANIFEST_NAME = "manifest.json"
 #: Largest model shipped, in bytes (issue 19: "under 1 MB"; 1 MB read as 10^6 bytes, the stricter).
 MAX_BASELINE_BYTES = 1_000_000
+#: The entry's ``form``: the SB3 model as trained, or its policy-only export.
+FORMS = ("full", "policy-only")
 
 
 def is_shipped_spec(spec: str | Path) -> bool:
@@ -91,25 +98,76 @@ def shipped_model(task: str, directory: str | Path | None = None) -> tuple[Path,
     return path, entry
 
 
+def form_of(entry: dict[str, Any]) -> str:
+    """The ``form`` of manifest entry ``entry`` (:data:`FORMS`; absent: ``"full"``, as written before
+    policy-only exports); ``ValueError`` naming an unknown one."""
+    form = entry.get("form", "full")
+    if form not in FORMS:
+        raise ValueError(f"shipped baseline of {entry.get('task')!r}: unknown form {form!r}; known: {FORMS}")
+    return form
+
+
 def make_shipped_agent(spec: str, env: Any = None, **kwargs: Any) -> Any:
     """The :class:`planetnav_agents.sb3.SB3Agent` of the shipped baseline named ``spec``
     (``suite:<task>``), with the manifest's algorithm, no features and no action repeat (a raw-track
-    policy); ``kwargs`` go to :class:`SB3Agent` (``deterministic=False`` for sampled actions)."""
+    policy); ``kwargs`` go to :class:`SB3Agent` (``deterministic=False`` for sampled actions). A
+    policy-only baseline's model is its :class:`~planetnav_agents.policy_only.PolicyOnlyModel`, which
+    acts through the same ``predict`` and ``policy`` as the full model, so evaluation takes the same path.
+    """
     from planetnav_agents.sb3 import SB3Agent
 
     path, entry = shipped_model(task_of(spec))
     kwargs.setdefault("algo", entry["algorithm"])
-    agent = SB3Agent(path, env, features=[], action_repeat=1, **kwargs)
+    if form_of(entry) == "full":
+        agent = SB3Agent(path, env, features=[], action_repeat=1, **kwargs)
+    else:
+        from planetnav_agents.policy_only import load_policy_only
+
+        model = load_policy_only(path)
+        if model.algorithm != entry["algorithm"]:
+            raise ValueError(
+                f"shipped baseline of {task_of(spec)!r}: {path} holds a {model.algorithm} policy, the "
+                f"manifest says {entry['algorithm']}"
+            )
+        agent = _agent_over(model, path, env, features=[], action_repeat=1, **kwargs)
     agent.name = str(spec) + ("" if agent.deterministic else ":stochastic")
     return agent
 
 
+_LOAD_LOCK = threading.Lock()
+
+
+def _agent_over(model: Any, path: Path, env: Any, **kwargs: Any) -> Any:
+    """An :class:`~planetnav_agents.sb3.SB3Agent` over the already-built ``model`` read from ``path``.
+
+    ``SB3Agent`` loads its model itself, with ``planetnav_agents.sb3.load_model``, which reads SB3 zips
+    only; for this one construction that function answers ``path`` with ``model`` (any other path still
+    goes to the real one, so other threads are unaffected), so the agent's checks (spaces against the
+    env), names and acting are SB3Agent's own, not a copy. (A ``model=`` argument of ``SB3Agent`` would
+    make this unnecessary; that module is not this one's.)"""
+    from planetnav_agents import sb3
+
+    real = sb3.load_model
+
+    def load(p: Any, algo: str | None = None) -> Any:
+        return model if Path(p) == path else real(p, algo)
+
+    with _LOAD_LOCK:
+        sb3.load_model = load
+        try:
+            return sb3.SB3Agent(path, env, **kwargs)
+        finally:
+            sb3.load_model = real
+
+
 __all__ = [
     "BASELINES_DIR",
+    "FORMS",
     "MANIFEST_NAME",
     "MAX_BASELINE_BYTES",
     "SHIPPED_PREFIX",
     "file_sha256",
+    "form_of",
     "is_shipped_spec",
     "load_manifest",
     "make_shipped_agent",

@@ -6,7 +6,8 @@
   between the README's ``<!-- suite-summary:start -->`` and ``<!-- suite-summary:end -->`` markers;
 - :func:`ship_baselines`: the best raw-track policy of each task copied to ``agents/baselines/<task>.zip``
   with its manifest entry, loadable as the agent ``suite:<task>`` (:mod:`planetnav_agents.shipped`);
-  a model of 1 MB or more is refused.
+  a model of 1 MB or more ships as its policy-only export (``<task>.policy.zip``,
+  :func:`planetnav_train.export.export_policy`) when that is under 1 MB, and is refused otherwise.
 
 ``train.py suite-publish`` re-aggregates every record of an output folder without training anything, then
 does whichever of the three its flags ask; ``train.py suite`` takes ``--publish-json`` and ``--readme``
@@ -18,6 +19,7 @@ from __future__ import annotations
 import json
 import os
 import shutil
+import tempfile
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -33,6 +35,7 @@ from planetnav_agents.shipped import (
 from planetnav_env.errors import ConfigError
 from planetnav_train import suite
 from planetnav_train.config import is_rllib_algo
+from planetnav_train.export import export_policy
 
 #: The README's summary block lies between these two lines (the text between them is replaced).
 README_START = "<!-- suite-summary:start -->"
@@ -118,6 +121,31 @@ def best_raw_runs(
     return best
 
 
+def _shippable(task: str, algo: str, model: Path, max_bytes: int, scratch: Path) -> tuple[str, Path]:
+    """(form, file) to ship for the best model ``model`` of ``task``: ``("full", model)`` when it is under
+    ``max_bytes``, else ``("policy-only", export)`` with its policy-only export written under ``scratch``
+    when that is. Raises :class:`ConfigError` naming the task, the algorithm and both sizes when even the
+    export is ``max_bytes`` or more."""
+    size = model.stat().st_size
+    if size < max_bytes:
+        return "full", model
+    try:
+        export = export_policy(model, scratch / f"{task}.policy.zip", algo)
+    except ValueError as exc:  # a space, argument or parameter the format cannot hold: named in exc
+        raise ConfigError(
+            f"task {task}: the best raw-track model {model} ({algo}) is {size:,} bytes, not under the "
+            f"shipped limit of {max_bytes:,} bytes, and has no policy-only export: {exc}"
+        ) from None
+    small = export.stat().st_size
+    if small >= max_bytes:
+        raise ConfigError(
+            f"task {task}: the best raw-track model {model} ({algo}) is {size:,} bytes ({size / 1e6:.2f} MB) "
+            f"and its policy-only export {small:,} bytes ({small / 1e6:.2f} MB), neither under the shipped "
+            f"limit of {max_bytes:,} bytes"
+        )
+    return "policy-only", export
+
+
 def ship_baselines(
     out: str | Path,
     dest: str | Path = BASELINES_DIR,
@@ -125,63 +153,72 @@ def ship_baselines(
     official_only: bool = True,
     max_bytes: int = MAX_BASELINE_BYTES,
 ) -> list[dict[str, Any]]:
-    """Copy the best raw-track model of each task (:func:`best_raw_runs` over ``OUT/runs``) to
-    ``dest/<task>.zip`` and record it in ``dest/manifest.json`` (entries of other tasks kept). Every
-    chosen model is checked before anything is copied: an RLlib checkpoint (a folder, not one SB3 model)
-    or a model of ``max_bytes`` bytes or more is refused with :class:`ConfigError` naming the cell and the
-    size. Returns the new manifest entries."""
+    """Ship the best raw-track model of each task (:func:`best_raw_runs` over ``OUT/runs``) to ``dest``
+    and record it in ``dest/manifest.json`` (entries of other tasks kept): a model under ``max_bytes``
+    bytes as it is (``dest/<task>.zip``, form ``"full"``), a larger one as its policy-only export
+    (``dest/<task>.policy.zip``, form ``"policy-only"``: the acting network alone,
+    :func:`planetnav_train.export.export_policy`, which checks it acts as the model does) when that is
+    under ``max_bytes``. Every chosen model is checked (and exported) before anything is written: an RLlib
+    checkpoint (a folder, not one SB3 model), a missing model, or a model whose export is still
+    ``max_bytes`` or more is refused with :class:`ConfigError` naming the cell or task, the algorithm and
+    the sizes. A task's file of the other form, named by its old entry, is removed. Returns the new
+    manifest entries."""
     out, dest = Path(out), Path(dest)
     best = best_raw_runs(suite.load_records(out), tasks, official_only)
-    chosen = []
-    for task, r in best.items():
-        cell = suite.Cell(r["task"], r["algorithm"], r["track"], int(r["seed"]))
-        if is_rllib_algo(r["algorithm"]):
-            raise ConfigError(
-                f"task {task}: the best raw-track run {cell.key} is an RLlib checkpoint (a folder), not one "
-                "SB3 model file; only SB3 models ship (pass --baseline-tasks without this task)"
-            )
-        try:
-            model = resolve_model_path(out / "models" / cell.key)
-        except FileNotFoundError:
-            raise ConfigError(
-                f"task {task}: the best raw-track run {cell.key} has no model at {out / 'models' / cell.key}"
-            ) from None
-        size = model.stat().st_size
-        if size >= max_bytes:
-            raise ConfigError(
-                f"task {task}: the best raw-track model {model} is {size:,} bytes ({size / 1e6:.2f} MB), "
-                f"not under the shipped limit of {max_bytes:,} bytes"
-            )
-        chosen.append((task, r, cell, model))
-    manifest = load_manifest(dest)
-    entries = []
-    for task, r, cell, model in chosen:
-        file = f"{task}.zip"
-        _copy_atomic(model, dest / file)
-        entry = {
-            "task": task,
-            "env_id": suite.get_task(task).env_id,
-            "task_version": r.get("task_version"),
-            "suite_version": r.get("suite_version"),
-            "algorithm": r["algorithm"],
-            "track": "raw",
-            "seed": int(r["seed"]),
-            "objective_name": r.get("objective_name"),
-            "objective": r["objective"],
-            "objective_ci95": r.get("objective_ci95"),
-            "normalized_score": r["normalized_score"],
-            "reference": r.get("reference"),
-            "eval_seed": r.get("eval_seed"),
-            "eval_episodes": r.get("eval_episodes"),
-            "official": bool(r.get("official", False)),
-            "source_cell": cell.key,
-            "command": r.get("command"),
-            "file": file,
-            "bytes": (dest / file).stat().st_size,
-            "sha256": file_sha256(dest / file),
-        }
-        manifest["baselines"][task] = entry
-        entries.append(entry)
+    with tempfile.TemporaryDirectory(prefix="planetnav-ship-") as scratch:
+        chosen = []
+        for task, r in best.items():
+            cell = suite.Cell(r["task"], r["algorithm"], r["track"], int(r["seed"]))
+            if is_rllib_algo(r["algorithm"]):
+                raise ConfigError(
+                    f"task {task}: the best raw-track run {cell.key} is an RLlib checkpoint (a folder), not "
+                    "one SB3 model file; only SB3 models ship (pass --baseline-tasks without this task)"
+                )
+            try:
+                model = resolve_model_path(out / "models" / cell.key)
+            except FileNotFoundError:
+                raise ConfigError(
+                    f"task {task}: the best raw-track run {cell.key} has no model at "
+                    f"{out / 'models' / cell.key}"
+                ) from None
+            form, file = _shippable(task, r["algorithm"], model, max_bytes, Path(scratch))
+            chosen.append((task, r, cell, model, form, file))
+        manifest = load_manifest(dest)
+        entries = []
+        for task, r, cell, model, form, src in chosen:
+            file = f"{task}.zip" if form == "full" else f"{task}.policy.zip"
+            _copy_atomic(src, dest / file)
+            old = manifest["baselines"].get(task, {}).get("file")
+            if old and old != file and Path(old).name == old:  # the other form's file: not left behind
+                (dest / old).unlink(missing_ok=True)
+            entry = {
+                "task": task,
+                "env_id": suite.get_task(task).env_id,
+                "task_version": r.get("task_version"),
+                "suite_version": r.get("suite_version"),
+                "algorithm": r["algorithm"],
+                "track": "raw",
+                "seed": int(r["seed"]),
+                "objective_name": r.get("objective_name"),
+                "objective": r["objective"],
+                "objective_ci95": r.get("objective_ci95"),
+                "normalized_score": r["normalized_score"],
+                "reference": r.get("reference"),
+                "eval_seed": r.get("eval_seed"),
+                "eval_episodes": r.get("eval_episodes"),
+                "official": bool(r.get("official", False)),
+                "source_cell": cell.key,
+                "command": r.get("command"),
+                "form": form,
+                "file": file,
+                "bytes": (dest / file).stat().st_size,
+                "sha256": file_sha256(dest / file),
+            }
+            if form == "policy-only":  # the model it was exported from (not shipped)
+                entry["source_bytes"] = model.stat().st_size
+                entry["source_sha256"] = file_sha256(model)
+            manifest["baselines"][task] = entry
+            entries.append(entry)
     manifest["suite_version"] = suite.SUITE_VERSION
     manifest["baselines"] = dict(sorted(manifest["baselines"].items()))
     suite._write_json_atomic(dest / MANIFEST_NAME, manifest)

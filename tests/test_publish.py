@@ -171,12 +171,22 @@ def test_ship_baselines_copies_the_best_and_loads_it_by_name(suite_out, tmp_path
 
 
 def test_ship_baselines_refuses_a_large_model_before_copying(suite_out, tmp_path) -> None:
+    """A model whose policy-only export is still over the limit is refused, naming the task, the algorithm
+    and both sizes; nothing is written."""
+    from planetnav_train.export import export_policy
+
     dest = tmp_path / "baselines"
-    size = (suite_out / "models" / "Cruise-Target-v0__ppo__raw__s1" / "model.zip").stat().st_size
+    source = suite_out / "models" / "Cruise-Target-v0__ppo__raw__s1" / "model.zip"
+    size = source.stat().st_size
+    small = export_policy(source, tmp_path / "probe.policy.zip", "ppo").stat().st_size  # same bytes each time
+    assert small < size
     with pytest.raises(
-        ConfigError, match=rf"is {size:,} bytes .* not under the shipped limit of 1,000 bytes"
+        ConfigError,
+        match=rf"task Cruise-Target-v0: the best raw-track model .*model\.zip \(ppo\) is {size:,} bytes "
+        rf"\(.* MB\) and its policy-only export {small:,} bytes \(.* MB\), neither under the shipped limit "
+        rf"of {small:,} bytes",
     ):
-        publish.ship_baselines(suite_out, dest, max_bytes=1_000)
+        publish.ship_baselines(suite_out, dest, max_bytes=small)
     assert not dest.exists()  # nothing copied, no manifest written
     rec = _record("Cruise-Target-v0", "rllib_ppo", 0, 2.0)
     suite._write_json_atomic(
@@ -184,6 +194,54 @@ def test_ship_baselines_refuses_a_large_model_before_copying(suite_out, tmp_path
     )
     with pytest.raises(ConfigError, match="rllib_ppo__raw__s0 is an RLlib checkpoint"):
         publish.ship_baselines(suite_out, dest)
+
+
+def test_a_large_model_ships_as_its_policy_only_export(suite_out, tmp_path, monkeypatch) -> None:
+    """A model of the limit or more ships as its policy-only export when that is under the limit; loaded by
+    name it acts and evaluates (batched, as the suite evaluates) exactly as the source model; shipped again
+    under a higher limit, the full model replaces it and the export's file goes."""
+    from planetnav_agents.policy_only import PolicyOnlyModel
+    from planetnav_env.env import PlanetNavEnv
+    from planetnav_train.evaluate import evaluate_agent
+
+    dest = tmp_path / "baselines"
+    source = suite_out / "models" / "Cruise-Target-v0__ppo__raw__s1" / "model.zip"
+    size = source.stat().st_size
+    (entry,) = publish.ship_baselines(suite_out, dest, max_bytes=size)  # the full model is not under it
+    shipped_file = dest / "Cruise-Target-v0.policy.zip"
+    assert (entry["form"], entry["file"]) == ("policy-only", shipped_file.name)
+    assert entry["bytes"] == shipped_file.stat().st_size < size
+    assert entry["sha256"] == hashlib.sha256(shipped_file.read_bytes()).hexdigest()
+    assert (entry["source_bytes"], entry["source_sha256"]) == (size, shipped.file_sha256(source))
+    assert sorted(p.name for p in dest.iterdir()) == sorted([shipped.MANIFEST_NAME, shipped_file.name])
+    assert json.loads((dest / shipped.MANIFEST_NAME).read_text())["baselines"] == {"Cruise-Target-v0": entry}
+
+    monkeypatch.setattr(shipped, "BASELINES_DIR", dest)
+    env = PlanetNavEnv(suite.get_task("Cruise-Target-v0").env_config(episode_steps=10))
+    agent = make_agent("suite:Cruise-Target-v0", env)
+    direct = make_agent(str(source), env)
+    assert agent.name == "suite:Cruise-Target-v0" and isinstance(agent.model, PolicyOnlyModel)
+    obs, info = env.reset(seed=3)
+    agent.reset(seed=3)
+    direct.reset(seed=3)
+    for _ in range(10):  # one whole episode, action by action
+        a = agent.act(obs, info)
+        assert a == direct.act(obs, info)
+        obs, _, terminated, truncated, info = env.step(a)
+        if terminated or truncated:
+            break
+    cfg = suite.get_task("Cruise-Target-v0").eval_config(10)
+    got = evaluate_agent("suite:Cruise-Target-v0", cfg, 3, 50_000, progress=False)
+    want = evaluate_agent(str(source), cfg, 3, 50_000, progress=False)
+    assert got.metrics["batched"] and want.metrics["batched"]
+    assert got.metrics["per_episode_mean_pos_err_km"] == want.metrics["per_episode_mean_pos_err_km"]
+
+    shipped_file.write_bytes(shipped_file.read_bytes() + b"x")
+    with pytest.raises(ValueError, match=r"policy\.zip has sha256 .* the manifest says"):
+        make_agent("suite:Cruise-Target-v0", env)
+    (again,) = publish.ship_baselines(suite_out, dest)
+    assert (again["form"], again["file"]) == ("full", "Cruise-Target-v0.zip") and not shipped_file.exists()
+    assert make_agent("suite:Cruise-Target-v0", env).name == "suite:Cruise-Target-v0"
 
 
 def test_unshipped_task_names_the_task(tmp_path, monkeypatch) -> None:
