@@ -147,4 +147,27 @@ def _versions() -> dict[str, str]:
     return out
 
 
-__all__ = ["CHECK_ROWS", "CHECK_STEPS", "check_same_actions", "export_policy", "policy_kwargs_of"]
+def main(argv: list[str] | None = None) -> int:
+    """``python -m planetnav_train.export MODEL --algo ALGO [--out FILE]``: export one model, print both
+    sizes in bytes."""
+    import argparse
+
+    ap = argparse.ArgumentParser(prog="python -m planetnav_train.export", description=main.__doc__)
+    ap.add_argument("model", help="an SB3 model .zip or a run directory")
+    ap.add_argument("--algo", required=True, help="its algorithm (ppo, dqn, sac, recurrent_ppo, ...)")
+    ap.add_argument("--out", help="the export's path (default: MODEL's name with .policy.zip)")
+    args = ap.parse_args(argv)
+    from planetnav_agents.sb3 import resolve_model_path
+
+    src = resolve_model_path(args.model)
+    dest = Path(args.out) if args.out else src.with_suffix(".policy.zip")
+    export_policy(src, dest, args.algo)
+    print(f"{src}: {src.stat().st_size:,} bytes -> {dest}: {dest.stat().st_size:,} bytes (policy-only)")
+    return 0
+
+
+__all__ = ["CHECK_ROWS", "CHECK_STEPS", "check_same_actions", "export_policy", "main", "policy_kwargs_of"]
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -21,17 +21,19 @@ from planetnav_train.export import export_policy
 
 pytest.importorskip("sb3_contrib")
 
-#: algorithm -> task (its action kind: the discrete ones on Cruise-Target-v0, the continuous on Torque).
-CASES = {
-    "ppo": "Cruise-Target-v0",
-    "a2c": "Cruise-Target-v0",
-    "dqn": "Cruise-Target-v0",
-    "recurrent_ppo": "Cruise-Target-v0",
-    "maskable_ppo": "Cruise-Target-v0",
-    "sac": "Cruise-Torque-v0",
-    "td3": "Cruise-Torque-v0",
-    "tqc": "Cruise-Torque-v0",
-}
+#: (algorithm, task): the discrete algorithms on Cruise-Target-v0, the continuous ones on Cruise-Torque-v0
+#: (PPO on both: a categorical and a Gaussian policy).
+CASES = [
+    ("ppo", "Cruise-Target-v0"),
+    ("a2c", "Cruise-Target-v0"),
+    ("dqn", "Cruise-Target-v0"),
+    ("recurrent_ppo", "Cruise-Target-v0"),
+    ("maskable_ppo", "Cruise-Target-v0"),
+    ("ppo", "Cruise-Torque-v0"),
+    ("sac", "Cruise-Torque-v0"),
+    ("td3", "Cruise-Torque-v0"),
+    ("tqc", "Cruise-Torque-v0"),
+]
 STEPS = 10  # episode length: the 30 observations below span three episodes
 
 
@@ -75,13 +77,13 @@ def _train(algo: str, env: Any, path: Path) -> Path:
     return path
 
 
-@pytest.fixture(scope="module", params=list(CASES))
+@pytest.fixture(scope="module", params=CASES, ids=[f"{a}-{t}" for a, t in CASES])
 def exported(request, tmp_path_factory) -> tuple[str, Any, Any, Path, Path, Any]:
     """(algorithm, full model, export, full zip, export file, env) of one algorithm."""
     from planetnav_agents.sb3 import load_model
 
-    algo = request.param
-    env = _env(CASES[algo])
+    algo, task = request.param
+    env = _env(task)
     tmp = tmp_path_factory.mktemp(algo)
     full = _train(algo, env, tmp / "model.zip")
     out = export_policy(full, tmp / "model.policy.zip", algo)
