@@ -235,6 +235,16 @@ def test_a_large_model_ships_as_its_policy_only_export(suite_out, tmp_path, monk
     want = evaluate_agent(str(source), cfg, 3, 50_000, progress=False)
     assert got.metrics["batched"] and want.metrics["batched"]
     assert got.metrics["per_episode_mean_pos_err_km"] == want.metrics["per_episode_mean_pos_err_km"]
+    # The command line's path: compare the shipped name with the source model on the same seeds.
+    from planetnav_train.cli import main
+
+    cmp = tmp_path / "compare.json"
+    assert main(["compare", "--agents", "suite:Cruise-Target-v0", str(source), "--episodes", "2", "--seed",
+                 "50000", "--episode-steps", "10", "--json", str(cmp), "--no-progress"]) == 0  # fmt: skip
+    results = json.loads(cmp.read_text())["agents"]
+    (other,) = set(results) - {"suite:Cruise-Target-v0"}
+    per = "per_episode_mean_pos_err_km"
+    assert results["suite:Cruise-Target-v0"][per] == results[other][per] and len(results[other][per]) == 2
 
     shipped_file.write_bytes(shipped_file.read_bytes() + b"x")
     with pytest.raises(ValueError, match=r"policy\.zip has sha256 .* the manifest says"):
