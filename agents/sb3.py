@@ -110,10 +110,13 @@ class SB3Agent(Agent):
         deterministic: bool = True,
         features: list[str] | None = None,
         action_repeat: int | None = None,
+        model: Any | None = None,
     ) -> None:
         self.path = resolve_model_path(path)
         self.deterministic = bool(deterministic)
-        self.model = load_model(self.path, algo)
+        # ``model``: an already-built model read from ``path`` (the shipped policy-only baselines, which
+        # ``load_model`` does not read); the checks below hold for it as for a loaded SB3 model.
+        self.model = load_model(self.path, algo) if model is None else model
         stem = self.path.parent.name if self.path.name == "model.zip" else self.path.stem
         self.name = f"{type(self.model).__name__.lower()}:{stem}" + (
             "" if self.deterministic else ":stochastic"

@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import hashlib
 import json
-import threading
 from pathlib import Path
 from typing import Any
 
@@ -134,30 +133,12 @@ def make_shipped_agent(spec: str, env: Any = None, **kwargs: Any) -> Any:
     return agent
 
 
-_LOAD_LOCK = threading.Lock()
-
-
 def _agent_over(model: Any, path: Path, env: Any, **kwargs: Any) -> Any:
-    """An :class:`~planetnav_agents.sb3.SB3Agent` over the already-built ``model`` read from ``path``.
-
-    ``SB3Agent`` loads its model itself, with ``planetnav_agents.sb3.load_model``, which reads SB3 zips
-    only; for this one construction that function answers ``path`` with ``model`` (any other path still
-    goes to the real one, so other threads are unaffected), so the agent's checks (spaces against the
-    env), names and acting are SB3Agent's own, not a copy. (A ``model=`` argument of ``SB3Agent`` would
-    make this unnecessary; that module is not this one's.)"""
+    """An :class:`~planetnav_agents.sb3.SB3Agent` over the already-built ``model`` read from ``path``, so
+    the agent's checks (spaces against the env), names and acting are SB3Agent's own, not a copy."""
     from planetnav_agents import sb3
 
-    real = sb3.load_model
-
-    def load(p: Any, algo: str | None = None) -> Any:
-        return model if Path(p) == path else real(p, algo)
-
-    with _LOAD_LOCK:
-        sb3.load_model = load
-        try:
-            return sb3.SB3Agent(path, env, **kwargs)
-        finally:
-            sb3.load_model = real
+    return sb3.SB3Agent(path, env, model=model, **kwargs)
 
 
 __all__ = [
