@@ -18,7 +18,8 @@ import argparse
 import tempfile
 from pathlib import Path
 
-from planetnav_agents.sb3 import algorithm_class
+from suite_model_sizes import save_cell_model  # the same model build as the full-size table
+
 from planetnav_agents.shipped import MAX_BASELINE_BYTES
 from planetnav_env.env import PlanetNavEnv
 from planetnav_env.errors import ConfigError
@@ -45,14 +46,7 @@ def main(argv: list[str] | None = None) -> int:
                 except ConfigError as exc:  # reported, so one bad cell does not hide the others' sizes
                     print(f"| {task.id} | {algo} | - | - | - | config error: {exc} |")
                     continue
-                hp = dict(tc.hyperparams)
-                if "train_freq" in hp or algo == "dqn":
-                    hp["buffer_size"] = 1_000  # not saved; the default 10^6 rows would only take memory
-                    hp["learning_starts"] = 0  # an update within the few steps below
-                model = algorithm_class(algo)(tc.policy, env, seed=0, **hp)
-                model.learn(getattr(model, "n_steps", 8) * model.n_envs)
-                path = Path(tmp) / f"{task.id}__{algo}.zip"
-                model.save(path)
+                path = save_cell_model(task, algo, env, tc, Path(tmp))
                 full = path.stat().st_size
                 small = export_policy(path, path.with_suffix(".policy.zip"), algo).stat().st_size
                 form = "full" if full < limit else "policy-only" if small < limit else "none (refused)"

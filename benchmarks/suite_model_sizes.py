@@ -13,12 +13,28 @@ from __future__ import annotations
 import argparse
 import tempfile
 from pathlib import Path
+from typing import Any
 
 from planetnav_agents.sb3 import algorithm_class
 from planetnav_agents.shipped import MAX_BASELINE_BYTES
 from planetnav_env.env import PlanetNavEnv
 from planetnav_env.errors import ConfigError
 from planetnav_train import suite
+
+
+def save_cell_model(task: suite.Task, algo: str, env: PlanetNavEnv, tc: Any, folder: Path) -> Path:
+    """Build ``algo`` with the suite cell's settings ``tc`` on ``env``, update it once (so its optimizers
+    hold their state, Adam's moments: 2x the weights, as after training; an untrained model saves empty
+    optimizer state) and save it as training does; the zip's path."""
+    hp = dict(tc.hyperparams)
+    if "train_freq" in hp or algo == "dqn":
+        hp["buffer_size"] = 1_000  # not saved; the default 10^6 rows would only take memory
+        hp["learning_starts"] = 0  # an update within the few steps below
+    model = algorithm_class(algo)(tc.policy, env, seed=0, **hp)
+    model.learn(getattr(model, "n_steps", 8) * model.n_envs)
+    path = folder / f"{task.id}__{algo}.zip"
+    model.save(path)
+    return path
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -38,16 +54,7 @@ def main(argv: list[str] | None = None) -> int:
                 except ConfigError as exc:  # reported, so one bad cell does not hide the others' sizes
                     print(f"| {task.id} | {algo} | - | config error: {exc} |")
                     continue
-                hp = dict(tc.hyperparams)
-                if "train_freq" in hp or algo == "dqn":
-                    hp["buffer_size"] = 1_000  # not saved; the default 10^6 rows would only take memory
-                    hp["learning_starts"] = 0  # an update within the few steps below
-                model = algorithm_class(algo)(tc.policy, env, seed=0, **hp)
-                # One update, so the optimizers hold their state (Adam's moments: 2x the weights), as
-                # after training; an untrained model saves empty optimizer state.
-                model.learn(getattr(model, "n_steps", 8) * model.n_envs)
-                path = Path(tmp) / f"{task.id}__{algo}.zip"
-                model.save(path)
+                path = save_cell_model(task, algo, env, tc, Path(tmp))
                 size = path.stat().st_size
                 print(f"| {task.id} | {algo} | {size:,} | {'yes' if size < MAX_BASELINE_BYTES else 'no'} |")
     return 0
