@@ -43,9 +43,9 @@ test: $(STAMP)
 
 # The whole suite under the [ray] extra's gymnasium, including the Ray tests (two-node loopback clusters,
 # RLlib training, Tune sweeps, node loss) and the client tests (TorchRL, sb3-contrib) that the default
-# environment skips.
+# environment skips. The CPU-settings reruns of the golden tests ran in `make test` already.
 test-ray: $(RAY_STAMP)
-	RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER=0 $(RAY_BIN)/python -m pytest
+	RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER=0 $(RAY_BIN)/python -m pytest -m "not cpu_settings"
 
 bench-ray: $(RAY_STAMP)
 	RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER=0 $(RAY_BIN)/python benchmarks/bench_ray.py

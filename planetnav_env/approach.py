@@ -13,15 +13,16 @@ Trajectory and epoch (documented in ``docs/optical_pulsar.md``)
   for 1 -> 1.524 AU). The hyperbola's plane contains ``v_inf`` and is as close to the ecliptic as possible
   (its normal is the ecliptic pole's component orthogonal to ``v_inf``), periapsis altitude 400 km.
 * The two-body periapsis state of that hyperbola at ``closest_approach_tdb`` defines the trajectory: it is
-  integrated *backwards* with the full force model by scipy's DOP853 (rtol 1e-12) to ``duration_h`` before
-  closest approach (default 96 h) and its dense output is the truth on the filter's time grid. Because the
+  integrated *backwards* with the full force model by compiled RK4 (steps <= 10 s) to ``duration_h`` before
+  closest approach (default 96 h); its states on the filter's time grid are the truth. Because the
   state at ``closest_approach_tdb`` has ``r . v = 0`` exactly, it is the truth's closest approach.
 
 Filter
 ------
 One :class:`planetnav_env.estimation.ekf.BatchEKF` per method (the leading axis = Monte Carlo runs), RK4
-prediction with the RK4 state transition matrix at ``dt_s`` (default 60 s), the same force model (the RK4 vs
-DOP853 difference is the only dynamics error, see ``tests/test_approach.py`` for its bound). Measurements
+prediction with the RK4 state transition matrix at ``dt_s`` (default 60 s), the same force model (the step
+size is the only dynamics error: the truth takes steps of at most 10 s; ``tests/test_approach.py`` bounds
+both against DOP853). Measurements
 (each sensor at its own rate; when both report at one step, they form one stacked vector and one update,
 ``z = [p, l, delta_phi_1, ...]``):
 
@@ -37,23 +38,25 @@ Methods: ``OPN`` optical only, ``PN`` pulsar only, ``OPHN`` both.
 
 from __future__ import annotations
 
+import itertools
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.integrate import solve_ivp
 
 from planetnav_env.bodies import ECLIPTIC_TO_EQUATORIAL, body
 from planetnav_env.dynamics.orbit import GravityModel, rk4_step
 from planetnav_env.ephemeris import DEEphemeris
 from planetnav_env.errors import InvalidParameterError, require_finite, require_positive
 from planetnav_env.estimation.ekf import BatchEKF, FilterConfig
-from planetnav_env.estimation.ekf_kernels import nees_batch_kernel
+from planetnav_env.estimation.ekf_kernels import nees_batch_kernel, rk4_path_kernel
 from planetnav_env.estimation.image_plane import (
     boresight_camera_to_inertial,
     image_plane_coordinates,
     image_plane_jacobian,
     image_plane_sigma_mm,
 )
+from planetnav_env.portable_math import cross3, dot3, matvec3, norm3, unit3
 from planetnav_env.sensors import pulsar as psr
 from planetnav_env.sensors.camera_config import DEFAULT_CAMERA, CameraConfig
 from planetnav_env.timescale import tdb_seconds
@@ -75,11 +78,14 @@ PERTURBERS = ("sun", "earth", "jupiter")
 #: Which sensors each method uses: (optical, pulsar).
 METHODS: dict[str, tuple[bool, bool]] = {"OPN": (True, False), "PN": (False, True), "OPHN": (True, True)}
 DEFAULT_CLOSEST_APPROACH_TDB = tdb_seconds(2021, 2, 10, 12.0)
-_ECLIPTIC_POLE = ECLIPTIC_TO_EQUATORIAL @ np.array([0.0, 0.0, 1.0])
-
-
-def _unit(v: np.ndarray) -> np.ndarray:
-    return v / np.linalg.norm(v, axis=-1, keepdims=True)
+_ECLIPTIC_POLE = matvec3(ECLIPTIC_TO_EQUATORIAL, np.array([0.0, 0.0, 1.0]))
+#: RK4 steps of the truth integration [s]: at most 2 s within 12 h of closest approach (1/500 of the
+#: dynamical time at the 400-km periapsis, ~1100 s: a velocity error there grows into a position error over
+#: the days before), at most 20 s before. The truth is then within a millimetre of DOP853 (rtol = atol =
+#: 1e-12; tests/test_approach.py).
+TRUTH_STEP_NEAR_S = 2.0
+TRUTH_STEP_FAR_S = 20.0
+TRUTH_NEAR_CA_S = 12 * 3600.0
 
 
 def hyperbolic_periapsis_state(
@@ -95,18 +101,18 @@ def hyperbolic_periapsis_state(
     """
     v_inf_vec = require_finite("v_inf_vec", v_inf_vec)
     rp = require_positive("periapsis_radius_km", periapsis_radius_km)
-    vinf = float(np.linalg.norm(v_inf_vec))
+    vinf = float(norm3(v_inf_vec))
     require_positive("|v_inf|", vinf)
     s = v_inf_vec / vinf
     hint = np.asarray(plane_normal_hint, float)
-    h = hint - (hint @ s) * s
-    if np.linalg.norm(h) < 1e-9:
+    h = hint - dot3(hint, s) * s
+    if norm3(h) < 1e-9:
         raise InvalidParameterError("plane_normal_hint is parallel to v_inf: the orbit plane is undefined")
-    h = _unit(h)
+    h = unit3(h)
     e = 1.0 + rp * vinf**2 / mu
     k = np.sqrt(e * e - 1.0)
-    p = (s - k * np.cross(h, s)) / e
-    q = np.cross(h, p)
+    p = (s - k * cross3(h, s)) / e
+    q = cross3(h, p)
     vp = np.sqrt(vinf**2 + 2.0 * mu / rp)
     return np.concatenate([rp * p, vp * q])
 
@@ -190,22 +196,44 @@ class MarsApproach:
         """Two-body periapsis state at closest approach (6,) (see :func:`hyperbolic_periapsis_state`)."""
         cfg = self.config
         _, v_mars = self.eph.state("mars", cfg.closest_approach_tdb)
-        v_inf = -cfg.v_inf_km_s * _unit(v_mars)
+        v_inf = -cfg.v_inf_km_s * unit3(v_mars)
         rp = body("mars").radius + cfg.periapsis_altitude_km
         return hyperbolic_periapsis_state(v_inf, rp, self.model.mu_central, _ECLIPTIC_POLE)
 
-    def _rhs(self, t: float, x: np.ndarray) -> np.ndarray:
-        return self.model.derivative(x[None, :], self.perturber_positions(t))[0]
+    def _truth_steps(self) -> tuple[np.ndarray, np.ndarray]:
+        """The truth's RK4 step ends, from closest approach back to the grid's start (decreasing times), and
+        the index among them of each grid time, from the last grid time to the first."""
+        t_ca = self.config.closest_approach_tdb
+        near = t_ca - TRUTH_NEAR_CA_S
+        marks = [t_ca, *(self.t[::-1] if self.t[-1] < t_ca else self.t[-2::-1])]
+        times, keep = [np.array([t_ca])], [0] if self.t[-1] == t_ca else []
+        n = 1
+        for a, b in itertools.pairwise(marks):
+            ends = [b] if a <= near or b >= near else [near, b]  # a piece lies in one zone
+            for e in ends:
+                step = TRUTH_STEP_NEAR_S if e >= near else TRUTH_STEP_FAR_S
+                m = max(1, math.ceil((a - e) / step))
+                times.append(a + (e - a) * (np.arange(1, m + 1) / m))
+                times[-1][-1] = e
+                n += m
+                a = e
+            keep.append(n - 1)
+        return np.concatenate(times), np.asarray(keep, dtype=np.int64)
 
     def _integrate_truth(self) -> np.ndarray:
-        t_ca = self.config.closest_approach_tdb
-        # Backwards from periapsis to the start; DOP853 at tight tolerance is the independent truth.
-        sol = solve_ivp(
-            self._rhs, (t_ca, self.t0), self.x_ca, method="DOP853", rtol=1e-12, atol=1e-9, dense_output=True
-        )
-        if not sol.success:  # pragma: no cover - scipy failure
-            raise RuntimeError(f"truth integration failed: {sol.message}")
-        return sol.sol(self.t).T.copy()
+        """The truth on the grid (K + 1, 6): compiled RK4 backwards from the periapsis state, with a fixed
+        order of arithmetic (the same bits on every CPU); see :data:`TRUTH_STEP_NEAR_S`."""
+        times, keep = self._truth_steps()
+        mid = times[:-1] + 0.5 * (times[1:] - times[:-1])
+        pert_t = np.empty(2 * times.size - 1)
+        pert_t[0::2], pert_t[1::2] = times, mid
+        out = np.empty((keep.size, 6))
+        rk4_path_kernel(
+            np.asarray(self.x_ca, dtype=float), times, float(self.model.mu_central),
+            np.ascontiguousarray(self.perturber_positions(pert_t)),
+            np.asarray(self.model.mu_perturbers, dtype=float), keep, out,
+        )  # fmt: skip
+        return out[::-1].copy()
 
     def rk4_trajectory(self) -> np.ndarray:
         """The filter's fixed-step RK4 from the true initial state over the grid, (K+1, 6)."""
@@ -364,8 +392,8 @@ def _mars_disk_fits(scn: MarsApproach, camera: CameraConfig, margin_rad: float) 
 def _sun_mars_angle_ok(scn: MarsApproach, camera: CameraConfig) -> np.ndarray:
     """Per grid time: Mars is outside the camera's Sun-exclusion cone."""
     r_helio = scn.mars_helio + scn.x_true[:, :3]
-    to_sun = _unit(-r_helio)
-    to_mars = _unit(-scn.x_true[:, :3])
+    to_sun = unit3(-r_helio)
+    to_mars = unit3(-scn.x_true[:, :3])
     ang = np.arccos(np.clip(np.sum(to_sun * to_mars, axis=-1), -1.0, 1.0))
     return ang > camera.sun_exclusion_rad
 
@@ -479,7 +507,7 @@ def run_methods(
             psr_now = False
         if opt_now:
             i = opt_index[kk]
-            los_true = _unit(mars - x_true[kk, :3])
+            los_true = unit3(mars - x_true[kk, :3])
             # Truth camera: boresight on Mars, off by the pointing error; the star tracker reports the
             # attitude with its own error, and the filter's R_ci is built from the reported attitude.
             off = np.concatenate([sig_pt * draws.pointing[i], np.zeros((runs, 1))], axis=-1)

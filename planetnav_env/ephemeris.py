@@ -21,6 +21,7 @@ from typing import Protocol
 
 import numpy as np
 
+from planetnav_env import portable_math as pm
 from planetnav_env.bodies import (
     AU_KM,
     BODIES,
@@ -77,9 +78,9 @@ def solve_kepler(
         raise InvalidParameterError(f"eccentricity must be in [0, 1) for an ellipse, got {e}")
     # Reduce M to (-pi, pi]: Newton from E0 = M (+ e sin M) then converges in a few steps.
     m = np.remainder(m + np.pi, 2.0 * np.pi) - np.pi
-    ecc = np.where(e > 0.8, np.pi * np.sign(m) + 0.0 * m, m + e * np.sin(m))
+    ecc = np.where(e > 0.8, np.pi * np.sign(m) + 0.0 * m, m + e * pm.sin(m))
     for _ in range(_KEPLER_MAX_ITER):
-        step = (ecc - e * np.sin(ecc) - m) / (1.0 - e * np.cos(ecc))
+        step = (ecc - e * pm.sin(ecc) - m) / (1.0 - e * pm.cos(ecc))
         ecc = ecc - step
         if np.all(np.abs(step) < tol):
             return ecc
@@ -88,9 +89,9 @@ def solve_kepler(
 
 def orientation_matrix(long_node: np.ndarray, arg_peri: np.ndarray, inc: np.ndarray) -> np.ndarray:
     """The thesis's matrix B (perifocal -> reference frame) from Omega, omega, i [rad]; shape (..., 3, 3)."""
-    cO, sO = np.cos(long_node), np.sin(long_node)
-    co, so = np.cos(arg_peri), np.sin(arg_peri)
-    ci, si = np.cos(inc), np.sin(inc)
+    cO, sO = pm.cos(long_node), pm.sin(long_node)
+    co, so = pm.cos(arg_peri), pm.sin(arg_peri)
+    ci, si = pm.cos(inc), pm.sin(inc)
     b = np.empty(np.broadcast(cO, co, ci).shape + (3, 3))
     b[..., 0, 0] = cO * co - sO * so * ci
     b[..., 0, 1] = -cO * so - sO * co * ci
@@ -126,16 +127,16 @@ def elements_to_state(
         raise InvalidParameterError(f"semi-major axis must be positive, got {a}")
     ecc_anom = solve_kepler(mean_anomaly, e)
     b_axis = a * np.sqrt(1.0 - e * e)
-    cos_e, sin_e = np.cos(ecc_anom), np.sin(ecc_anom)
+    cos_e, sin_e = pm.cos(ecc_anom), pm.sin(ecc_anom)
     rot = orientation_matrix(
         np.asarray(long_node, float), np.asarray(arg_peri, float), np.asarray(inc, float)
     )
     r_pf = np.stack([a * (cos_e - e), b_axis * sin_e, np.zeros_like(cos_e)], axis=-1)
-    true_anom = 2.0 * np.arctan(np.sqrt((1.0 + e) / (1.0 - e)) * np.tan(0.5 * ecc_anom))
+    true_anom = 2.0 * pm.arctan(np.sqrt((1.0 + e) / (1.0 - e)) * pm.tan(0.5 * ecc_anom))
     p = a * (1.0 - e * e)
     vs = np.sqrt(mu / p)
-    v_pf = np.stack([-vs * np.sin(true_anom), vs * (e + np.cos(true_anom)), np.zeros_like(cos_e)], axis=-1)
-    return np.einsum("...ij,...j->...i", rot, r_pf), np.einsum("...ij,...j->...i", rot, v_pf)
+    v_pf = np.stack([-vs * pm.sin(true_anom), vs * (e + pm.cos(true_anom)), np.zeros_like(cos_e)], axis=-1)
+    return pm.matvec3(rot, r_pf), pm.matvec3(rot, v_pf)
 
 
 def state_to_elements(r: np.ndarray, v: np.ndarray, mu: float) -> dict[str, np.ndarray]:

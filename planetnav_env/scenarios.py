@@ -27,6 +27,7 @@ import numpy as np
 from planetnav_env.bodies import AU_KM, ECLIPTIC_TO_EQUATORIAL, GM_SUN
 from planetnav_env.ephemeris import Ephemeris, elements_to_state
 from planetnav_env.errors import ConfigError
+from planetnav_env.portable_math import arccos, dot3, matvec3, norm3
 from planetnav_env.timescale import tdb_seconds
 
 CRUISE_EPOCH = tdb_seconds(2020, 8, 1)
@@ -53,7 +54,7 @@ def transfer_state(
         np.deg2rad(mean_anom_deg),
         GM_SUN,
     )
-    return np.concatenate([ECLIPTIC_TO_EQUATORIAL @ r, ECLIPTIC_TO_EQUATORIAL @ v])
+    return np.concatenate([matvec3(ECLIPTIC_TO_EQUATORIAL, r), matvec3(ECLIPTIC_TO_EQUATORIAL, v)])
 
 
 def cruise_state() -> np.ndarray:
@@ -91,9 +92,7 @@ def approach_episode(duration_s: float, end_before_ca_h: float) -> Episode:
 
 def _sun_angle_deg(r_sc: np.ndarray, r_body: np.ndarray) -> float:
     d = r_body - r_sc
-    return float(
-        np.degrees(np.arccos(np.clip(d @ -r_sc / (np.linalg.norm(d) * np.linalg.norm(r_sc)), -1, 1)))
-    )
+    return float(np.degrees(arccos(np.clip(dot3(d, -r_sc) / (norm3(d) * norm3(r_sc)), -1.0, 1.0))))
 
 
 def draw_episode(
@@ -117,10 +116,7 @@ def draw_episode(
             good = 0
             for p in planets:
                 rb = ephemeris.position(p, epoch)
-                if (
-                    np.linalg.norm(rb - x0[:3]) < 1.5 * AU_KM
-                    and _sun_angle_deg(x0[:3], rb) > sun_exclusion_deg + 10.0
-                ):
+                if norm3(rb - x0[:3]) < 1.5 * AU_KM and _sun_angle_deg(x0[:3], rb) > sun_exclusion_deg + 10.0:
                     good += 1
             if good >= min(2, len(planets)):
                 return Episode(epoch, x0)

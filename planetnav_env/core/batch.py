@@ -127,6 +127,9 @@ class BatchCore:
         self._table_cache: tuple[float, np.ndarray] | None = None
         self._all = np.ones(n, dtype=np.bool_)
         self._p0 = cfg.filter.initial_covariance()
+        # P0 is diagonal: the initial error is a standard normal draw per axis times its sigma (the numbers
+        # Generator.multivariate_normal gives for a diagonal P0, without its BLAS-dependent SVD and product).
+        self._sigma0 = np.sqrt(np.diagonal(self._p0))
         self.threads = default_threads() if n >= PARALLEL_MIN_ROWS else 1
         self._pool: ThreadPoolExecutor | None = None
 
@@ -176,7 +179,7 @@ class BatchCore:
             f[r, L.F_T0] = ep.epoch
             x = np.asarray(ep.x0, dtype=float)
             f[r, L.F_X : L.F_X + 6] = x
-            f[r, L.F_XE : L.F_XE + 6] = x + gen.multivariate_normal(np.zeros(6), self._p0)
+            f[r, L.F_XE : L.F_XE + 6] = x + gen.standard_normal(6) * self._sigma0
             self.p[r] = self._p0
             f[r, L.F_Q : L.F_Q + 4] = qt.normalize(gen.normal(size=4))
             self.rng[r] = crng.seed_state(gen)

@@ -51,6 +51,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
+from planetnav_env import portable_math as pm
 from planetnav_env.errors import InvalidParameterError, NonFiniteError
 from planetnav_env.jit import row_kernel
 
@@ -143,7 +144,7 @@ def lobatto_nodes(degree: int) -> np.ndarray:
     """The ``degree + 1`` Chebyshev-Lobatto points on [-1, 1] in ascending order (-1 and 1 included)."""
     _check_int("degree", degree, 1)
     # cos(pi (D - m) / D) ascending; the ends are set exactly so that adjacent segments share them.
-    y = np.cos(np.pi * np.arange(degree, -1, -1) / degree)
+    y = pm.cos(np.pi * np.arange(degree, -1, -1) / degree)
     y[0], y[-1] = -1.0, 1.0
     return y
 
@@ -155,7 +156,7 @@ def _values_to_coeffs(degree: int) -> np.ndarray:
     d = degree
     j = np.arange(d + 1)
     k = d - j  # ascending node m sits at x = cos(pi (D - m) / D)
-    m = (2.0 / d) * np.cos(np.pi * np.outer(j, k) / d)
+    m = (2.0 / d) * pm.cos(np.pi * np.outer(j, k) / d)
     m[:, 0] *= 0.5
     m[:, -1] *= 0.5
     m[0] *= 0.5

@@ -19,6 +19,7 @@ from planetnav_env.core.ephemeris_table import SEGMENT_S
 from planetnav_env.core.records import CoreParams, make_scalars
 from planetnav_env.estimation.ekf import process_noise
 from planetnav_env.estimation.ekf_kernels import KIND_CODES
+from planetnav_env.portable_math import norm3
 from planetnav_env.sensors import pulsar as psr
 from planetnav_env.sensors.star_tracker import StarTrackerConfig, star_fix_tables
 
@@ -173,7 +174,7 @@ def build_params(cfg: EnvConfig, plan: ChannelPlan, mu_central: float, mus: np.n
         gate=np.array([cfg.filter.gate_threshold(m) for m in (1, 2, 3)], dtype=float),
         ops_deadlines=deadlines,
         jm=jm,
-        jinv=np.linalg.inv(jm),
+        jinv=np.diag(1.0 / np.diagonal(jm)),
         tau_max=np.full(3, att.wheel_torque_limit),
         h_max=np.full(3, att.wheel_momentum_capacity),
         boresight=np.ascontiguousarray(cam.boresight_body, dtype=float),
@@ -191,7 +192,7 @@ def build_params(cfg: EnvConfig, plan: ChannelPlan, mu_central: float, mus: np.n
 def bias_quaternion(bias_arcsec: tuple[float, float, float]) -> np.ndarray:
     """Unit quaternion of the rotation vector ``bias_arcsec`` (body axes) [arcsec]."""
     v = np.asarray(bias_arcsec, dtype=float) * ARCSEC
-    angle = float(np.linalg.norm(v))
+    angle = float(norm3(v))
     if angle == 0.0:
         return np.array([1.0, 0.0, 0.0, 0.0])
     return np.concatenate([[math.cos(0.5 * angle)], math.sin(0.5 * angle) * v / angle])

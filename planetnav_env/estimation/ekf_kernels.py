@@ -467,6 +467,33 @@ def rk4_batch_kernel(x, dt, mu, p0, p1, p2, mus):
 
 
 @njit(cache=True)
+def rk4_path_kernel(x0, times, mu, pert, mus, keep, out):
+    """RK4 of one truth trajectory from ``x0`` (6,) [km, km/s] at ``times[0]`` through ``times`` (S + 1,)
+    [TDB s], one step per interval (decreasing times integrate backwards), the same stages as
+    :func:`rk4_kernel`.
+
+    ``pert`` (2 S + 1, K, 3) [km]: the perturbers relative to the central body at ``times[s]`` (row 2 s) and
+    at the middle of step s (row 2 s + 1); ``mus`` (K,) their GMs, ``mu`` the central body's [km^3/s^2].
+    ``out[i]`` receives the state at ``times[keep[i]]`` (``keep`` increasing).
+    """
+    w6 = np.empty((3, 6, 6))
+    v6 = np.empty((4, 6))
+    x = x0.copy()
+    x_new = np.empty(6)
+    k = 0
+    if keep[0] == 0:
+        out[0, :] = x
+        k = 1
+    for s in range(times.shape[0] - 1):
+        orbit = OrbitModel(mu=mu, p0=pert[2 * s], p1=pert[2 * s + 1], p2=pert[2 * s + 2], mus=mus)
+        rk4_kernel(x, times[s + 1] - times[s], orbit, x_new, w6, v6)
+        x[:] = x_new
+        if k < keep.shape[0] and keep[k] == s + 1:
+            out[k, :] = x
+            k += 1
+
+
+@njit(cache=True)
 def update_batch_kernel(x, p, fixes, model, nis_out, acc_out):
     """Update N filters in place, one planet measurement each (``fixes``: :class:`PlanetFixes`, ``model``:
     :class:`FixModel`); NIS into ``nis_out`` (N,), acceptance into ``acc_out`` (N,) bool."""

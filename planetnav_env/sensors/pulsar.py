@@ -57,6 +57,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import vectorize
 
+from planetnav_env import portable_math as pm
 from planetnav_env.bodies import body
 from planetnav_env.codes import VisibilityReason
 from planetnav_env.errors import (
@@ -123,7 +124,7 @@ def radec_to_unit(ra_deg: np.ndarray | float, dec_deg: np.ndarray | float) -> np
     """Unit vector(s) ``(..., 3)``, ICRF/J2000 equatorial axes, from right ascension and declination [deg]."""
     ra = np.deg2rad(np.asarray(ra_deg, float))
     dec = np.deg2rad(np.asarray(dec_deg, float))
-    return np.stack([np.cos(dec) * np.cos(ra), np.cos(dec) * np.sin(ra), np.sin(dec)], axis=-1)
+    return np.stack([pm.cos(dec) * pm.cos(ra), pm.cos(dec) * pm.sin(ra), pm.sin(dec)], axis=-1)
 
 
 @dataclass(frozen=True)

@@ -54,6 +54,7 @@ from typing import NamedTuple
 import numba
 import numpy as np
 
+from planetnav_env import portable_math as pm
 from planetnav_env import quaternion as qt
 from planetnav_env.attitude.wahba import attitude_error_angle, q_method
 from planetnav_env.dynamics.attitude import dcm_body_to_inertial_kernel
@@ -99,7 +100,7 @@ class StarTrackerConfig:
         if not (np.isfinite(self.noise_arcsec) and self.noise_arcsec >= 0.0):
             raise ConfigError(f"noise_arcsec must be finite and >= 0, got {self.noise_arcsec!r}")
         b = np.asarray(self.boresight_body, dtype=float)
-        if b.shape != (3,) or not np.all(np.isfinite(b)) or np.linalg.norm(b) == 0.0:
+        if b.shape != (3,) or not np.all(np.isfinite(b)) or pm.norm3(b) == 0.0:
             raise ConfigError(
                 f"boresight_body must be a non-zero finite 3-vector, got {self.boresight_body!r}"
             )
@@ -179,8 +180,8 @@ def _geometry(config: StarTrackerConfig) -> tuple[np.ndarray, np.ndarray, float,
     return (
         dirs,
         np.ascontiguousarray(dirs.T),
-        float(np.cos(np.radians(0.5 * config.fov_deg))),
-        b / np.linalg.norm(b),
+        math.cos(math.radians(0.5 * config.fov_deg)),
+        pm.unit3(b),
     )
 
 
@@ -371,7 +372,7 @@ def _cube_points(t: np.ndarray) -> np.ndarray:
     Face ``f`` has major axis ``a = f // 2`` with sign ``+`` for even ``f``; the two in-face coordinates
     ``u, v = tan(pi/4 t)`` run along axes ``a + 1`` and ``a + 2`` (mod 3), as in :func:`sky_cell_kernel`.
     """
-    w = np.tan(0.25 * np.pi * np.asarray(t, dtype=float))
+    w = pm.tan(0.25 * np.pi * np.asarray(t, dtype=float))
     k = w.size
     out = np.empty((6, k, k, 3))
     for f in range(6):
@@ -379,7 +380,7 @@ def _cube_points(t: np.ndarray) -> np.ndarray:
         out[f, :, :, a] = 1.0 if f % 2 == 0 else -1.0
         out[f, :, :, (a + 1) % 3] = w[:, None]
         out[f, :, :, (a + 2) % 3] = w[None, :]
-    return out / np.linalg.norm(out, axis=-1, keepdims=True)
+    return pm.unit3(out)
 
 
 def sky_grid(
@@ -406,17 +407,18 @@ def sky_grid(
         for dj in (0, 1):
             k = corners[:, di : di + g, dj : dj + g]
             # atan2 of cross and dot: accurate for small angles, unlike arccos of the dot product.
-            ang = np.arctan2(np.linalg.norm(np.cross(centre, k), axis=-1), np.sum(centre * k, axis=-1))
+            ang = pm.arctan2(pm.norm3(pm.cross3(centre, k)), pm.dot3(centre, k))
             radius = np.maximum(radius, ang)
     centre = centre.reshape(-1, 3)
     radius = radius.reshape(-1)
     cone = np.minimum(half_angle_rad + radius + _CELL_MARGIN_RAD, np.pi)
-    cos_cone = np.where(cone >= np.pi, -2.0, np.cos(cone))  # -2: the whole sky, whatever the rounding
+    cos_cone = np.where(cone >= np.pi, -2.0, pm.cos(cone))  # -2: the whole sky, whatever the rounding
     counts = np.zeros(centre.shape[0], dtype=np.int64)
     stars = []
-    chunk = max(1, 4_000_000 // max(dirs.shape[0], 1))  # bounds the (cells, M) boolean block
+    chunk = max(1, 500_000 // max(dirs.shape[0], 1))  # bounds the (cells, M) blocks
     for c0 in range(0, centre.shape[0], chunk):
-        inside = centre[c0 : c0 + chunk] @ dirs.T >= cos_cone[c0 : c0 + chunk, None]
+        block = centre[c0 : c0 + chunk, None, :]
+        inside = pm.dot3(block, dirs[None, :, :]) >= cos_cone[c0 : c0 + chunk, None]
         rows, cols = np.nonzero(inside)  # row-major: star indices ascending within each cell
         counts[c0 : c0 + chunk] = np.bincount(rows, minlength=inside.shape[0])
         stars.append(cols.astype(np.int64))
@@ -436,7 +438,7 @@ def star_fix_tables(config: StarTrackerConfig, grid_n: int | None = None) -> Sta
     g = default_grid_n(config.fov_deg) if grid_n is None else int(grid_n)
     # Half angle of the widest cone the in-view test can accept when |R(q) b| <= 1 + _NORM_SLACK
     # (cos_half >= 0 since fov <= 90 deg, so dividing keeps the inequality's direction).
-    half_eff = float(np.arccos(cos_half / (1.0 + _NORM_SLACK)))
+    half_eff = math.acos(cos_half / (1.0 + _NORM_SLACK))
     cell_start, cell_stars, _, _ = sky_grid(dirs, g, half_eff)
     # Own copies, read-only: the tables are cached and shared, the catalogue arrays stay writable for others.
     dirs, bs = dirs.copy(), bs.copy()
