@@ -23,9 +23,9 @@ def main() -> None:
     ap.add_argument("--steps", type=int, default=900, help="1-s env steps from the reset")
     a = ap.parse_args()
 
-    from planetnav_agents.vec_training import NavTrainingVecEnv
     from planetnav_env.core import layout as L
     from planetnav_train.config import load_config
+    from planetnav_train.vec_training import NavTrainingVecEnv
 
     cfg = load_config("configs/torque_control.yaml").env_config()
     lay = L.ObservationLayout.for_config(cfg)

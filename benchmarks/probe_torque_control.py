@@ -84,11 +84,11 @@ def main() -> None:
     from stable_baselines3.common.callbacks import BaseCallback
     from stable_baselines3.common.vec_env import VecEnvWrapper
 
-    from planetnav_agents.sb3 import algorithm_class
-    from planetnav_agents.shaping import PointingPotential
     from planetnav_train.algorithms import algo_kwargs
     from planetnav_train.config import load_config
     from planetnav_train.envs import make_training_env
+    from planetnav_train.sb3 import algorithm_class
+    from planetnav_train.shaping import PointingPotential
 
     tc = load_config(a.config)
     for kv in a.set:

@@ -63,11 +63,11 @@ SCRIPT = textwrap.dedent(
             assert obs.shape[0] == 3 and np.all(np.isfinite(reward))
         assert info["target"].shape == (3,)
     try:
-        import planetnav_env.sb3_vec  # noqa: F401
+        import planetnav_train.sb3_vec  # noqa: F401
     except ImportError as exc:
         assert "planetnav[train]" in str(exc), exc
     else:
-        raise AssertionError("planetnav_env.sb3_vec imported without Stable-Baselines3")
+        raise AssertionError("planetnav_train.sb3_vec imported without Stable-Baselines3")
     loaded = sorted(m for m in sys.modules if m.partition(".")[0] in BLOCKED)
     assert not loaded, loaded
     print("OK", steps, planetnav_agents.__name__)

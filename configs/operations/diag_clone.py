@@ -16,8 +16,8 @@ import numpy as np
 import torch
 from stable_baselines3 import PPO
 
-from planetnav_agents.pretrain import demonstrations
 from planetnav_train.config import load_config
+from planetnav_train.pretrain import demonstrations
 
 CONFIG = "configs/operations/thrust_arc_tcm_bc.yaml"
 

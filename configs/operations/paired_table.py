@@ -26,7 +26,7 @@ import json
 
 import numpy as np
 
-from planetnav_agents.stats import mean_ci, paired_difference
+from planetnav_train.stats import mean_ci, paired_difference
 
 
 def _block(spec: str) -> dict:

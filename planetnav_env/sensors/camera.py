@@ -44,7 +44,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from planetnav_env._deprecation import moved_names
 from planetnav_env.codes import VisibilityReason
 from planetnav_env.errors import (
     InvalidParameterError,
@@ -91,22 +90,6 @@ __all__ += camera_geometry.__all__
 #: ``VisibilityResult.occulter`` when nothing hides the target / when the Sun does.
 NO_OCCULTER = -1
 SUN_OCCULTER = -2
-
-# Names whose home moved (issue 20): the compiled kernels and their record slots. Their old path here
-# still resolves, with a DeprecationWarning naming the new one.
-_KERNEL_NAMES = (
-    "V_REASON", "V_IN_FOV", "V_SUN_EX", "V_OCCULTED", "V_SMALL", "V_OCCULTER", "V_ALPHA", "V_ANG_B",
-    "V_ANG_T", "V_PIX_X", "V_PIX_Y", "N_VIS_SLOTS",
-    "visibility_row_kernel", "measure_row_kernel", "visibility_codes_kernel", "measure_into_kernel",
-)  # fmt: skip
-__getattr__ = moved_names(
-    __name__,
-    {
-        **dict.fromkeys(_KERNEL_NAMES, "planetnav_env.sensors.camera_kernels"),
-        "SUN_RADIUS_KM": "planetnav_env.sensors.camera_config",
-    },
-)
-
 
 @dataclass(frozen=True, slots=True)
 class VisibilityResult:

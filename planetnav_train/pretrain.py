@@ -12,7 +12,7 @@ The demonstrations are recorded in the training MDP: with ``action_repeat`` the 
 decision point is recorded and held for the decision, as the policy's will be (the teacher still sees
 every step, so a teacher with its own features or decision clock, e.g. a saved policy, runs as in
 evaluation), and with ``relative_actions`` its absolute
-target is encoded as "stay" / "move k places" (:func:`planetnav_agents.features.absolute_to_relative`).
+target is encoded as "stay" / "move k places" (:func:`planetnav_train.features.absolute_to_relative`).
 With the
 ``gain`` feature, a greedy teacher's decision is the argmax of an input, which a clone can fit; without
 it, the clone of a teacher that switches ~10 times a day learns "stay" (``docs/training.md``, R2).
@@ -45,7 +45,8 @@ def demonstrations(
     which only labels the states the student visits (DAgger's data collection, :func:`dagger`). The teacher
     is told the target the student holds (:meth:`planetnav_agents.base.Agent.follow`) before each decision."""
     from planetnav_agents import make_agent
-    from planetnav_agents.features import (
+    from planetnav_env.env import PlanetNavEnv
+    from planetnav_train.features import (
         FeatureBatch,
         absolute_to_relative,
         check_action_repeat,
@@ -53,7 +54,6 @@ def demonstrations(
         chosen_planet,
         relative_action,
     )
-    from planetnav_env.env import PlanetNavEnv
 
     check_action_repeat(action_repeat)
     env = PlanetNavEnv(env_config)
@@ -208,8 +208,8 @@ def agreement(
     the state (as in :func:`dagger`). Returns the number of decisions, the fraction where the student
     picks another planet than the teacher, and (``target+torque``) the mean |residual torque| the student
     commands, as a fraction of its action range."""
-    from planetnav_agents.sb3 import SB3Agent
     from planetnav_env.env import PlanetNavEnv
+    from planetnav_train.sb3 import SB3Agent
 
     if env_config.action_mode == "torque":
         raise ValueError("agreement compares planet choices: action_mode 'target' or 'target+torque' only")

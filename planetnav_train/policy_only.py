@@ -4,15 +4,15 @@ A saved SB3 model (``model.zip``) holds everything training needs: the critics, 
 optimizer states. Acting needs only the policy's acting part (the actor; a DQN's online Q-network; a
 recurrent policy's actor LSTM, policy MLP and action net). A *policy-only export* keeps just that, so that
 a continuous-action baseline (SAC, TD3, TQC: 3.5-5.7 MB as full zips) or a recurrent one (about 8 MB) fits
-the shipped baselines' size limit (:mod:`planetnav_agents.shipped`). It is written by
+the shipped baselines' size limit (:mod:`planetnav_train.shipped`). It is written by
 :func:`planetnav_train.export.export_policy` and read by :func:`load_policy_only`.
 
 The file is a zip (fixed timestamps: exporting the same model twice gives the same bytes) holding
 
 - ``planetnav_policy.json`` (:data:`META_NAME`): the format and its version, the algorithm's name (a key of
-  :data:`planetnav_agents.sb3.ALGORITHMS`), the policy class and the keyword arguments it is rebuilt with
+  :data:`planetnav_train.sb3.ALGORITHMS`), the policy class and the keyword arguments it is rebuilt with
   (classes written as ``"module:qualname"``), the observation and action spaces, the
-  ``observation_layout`` a masking MaskablePPO recorded (:mod:`planetnav_agents.masking`; else null),
+  ``observation_layout`` a masking MaskablePPO recorded (:mod:`planetnav_train.masking`; else null),
   the kept parameters' names, shapes and dtypes, and the source model's size and sha256;
 - ``params/<name>.npy``: each kept tensor of the policy's ``state_dict``, in its own dtype (float32 as
   trained: nothing is rounded), and ``spaces/<name>.npy``: the bounds of Box spaces.
@@ -306,12 +306,12 @@ def build_policy(meta: Mapping[str, Any], arrays: Mapping[str, np.ndarray], wher
 
 class PolicyOnlyModel:
     """A policy-only export behind the part of an SB3 model's interface that acting uses
-    (:class:`planetnav_agents.sb3.SB3Agent`, :mod:`planetnav_train.evaluate`): ``policy``,
+    (:class:`planetnav_train.sb3.SB3Agent`, :mod:`planetnav_train.evaluate`): ``policy``,
     ``observation_space``, ``action_space`` and ``predict``.
 
     ``algorithm``: the source model's algorithm name; ``observation_layout``: the layout a masking
     MaskablePPO recorded (its ``predict`` masks the unobservable targets from the observation, as
-    :func:`planetnav_agents.masking.masked_ppo_class`'s does); ``meta``: the file's metadata."""
+    :func:`planetnav_train.masking.masked_ppo_class`'s does); ``meta``: the file's metadata."""
 
     def __init__(self, policy: Any, meta: Mapping[str, Any], path: Path | None = None) -> None:
         self.policy = policy
@@ -340,8 +340,8 @@ class PolicyOnlyModel:
         if action_masks is None:
             if self.observation_layout is None:
                 raise ValueError("this policy-only MaskablePPO has no observation layout: pass action_masks")
-            from planetnav_agents.masking import observable_mask
             from planetnav_env.core.layout import ObservationLayout
+            from planetnav_train.masking import observable_mask
 
             layout = ObservationLayout(**self.observation_layout)
             action_masks = observable_mask(observation, layout, int(self.action_space.n))

@@ -1,21 +1,22 @@
 """The benchmark suite's shipped baselines: the best raw-track policy of each task, stored in the repository
-(``agents/baselines/``) and loadable by name as ``suite:<task>`` (``suite:Cruise-Target-v0``) wherever an
-agent name is accepted (:func:`planetnav_agents.make_agent`, ``train.py compare --agents``, a config's
-``eval.agents``).
+(``planetnav_train/baselines/``) and loadable by name as ``suite:<task>`` (``suite:Cruise-Target-v0``)
+wherever an agent name is accepted (:func:`planetnav_agents.make_agent`, ``train.py compare --agents``, a
+config's ``eval.agents``).
 
 The folder holds one file per shipped task, in one of two forms (the entry's ``form``; an entry without
 one is ``"full"``): ``<task>.zip``, the Stable-Baselines3 model as trained (``"full"``), or
 ``<task>.policy.zip``, its policy-only export (``"policy-only"``: the acting network alone, for a model of
-1 MB or more, :mod:`planetnav_agents.policy_only`). ``manifest.json``:
+1 MB or more, :mod:`planetnav_train.policy_only`). ``manifest.json``:
 ``{"suite_version": N, "baselines": {task: entry}}``, each entry naming the task and its environment id,
 the algorithm, training seed, objective (km) with its 95 % interval, normalized score, the suite cell it
 came from, the form, the file's size in bytes and its sha256 (a policy-only entry also the source model's
 ``source_bytes`` and ``source_sha256``). The manifest is written by
-``train.py suite-publish --baselines agents/baselines`` (:func:`planetnav_train.publish.ship_baselines`),
-which refuses a model whose shipped form would be 1 MB or more. A shipped policy is a raw-track one: the
-env's own observation and actions, no features, no action repeat, no relative actions.
+``train.py suite-publish --baselines planetnav_train/baselines``
+(:func:`planetnav_train.suite.publish.ship_baselines`), which refuses a model whose shipped form would be
+1 MB or more. A shipped policy is a raw-track one: the env's own observation and actions, no features, no
+action repeat, no relative actions.
 
-This module reads the folder only; it imports nothing from the training package.
+This module reads the folder; SB3 (:mod:`planetnav_train.sb3`) is imported when an agent is built.
 """
 
 from __future__ import annotations
@@ -107,20 +108,20 @@ def form_of(entry: dict[str, Any]) -> str:
 
 
 def make_shipped_agent(spec: str, env: Any = None, **kwargs: Any) -> Any:
-    """The :class:`planetnav_agents.sb3.SB3Agent` of the shipped baseline named ``spec``
+    """The :class:`planetnav_train.sb3.SB3Agent` of the shipped baseline named ``spec``
     (``suite:<task>``), with the manifest's algorithm, no features and no action repeat (a raw-track
     policy); ``kwargs`` go to :class:`SB3Agent` (``deterministic=False`` for sampled actions). A
-    policy-only baseline's model is its :class:`~planetnav_agents.policy_only.PolicyOnlyModel`, which
+    policy-only baseline's model is its :class:`~planetnav_train.policy_only.PolicyOnlyModel`, which
     acts through the same ``predict`` and ``policy`` as the full model, so evaluation takes the same path.
     """
-    from planetnav_agents.sb3 import SB3Agent
+    from planetnav_train.sb3 import SB3Agent
 
     path, entry = shipped_model(task_of(spec))
     kwargs.setdefault("algo", entry["algorithm"])
     if form_of(entry) == "full":
         agent = SB3Agent(path, env, features=[], action_repeat=1, **kwargs)
     else:
-        from planetnav_agents.policy_only import load_policy_only
+        from planetnav_train.policy_only import load_policy_only
 
         model = load_policy_only(path)
         if model.algorithm != entry["algorithm"]:
@@ -134,9 +135,9 @@ def make_shipped_agent(spec: str, env: Any = None, **kwargs: Any) -> Any:
 
 
 def _agent_over(model: Any, path: Path, env: Any, **kwargs: Any) -> Any:
-    """An :class:`~planetnav_agents.sb3.SB3Agent` over the already-built ``model`` read from ``path``, so
+    """An :class:`~planetnav_train.sb3.SB3Agent` over the already-built ``model`` read from ``path``, so
     the agent's checks (spaces against the env), names and acting are SB3Agent's own, not a copy."""
-    from planetnav_agents import sb3
+    from planetnav_train import sb3
 
     return sb3.SB3Agent(path, env, model=model, **kwargs)
 

@@ -15,12 +15,12 @@ import gymnasium as gym
 import numpy as np
 
 from planetnav_agents.base import Agent, NotApplicableError, target_torque_action
-from planetnav_agents.features import FeatureBatch, relative_action
+from planetnav_train.features import FeatureBatch, relative_action
 
 #: Lower-case names -> SB3 classes (imported lazily: SB3 and torch take seconds to import).
 ALGORITHMS = ("ppo", "a2c", "dqn", "sac", "td3", "ddpg", "recurrent_ppo", "maskable_ppo", "tqc")
 #: The names of :data:`ALGORITHMS` that sb3-contrib provides (the ``bench`` extra) -> its class names;
-#: ``maskable_ppo`` masks the unobservable targets (:mod:`planetnav_agents.masking`).
+#: ``maskable_ppo`` masks the unobservable targets (:mod:`planetnav_train.masking`).
 CONTRIB_ALGORITHMS = {"recurrent_ppo": "RecurrentPPO", "maskable_ppo": "MaskablePPO", "tqc": "TQC"}
 
 
@@ -40,7 +40,7 @@ def algorithm_class(name: str) -> type:
                 f'algorithm {key!r} needs sb3-contrib, which is not installed: pip install -e ".[bench]"'
             ) from None
         if key == "maskable_ppo":
-            from planetnav_agents.masking import masked_ppo_class
+            from planetnav_train.masking import masked_ppo_class
 
             return masked_ppo_class()
         return getattr(sb3_contrib, CONTRIB_ALGORITHMS[key])

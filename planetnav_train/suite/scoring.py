@@ -17,13 +17,14 @@ from __future__ import annotations
 import contextlib
 import math
 import warnings
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from planetnav_env.errors import ConfigError
+from planetnav_train.suite.tasks import TRACKS
 
 #: Bootstrap resamples of the published aggregates (rliable's own default for intervals is 50,000; 10,000
 #: keeps the 95 % endpoints to ~0.01 of a score on matrices of this size and takes seconds).
@@ -241,3 +242,60 @@ def write_plots(
         fig.savefig(paths[-1], dpi=110)
         plt.close(fig)
     return paths
+
+
+
+
+def score_matrices(
+    records: Iterable[Mapping[str, Any]], track: str
+) -> dict[str, tuple[list[str], np.ndarray]]:
+    """Per algorithm of ``track``: its tasks and the ``(runs, tasks)`` score matrix, runs by seed order.
+    Tasks with fewer seeds than the others of the algorithm are cut to the common count (rliable needs a
+    full matrix); the cut is visible in the per-task table."""
+    by: dict[str, dict[str, dict[int, float]]] = {}
+    for r in records:
+        if r["track"] == track:
+            by.setdefault(r["algorithm"], {}).setdefault(r["task"], {})[int(r["seed"])] = r[
+                "normalized_score"
+            ]
+    out = {}
+    for algo, tasks in by.items():
+        names = sorted(tasks)
+        n = min(len(tasks[t]) for t in names)
+        cols = [[tasks[t][s] for s in sorted(tasks[t])[:n]] for t in names]
+        out[algo] = (names, np.array(cols, dtype=float).T)
+    return out
+
+
+def aggregate(records: Sequence[Mapping[str, Any]], reps: int | None = None) -> dict[str, Any]:
+    """Per track: per-task and overall IQM with stratified-bootstrap 95 % intervals per algorithm,
+    performance profiles, and the probability of improvement between every two algorithms that ran on the
+    same tasks (this module)."""
+    reps = reps or BOOTSTRAP_REPS
+    out: dict[str, Any] = {}
+    for track in TRACKS:
+        mats = score_matrices(records, track)
+        if not mats:
+            continue
+        per_task: dict[str, Any] = {}
+        for algo, (names, m) in mats.items():
+            for j, task in enumerate(names):
+                per_task.setdefault(task, {}).update(iqm_intervals({algo: m[:, [j]]}, reps))
+        overall = iqm_intervals({a: m for a, (_, m) in mats.items()}, reps)
+        profiles = performance_profiles({a: m for a, (_, m) in mats.items()}, reps=min(reps, 2_000))
+        pairs = {
+            (x, y): (mats[x][1], mats[y][1])
+            for x in sorted(mats)
+            for y in sorted(mats)
+            if x < y and mats[x][0] == mats[y][0] and mats[x][1].shape == mats[y][1].shape
+        }
+        improvements = improvement_probabilities(pairs, reps=min(reps, 2_000))
+        out[track] = {
+            "tasks": {a: names for a, (names, _) in mats.items()},
+            "runs": {a: int(m.shape[0]) for a, (_, m) in mats.items()},
+            "per_task": per_task,
+            "overall": overall,
+            "profiles": profiles,
+            "improvement": improvements,
+        }
+    return out

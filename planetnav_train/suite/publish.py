@@ -2,10 +2,12 @@
 
 - :func:`publish_json`: the aggregated JSON (``OUT/suite.json``: protocol, tasks, references, every run,
   aggregates) copied to a tracked path, ``docs/benchmark.json`` (``runs/`` is not in the repository);
-- :func:`update_readme`: the summary tables (:func:`planetnav_train.suite.summary_markdown`) written
-  between the README's ``<!-- suite-summary:start -->`` and ``<!-- suite-summary:end -->`` markers;
-- :func:`ship_baselines`: the best raw-track policy of each task copied to ``agents/baselines/<task>.zip``
-  with its manifest entry, loadable as the agent ``suite:<task>`` (:mod:`planetnav_agents.shipped`);
+- :func:`update_readme`: the summary tables (:func:`planetnav_train.suite.leaderboard.summary_markdown`)
+  written between the README's ``<!-- suite-summary:start -->`` and ``<!-- suite-summary:end -->``
+  markers;
+- :func:`ship_baselines`: the best raw-track policy of each task copied to
+  ``planetnav_train/baselines/<task>.zip`` with its manifest entry, loadable as the agent ``suite:<task>``
+  (:mod:`planetnav_train.shipped`);
   a model of 1 MB or more ships as its policy-only export (``<task>.policy.zip``,
   :func:`planetnav_train.export.export_policy`) when that is under 1 MB, and is refused otherwise.
 
@@ -24,18 +26,21 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from planetnav_agents.sb3 import resolve_model_path
-from planetnav_agents.shipped import (
+from planetnav_env.errors import ConfigError
+from planetnav_train.config import is_rllib_algo
+from planetnav_train.export import export_policy
+from planetnav_train.sb3 import resolve_model_path
+from planetnav_train.shipped import (
     BASELINES_DIR,
     MANIFEST_NAME,
     MAX_BASELINE_BYTES,
     file_sha256,
     load_manifest,
 )
-from planetnav_env.errors import ConfigError
-from planetnav_train import suite
-from planetnav_train.config import is_rllib_algo
-from planetnav_train.export import export_policy
+from planetnav_train.suite.cells import Cell
+from planetnav_train.suite.leaderboard import summary_markdown
+from planetnav_train.suite.runner import load_records, write_json_atomic
+from planetnav_train.suite.tasks import SUITE_VERSION, get_task
 
 #: The README's summary block lies between these two lines (the text between them is replaced).
 README_START = "<!-- suite-summary:start -->"
@@ -86,7 +91,7 @@ def update_readme(readme: str | Path, data: Mapping[str, Any]) -> Path:
     p = Path(readme)
     if not p.is_file():
         raise ConfigError(f"--readme {p}: no such file")
-    p.write_text(replace_block(p.read_text(), suite.summary_markdown(data), str(p)))
+    p.write_text(replace_block(p.read_text(), summary_markdown(data), str(p)))
     return p
 
 
@@ -100,7 +105,7 @@ def best_raw_runs(
     Raises :class:`ConfigError` naming a task without candidate runs, and what it does have."""
     raw = [r for r in records if r["track"] == "raw"]
     pool = [r for r in raw if r.get("official", False) or not official_only]
-    wanted = [suite.get_task(t).id for t in tasks] if tasks else sorted({r["task"] for r in pool})
+    wanted = [get_task(t).id for t in tasks] if tasks else sorted({r["task"] for r in pool})
     if not wanted:
         raise ConfigError(
             f"no raw-track run to ship ({len(raw)} raw-track records, none official; smoke runs ship only "
@@ -164,11 +169,11 @@ def ship_baselines(
     the sizes. A task's file of the other form, named by its old entry, is removed. Returns the new
     manifest entries."""
     out, dest = Path(out), Path(dest)
-    best = best_raw_runs(suite.load_records(out), tasks, official_only)
+    best = best_raw_runs(load_records(out), tasks, official_only)
     with tempfile.TemporaryDirectory(prefix="planetnav-ship-") as scratch:
         chosen = []
         for task, r in best.items():
-            cell = suite.Cell(r["task"], r["algorithm"], r["track"], int(r["seed"]))
+            cell = Cell(r["task"], r["algorithm"], r["track"], int(r["seed"]))
             if is_rllib_algo(r["algorithm"]):
                 raise ConfigError(
                     f"task {task}: the best raw-track run {cell.key} is an RLlib checkpoint (a folder), not "
@@ -193,7 +198,7 @@ def ship_baselines(
                 (dest / old).unlink(missing_ok=True)
             entry = {
                 "task": task,
-                "env_id": suite.get_task(task).env_id,
+                "env_id": get_task(task).env_id,
                 "task_version": r.get("task_version"),
                 "suite_version": r.get("suite_version"),
                 "algorithm": r["algorithm"],
@@ -219,9 +224,9 @@ def ship_baselines(
                 entry["source_sha256"] = file_sha256(model)
             manifest["baselines"][task] = entry
             entries.append(entry)
-    manifest["suite_version"] = suite.SUITE_VERSION
+    manifest["suite_version"] = SUITE_VERSION
     manifest["baselines"] = dict(sorted(manifest["baselines"].items()))
-    suite._write_json_atomic(dest / MANIFEST_NAME, manifest)
+    write_json_atomic(dest / MANIFEST_NAME, manifest)
     return entries
 
 

@@ -8,7 +8,7 @@ in-field blocks make sizes ambiguous. :class:`ObservableMasks` serves the mask t
 collection from the last observation of its VecEnv, and :func:`masked_ppo_class` returns a MaskablePPO
 that records the layout with the model (``observation_layout``, saved in its zip) so that its
 ``predict`` masks from the observation alone and a saved model evaluates with the same mask through the
-ordinary :class:`~planetnav_agents.sb3.SB3Agent` path. sb3-contrib is imported lazily (the ``bench``
+ordinary :class:`~planetnav_train.sb3.SB3Agent` path. sb3-contrib is imported lazily (the ``bench``
 extra).
 
 Actions past the targets (the ``idle_action`` "camera off" / operations "stay", always the last) are never

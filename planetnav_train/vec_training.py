@@ -1,11 +1,11 @@
 """The training VecEnv: the native vector environment with every option of the training recipe on arrays.
 
-:class:`NavTrainingVecEnv` is :class:`planetnav_env.sb3_vec.PlanetNavSB3VecEnv` (the compiled vector
+:class:`NavTrainingVecEnv` is :class:`planetnav_train.sb3_vec.PlanetNavSB3VecEnv` (the compiled vector
 environment as a Stable-Baselines3 ``VecEnv``) with the recipe's options (``docs/training.md``) stacked
-over its rows by :meth:`planetnav_agents.batch_wrappers.TrainingOptions.stack`: the pointing shaping, the
+over its rows by :meth:`planetnav_train.batch_wrappers.TrainingOptions.stack`: the pointing shaping, the
 observation features (``since_measured``, ``gain``, ``pd_torque``), action repeat and relative target
 actions. Those layers are the only implementation of the options; a single env runs them with N = 1
-(:func:`planetnav_agents.batch_wrappers.single_training_env`), so row ``i`` here equals that single env
+(:func:`planetnav_train.batch_wrappers.single_training_env`), so row ``i`` here equals that single env
 seeded ``seed + i``, bit for bit (``tests/test_vec_training.py``). Every action mode and every option
 trains on this path: no per-env Python objects, no SB3 ``DummyVecEnv``.
 
@@ -19,10 +19,10 @@ from typing import Any
 
 import numpy as np
 
-from planetnav_agents.batch_wrappers import TrainingOptions, VectorRows
-from planetnav_agents.features import FEATURES
 from planetnav_env.config import EnvConfig
-from planetnav_env.sb3_vec import INFO_KEYS, PlanetNavSB3VecEnv
+from planetnav_train.batch_wrappers import TrainingOptions, VectorRows
+from planetnav_train.features import FEATURES
+from planetnav_train.sb3_vec import INFO_KEYS, PlanetNavSB3VecEnv
 
 #: Observation features the vector training env computes on arrays: all of them (kept for importers).
 NATIVE_FEATURES = FEATURES
@@ -32,7 +32,7 @@ class NavTrainingVecEnv(PlanetNavSB3VecEnv):
     """``num_envs`` rows of the compiled vector env with the recipe's options (module docstring).
 
     After ``num_envs``, ``config`` and ``seed``: the recipe's options, the fields of
-    :class:`planetnav_agents.batch_wrappers.TrainingOptions` (``features``, ``action_repeat``,
+    :class:`planetnav_train.batch_wrappers.TrainingOptions` (``features``, ``action_repeat``,
     ``relative_actions``: as the config keys of the same names; ``pointing``: the pointing shaping's weight
     [reward units], None: no shaping; ``gamma``: its discount, the algorithm's), positionally or by keyword;
     ``options`` holds them.

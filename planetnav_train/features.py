@@ -1,15 +1,15 @@
 """Extra observation features for learned policies, computed from what the spacecraft knows.
 
 One implementation serves training and evaluation: :class:`FeatureBatch` appends the features to N rows
-of box observations; :class:`planetnav_agents.batch_wrappers.FeatureRows` drives it over the rows of the
+of box observations; :class:`planetnav_train.batch_wrappers.FeatureRows` drives it over the rows of the
 training env (config key ``features``; N rows of the vector env, or one single env), and
-:class:`planetnav_agents.sb3.SB3Agent` rebuilds the same state (N = 1) from the run's ``config.yaml`` so
+:class:`planetnav_train.sb3.SB3Agent` rebuilds the same state (N = 1) from the run's ``config.yaml`` so
 that a saved policy sees identical inputs when it is evaluated. The relative-action and action-repeat
-formulas here are likewise the ones :mod:`planetnav_agents.batch_wrappers` runs.
+formulas here are likewise the ones :mod:`planetnav_train.batch_wrappers` runs.
 
 Deprecated names (a ``DeprecationWarning`` on construction, same behaviour): ``FeatureState`` (use
 ``FeatureBatch.for_env``), ``NavFeatures``, ``ActionRepeat``, ``RelativeTargets`` (the N = 1 stacks of
-:mod:`planetnav_agents.batch_wrappers`; use ``single_training_env``).
+:mod:`planetnav_train.batch_wrappers`; use ``single_training_env``).
 
 ========================== ===========================================================================
 feature                    values appended (``P`` planets), each in [0, 1] unless stated
@@ -157,9 +157,9 @@ def step_columns(
 class FeatureBatch:
     """The observation features of N rows of a configuration: their per-episode state and values.
 
-    The one implementation: :class:`planetnav_agents.batch_wrappers.FeatureRows` drives it over the
+    The one implementation: :class:`planetnav_train.batch_wrappers.FeatureRows` drives it over the
     rows of a training env (N rows of the vector env, or one single env), and agents that rebuild a
-    policy's inputs (``planetnav_agents.sb3``, ``planetnav_agents.pretrain``) use it with N = 1 through
+    policy's inputs (``planetnav_train.sb3``, ``planetnav_train.pretrain``) use it with N = 1 through
     :meth:`augment_info`.
 
     cfg: the rows' :class:`EnvConfig` (``observation="box"``); params: their compiled parameter record
@@ -271,7 +271,7 @@ class FeatureState(FeatureBatch):
 
     def __init__(self, env: gym.Env, features: Sequence[str]) -> None:
         warnings.warn(
-            "planetnav_agents.features.FeatureState is deprecated; use FeatureBatch.for_env(env, features) "
+            "planetnav_train.features.FeatureState is deprecated; use FeatureBatch.for_env(env, features) "
             "and its augment_info",
             DeprecationWarning,
             stacklevel=2,
@@ -350,7 +350,7 @@ def absolute_to_relative(action: Any, current: int, n_planets: int) -> tuple[Any
     """The relative action that makes :func:`relative_action` pick the target of the absolute ``action``
     (an integer, or a ``target+torque`` Box action whose argmax over the planet entries is the target),
     and that target. Its inverse: ``relative_action(absolute_to_relative(a, c, n)[0], c, n)`` chooses
-    the target of ``a``. For teachers that act in absolute targets (``planetnav_agents.pretrain``)."""
+    the target of ``a``. For teachers that act in absolute targets (``planetnav_train.pretrain``)."""
     a = np.asarray(action)
     target = chosen_planet(a, n_planets)
     if target < 0:
@@ -368,16 +368,3 @@ def check_relative_config(cfg: Any) -> None:
             "relative target actions need action_mode 'target' or 'target+torque', planets only, "
             "without idle_action"
         )
-
-
-#: Deprecated names of the single-env wrappers, now N = 1 stacks of :mod:`planetnav_agents.batch_wrappers`
-#: (resolved lazily: that module imports this one).
-_DEPRECATED_WRAPPERS = ("NavFeatures", "ActionRepeat", "RelativeTargets")
-
-
-def __getattr__(name: str) -> Any:
-    if name in _DEPRECATED_WRAPPERS:
-        from planetnav_agents import batch_wrappers
-
-        return getattr(batch_wrappers, name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

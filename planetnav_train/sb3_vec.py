@@ -25,7 +25,7 @@ try:
     from stable_baselines3.common.vec_env.base_vec_env import VecEnv
 except ImportError as exc:  # the environment alone installs without SB3 (training is an extra)
     raise ImportError(
-        "planetnav_env.sb3_vec needs Stable-Baselines3, which the environment alone does not install: "
+        "planetnav_train.sb3_vec needs Stable-Baselines3, which the environment alone does not install: "
         f'pip install "planetnav[train]" ({exc})'
     ) from exc
 

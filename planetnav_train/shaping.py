@@ -20,7 +20,7 @@ term cannot teach the pointing loop here: its advantage signal vanishes as the c
 and the navigation reward's own variance then swamps the rest (docs/training.md, issue 18, runs H7-).
 
 Used only in training (config key ``shaping: {pointing: WEIGHT}``), on arrays over the training env's
-rows (:class:`planetnav_agents.batch_wrappers.PointingShapingRows`; a single env is one row); evaluation
+rows (:class:`planetnav_train.batch_wrappers.PointingShapingRows`; a single env is one row); evaluation
 reports the unshaped navigation metrics. ``PointingShaping``, the former single-env wrapper, is a
 deprecated alias of that layer with N = 1.
 """
@@ -73,11 +73,3 @@ class PointingPotential:
         # x component of the estimated body-frame direction = cos(angle off the boresight).
         cos = np.where(visible, planets[:, :, L.TF_DIR], -np.inf)
         return np.where(visible.any(axis=1), self.weight * np.max(cos, axis=1, initial=-np.inf), 0.0)
-
-
-def __getattr__(name: str) -> Any:
-    if name == "PointingShaping":  # deprecated single-env wrapper, now an N = 1 stack
-        from planetnav_agents import batch_wrappers
-
-        return batch_wrappers.PointingShaping
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -10,9 +10,9 @@ class                                  what it does to the rows
                                        PlanetNavVectorEnv`) as rows: one compiled step for all of them
 :class:`SingleEnvRows`                 any (wrapped) single planetnav env as one row (N = 1)
 :class:`PointingShapingRows`           adds the potential-based pointing term to the reward
-                                       (:class:`planetnav_agents.shaping.PointingPotential`)
+                                       (:class:`planetnav_train.shaping.PointingPotential`)
 :class:`PointingBonusRows`             adds the per-step pointing bonus ``Phi(s')`` (not potential-based)
-:class:`FeatureRows`                   appends the observation features (:class:`planetnav_agents.
+:class:`FeatureRows`                   appends the observation features (:class:`planetnav_train.
                                        features.FeatureBatch`: ``since_measured``, ``gain``, ``pd_torque``)
 :class:`ActionRepeatRows`              holds each decision ``repeat`` steps, rewards summed
 :class:`RelativeTargetRows`            "stay" / "move k places" target actions
@@ -20,9 +20,9 @@ class                                  what it does to the rows
 
 :func:`training_rows` stacks them in the recipe's order (shaping innermost: it reads the raw
 observation; the relative choice outermost: made once per decision). Two adapters expose a stack:
-:class:`planetnav_agents.vec_training.NavTrainingVecEnv` as an SB3 ``VecEnv`` over N rows (training), and
-:class:`RowsEnv` as a Gymnasium env over one row (the deprecated single-env wrappers of
-:mod:`planetnav_agents.features` and :mod:`planetnav_agents.shaping`). Both run the same code, so a row
+:class:`planetnav_train.vec_training.NavTrainingVecEnv` as an SB3 ``VecEnv`` over N rows (training), and
+:class:`RowsEnv` as a Gymnasium env over one row (:func:`single_training_env`, and the deprecated
+single-env wrappers at the end of this module). Both run the same code, so a row
 of the batch equals the single env seeded alike, bit for bit (``tests/test_vec_training.py``).
 
 Conventions of a :class:`Rows` (why: a held decision steps only the rows still running, and an episode
@@ -47,15 +47,15 @@ import numpy as np
 from gymnasium import spaces
 
 from planetnav_agents.base import unwrapped_config
-from planetnav_agents.features import (
+from planetnav_env.config import EnvConfig
+from planetnav_train.features import (
     FeatureBatch,
     check_action_repeat,
     check_relative_config,
     relative_actions_batch,
     step_columns,
 )
-from planetnav_agents.shaping import PointingPotential, check_shaping
-from planetnav_env.config import EnvConfig
+from planetnav_train.shaping import PointingPotential, check_shaping
 
 
 class Rows:
@@ -216,7 +216,7 @@ class SingleEnvRows(Rows):
 
 
 class PointingShapingRows(RowsWrapper):
-    """Adds ``F = gamma * Phi(s') - Phi(s)`` (:class:`planetnav_agents.shaping.PointingPotential`) to
+    """Adds ``F = gamma * Phi(s') - Phi(s)`` (:class:`planetnav_train.shaping.PointingPotential`) to
     each stepped row's reward; ``Phi`` = 0 in a terminal state. ``row_info`` gains ``"shaping"``, the term
     added at the row's last step."""
 
@@ -250,9 +250,9 @@ class PointingShapingRows(RowsWrapper):
 
 
 class PointingBonusRows(RowsWrapper):
-    """Adds ``Phi(s')`` (:class:`planetnav_agents.shaping.PointingPotential` with weight ``weight``
+    """Adds ``Phi(s')`` (:class:`planetnav_train.shaping.PointingPotential` with weight ``weight``
     [reward units]) of each stepped row's new observation to its reward: a per-step pointing bonus, not
-    potential-based (:mod:`planetnav_agents.shaping`: reported as shaping). ``row_info`` gains
+    potential-based (:mod:`planetnav_train.shaping`: reported as shaping). ``row_info`` gains
     ``"pointing_bonus"``, the term added at the row's last step."""
 
     def __init__(self, inner: Rows, weight: float) -> None:
@@ -277,7 +277,7 @@ class PointingBonusRows(RowsWrapper):
 
 
 class FeatureRows(RowsWrapper):
-    """Appends :class:`planetnav_agents.features.FeatureBatch`'s features to the rows' box observations;
+    """Appends :class:`planetnav_train.features.FeatureBatch`'s features to the rows' box observations;
     every environment step of a row advances its feature state (``since_measured`` counts steps)."""
 
     def __init__(self, inner: Rows, features: Sequence[str]) -> None:
@@ -305,7 +305,7 @@ class FeatureRows(RowsWrapper):
 
 
 class ActionRepeatRows(RowsWrapper):
-    """Holds each action for ``repeat`` environment steps, rewards summed (:func:`planetnav_agents.features.
+    """Holds each action for ``repeat`` environment steps, rewards summed (:func:`planetnav_train.features.
     check_action_repeat` says why); a row whose episode ends inside the hold stops there."""
 
     def __init__(self, inner: Rows, repeat: int) -> None:
@@ -330,7 +330,7 @@ class ActionRepeatRows(RowsWrapper):
 
 
 class RelativeTargetRows(RowsWrapper):
-    """Target choice with relative actions (:func:`planetnav_agents.features.relative_actions_batch`):
+    """Target choice with relative actions (:func:`planetnav_train.features.relative_actions_batch`):
     "stay" or "move k places" from each row's last choice (-1 after a reset)."""
 
     def __init__(self, inner: Rows) -> None:
@@ -354,7 +354,7 @@ class RelativeTargetRows(RowsWrapper):
 class TrainingOptions:
     """The training recipe's options over the environment (``docs/training.md``): the one list of them,
     whose fields (positionally in this order, or by keyword) are the options of :func:`training_rows`,
-    :func:`single_training_env` and :class:`planetnav_agents.vec_training.NavTrainingVecEnv`.
+    :func:`single_training_env` and :class:`planetnav_train.vec_training.NavTrainingVecEnv`.
 
     ``features``: observation features appended (``since_measured``, ``gain``, ``pd_torque``);
     ``action_repeat``: environment steps per decision; ``relative_actions``: "stay" / "move k places"
@@ -430,12 +430,12 @@ def single_training_env(env: gym.Env, *args: Any, **kwargs: Any) -> RowsEnv:
 
 
 # ------------------------------------------------------------------------------------------------
-# Deprecated single-env wrappers (importable from planetnav_agents.features / .shaping as before): each
-# is the N = 1 stack of its layer, with the old constructor and attributes.
+# Deprecated single-env wrappers: each is the N = 1 stack of its layer, with the old constructor and
+# attributes.
 # ------------------------------------------------------------------------------------------------
-def _deprecated(old: str, module: str, new: str) -> None:
+def _deprecated(old: str, new: str) -> None:
     warnings.warn(
-        f"planetnav_agents.{module}.{old} is deprecated; use planetnav_agents.batch_wrappers.{new}",
+        f"planetnav_train.batch_wrappers.{old} is deprecated; use planetnav_train.batch_wrappers.{new}",
         DeprecationWarning,
         stacklevel=3,
     )
@@ -445,7 +445,7 @@ class NavFeatures(RowsEnv):
     """Deprecated: :class:`FeatureRows` on one env (``single_training_env(env, features=...)``)."""
 
     def __init__(self, env: gym.Env, features: Sequence[str]) -> None:
-        _deprecated("NavFeatures", "features", "single_training_env(env, features=...)")
+        _deprecated("NavFeatures", "single_training_env(env, features=...)")
         super().__init__(env, lambda rows: FeatureRows(rows, features))
 
 
@@ -453,7 +453,7 @@ class ActionRepeat(RowsEnv):
     """Deprecated: :class:`ActionRepeatRows` on one env (``single_training_env(env, action_repeat=...)``)."""
 
     def __init__(self, env: gym.Env, repeat: int) -> None:
-        _deprecated("ActionRepeat", "features", "single_training_env(env, action_repeat=...)")
+        _deprecated("ActionRepeat", "single_training_env(env, action_repeat=...)")
         super().__init__(env, lambda rows: ActionRepeatRows(rows, repeat))
         self.repeat = int(repeat)
 
@@ -463,7 +463,7 @@ class RelativeTargets(RowsEnv):
     relative_actions=True)``)."""
 
     def __init__(self, env: gym.Env) -> None:
-        _deprecated("RelativeTargets", "features", "single_training_env(env, relative_actions=True)")
+        _deprecated("RelativeTargets", "single_training_env(env, relative_actions=True)")
         super().__init__(env, RelativeTargetRows)
         self.n_planets = self.rows.n_planets
 
@@ -473,10 +473,10 @@ class PointingShaping(RowsEnv):
     gamma=gamma)``); ``info["shaping"]`` holds the term added at each step."""
 
     def __init__(self, env: gym.Env, weight: float, gamma: float) -> None:
-        _deprecated("PointingShaping", "shaping", "single_training_env(env, pointing=..., gamma=...)")
+        _deprecated("PointingShaping", "single_training_env(env, pointing=..., gamma=...)")
         super().__init__(env, lambda rows: PointingShapingRows(rows, weight, gamma))
         self.weight, self.gamma = float(weight), float(gamma)
 
     def potential(self, observation: Any) -> float:
-        """``Phi(s)`` of one observation (:class:`planetnav_agents.shaping.PointingPotential`)."""
+        """``Phi(s)`` of one observation (:class:`planetnav_train.shaping.PointingPotential`)."""
         return float(self.rows.potential(np.reshape(observation, (1, -1)))[0])
