@@ -15,8 +15,8 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from planetnav_train.suite.runner import record_path, run_cell, write_json_atomic
 from planetnav_train.suite.cells import Cell, Settings
+from planetnav_train.suite.runner import record_path, run_cell, write_json_atomic
 
 
 def _ray_cell(config: dict[str, Any]) -> None:

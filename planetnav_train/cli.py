@@ -22,9 +22,10 @@ loader reads ``algo`` from it), ``tb/`` (TensorBoard), ``monitor/`` (episode CSV
 same seeds; each mean comes with a 95 % t-interval and the paired difference from a reference agent
 (``greedy``) on the same seeds (:mod:`planetnav_train.stats`). Agents that cannot act in the environment's
 action mode (``idle`` outside ``target`` mode, a model trained for other spaces) are skipped with a note.
-``algo: rllib_ppo`` trains with RLlib instead (``planetnav_rl/rllib.py``, registered through :mod:`planetnav_train.extensions`; the run directory then holds
-``checkpoint/`` in place of ``model.zip``, and ``evaluate``/``compare`` take it as an agent like a model
-path). Sweeps: ``planetnav_rl/tune.py``, docs/scaling.md.
+``algo: rllib_ppo`` trains with RLlib instead (``planetnav_rl/rllib.py``, registered through
+:mod:`planetnav_train.extensions`; the run directory then holds ``checkpoint/`` in place of ``model.zip``,
+and ``evaluate``/``compare`` take it as an agent like a model path). Sweeps: ``planetnav_rl/tune.py``
+(the ``tune`` command, registered the same way), docs/scaling.md.
 """
 
 from __future__ import annotations

@@ -43,7 +43,7 @@ FORMAT_VERSION = 1
 #: Zip members' timestamp (the zip format's earliest): the same export gives the same bytes, so sha256s.
 _ZIP_TIME = (1980, 1, 1, 0, 0, 0)
 #: Modules a recorded class may come from (a class name read from a file is imported, so only these).
-_CLASS_ROOTS = ("torch", "stable_baselines3", "sb3_contrib", "planetnav_agents", "planetnav_env")
+_CLASS_ROOTS = ("torch", "stable_baselines3", "sb3_contrib", "planetnav_train", "planetnav_env")
 
 #: Which ``state_dict`` entries act, per policy family: (attribute that marks the family, kept names,
 #: dropped names); a name covers itself and everything under it (``name.``). First match wins, so the

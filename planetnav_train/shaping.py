@@ -21,8 +21,8 @@ and the navigation reward's own variance then swamps the rest (docs/training.md,
 
 Used only in training (config key ``shaping: {pointing: WEIGHT}``), on arrays over the training env's
 rows (:class:`planetnav_train.batch_wrappers.PointingShapingRows`; a single env is one row); evaluation
-reports the unshaped navigation metrics. ``PointingShaping``, the former single-env wrapper, is a
-deprecated alias of that layer with N = 1.
+reports the unshaped navigation metrics. The deprecated single-env wrapper of that layer (N = 1) is
+:class:`planetnav_train.batch_wrappers.PointingShaping`.
 """
 
 from __future__ import annotations

@@ -34,13 +34,13 @@ from planetnav_agents import (
     Agent,
     BaselineAgent,
     GreedyAgent,
-    SB3Agent,
     make_agent,
     parse_observation,
 )
 from planetnav_agents.gain import bang_bang_time
 from planetnav_env.env import PlanetNavEnv
 from planetnav_env.ephemeris import DEEphemeris
+from planetnav_train.sb3 import SB3Agent
 
 SEEDS = range(10_000, 10_006)
 STEPS = 120

@@ -13,9 +13,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from planetnav_agents import make_agent, shipped
+from planetnav_agents import make_agent
 from planetnav_env.errors import ConfigError
-from planetnav_train import suite
+from planetnav_train import shipped, suite
 from planetnav_train.suite import publish, runner
 
 README = f"# x\n\nintro\n\n{publish.README_START}\nold text\n{publish.README_END}\n\n## after\n"

@@ -292,7 +292,8 @@ def test_suite_smoke_end_to_end(tmp_path, monkeypatch) -> None:
     assert (args.budget_scale, args.episode_steps, args.eval_episodes) == (0.003, 20, 2)
 
     # Publishing (nothing trains): the JSON into the repository, the README's summary, the best model.
-    from planetnav_train import publish, shipped
+    from planetnav_train import shipped
+    from planetnav_train.suite import publish
 
     readme, bench_json, baselines = tmp_path / "README.md", tmp_path / "benchmark.json", tmp_path / "bl"
     readme.write_text(f"# r\n\n{publish.README_START}\nnot yet\n{publish.README_END}\n\n## next\n")

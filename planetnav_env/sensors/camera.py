@@ -25,8 +25,7 @@ Modules
 This module is the public API: :func:`visibility`, :func:`measure`, their result records, and re-exports of
 the configuration (:mod:`~planetnav_env.sensors.camera_config`: :class:`CameraConfig`, ``DEFAULT_CAMERA``) and
 of the geometry helpers (:mod:`~planetnav_env.sensors.camera_geometry`: projection, field of view, apparent
-size, Sun angle). The compiled row and batch kernels live in :mod:`~planetnav_env.sensors.camera_kernels`;
-their old path here (``V_*``, ``N_VIS_SLOTS``, ``*_kernel``) is a deprecated alias.
+size, Sun angle). The compiled row and batch kernels live in :mod:`~planetnav_env.sensors.camera_kernels`.
 
 Implementation
 --------------
@@ -90,6 +89,7 @@ __all__ += camera_geometry.__all__
 #: ``VisibilityResult.occulter`` when nothing hides the target / when the Sun does.
 NO_OCCULTER = -1
 SUN_OCCULTER = -2
+
 
 @dataclass(frozen=True, slots=True)
 class VisibilityResult:

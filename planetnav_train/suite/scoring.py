@@ -244,8 +244,6 @@ def write_plots(
     return paths
 
 
-
-
 def score_matrices(
     records: Iterable[Mapping[str, Any]], track: str
 ) -> dict[str, tuple[list[str], np.ndarray]]:
