@@ -216,3 +216,38 @@ def test_no_module_level_getattr_aliases() -> None:
             if (isinstance(node, ast.FunctionDef) and node.name == "__getattr__") or "__getattr__" in targets:
                 offenders.append(name)
     assert not offenders, offenders
+
+
+def _docstring_nodes(tree: ast.AST) -> set[int]:
+    """The ids of the docstrings' nodes of a module and of its classes and functions."""
+    out: set[int] = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Module | ast.ClassDef | ast.FunctionDef | ast.AsyncFunctionDef):
+            body = node.body
+            if body and isinstance(body[0], ast.Expr) and isinstance(body[0].value, ast.Constant):
+                out.add(id(body[0].value))
+    return out
+
+
+def test_the_product_does_not_use_research() -> None:
+    """research/ (experiments, probes, commit-pair tools) may use the packages; the packages and train.py
+    never import research code nor open a file under research/ (docstrings may cite it)."""
+    offenders = []
+    paths = [ROOT / "train.py", *(p for folder in PACKAGES.values() for p in (ROOT / folder).rglob("*.py"))]
+    for path in paths:
+        tree = ast.parse(path.read_text(), filename=str(path))
+        docs = _docstring_nodes(tree)
+        rel = path.relative_to(ROOT)
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Import) and any(a.name.split(".")[0] == "research" for a in node.names):
+                offenders.append(f"{rel}: imports research")
+            elif isinstance(node, ast.ImportFrom) and (node.module or "").split(".")[0] == "research":
+                offenders.append(f"{rel}: imports from research")
+            elif (
+                isinstance(node, ast.Constant)
+                and isinstance(node.value, str)
+                and id(node) not in docs
+                and ("research/" in node.value or node.value == "research")
+            ):
+                offenders.append(f"{rel}: the string {node.value!r}")
+    assert not offenders, offenders

@@ -211,7 +211,7 @@ class Algo:
 
 # 8 envs x 256 = 2,048 steps per update, 5 epochs of 4 minibatches (as configs/cruise_ppo.yaml's update)
 _ON_POLICY = {"n_steps": 256, "batch_size": 512, "n_epochs": 5}
-# One gradient step per 4 env steps (configs/experiments/torque_sac.yaml): SB3's default of one per step
+# One gradient step per 4 env steps (research/experiments/torque_sac.yaml): SB3's default of one per step
 # trains at ~20 env steps/s on the loaded 2-core machine, which no 8-hour table affords.
 _OFF_POLICY = {"train_freq": 4, "gradient_steps": 1}
 #: The suite's algorithms: SB3 defaults except where the budget asks for more frequent updates.

@@ -1,7 +1,7 @@
 """Where a trained ThrustArc policy and ``optimum`` disagree, along the policy's own trajectory of one seed
 (docs/operations.md §7.4): the student drives, ``optimum`` labels each decision (DAgger's relabelling).
 
-    python configs/operations/diag_clone.py RUN_DIR/model.zip 10000
+    python research/operations/diag_clone.py RUN_DIR/model.zip 10000
 
 Prints the number of decisions, how many each images, the disagreement rate, and every decision where
 either images: its environment step, the teacher's and the student's action, and the student's action
@@ -11,6 +11,7 @@ probabilities (the last action, 3, is "stay at the mission attitude").
 from __future__ import annotations
 
 import sys
+from pathlib import Path
 
 import numpy as np
 import torch
@@ -19,7 +20,7 @@ from stable_baselines3 import PPO
 from planetnav_train.config import load_config
 from planetnav_train.pretrain import demonstrations
 
-CONFIG = "configs/operations/thrust_arc_tcm_bc.yaml"
+CONFIG = Path(__file__).resolve().parent / "thrust_arc_tcm_bc.yaml"
 
 
 def main(model_path: str, seed: int) -> None:
@@ -54,5 +55,5 @@ def main(model_path: str, seed: int) -> None:
 
 if __name__ == "__main__":
     if len(sys.argv) != 3:
-        sys.exit("usage: python configs/operations/diag_clone.py MODEL_ZIP SEED")
+        sys.exit("usage: python research/operations/diag_clone.py MODEL_ZIP SEED")
     main(sys.argv[1], int(sys.argv[2]))

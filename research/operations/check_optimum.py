@@ -3,18 +3,21 @@ predicted J (the covariance model's, at reset) beside the env's realised ``info[
 (``reward: covariance``, per-step noise streams), the relative difference, the sessions it played
 (start step, planet index, steps), the schedule evaluations and the search's CPU time.
 
-    NUMBA_CACHE_DIR=/tmp/nb_opt nice -n 10 .venv/bin/python configs/operations/check_optimum.py --episodes 5
+    NUMBA_CACHE_DIR=/tmp/nb_opt nice -n 10 .venv/bin/python research/operations/check_optimum.py --episodes 5
 """
 
 from __future__ import annotations
 
 import argparse
 import time
+from pathlib import Path
 
 from planetnav_agents import make_agent
 from planetnav_env.env import PlanetNavEnv
 from planetnav_train.config import load_config
 from planetnav_train.evaluate import evaluation_env
+
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def main() -> None:
@@ -23,7 +26,7 @@ def main() -> None:
     ap.add_argument("--episodes", type=int, default=5)
     ap.add_argument("--seed", type=int, default=10000, help="first held-out seed")
     args = ap.parse_args()
-    cfg = load_config("configs/operations/thrust_arc_tcm.yaml")
+    cfg = load_config(ROOT / "configs" / "operations" / "thrust_arc_tcm.yaml")
     env = PlanetNavEnv(evaluation_env(cfg.env_config(), None, "per_step"))
     worst = 0.0
     for seed in range(args.seed, args.seed + args.episodes):

@@ -6,7 +6,7 @@ calling thread (``time.perf_counter`` replaced by ``time.thread_time``), so that
 are not counted. Prints each round and the best per row, with the ratio new / reference. The threaded row
 is left out (its other threads' CPU time is not counted).
 
-    python benchmarks/bench_core_pair.py 57bef49 HEAD --rounds 3
+    python research/commit_pair/bench_core_pair.py 57bef49 HEAD --rounds 3
 """
 
 from __future__ import annotations

@@ -8,7 +8,7 @@ as km and as % of the best rule's mean J, with the paired t-interval; the mean p
 all seeds also the imaging fraction and the wall seconds per episode. Printed for the first ``--first``
 seeds and for all.
 
-    .venv/bin/python configs/operations/paired_table.py /tmp/opt/cmp_a.json /tmp/opt/cmp_b.json
+    .venv/bin/python research/operations/paired_table.py /tmp/opt/cmp_a.json /tmp/opt/cmp_b.json
 
 A block may be several files joined by commas (``a.json,c.json``: runs of the same seeds, e.g. a trained
 policy run later beside the stored rules and references); an agent present in more than one of them must

@@ -2,8 +2,9 @@
 two or more commits: each commit's own ``benchmarks/bench_vec.py`` ``vector_rate`` (native vector env) and
 ``single_rate`` (single env), run in alternating processes.
 
-    python benchmarks/bench_info_pair.py cf84ce8 HEAD                 # 3 rounds, N = 1 and the single env
-    python benchmarks/bench_info_pair.py cf84ce8 2ba1b11 HEAD --cases vec1/target/held,vec16/target/held
+    python research/commit_pair/bench_info_pair.py cf84ce8 HEAD        # 3 rounds, N = 1 and the single env
+    python research/commit_pair/bench_info_pair.py cf84ce8 2ba1b11 HEAD \\
+        --cases vec1/target/held,vec16/target/held
 
 Cases are ``vec<N>/<mode>/<stream>`` or ``single/<mode>/<stream>`` (``mode``: target or torque;
 ``stream``: held or random, as in bench_vec.py). Trees come from ``git archive`` into ``--root`` as

@@ -5,7 +5,7 @@ J = -return x ``reward_scale_km`` (the env's reward sums to -J / reward_scale_km
 configs). The training episodes act with sampled actions on the training seeds, so these are neither the
 argmax policy's J nor held-out values (docs/operations.md §7.6).
 
-    .venv/bin/python configs/operations/monitor_curve.py /tmp/h17/run_ppo12 --block 80
+    .venv/bin/python research/operations/monitor_curve.py /tmp/h17/run_ppo12 --block 80
 """
 
 from __future__ import annotations

@@ -18,7 +18,7 @@ import tempfile
 from collections.abc import Callable
 from pathlib import Path
 
-REPO = Path(__file__).resolve().parent.parent
+REPO = Path(__file__).resolve().parents[2]  # research/commit_pair/ -> the repository
 
 #: The start of a child that measures with a tree's own ``benchmarks/bench_vec.py`` (``bv``), the tree's
 #: root as ``sys.argv[1]``; it stops if ``planetnav_env`` came from anywhere else.

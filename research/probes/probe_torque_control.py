@@ -7,7 +7,7 @@ training env and algorithm from a config (``planetnav_train.envs.make_training_e
 decisions whose last env step measured, the policy's mean std and decisions/s. Runs H7-H17, H19-H21 of
 docs/training.md (issue 18) were made with it::
 
-    python benchmarks/probe_torque_control.py configs/torque_control.yaml --steps 3e6 \\
+    python research/probes/probe_torque_control.py configs/torque_control.yaml --steps 3e6 \\
         --set action_repeat=4 hyperparams.n_epochs=10 "shaping={}" --dense 0.2
 
 ``--set KEY=YAML`` overrides a config entry (dotted keys: ``env.reward_scale_km=1e5``). Two

@@ -2,8 +2,8 @@
 ``benchmarks/bench_vec.py`` ``ceiling_per_core`` (the compiled step alone, one thread, N = 1024), run in
 alternating processes.
 
-    python benchmarks/bench_ceiling_pair.py cf84ce8 HEAD          # 2 rounds of A then B, 4 cases
-    python benchmarks/bench_ceiling_pair.py A B --rounds 3 --cases target/random,torque/random
+    python research/commit_pair/bench_ceiling_pair.py cf84ce8 HEAD          # 2 rounds of A then B, 4 cases
+    python research/commit_pair/bench_ceiling_pair.py A B --rounds 3 --cases target/random,torque/random
 
 Each commit's tree is extracted with ``git archive`` into ``--root`` (default: the system's temporary
 folder) as ``wt_<short sha>``, with its numba cache beside it (``nb_<short sha>``); both are kept, so only

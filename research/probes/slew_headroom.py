@@ -17,8 +17,8 @@ the agent picks the direct torque, split by whether the planet it slews to is in
 gaps between the last measurement of one planet and the first of another (what any torque law, learned
 or not, is judged by: in torque mode, where there is no option, only these are reported).
 
-    .venv/bin/python benchmarks/bench_slew_headroom.py --episodes 10
-    .venv/bin/python benchmarks/bench_slew_headroom.py --episodes 10 --agent runs/hybrid/model.zip
+    .venv/bin/python research/probes/slew_headroom.py --episodes 10
+    .venv/bin/python research/probes/slew_headroom.py --episodes 10 --agent runs/hybrid/model.zip
 """
 
 from __future__ import annotations

@@ -7,12 +7,13 @@ the env's PD gains k_a = 0.02 N m, k_w = 1 N m s in units of the 0.01 N m wheel 
 noise of std ``--noise`` [wheel limits] per step, as a PPO policy's. Not a shipped agent: a check that
 an MLP on these inputs can express the loop (it stares at the nearest planet: no switching)::
 
-    python benchmarks/probe_linear_pd.py --rows 64 --steps 900
+    python research/probes/probe_linear_pd.py --rows 64 --steps 900
 """
 
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 
 import numpy as np
 
@@ -27,7 +28,7 @@ def main() -> None:
     from planetnav_train.config import load_config
     from planetnav_train.vec_training import NavTrainingVecEnv
 
-    cfg = load_config("configs/torque_control.yaml").env_config()
+    cfg = load_config(Path(__file__).resolve().parents[2] / "configs" / "torque_control.yaml").env_config()
     lay = L.ObservationLayout.for_config(cfg)
     p0, n_p, n = lay.planets_start, cfg.n_planets, a.rows
 

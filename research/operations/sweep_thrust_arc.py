@@ -3,7 +3,7 @@
 from the evaluation seeds 10000+), per-step noise streams, ``reward: covariance`` (J is then a function of
 the schedule). Prints one line per setting: mean J [km] over the seeds, mean Δv lost [m/s], CPU s.
 
-    NUMBA_CACHE_DIR=/tmp/nb_ops2 nice -n 10 .venv/bin/python configs/operations/sweep_thrust_arc.py \
+    NUMBA_CACHE_DIR=/tmp/nb_ops2 nice -n 10 .venv/bin/python research/operations/sweep_thrust_arc.py \
         --part periodic --episodes 4
 
 ``--part deadline`` sweeps the deadline-anchored sessions ``periodic:lead=L,session=S1-S2-S3,start=S0,
@@ -16,9 +16,12 @@ from __future__ import annotations
 
 import argparse
 import time
+from pathlib import Path
 
 from planetnav_train.config import load_config
 from planetnav_train.evaluate import SWEEP_SEED, evaluate_agent, evaluation_env
+
+ROOT = Path(__file__).resolve().parents[2]
 
 PERIODS_D = (0.5, 1, 1.5, 2, 3, 4, 5, 7)  # days (x 144 steps of 600 s)
 SESSIONS = (6, 12, 18, 24)  # steps: 1, 2, 3, 4 h
@@ -81,7 +84,7 @@ def main() -> None:
     ap.add_argument("--cycles", nargs="+", default=["0-1-2", "0-1"])
     ap.add_argument("--top", type=int, default=10, help="deadline part: the best settings again at the end")
     args = ap.parse_args()
-    cfg = load_config("configs/operations/thrust_arc_tcm.yaml")
+    cfg = load_config(ROOT / "configs" / "operations" / "thrust_arc_tcm.yaml")
     env_cfg = evaluation_env(cfg.env_config(), None, "per_step")
     if args.part == "deadline":
         grid = [TUNED_PERIODIC, *deadline_specs(args)]
