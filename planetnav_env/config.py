@@ -168,7 +168,7 @@ class EnvConfig:
         unit="s",
         kernel="step_s",
         doc="environment step. Its upper bound depends on scenario and episode_steps: the episode's "
-        "ephemeris table, (episode_steps + 1) steps rounded up to whole 5-day segments, must lie inside "
+        "ephemeris table, (episode_steps + 1) steps rounded up to whole table segments, must lie inside "
         "the DE421 ephemeris from every start epoch the scenario draws (the error names the bound)",
     )
     attitude_substep_s: float = option(
@@ -200,7 +200,7 @@ class EnvConfig:
     reward: str = option(
         "truth",
         choices=REWARDS,
-        doc="``truth`` (-\\|r_est - r_true\\| / reward_scale_km, privileged) or ``covariance`` "
+        doc="``truth`` (-|r_est - r_true| / reward_scale_km, privileged) or ``covariance`` "
         "(-sqrt(trace P_rr) / reward_scale_km, computable on board)",
     )
     reward_scale_km: float = option(1000.0, gt=0, unit="km", kernel="reward_scale", doc="reward scale")
@@ -302,6 +302,7 @@ class EnvConfig:
         if len(set(planets)) != len(planets):
             raise ConfigError(f"planets must not repeat, got {list(planets)}")
         object.__setattr__(self, "planets", planets)
+        _check_ephemeris_span(self)
         ratio = self.step_s / self.attitude_substep_s
         if abs(ratio - round(ratio)) > 1e-9:
             raise ConfigError(
@@ -315,7 +316,6 @@ class EnvConfig:
                     f"settled_substep_s ({coarse}) must be a multiple of attitude_substep_s "
                     f"({self.attitude_substep_s}) that divides step_s ({self.step_s}), or 0 to disable"
                 )
-        _check_ephemeris_span(self)
         names = []
         for name in self.pulsars:
             try:

@@ -141,17 +141,20 @@ class Option:
             raise OptionTypeError(path, self.expected(), value)
         if self.kind == "matrix":
             n_rows, n_cols = self.length
-            ok = len(rows) == n_rows and all(isinstance(r, (list, tuple)) and len(r) == n_cols for r in rows)
-            out = tuple(tuple(self._scalar(item, v) for v in r) for r in rows) if ok else None
-            if out is None or any(v is None for r in out for v in r):
+            if len(rows) != n_rows or not all(
+                isinstance(r, (list, tuple)) and len(r) == n_cols for r in rows
+            ):
                 raise OptionError(path, self.expected(), value)
-            return out
-        out = tuple(self._scalar(item, v) for v in rows)
+            out = tuple(self._scalar(item, v) for r in rows for v in r)
+        else:
+            out = tuple(self._scalar(item, v) for v in rows)
         if any(v is None for v in out):
             raise OptionTypeError(path, self.expected(), value)
-        if len(out) < lo or (hi is not None and len(out) > hi) or not all(self._in_range(v) for v in out):
+        if self.kind != "matrix" and (len(out) < lo or (hi is not None and len(out) > hi)):
             raise OptionError(path, self.expected(), value)
-        return out
+        if not all(self._in_range(v) for v in out):
+            raise OptionError(path, self.expected(), value)
+        return tuple(zip(*[iter(out)] * self.length[1], strict=True)) if self.kind == "matrix" else out
 
     @staticmethod
     def _scalar(kind: str, v: Any) -> Any:
