@@ -31,7 +31,7 @@ from planetnav_env.ephemeris import DEEphemeris
 from planetnav_env.errors import ConfigError, OptionError, PlanetNavError, UnknownOptionError
 from planetnav_env.estimation.ekf import FilterConfig
 from planetnav_env.estimation.measurements import MODELS
-from planetnav_env.options import check_options, declared, option, section
+from planetnav_env.options import check_options, declared, option, option_table, replace_table, section
 from planetnav_env.scenarios import _RANDOM_EPOCHS as RANDOM_EPOCHS
 from planetnav_env.scenarios import CRUISE_EPOCH
 from planetnav_env.sensors.camera_config import CameraConfig
@@ -465,3 +465,11 @@ def _check_ephemeris_span(cfg: EnvConfig) -> None:
         f"{cfg.episode_steps} (the episode must lie inside the DE421 ephemeris)",
         cfg.step_s,
     )
+
+
+if __name__ == "__main__":  # python -m planetnav_env.config docs/environment.md: rewrite its option table
+    import sys
+
+    for name in sys.argv[1:]:
+        doc = Path(name)
+        doc.write_text(replace_table(doc.read_text(), option_table(EnvConfig)))

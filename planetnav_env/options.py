@@ -7,7 +7,8 @@ for a plain scalar the compiled kernels read, the name of its slot in the kernel
 * the checks: :func:`check_options` (called first in ``__post_init__``) raises an
   :class:`~planetnav_env.errors.OptionError` naming the option, its type, unit and range and the bad value;
   checks that involve several options stay hand-written after it;
-* the option table of ``docs/environment.md`` (:func:`option_table`, kept equal by a test);
+* the option table of ``docs/environment.md`` (:func:`option_table`; ``python -m planetnav_env.config
+  docs/environment.md`` rewrites it, a test keeps it equal);
 * the kernel record's copied scalars (:func:`kernel_fields`, :func:`kernel_values`).
 
 So adding an option is one declaration (and its test). ``docs/architecture.md`` ("Configuration") records
@@ -333,15 +334,3 @@ def _plain(v: Any) -> Any:
 
 def _num(x: float) -> str:
     return repr(x) if isinstance(x, int) or not float(x).is_integer() else str(int(x))
-
-
-if __name__ == "__main__":  # python -m planetnav_env.options docs/environment.md: rewrite its table
-    import sys
-
-    from planetnav_env.config import EnvConfig
-
-    for name in sys.argv[1:]:
-        with open(name) as fh:
-            text = fh.read()
-        with open(name, "w") as fh:
-            fh.write(replace_table(text, option_table(EnvConfig)))

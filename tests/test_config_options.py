@@ -175,7 +175,7 @@ def test_docs_option_table_is_the_generated_one() -> None:
     text = DOCS.read_text()
     assert replace_table(text, option_table(EnvConfig)) == text, (
         "docs/environment.md's option table differs from the declarations: "
-        "python -m planetnav_env.options docs/environment.md"
+        "python -m planetnav_env.config docs/environment.md"
     )
 
 
