@@ -1,6 +1,7 @@
 """Agents for the planetnav environments, behind one interface (:class:`planetnav_agents.base.Agent`).
 
-``make_agent(name_or_path, env)`` builds one by name or loads a saved Stable-Baselines3 model:
+``make_agent(name_or_path, env)`` builds a rule agent by name, or a learned policy from a saved model
+through the loaders that the training packages register (:mod:`planetnav_agents.loaders`):
 
 ============== ==========================================================================================
 name           agent
@@ -21,11 +22,12 @@ optimum        operations scenarios: the best open-loop session schedule found a
 planner        non-myopic rollout planner on copies of the environment, scored by the filter's
                covariance (:mod:`planetnav_agents.planner`)
 PATH           a saved SB3 model (``.zip`` or a ``runs/<name>/`` directory), deterministic actions
+               (loader of :mod:`planetnav_train.sb3`; needs the ``[train]`` extra)
 PATH           an RLlib checkpoint (a ``runs/<name>/`` directory of ``algo: rllib_ppo``, or the checkpoint
-               directory itself; needs the ``[ray]`` extra), the policy's mode (:mod:`planetnav_agents.rllib`)
+               directory itself; needs the ``[ray]`` extra), the policy's mode (:mod:`planetnav_rl.agent`)
 PATH@sampled   the same model, actions sampled from the policy (seeded by ``reset(seed)``)
 suite:TASK     the benchmark suite's shipped baseline of TASK (``suite:Cruise-Target-v0``): the best
-               raw-track policy, stored in ``agents/baselines/`` (:mod:`planetnav_agents.shipped`)
+               raw-track policy, stored in ``planetnav_train/baselines/`` (:mod:`planetnav_train.shipped`)
 ============== ==========================================================================================
 
 Parameters follow the name: ``NAME:key=value,key=value`` (``periodic:period=60,cycle=0-1-2``,
@@ -57,20 +59,12 @@ import gymnasium as gym
 from planetnav_agents.base import Agent, NotApplicableError, ParsedObservation, TargetAgent, parse_observation
 from planetnav_agents.baseline import BaselineAgent
 from planetnav_agents.greedy import GreedyAgent, greedy_pd
+from planetnav_agents.loaders import MISSING_LOADERS_HINT, find_loader, register_loader
 from planetnav_agents.optimum import OptimumAgent
 from planetnav_agents.periodic import PeriodicAgent
 from planetnav_agents.planner import PlannerAgent
-from planetnav_agents.rllib import RLlibAgent
-from planetnav_agents.rllib import find_checkpoint as find_rllib_checkpoint
-from planetnav_agents.sb3 import SB3Agent
-from planetnav_agents.shipped import is_shipped_spec, make_shipped_agent
 from planetnav_agents.simple import IdleAgent, RandomAgent
 from planetnav_env.config import EnvConfig
-
-if __name__ == "agents":  # this folder imported under its own name, from a source checkout
-    from planetnav_agents._checkout_alias import alias_checkout_import
-
-    alias_checkout_import()
 
 AGENTS: dict[str, Callable[..., Agent]] = {
     "baseline": functools.partial(BaselineAgent, criterion="distance"),
@@ -179,10 +173,12 @@ def not_applicable(name_or_path: str, config: EnvConfig) -> str | None:
 
 
 def make_agent(name_or_path: str | Path, env: gym.Env, **kwargs: Any) -> Agent:
-    """An agent by registered name (see the module docstring) or from a saved SB3 model path.
+    """An agent by registered name (see the module docstring) or from a saved model through the first
+    :mod:`~planetnav_agents.loaders` loader that takes it.
 
     ``kwargs`` go to the agent's constructor (e.g. ``horizon=60`` for ``greedy``, ``algo="ppo"`` for a
-    model). Raises ``ValueError`` naming the known agents when the name is neither registered nor a path.
+    model). Raises ``ValueError`` naming the known agents when the name is neither a rule agent nor taken
+    by a loader.
     """
     key, params = parse_spec(name_or_path)
     if params:
@@ -198,20 +194,15 @@ def make_agent(name_or_path: str | Path, env: gym.Env, **kwargs: Any) -> Agent:
         # "PATH@sampled": the saved policy's actions are sampled, not its argmax (seeded by reset(seed)).
         key = key[: -len(SAMPLED_SUFFIX)]
         kwargs.setdefault("deterministic", False)
-    if is_shipped_spec(key):
-        return make_shipped_agent(key, env, **kwargs)
     if _factory(key) is not None:
         return _factory(key)(env, **kwargs)
-    path = Path(key)
-    if find_rllib_checkpoint(path) is not None:
-        kwargs.pop("algo", None)  # an RLlib checkpoint names its own algorithm
-        return RLlibAgent(path, env, **kwargs)
-    if path.exists() or path.with_suffix(".zip").exists():
-        return SB3Agent(path, env, **kwargs)
+    loader = find_loader(key)
+    if loader is not None:
+        return loader.load(key, env, **kwargs)
     known = sorted({*AGENTS, *OPERATIONS_AGENTS})
     raise ValueError(
-        f"unknown agent {key!r}: not one of {known}, not a shipped baseline (suite:<task>) and no model "
-        "file at that path"
+        f"unknown agent {key!r}: not one of {known}, and no registered loader takes it (a shipped "
+        f"baseline suite:<task> or a saved model at that path); {MISSING_LOADERS_HINT}"
     )
 
 
@@ -227,14 +218,13 @@ __all__ = [
     "ParsedObservation",
     "PeriodicAgent",
     "PlannerAgent",
-    "RLlibAgent",
     "RandomAgent",
-    "SB3Agent",
     "TargetAgent",
     "make_agent",
     "not_applicable",
     "parse_observation",
     "parse_spec",
+    "register_loader",
     "requires_idle_action",
     "strip_sampled",
 ]

@@ -160,7 +160,7 @@ class Agent:
 
     def follow(self, target: int) -> None:
         """Another actor holds planet ``target`` (an index, -1 for none) in this episode: the agent labels
-        states it does not drive (DAgger, ``planetnav_agents.pretrain``). Agents whose actions are
+        states it does not drive (DAgger, ``planetnav_train.pretrain``). Agents whose actions are
         relative to their
         own last choice resynchronise; the others ignore it."""
 
@@ -190,7 +190,7 @@ class PointingLaw:
     ask 500 times the wheel limit and bang the wheels.)
 
     What :meth:`TargetAgent.torque_toward` commands in torque mode and what the ``pd_torque`` feature
-    (:class:`planetnav_agents.features.FeatureBatch`) gives per planet: one formula.
+    (:class:`planetnav_train.features.FeatureBatch`) gives per planet: one formula.
     """
 
     def __init__(self, cfg: EnvConfig) -> None:

@@ -11,7 +11,7 @@ at it for ``horizon`` steps would bring, after the steps lost slewing there (``d
   the environment core's own model and update (:func:`planetnav_env.core.what_if.predicted_planet_trace`).
 
 :class:`planetnav_agents.greedy.GreedyAgent` picks the largest score, the ``gain`` observation feature
-(:class:`planetnav_agents.features.FeatureBatch`) is the score relative to the best planet's. All of
+(:class:`planetnav_train.features.FeatureBatch`) is the score relative to the best planet's. All of
 them call :func:`planet_scores`, which loops over rows in compiled code, so a row's score does not depend
 on the batch it is computed in (a single env, N = 1, and the vector training env's rows agree bit for
 bit).

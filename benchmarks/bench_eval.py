@@ -27,10 +27,10 @@ import numpy as np
 import yaml
 
 import planetnav_env  # noqa: F401  (registers the ids)
-from planetnav_agents.sb3 import algorithm_class
-from planetnav_agents.vec_training import NavTrainingVecEnv
 from planetnav_train.evaluate import evaluate_agent
+from planetnav_train.sb3 import algorithm_class
 from planetnav_train.suite import get_task
+from planetnav_train.vec_training import NavTrainingVecEnv
 
 
 def save_policy(run: Path, env_cfg: object) -> Path:

@@ -14,10 +14,10 @@ from __future__ import annotations
 import argparse
 import time
 
-from planetnav_agents.sb3 import algorithm_class
 from planetnav_train.algorithms import algo_kwargs
 from planetnav_train.config import TrainConfig, load_config
 from planetnav_train.envs import make_training_env
+from planetnav_train.sb3 import algorithm_class
 
 
 def rate(tc: TrainConfig, vec_env: str, decisions: int) -> float:
@@ -56,7 +56,7 @@ def main() -> None:
     print("| training env | env steps/s (env + learning) | ratio |")
     print("|---|---|---|")
     print(f"| DummyVecEnv of wrapped single envs | {dummy:,.0f} | 1.00x |")
-    print(f"| native vector env (planetnav_agents.vec_training) | {native:,.0f} | {native / dummy:.2f}x |")
+    print(f"| native vector env (planetnav_train.vec_training) | {native:,.0f} | {native / dummy:.2f}x |")
     print("Target (issue 8): native >= 2x the DummyVecEnv path of the default run.")
 
 

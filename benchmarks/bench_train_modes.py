@@ -12,7 +12,7 @@ Several configs (or ``--n-envs`` values) are timed in the same run, so that they
 each line also prints this process's CPU time over the wall time of its PPO runs (below 1: other processes
 took the CPU) and the load average, since the rates on a shared machine scale with both.
 
-Both paths run the same option layers (``planetnav_agents.batch_wrappers``: the torque recipe's
+Both paths run the same option layers (``planetnav_train.batch_wrappers``: the torque recipe's
 ``pd_torque`` feature and pointing shaping included), which ``tests/test_vec_training.py`` holds equal:
 the native path steps all rows in one compiled loop with the options on arrays; the DummyVecEnv path
 (``vec_env: dummy``, what torque modes trained on before: a Python env object per row, options computed
@@ -80,8 +80,8 @@ def profile(tc: TrainConfig, decisions: int) -> dict[str, float]:
 
     import torch
 
-    from planetnav_agents.sb3 import algorithm_class
     from planetnav_train.algorithms import algo_kwargs
+    from planetnav_train.sb3 import algorithm_class
 
     torch.set_num_threads(tc.torch_threads)
     venv = make_training_env(tc, None)

@@ -1,6 +1,6 @@
 """Bytes of a saved model and of its policy-only export per suite algorithm and task (docs/suite.md,
 "Shipped baselines"): which algorithms' best policies can ship as a baseline (under 1 MB,
-``planetnav_agents.shipped.MAX_BASELINE_BYTES``), as the full model or as the export
+``planetnav_train.shipped.MAX_BASELINE_BYTES``), as the full model or as the export
 (:func:`planetnav_train.export.export_policy`, which also checks the export acts as the model).
 
 Each model is built as ``benchmarks/suite_model_sizes.py`` builds it: the suite's settings of its raw-track
@@ -20,11 +20,11 @@ from pathlib import Path
 
 from suite_model_sizes import save_cell_model  # the same model build as the full-size table
 
-from planetnav_agents.shipped import MAX_BASELINE_BYTES
 from planetnav_env.env import PlanetNavEnv
 from planetnav_env.errors import ConfigError
 from planetnav_train import suite
 from planetnav_train.export import export_policy
+from planetnav_train.shipped import MAX_BASELINE_BYTES
 
 
 def main(argv: list[str] | None = None) -> int:

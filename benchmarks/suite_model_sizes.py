@@ -1,5 +1,5 @@
 """Bytes of a saved model per suite algorithm and task (docs/suite.md, "Publishing"): which algorithms' models
-can ship as a baseline (under 1 MB, ``planetnav_agents.shipped.MAX_BASELINE_BYTES``). Each model is built
+can ship as a baseline (under 1 MB, ``planetnav_train.shipped.MAX_BASELINE_BYTES``). Each model is built
 with the suite's settings of its raw-track cell (policy and hyper-parameters of ``suite.cell_config``),
 updated once (so its optimizers hold their state), and saved by SB3 as training saves it (networks, target
 networks and optimizer state; no replay buffer). More training changes the weights, not the size.
@@ -15,11 +15,11 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
-from planetnav_agents.sb3 import algorithm_class
-from planetnav_agents.shipped import MAX_BASELINE_BYTES
 from planetnav_env.env import PlanetNavEnv
 from planetnav_env.errors import ConfigError
 from planetnav_train import suite
+from planetnav_train.sb3 import algorithm_class
+from planetnav_train.shipped import MAX_BASELINE_BYTES
 
 
 def save_cell_model(task: suite.Task, algo: str, env: PlanetNavEnv, tc: Any, folder: Path) -> Path:

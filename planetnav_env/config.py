@@ -18,14 +18,22 @@ import dataclasses
 import itertools
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, fields
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
+from planetnav_env.approach import DEFAULT_CLOSEST_APPROACH_TDB
 from planetnav_env.bodies import BODIES
-from planetnav_env.errors import ConfigError, PlanetNavError, UnknownOptionError
+from planetnav_env.core.ephemeris_table import SEGMENT_S
+from planetnav_env.ephemeris import DEEphemeris
+from planetnav_env.errors import ConfigError, OptionError, PlanetNavError, UnknownOptionError
 from planetnav_env.estimation.ekf import FilterConfig
 from planetnav_env.estimation.measurements import MODELS
+from planetnav_env.options import check_options, declared, option, option_table, replace_table, section
+from planetnav_env.scenarios import _RANDOM_EPOCHS as RANDOM_EPOCHS
+from planetnav_env.scenarios import CRUISE_EPOCH
 from planetnav_env.sensors.camera_config import CameraConfig
 from planetnav_env.sensors.pulsar import XrayDetector, pulsar
 
@@ -37,27 +45,19 @@ NOISE_STREAMS = ("sequential", "per_step")
 
 @dataclass(frozen=True)
 class AttitudeSettings:
-    """Spacecraft mass properties, wheels and the PD law (see :mod:`planetnav_env.attitude.pointing`).
+    """Spacecraft mass properties, wheels and the PD law (see :mod:`planetnav_env.attitude.pointing`)."""
 
-    inertia [kg m^2] (3 principal moments), wheel_torque_limit [N m], wheel_momentum_capacity [N m s],
-    k_a [N m], k_w [N m s]: PD gains, rate_noise_deg_s: 1-sigma of the reported body rates [deg/s].
-    """
-
-    inertia: tuple[float, float, float] = (10.0, 12.0, 8.0)
-    wheel_torque_limit: float = 0.01
-    wheel_momentum_capacity: float = 0.5
-    k_a: float = 0.02
-    k_w: float = 1.0
-    rate_noise_deg_s: float = 1e-4
+    inertia: tuple[float, float, float] = option(
+        (10.0, 12.0, 8.0), kind="floats", length=3, gt=0, unit="kg m^2", doc="principal moments of inertia"
+    )
+    wheel_torque_limit: float = option(0.01, gt=0, unit="N m", doc="torque limit of each reaction wheel")
+    wheel_momentum_capacity: float = option(0.5, gt=0, unit="N m s", doc="momentum capacity of each wheel")
+    k_a: float = option(0.02, gt=0, unit="N m", kernel="k_a", doc="PD pointing law: angle gain")
+    k_w: float = option(1.0, gt=0, unit="N m s", kernel="k_w", doc="PD pointing law: rate gain")
+    rate_noise_deg_s: float = option(1e-4, ge=0, unit="deg/s", doc="1-sigma of the reported body rates")
 
     def __post_init__(self) -> None:
-        _positive(self, "wheel_torque_limit", "wheel_momentum_capacity", "k_a", "k_w")
-        if len(self.inertia) != 3 or any(
-            not (math.isfinite(float(v)) and float(v) > 0) for v in self.inertia
-        ):
-            raise ConfigError(f"attitude.inertia must be 3 positive moments [kg m^2], got {self.inertia!r}")
-        if not (math.isfinite(self.rate_noise_deg_s) and self.rate_noise_deg_s >= 0):
-            raise ConfigError(f"attitude.rate_noise_deg_s must be >= 0, got {self.rate_noise_deg_s!r}")
+        check_options(self, "attitude.")
 
 
 #: Most knowledge deadlines an operations scenario may list (the core keeps one slot per deadline).
@@ -87,45 +87,41 @@ class OperationsSettings:
     J = sum_k e_k + w * dv_lost.
     """
 
-    thrust_n: float = 0.092
-    mass_kg: float = 486.0
-    thrust_mag_sigma: float = 0.02
-    thrust_point_sigma_deg: float = 1.0
-    thrust_corr_time_s: float = 86400.0
-    attitude_tolerance_deg: float = 1.0
-    deadlines_s: tuple[float, ...] = (604800.0, 1382400.0, 1684800.0)
-    encounter_s: float = 1814400.0
-    cost_weight: float = 129.6
+    thrust_n: float = option(0.092, gt=0, unit="N", doc="engine thrust T")
+    mass_kg: float = option(486.0, gt=0, unit="kg", doc="spacecraft mass m (constant)")
+    thrust_mag_sigma: float = option(0.02, ge=0, unit="fraction of a", doc="1-sigma thrust magnitude error")
+    thrust_point_sigma_deg: float = option(
+        1.0, ge=0, unit="deg", doc="1-sigma thrust pointing error per cross axis"
+    )
+    thrust_corr_time_s: float = option(
+        86400.0, gt=0, unit="s", doc="correlation time of the execution errors (first-order Gauss-Markov)"
+    )
+    attitude_tolerance_deg: float = option(
+        1.0, gt=0, lt=90, unit="deg", doc="the engine thrusts while the thrust axis is this close to u"
+    )
+    deadlines_s: tuple[float, ...] = option(
+        (604800.0, 1382400.0, 1684800.0),
+        kind="floats",
+        length=(1, MAX_DEADLINES),
+        gt=0,
+        unit="s from episode start",
+        doc="knowledge deadlines (TCM epochs), strictly increasing, each at most encounter_s",
+    )
+    encounter_s: float = option(
+        1814400.0, gt=0, kernel="ops_encounter", unit="s from episode start", doc="encounter epoch E"
+    )
+    cost_weight: float = option(
+        129.6, ge=0, kernel="ops_weight", unit="km per m/s", doc="exchange rate w of delta-v lost in J"
+    )
 
     def __post_init__(self) -> None:
-        for name in ("thrust_n", "mass_kg", "thrust_corr_time_s", "encounter_s"):
-            _positive(self, name, prefix="operations.")
-        for name in ("thrust_mag_sigma", "thrust_point_sigma_deg", "cost_weight"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not (math.isfinite(v) and v >= 0):
-                raise ConfigError(f"operations.{name} must be a finite number >= 0, got {v!r}")
-        tol = self.attitude_tolerance_deg
-        if isinstance(tol, bool) or not isinstance(tol, (int, float)) or not (0.0 < tol < 90.0):
-            raise ConfigError(f"operations.attitude_tolerance_deg must be in (0, 90) deg, got {tol!r}")
+        check_options(self, "operations.")
         dl = self.deadlines_s
-        if isinstance(dl, (int, float)):
-            dl = (dl,)
-        try:
-            dl = tuple(float(v) for v in dl)
-        except (TypeError, ValueError):
-            raise ConfigError(f"operations.deadlines_s must be a list of numbers [s], got {dl!r}") from None
-        if not 1 <= len(dl) <= MAX_DEADLINES:
-            raise ConfigError(
-                f"operations.deadlines_s must list 1 to {MAX_DEADLINES} epochs, got {len(dl)}: {list(dl)}"
-            )
-        if not all(math.isfinite(v) and 0.0 < v <= self.encounter_s for v in dl) or any(
-            b <= a for a, b in itertools.pairwise(dl)
-        ):
+        if not all(v <= self.encounter_s for v in dl) or any(b <= a for a, b in itertools.pairwise(dl)):
             raise ConfigError(
                 "operations.deadlines_s must be strictly increasing epochs in (0, encounter_s = "
                 f"{self.encounter_s}] s, got {list(dl)}"
             )
-        object.__setattr__(self, "deadlines_s", dl)
 
     @property
     def thrust_accel_km_s2(self) -> float:
@@ -144,92 +140,160 @@ class OperationsSettings:
 class EnvConfig:
     """Everything that defines an episode. Units: s, km, rad unless the name says otherwise.
 
-    scenario: ``cruise`` (the thesis's Venus-to-Mars transfer from 2020-08-01, fixed),
-        ``random-cruise`` (epoch, transfer arc and initial estimate error drawn from the reset seed) or
-        ``mars-approach`` (the patent's case: Mars-centred dynamics with Sun, Earth and Jupiter
-        perturbations; the episode ends ``approach_end_before_ca_h`` before closest approach).
-    planets: bodies the camera may target (their order is the action index).
-    step_s: environment step; attitude_substep_s: attitude integration step (must divide step_s).
-    settled_substep_s: the attitude step while a held target is already settled (pointing error below
-        1e-4 rad, rates below 1e-5 rad/s, PD law only): the closed loop is then near equilibrium and
-        coarse steps follow the 1 s integration within 1" (median 0.1", far below the star tracker's
-        1.4" per axis) and leave the estimate within 1 m (tested), at a tenth of the cost. Must be a
-        multiple of attitude_substep_s that divides step_s; 0 disables it.
-    episode_steps: steps before truncation.
-    action_mode: ``target``, ``torque``, ``target+torque`` or ``hybrid`` (see :class:`PlanetNavEnv`;
-        ``hybrid``: each step either the PD law slews to a planet or the agent's torque drives the wheels).
-    measurement_model: filter model, one of :data:`planetnav_env.estimation.measurements.MODELS`.
-    reward: ``truth`` (-|r_est - r_true| / reward_scale_km, privileged) or ``covariance``
-        (-sqrt(trace P_rr) / reward_scale_km, computable on board); torque_penalty multiplies
-        the squared commanded torque fraction.
-    torque_action_scale: the fraction of each wheel's torque limit that a torque action of 1 commands
-        (``torque`` and ``target+torque`` modes), in (0, 1]. The agent's torque is held for a whole
-        step, so a pointing law needs torques of ~1e-3 of the limit while a slew needs ~1e-1: a
-        smaller scale gives a learner's [-1, 1] outputs that resolution, at the cost of slower slews
-        (0.02: a 90-degree slew takes ~10 steps). Agents convert with it (``TargetAgent.torque_toward``).
-    divergence_km: the episode terminates when the true position error exceeds it.
-    observation: ``box`` (flat float32) or ``dict``.
-    observe_in_field: add the ``in_field`` block to the observation (last, one 0/1 per planet: the
-        camera's visibility rule passes for it at the current star-tracker attitude and estimated
-        position; ``ObservationLayout``). Off by default, so existing ids keep their observation.
-    idle_action: add a last discrete action "camera off" (for the idle floor agent); with ``operations``
-        it is "stay at the mission attitude" (the engine thrusts).
-    star_tracker: ``qmethod`` (q-method fix from the synthetic sky each step) or ``ideal``.
-    star_tracker_sigma_arcsec: attitude error per axis the filter assumes on top of the camera's
-        direction noise (the star tracker's error rotates every measured line of sight). The star
-        fix comes from the camera's own field (5" per star, ~15 stars): its error across the
-        boresight measures 1.4" per axis.
-    star_tracker_bias_arcsec: a fixed misalignment of the attitude fix, a small rotation vector in
-        body axes [arcsec] composed with every fix (``q_est = q_fix * q_bias``); the filter does not know
-        it. Zero by default; for studying how attitude errors reach navigation.
-    noise_streams: how sensor noise is drawn from the episode seed. ``sequential`` (default): one stream
-        per episode, consumed in the order the sensors ask. ``per_step``: each sensor's noise at step k
-        comes from its own stream keyed by (episode seed, k, sensor), independent of what happened
-        before (``planetnav_env.core.rng.substream``). The noise has the same distribution either way;
-        ``per_step`` gives common random numbers: two policies run on the same seed see the same noise
-        whenever they make the same measurement at the same step, so their paired difference measures
-        the policies rather than two noise draws (``train.py compare --noise-streams per_step``).
-    operations: an :class:`OperationsSettings` (thrust arc, knowledge deadlines; docs/operations.md) or
-        None (default: no mission attitude, the reward above). Needs ``action_mode="target"``,
-        ``idle_action=True`` and no pulsars.
+    Each option is declared once, below, with its type, unit, range and description
+    (:func:`planetnav_env.options.option`); ``docs/environment.md`` ("Options") holds the table generated
+    from these declarations. ``__post_init__`` checks each option against its declaration, then the rules
+    that tie several together (sub-steps that divide the step, an episode inside the ephemeris, the
+    modes that operations and pulsars need).
     """
 
-    scenario: str = "cruise"
-    planets: tuple[str, ...] = ("venus", "mars", "earth")
-    step_s: float = 60.0
-    attitude_substep_s: float = 1.0
-    settled_substep_s: float = 10.0
-    episode_steps: int = 1440
-    action_mode: str = "target"
-    measurement_model: str = "los+size"
-    reward: str = "truth"
-    reward_scale_km: float = 1000.0
-    torque_penalty: float = 0.0
-    torque_action_scale: float = 1.0
-    divergence_km: float = 1.0e5
-    observation: str = "box"
-    observe_in_field: bool = False
-    idle_action: bool = False
-    star_tracker: str = "qmethod"
-    star_tracker_sigma_arcsec: float = 1.5
-    star_tracker_bias_arcsec: tuple[float, float, float] = (0.0, 0.0, 0.0)
-    noise_streams: str = "sequential"
-    pulsars: tuple[str, ...] = ()
-    detector_fov_deg: float = 2.0
-    ambiguity_k_sigma: float = 3.0
-    approach_end_before_ca_h: float = 2.0
-    camera: CameraConfig = field(default_factory=CameraConfig)
-    filter: FilterConfig = field(default_factory=FilterConfig)
-    attitude: AttitudeSettings = field(default_factory=AttitudeSettings)
-    detector: XrayDetector = field(default_factory=XrayDetector)
-    operations: OperationsSettings | None = None
+    scenario: str = option(
+        "cruise",
+        choices=SCENARIOS,
+        doc="``cruise`` (the thesis's Venus-to-Mars transfer from 2020-08-01, fixed), ``random-cruise`` "
+        "(epoch, transfer arc and initial estimate error drawn from the reset seed) or ``mars-approach`` "
+        "(the patent's case: Mars-centred dynamics with Sun, Earth and Jupiter perturbations; the episode "
+        "ends ``approach_end_before_ca_h`` before closest approach)",
+    )
+    planets: tuple[str, ...] = option(
+        ("venus", "mars", "earth"),
+        kind="strs",
+        length=(1, None),
+        doc="bodies the camera may target, no repeats, any of planetnav_env.bodies but the Sun (their order "
+        "is the action index)",
+    )
+    step_s: float = option(
+        60.0,
+        gt=0,
+        unit="s",
+        kernel="step_s",
+        doc="environment step. Its upper bound depends on scenario and episode_steps: the episode's "
+        "ephemeris table, (episode_steps + 1) steps rounded up to whole table segments, must lie inside "
+        "the DE421 ephemeris from every start epoch the scenario draws (the error names the bound)",
+    )
+    attitude_substep_s: float = option(
+        1.0, gt=0, unit="s", kernel="substep_s", doc="attitude integration step (must divide step_s)"
+    )
+    settled_substep_s: float = option(
+        10.0,
+        ge=0,
+        unit="s",
+        kernel="coarse_s",
+        doc="the attitude step while a held target is already settled (pointing error below 1e-4 rad, "
+        "rates below 1e-5 rad/s, PD law only): the closed loop is then near equilibrium and coarse steps "
+        'follow the 1 s integration within 1" (median 0.1", far below the star tracker\'s 1.4" per axis) '
+        "and leave the estimate within 1 m (tested), at a tenth of the cost. Must be a multiple of "
+        "attitude_substep_s that divides step_s; 0 disables it",
+    )
+    episode_steps: int = option(
+        1440, ge=1, unit="steps", kernel="episode_steps", doc="steps before truncation"
+    )
+    action_mode: str = option(
+        "target",
+        choices=ACTION_MODES,
+        doc="see PlanetNavEnv; ``hybrid``: each step either the PD law slews to a planet or the agent's "
+        "torque drives the wheels",
+    )
+    measurement_model: str = option(
+        "los+size", choices=MODELS, doc="filter model (planetnav_env.estimation.measurements.MODELS)"
+    )
+    reward: str = option(
+        "truth",
+        choices=REWARDS,
+        doc="``truth`` (-|r_est - r_true| / reward_scale_km, privileged) or ``covariance`` "
+        "(-sqrt(trace P_rr) / reward_scale_km, computable on board)",
+    )
+    reward_scale_km: float = option(1000.0, gt=0, unit="km", kernel="reward_scale", doc="reward scale")
+    torque_penalty: float = option(
+        0.0, ge=0, kernel="torque_penalty", doc="reward penalty per squared commanded torque fraction"
+    )
+    torque_action_scale: float = option(
+        1.0,
+        gt=0,
+        le=1,
+        unit="fraction of the wheel torque limit",
+        kernel="torque_scale",
+        doc="the torque a torque action of 1 commands (``torque``, ``target+torque`` modes). The agent's "
+        "torque is held for a whole step, so a pointing law needs torques of ~1e-3 of the limit while a "
+        "slew needs ~1e-1: a smaller scale gives a learner's [-1, 1] outputs that resolution, at the cost "
+        "of slower slews (0.02: a 90-degree slew takes ~10 steps). Agents convert with it "
+        "(``TargetAgent.torque_toward``)",
+    )
+    divergence_km: float = option(
+        1.0e5, gt=0, unit="km", kernel="divergence", doc="the episode terminates when the true position "
+        "error exceeds it"
+    )  # fmt: skip
+    observation: str = option("box", choices=("box", "dict"), doc="``box`` (flat float32) or ``dict``")
+    observe_in_field: bool = option(
+        False,
+        doc="add the ``in_field`` block to the observation (last, one 0/1 per planet: the camera's "
+        "visibility rule passes for it at the current star-tracker attitude and estimated position; "
+        "``ObservationLayout``). Off by default, so existing ids keep their observation",
+    )
+    idle_action: bool = option(
+        False,
+        doc='add a last discrete action "camera off" (for the idle floor agent); with ``operations`` it '
+        'is "stay at the mission attitude" (the engine thrusts). Needs action_mode ``target``',
+    )
+    star_tracker: str = option(
+        "qmethod",
+        choices=("qmethod", "ideal"),
+        doc="``qmethod`` (q-method fix from the synthetic sky each step) or ``ideal``",
+    )
+    star_tracker_sigma_arcsec: float = option(
+        1.5,
+        ge=0,
+        unit="arcsec",
+        doc="attitude error per axis the filter assumes on top of the camera's direction noise (the star "
+        "tracker's error rotates every measured line of sight). The star fix comes from the camera's own "
+        'field (5" per star, ~15 stars): its error across the boresight measures 1.4" per axis',
+    )
+    star_tracker_bias_arcsec: tuple[float, float, float] = option(
+        (0.0, 0.0, 0.0),
+        kind="floats",
+        length=3,
+        unit="arcsec",
+        doc="a fixed misalignment of the attitude fix, a small rotation vector in body axes composed with "
+        "every fix (``q_est = q_fix * q_bias``); the filter does not know it. For studying how attitude "
+        "errors reach navigation",
+    )
+    noise_streams: str = option(
+        "sequential",
+        choices=NOISE_STREAMS,
+        doc="how sensor noise is drawn from the episode seed. ``sequential``: one stream per episode, "
+        "consumed in the order the sensors ask. ``per_step``: each sensor's noise at step k comes from "
+        "its own stream keyed by (episode seed, k, sensor) (``planetnav_env.core.rng.substream``): two "
+        "policies run on the same seed see the same noise whenever they make the same measurement at the "
+        "same step, so their paired difference measures the policies rather than two noise draws "
+        "(``train.py compare --noise-streams per_step``). Same distribution either way",
+    )
+    pulsars: tuple[str, ...] = option(
+        (),
+        kind="strs",
+        doc="X-ray pulsars the detector may target (names or B names of planetnav_env.sensors.pulsar), "
+        "after the planets in the action index; need action_mode ``target``",
+    )
+    detector_fov_deg: float = option(2.0, gt=0, unit="deg", doc="X-ray detector field of view (full angle)")
+    ambiguity_k_sigma: float = option(
+        3.0, gt=0, kernel="ambig_k", doc="k-sigma threshold above which a pulsar phase is ambiguous (skipped)"
+    )
+    approach_end_before_ca_h: float = option(
+        2.0, gt=0, unit="h", doc="``mars-approach``: the episode ends this long before closest approach"
+    )
+    camera: CameraConfig = section(CameraConfig, doc="star camera (docs/camera.md)")
+    filter: FilterConfig = section(FilterConfig, doc="navigation filter (docs/filter.md)")
+    attitude: AttitudeSettings = section(AttitudeSettings, doc="mass properties, wheels, PD law")
+    detector: XrayDetector = section(XrayDetector, doc="X-ray timing detector (pulsars)")
+    operations: OperationsSettings | None = section(
+        OperationsSettings,
+        optional=True,
+        doc="thrust arc and knowledge deadlines (docs/operations.md), or None: no mission attitude, the "
+        "reward above. Needs action_mode ``target``, idle_action true and no pulsars",
+    )
 
     def __post_init__(self) -> None:
-        if self.scenario not in SCENARIOS:
-            raise ConfigError(f"scenario must be one of {SCENARIOS}, got {self.scenario!r}")
-        planets = tuple(str(p).lower() for p in self.planets)
-        if not planets:
-            raise ConfigError("planets must name at least one body")
+        check_options(self, "")
+        planets = tuple(p.lower() for p in self.planets)
         for p in planets:
             if p not in BODIES or p == "sun":
                 raise ConfigError(
@@ -238,15 +302,13 @@ class EnvConfig:
         if len(set(planets)) != len(planets):
             raise ConfigError(f"planets must not repeat, got {list(planets)}")
         object.__setattr__(self, "planets", planets)
-        _positive(self, "step_s", "attitude_substep_s", "reward_scale_km", "divergence_km")
+        _check_ephemeris_span(self)
         ratio = self.step_s / self.attitude_substep_s
         if abs(ratio - round(ratio)) > 1e-9:
             raise ConfigError(
                 f"attitude_substep_s ({self.attitude_substep_s}) must divide step_s ({self.step_s}) exactly"
             )
         coarse = self.settled_substep_s
-        if not (isinstance(coarse, (int, float)) and math.isfinite(coarse) and coarse >= 0):
-            raise ConfigError(f"settled_substep_s must be a number >= 0, got {coarse!r}")
         if coarse > 0:
             r1, r2 = self.step_s / coarse, coarse / self.attitude_substep_s
             if abs(r1 - round(r1)) > 1e-9 or abs(r2 - round(r2)) > 1e-9 or coarse < self.attitude_substep_s:
@@ -254,35 +316,6 @@ class EnvConfig:
                     f"settled_substep_s ({coarse}) must be a multiple of attitude_substep_s "
                     f"({self.attitude_substep_s}) that divides step_s ({self.step_s}), or 0 to disable"
                 )
-        if int(self.episode_steps) != self.episode_steps or self.episode_steps < 1:
-            raise ConfigError(f"episode_steps must be a positive integer, got {self.episode_steps!r}")
-        if self.action_mode not in ACTION_MODES:
-            raise ConfigError(f"action_mode must be one of {ACTION_MODES}, got {self.action_mode!r}")
-        if self.measurement_model not in MODELS:
-            raise ConfigError(f"measurement_model must be one of {MODELS}, got {self.measurement_model!r}")
-        if self.reward not in REWARDS:
-            raise ConfigError(f"reward must be one of {REWARDS}, got {self.reward!r}")
-        if not (math.isfinite(self.torque_penalty) and self.torque_penalty >= 0):
-            raise ConfigError(f"torque_penalty must be >= 0, got {self.torque_penalty!r}")
-        scale = self.torque_action_scale
-        if isinstance(scale, bool) or not isinstance(scale, (int, float)) or not (0.0 < scale <= 1.0):
-            raise ConfigError(f"torque_action_scale must be in (0, 1], got {scale!r}")
-        if self.observation not in ("box", "dict"):
-            raise ConfigError(f"observation must be 'box' or 'dict', got {self.observation!r}")
-        if not isinstance(self.observe_in_field, bool):
-            raise ConfigError(f"observe_in_field must be true or false, got {self.observe_in_field!r}")
-        if self.noise_streams not in NOISE_STREAMS:
-            raise ConfigError(f"noise_streams must be one of {NOISE_STREAMS}, got {self.noise_streams!r}")
-        if self.star_tracker not in ("qmethod", "ideal"):
-            raise ConfigError(f"star_tracker must be 'qmethod' or 'ideal', got {self.star_tracker!r}")
-        if not (math.isfinite(self.star_tracker_sigma_arcsec) and self.star_tracker_sigma_arcsec >= 0):
-            raise ConfigError(
-                f"star_tracker_sigma_arcsec must be >= 0, got {self.star_tracker_sigma_arcsec!r}"
-            )
-        bias = tuple(self.star_tracker_bias_arcsec)
-        if len(bias) != 3 or not all(isinstance(v, (int, float)) and math.isfinite(v) for v in bias):
-            raise ConfigError(f"star_tracker_bias_arcsec must be 3 finite numbers, got {bias!r}")
-        object.__setattr__(self, "star_tracker_bias_arcsec", tuple(float(v) for v in bias))
         names = []
         for name in self.pulsars:
             try:
@@ -294,19 +327,15 @@ class EnvConfig:
         object.__setattr__(self, "pulsars", tuple(names))
         if names and self.action_mode != "target":
             raise ConfigError("pulsars (sensor tasking) need action_mode 'target'")
-        _positive(self, "detector_fov_deg", "ambiguity_k_sigma", "approach_end_before_ca_h")
         if self.idle_action and self.action_mode != "target":
             raise ConfigError("idle_action is only available with action_mode 'target'")
-        ops = self.operations
-        if ops is not None:
-            if not isinstance(ops, OperationsSettings):
-                raise ConfigError(f"operations must be a mapping of settings or None, got {ops!r}")
-            if self.action_mode != "target" or not self.idle_action or self.pulsars:
-                raise ConfigError(
-                    "operations needs action_mode 'target', idle_action true (its last action is 'stay at "
-                    "the mission attitude') and no pulsars, got action_mode "
-                    f"{self.action_mode!r}, idle_action {self.idle_action!r}, pulsars {list(self.pulsars)}"
-                )
+        ops_ready = self.action_mode == "target" and self.idle_action and not self.pulsars
+        if self.operations is not None and not ops_ready:
+            raise ConfigError(
+                "operations needs action_mode 'target', idle_action true (its last action is 'stay at "
+                "the mission attitude') and no pulsars, got action_mode "
+                f"{self.action_mode!r}, idle_action {self.idle_action!r}, pulsars {list(self.pulsars)}"
+            )
 
     @property
     def n_substeps(self) -> int:
@@ -342,16 +371,14 @@ class EnvConfig:
                     f"unknown environment option: got an unexpected keyword argument {key!r}{hint}; "
                     f"known options: {sorted(known)}"
                 )
-            sub = _NESTED.get(key)
+            sub = _SECTIONS.get(key)
             if sub is not None and isinstance(value, Mapping):
                 value = _build(sub, value, key)
-            elif key in ("planets", "pulsars", "star_tracker_bias_arcsec"):
-                if isinstance(value, str):
-                    value = (value,)
-                value = tuple(value)
             kwargs[key] = value
         try:
             return cls(**kwargs)
+        except ConfigError:
+            raise
         except PlanetNavError as exc:
             raise ConfigError(str(exc)) from None
         except TypeError as exc:
@@ -383,13 +410,8 @@ class EnvConfig:
         return out
 
 
-_NESTED = {
-    "camera": CameraConfig,
-    "filter": FilterConfig,
-    "attitude": AttitudeSettings,
-    "detector": XrayDetector,
-    "operations": OperationsSettings,
-}
+#: The nested settings records (``camera``: CameraConfig, ...), from their declarations.
+_SECTIONS = {name: opt.section for name, opt in declared(EnvConfig) if opt.kind == "section"}
 
 
 def _plain(v: Any) -> Any:
@@ -403,22 +425,51 @@ def _build(cls: type, data: Mapping[str, Any], prefix: str) -> Any:
     for key in data:
         if key not in known:
             raise ConfigError(f"unknown option {prefix}.{key!r}; known: {sorted(known)}")
-    kwargs = {
-        k: (tuple(tuple(r) if isinstance(r, list) else r for r in v) if isinstance(v, list) else v)
-        for k, v in data.items()
-    }
     try:
-        return cls(**kwargs)
+        return cls(**data)
+    except ConfigError:
+        raise  # OptionError: already named by its dotted path
     except PlanetNavError as exc:
         raise ConfigError(f"{prefix}: {exc}") from None
 
 
-def _positive(obj: Any, *names: str, prefix: str = "") -> None:
-    for name in names:
-        v = getattr(obj, name)
-        try:
-            ok = math.isfinite(float(v)) and float(v) > 0
-        except (TypeError, ValueError):
-            ok = False
-        if not ok:
-            raise ConfigError(f"{prefix}{name} must be a positive finite number, got {v!r}")
+def _check_ephemeris_span(cfg: EnvConfig) -> None:
+    """Raise a ConfigError naming step_s and its bound when an episode of ``cfg`` would reach outside the
+    DE421 ephemeris (the first reset would fail on an ephemeris time deep in the core instead).
+
+    The row's ephemeris table spans (episode_steps + 1) steps rounded up to whole table segments
+    (``TableSpec.for_duration``), from every start epoch the scenario can draw; the bound is found by
+    bisection on :meth:`DEEphemeris.covers`, the test the ephemeris itself applies.
+    """
+    n = cfg.episode_steps + 1
+
+    def window(step_s: float) -> tuple[float, float]:
+        span = max(1, math.ceil(n * step_s / SEGMENT_S)) * SEGMENT_S
+        if cfg.scenario == "mars-approach":
+            start = DEFAULT_CLOSEST_APPROACH_TDB - cfg.approach_end_before_ca_h * 3600.0 - n * step_s
+            return start, start + span
+        first, last = (CRUISE_EPOCH, CRUISE_EPOCH) if cfg.scenario == "cruise" else RANDOM_EPOCHS
+        return first, last + span
+
+    eph = DEEphemeris()
+    if eph.covers(np.array(window(cfg.step_s))):
+        return
+    lo, hi = 0.0, float(cfg.step_s)
+    for _ in range(60):  # the largest step whose window the ephemeris covers, to 1e-18 of step_s
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if eph.covers(np.array(window(mid))) else (lo, mid)
+    bound = math.floor(lo * 1000.0) / 1000.0  # rounded down: the bound itself must pass
+    raise OptionError(
+        "step_s",
+        f"a finite number (float, s) in (0, {bound!r}] for scenario {cfg.scenario!r} and episode_steps "
+        f"{cfg.episode_steps} (the episode must lie inside the DE421 ephemeris)",
+        cfg.step_s,
+    )
+
+
+if __name__ == "__main__":  # python -m planetnav_env.config docs/environment.md: rewrite its option table
+    import sys
+
+    for name in sys.argv[1:]:
+        doc = Path(name)
+        doc.write_text(replace_table(doc.read_text(), option_table(EnvConfig)))

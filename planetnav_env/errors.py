@@ -37,6 +37,22 @@ class ConfigError(PlanetNavError):
     """An unknown configuration key or an invalid configuration value."""
 
 
+class OptionError(ConfigError, InvalidParameterError):
+    """A declared option (:func:`planetnav_env.options.option`) given a value of the wrong type or out of its
+    range. The message names the option (a dotted path inside a section: ``camera.focal_length_mm``), the
+    expected type, unit and range, and the value with its type.
+    Both a ``ConfigError`` and an ``InvalidParameterError``: the nested settings raised the latter before
+    they were declared, the environment options the former."""
+
+    def __init__(self, path: str, expected: str, value: object) -> None:
+        self.path, self.expected, self.value = path, expected, value
+        super().__init__(f"{path} must be {expected}, got {value!r} ({type(value).__name__})")
+
+
+class OptionTypeError(OptionError, TypeError):
+    """An :class:`OptionError` for a value of the wrong type (also a ``TypeError``, as Python words one)."""
+
+
 class UnknownOptionError(ConfigError, TypeError):
     """An environment option (keyword argument) that the environment does not have.
 

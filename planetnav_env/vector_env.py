@@ -8,7 +8,7 @@ Gymnasium ``np_random`` (for episode draws) and its own compiled random stream (
 Autoreset: ``autoreset_mode="next_step"`` (Gymnasium's default): the step after a row ends resets it and
 returns its first observation with reward 0; ``"same_step"``: a row that ends is reset in the same
 step, its last observation in ``info["final_obs"]`` and its last info in ``info["final_info"]`` (what
-Stable-Baselines3 expects; :class:`planetnav_env.sb3_vec.PlanetNavSB3VecEnv` uses it); ``"disabled"``
+Stable-Baselines3 expects; :class:`planetnav_train.sb3_vec.PlanetNavSB3VecEnv` uses it); ``"disabled"``
 (Gymnasium >= 1.1): no autoreset, the caller resets the rows that ended with
 ``reset(options={"reset_mask": mask})`` before stepping them again (what TorchRL prefers; its
 ``GymWrapper`` refuses ``next_step``, see docs/environment.md, "Clients").
@@ -161,7 +161,7 @@ class PlanetNavVectorEnv(EpisodeLengthSpec, VectorEnv):
     def step_rows(self, actions: Any, active: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Advance only the ``active`` rows (bool (N,)) by one step, with no autoreset: the building block
         of wrappers that run their own loop over steps (one policy decision held for several steps,
-        ``planetnav_agents.vec_training``). Returns ``(reward, terminated, truncated)``, zero / False for
+        ``planetnav_train.vec_training``). Returns ``(reward, terminated, truncated)``, zero / False for
         the rows
         not stepped. The caller resets finished rows (``reset(options={"reset_mask": ...})``, which
         continues each row's generator) before stepping them again; the whole ``actions`` batch is

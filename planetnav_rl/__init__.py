@@ -3,14 +3,13 @@
 (:mod:`planetnav_rl.cluster`).
 
 Needs the ``[ray]`` extra (``pip install -e ".[ray]"``). Importing this package does not import Ray:
-every Ray import is inside a function, so ``import planetnav_env, agents`` and the SB3 path of
+every Ray import is inside a function, so ``import planetnav_env, planetnav_agents`` and the SB3 path of
 ``train.py`` work without it. Commands and cluster set-up: ``docs/scaling.md``.
 
-This package builds on :mod:`planetnav_train` (configuration, training envs, evaluation). The other way,
-only functions of ``planetnav_train`` import from here (its command line hands a run to Ray; its
-configuration checks :mod:`planetnav_rl.hyperparams`), and neither this file nor that module imports
-``planetnav_train``, so the imports form no circle. The ``algo`` names that train with RLlib are
-:data:`planetnav_train.config.RLLIB_ALGOS` (:func:`planetnav_train.config.is_rllib_algo`).
+This package builds on :mod:`planetnav_train` (configuration, training envs, evaluation), which never
+imports it: :mod:`planetnav_rl.extensions` registers the RLlib trainer, the ``tune`` command, the suite's
+Ray grid (:mod:`planetnav_rl.suite_grid`) and the RLlib agent loader (:mod:`planetnav_rl.agent`) through
+entry points. The ``algo`` names that train with RLlib are :data:`planetnav_train.config.RLLIB_ALGOS`.
 """
 
 from __future__ import annotations

@@ -2,10 +2,9 @@
 ``PPOConfig.training`` plus the keys routed to other ``AlgorithmConfig`` sections
 (:mod:`planetnav_rl.rllib` explains the mapping).
 
-Kept apart from :mod:`planetnav_rl.rllib` because the training configuration
-(:func:`planetnav_train.config.parse_config`) checks these keys while it validates, and
-:mod:`planetnav_rl.rllib` builds on that configuration: this module imports nothing of
-:mod:`planetnav_train`, so the imports point one way. Ray is imported only inside functions.
+Kept apart from :mod:`planetnav_rl.rllib` so that the configuration check
+(:func:`planetnav_train.config.parse_config`, through the trainer :mod:`planetnav_rl.extensions`
+registers) imports nothing of the training code. Ray is imported only inside functions.
 """
 
 from __future__ import annotations

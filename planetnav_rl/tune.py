@@ -46,7 +46,6 @@ from typing import Any
 
 import yaml
 
-from planetnav_agents.sb3 import algorithm_class
 from planetnav_env.config import EnvConfig
 from planetnav_env.errors import ConfigError
 from planetnav_rl import require_ray
@@ -54,6 +53,7 @@ from planetnav_train.algorithms import algo_kwargs
 from planetnav_train.config import ROOT, TrainConfig, is_rllib_algo, parse_config, read_yaml_mapping
 from planetnav_train.envs import make_training_env
 from planetnav_train.evaluate import evaluate_agent
+from planetnav_train.sb3 import algorithm_class
 
 #: Metrics of :func:`planetnav_train.evaluate.evaluate_agent` a sweep may optimise (all minimised position /
 #: velocity errors).

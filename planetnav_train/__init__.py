@@ -6,14 +6,25 @@ Modules, by what they hold:
   :func:`~planetnav_train.config.load_config` / :func:`~planetnav_train.config.parse_config`, which
   algorithms a configuration may name (SB3 or RLlib);
 - :mod:`planetnav_train.algorithms`: the SB3 constructor arguments from ``hyperparams``;
-- :mod:`planetnav_train.envs`: the training VecEnv (:func:`~planetnav_train.envs.make_training_env`);
-- :mod:`planetnav_train.training`: SB3 training of a configuration into a run directory;
-- :mod:`planetnav_train.evaluate`: held-out evaluation, paired differences, the JSON, the periodic sweep;
+- the training env: :mod:`~planetnav_train.batch_wrappers` (features, action repeat, relative actions,
+  shaping over N rows), :mod:`~planetnav_train.features`, :mod:`~planetnav_train.shaping`,
+  :mod:`~planetnav_train.masking`, :mod:`~planetnav_train.vec_training` (the native SB3 ``VecEnv``),
+  :mod:`~planetnav_train.sb3_vec` (the SB3 ``VecEnv`` adapter of the vector env),
+  :mod:`~planetnav_train.envs` (:func:`~planetnav_train.envs.make_training_env`);
+- :mod:`planetnav_train.training`: SB3 training of a configuration into a run directory, with
+  :mod:`~planetnav_train.pretrain` (cloning, DAgger);
+- learned policies: :mod:`~planetnav_train.sb3` (the SB3 loader and algorithm registry),
+  :mod:`~planetnav_train.policy_only` and :mod:`~planetnav_train.export` (policy-only exports),
+  :mod:`~planetnav_train.shipped` (the ``suite:<task>`` baselines), :mod:`~planetnav_train.loaders` (their
+  registration with ``planetnav_agents.make_agent``);
+- :mod:`planetnav_train.evaluate`: held-out evaluation, paired differences, the JSON, the periodic sweep,
+  with :mod:`~planetnav_train.stats`;
 - :mod:`planetnav_train.report`: the printed table, markdown, plots, ``report.md``;
-- :mod:`planetnav_train.cli`: the commands and options of ``train.py`` (:func:`~planetnav_train.cli.main`).
+- :mod:`planetnav_train.suite`: the benchmark suite (a subpackage);
+- :mod:`planetnav_train.cli`: the commands and options of ``train.py`` (:func:`~planetnav_train.cli.main`);
+- :mod:`planetnav_train.extensions`: what packages built on this one register (RLlib training, the
+  ``tune`` command, the suite's Ray grid; :mod:`planetnav_rl` fills it through an entry point).
 
-Importing the package imports none of them (nor torch, SB3 or Ray). Ray training and sweeps
-(:mod:`planetnav_rl`) build on this package. The other way, only functions import from
-:mod:`planetnav_rl`: the command line hands a run to Ray, the configuration checks RLlib's ``hyperparams``
-keys (:mod:`planetnav_rl.hyperparams`, which imports nothing of this package), so no import circle forms.
+Importing the package imports none of them (nor torch, SB3 or Ray). This package imports
+``planetnav_env`` and ``planetnav_agents`` and never :mod:`planetnav_rl`, which builds on it.
 """

@@ -12,7 +12,7 @@ Usage::
     python train.py tune --config configs/sweep.yaml [--address HOST:PORT] [--resume]  # Ray Tune sweep
     python train.py suite --tasks ... --algos ... --seeds ... [--resume]      # benchmark suite, docs/suite.md
     python train.py suite-publish --out runs/suite [--publish-json docs/benchmark.json] \\
-        [--readme README.md] [--baselines agents/baselines]   # publish results; agents suite:<task>
+        [--readme README.md] [--baselines planetnav_train/baselines]   # publish results; agents suite:<task>
 
 A training run writes ``runs/<name>/``: ``model.zip``, ``config.yaml`` (the resolved configuration; the SB3
 loader reads ``algo`` from it), ``tb/`` (TensorBoard), ``monitor/`` (episode CSVs), then, unless
@@ -20,11 +20,12 @@ loader reads ``algo`` from it), ``tb/`` (TensorBoard), ``monitor/`` (episode CSV
 ``training.png``. Configuration keys: ``configs/README.md``. Agents evaluate on 20 held-out seeds (default
 10_000 onwards; training environments use the config's ``seed`` onwards, far below), every agent on the
 same seeds; each mean comes with a 95 % t-interval and the paired difference from a reference agent
-(``greedy``) on the same seeds (:mod:`planetnav_agents.stats`). Agents that cannot act in the environment's
+(``greedy``) on the same seeds (:mod:`planetnav_train.stats`). Agents that cannot act in the environment's
 action mode (``idle`` outside ``target`` mode, a model trained for other spaces) are skipped with a note.
-``algo: rllib_ppo`` trains with RLlib instead (``planetnav_rl/rllib.py``; the run directory then holds
-``checkpoint/`` in place of ``model.zip``, and ``evaluate``/``compare`` take it as an agent like a model
-path). Sweeps: ``planetnav_rl/tune.py``, docs/scaling.md.
+``algo: rllib_ppo`` trains with RLlib instead (``planetnav_rl/rllib.py``, registered through
+:mod:`planetnav_train.extensions`; the run directory then holds ``checkpoint/`` in place of ``model.zip``,
+and ``evaluate``/``compare`` take it as an agent like a model path). Sweeps: ``planetnav_rl/tune.py``
+(the ``tune`` command, registered the same way), docs/scaling.md.
 """
 
 from __future__ import annotations
@@ -41,12 +42,10 @@ from typing import Any
 import numpy as np
 
 from planetnav_agents import strip_sampled
-from planetnav_agents.rllib import config_sidecar as rllib_config_sidecar
-from planetnav_agents.sb3 import resolve_model_path
-from planetnav_agents.shipped import is_shipped_spec, shipped_model, task_of
-from planetnav_agents.stats import paired_difference
+from planetnav_agents.loaders import config_path as model_config_path
 from planetnav_env.config import NOISE_STREAMS, EnvConfig
 from planetnav_env.errors import ConfigError
+from planetnav_train import extensions
 from planetnav_train.config import (
     DEFAULT_CONFIG,
     EVAL_EPISODES,
@@ -69,6 +68,8 @@ from planetnav_train.evaluate import (
     sweep_periodic,
 )
 from planetnav_train.report import print_table, write_report
+from planetnav_train.shipped import is_shipped_spec, shipped_model, task_of
+from planetnav_train.stats import paired_difference
 from planetnav_train.training import train
 
 
@@ -83,13 +84,9 @@ def _eval_env_config(args: argparse.Namespace, specs: Sequence[str]) -> tuple[En
             if is_shipped_spec(strip_sampled(s)):  # a shipped baseline: its task's registered env
                 tc = parse_config({"env_id": shipped_model(task_of(strip_sampled(s)))[1]["env_id"]})
                 break
-            try:
-                sidecar = resolve_model_path(strip_sampled(s)).parent / "config.yaml"
-            except FileNotFoundError:
-                sidecar = rllib_config_sidecar(strip_sampled(s))  # an RLlib run or checkpoint directory
-                if sidecar is None:
-                    continue
-            if sidecar.is_file():
+            # a saved model's run config.yaml, as the loader of its format finds it (SB3, RLlib)
+            sidecar = model_config_path(strip_sampled(s))
+            if sidecar is not None and sidecar.is_file():
                 tc = load_config(sidecar)
                 break
     steps = args.episode_steps or tc.eval.episode_steps
@@ -111,9 +108,8 @@ def cmd_train(args: argparse.Namespace) -> int:
     progress = not args.no_progress
     print(f"training {tc.algo.upper()} for {tc.n_timesteps} steps on {tc.n_envs} envs -> {run_dir}")
     if is_rllib_algo(tc.algo):
-        from planetnav_rl.rllib import train as train_rllib
-
-        model_path, stats = train_rllib(tc, run_dir, address=args.address, progress=progress)
+        trainer = extensions.trainer(tc.algo)  # registered by planetnav_rl
+        model_path, stats = trainer.train(tc, run_dir, address=args.address, progress=progress)
     elif args.address:
         raise ConfigError(f"--address {args.address!r}: only RLlib configs (algo: rllib_ppo) train on Ray")
     else:
@@ -238,7 +234,7 @@ def cmd_paired(args: argparse.Namespace) -> int:
 
 def cmd_agreement(args: argparse.Namespace) -> int:
     """How often a trained policy picks another planet than a teacher on the policy's own states."""
-    from planetnav_agents.pretrain import agreement
+    from planetnav_train.pretrain import agreement
 
     env_cfg, ev = _eval_env_config(args, [args.student])
     episodes = args.episodes or 5
@@ -316,7 +312,7 @@ def cmd_suite(args: argparse.Namespace) -> int:
 
 def _publish(args: argparse.Namespace, suite_json: Path) -> None:
     """``--publish-json`` and ``--readme`` of ``suite`` and ``suite-publish`` (:mod:`~.publish`)."""
-    from planetnav_train import publish
+    from planetnav_train.suite import publish
 
     if args.publish_json:
         print(f"published JSON: {publish.publish_json(suite_json, args.publish_json)}")
@@ -329,7 +325,8 @@ def cmd_suite_publish(args: argparse.Namespace) -> int:
     """``suite-publish``: re-aggregate every record of ``--out`` (nothing trains), write ``OUT/suite.json``
     and the page, then copy the JSON into the repository, update the README's summary and ship the best
     raw-track models as named agents, as the flags ask (docs/suite.md, "Publishing")."""
-    from planetnav_train import publish, suite
+    from planetnav_train import suite
+    from planetnav_train.suite import publish
 
     settings = suite.Settings(out=Path(args.out))
     records = suite.load_records(settings.out)
@@ -367,9 +364,7 @@ def build_parser() -> argparse.ArgumentParser:
     t.set_defaults(func=cmd_train)
 
     def cmd_tune(args: argparse.Namespace) -> int:
-        from planetnav_rl.tune import cmd_tune as run_tune
-
-        return run_tune(args)
+        return extensions.command("tune")(args)  # registered by planetnav_rl
 
     tn = sub.add_parser("tune", help="Ray Tune sweep over an SB3 or RLlib config (needs the [ray] extra)")
     tn.add_argument("--config", required=True, help="sweep YAML (e.g. configs/sweep.yaml)")
@@ -489,7 +484,8 @@ def build_parser() -> argparse.ArgumentParser:
     sp.add_argument("--markdown", help="the leaderboard page (default OUT/benchmark.md)")
     publishing(sp)
     sp.add_argument(
-        "--baselines", help="ship each task's best raw-track model into this folder, e.g. agents/baselines"
+        "--baselines",
+        help="ship each task's best raw-track model into this folder, e.g. planetnav_train/baselines",
     )
     sp.add_argument("--baseline-tasks", nargs="+", help="ship these tasks only (default: every raw task)")
     sp.add_argument(

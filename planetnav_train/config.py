@@ -16,18 +16,18 @@ from typing import Any
 
 import yaml
 
-from planetnav_agents.features import check_features
-from planetnav_agents.sb3 import ALGORITHMS, algorithm_class
-from planetnav_agents.shaping import SHAPINGS
 from planetnav_env.config import NOISE_STREAMS, EnvConfig
 from planetnav_env.errors import ConfigError
 from planetnav_env.registration import ENV_IDS
+from planetnav_train.features import check_features
+from planetnav_train.sb3 import ALGORITHMS, algorithm_class
+from planetnav_train.shaping import SHAPINGS
 
 #: The repository checkout this package sits in: ``configs/`` and the default ``runs/`` live here.
 ROOT = Path(__file__).resolve().parents[1]
 DEFAULT_CONFIG = ROOT / "configs" / "cruise_ppo.yaml"
 #: ``algo`` values of a training configuration that train with RLlib (:mod:`planetnav_rl.rllib`) instead of
-#: Stable-Baselines3 (:data:`planetnav_agents.sb3.ALGORITHMS`).
+#: Stable-Baselines3 (:data:`planetnav_train.sb3.ALGORITHMS`).
 RLLIB_ALGOS = ("rllib_ppo",)
 DEFAULT_AGENTS = ("planner", "greedy", "periodic", "baseline", "random", "idle")
 EVAL_SEED = 10_000
@@ -60,20 +60,20 @@ class TrainConfig:
     n_envs: int = 4
     seed: int = 0
     torch_threads: int = 1
-    # "native": n_envs rows of the compiled vector env (planetnav_agents.vec_training); "dummy": n_envs single
+    # "native": n_envs rows of the compiled vector env (planetnav_train.vec_training); "dummy": n_envs single
     # environments in SB3's DummyVecEnv (the path for the gain / pd_torque features and shaping).
     vec_env: str = "native"
     hyperparams: dict[str, Any] = field(default_factory=dict)
     env: dict[str, Any] = field(default_factory=dict)
     eval: EvalSettings = field(default_factory=EvalSettings)
-    features: list[str] = field(default_factory=list)  # extra observation features (agents/features.py)
+    features: list[str] = field(default_factory=list)  # extra observation features (planetnav_train.features)
     shaping: dict[str, float] = field(default_factory=dict)  # potential-based, training only (agents/shaping)
-    action_repeat: int = 1  # environment steps per policy decision (planetnav_agents.features.ActionRepeat)
-    # target mode: "stay" / "move k places" (planetnav_agents.features.RelativeTargets)
+    action_repeat: int = 1  # environment steps per policy decision (planetnav_train.features.ActionRepeat)
+    # target mode: "stay" / "move k places" (planetnav_train.features.RelativeTargets)
     relative_actions: bool = False
     pretrain: dict[str, Any] = field(
         default_factory=dict
-    )  # behaviour-cloning warm start (agents/pretrain.py)
+    )  # behaviour-cloning warm start (planetnav_train/pretrain.py)
 
     def env_config(self) -> EnvConfig:
         """The environment configuration: the ``env_id``'s defaults overridden by ``env``."""
@@ -231,10 +231,12 @@ def _init_parameters(cls: type) -> dict[str, inspect.Parameter]:
 def _check_hyperparams(tc: TrainConfig) -> None:
     """Reject ``hyperparams`` keys the algorithm's constructor does not take (or that are set from other
     keys)."""
-    if is_rllib_algo(tc.algo):  # RLlib's PPOConfig keywords (needs the [ray] extra)
-        from planetnav_rl.hyperparams import check_hyperparams
+    if is_rllib_algo(tc.algo):  # RLlib's PPOConfig keywords (needs the [ray] extra), checked by its trainer
+        from planetnav_train import extensions
 
-        check_hyperparams(tc.hyperparams)
+        check = extensions.trainer(tc.algo).check_hyperparams
+        if check is not None:
+            check(tc.hyperparams)
         return
     params = _init_parameters(algorithm_class(tc.algo))
     # Set by the training code from other keys; a user value would be silently overwritten.

@@ -13,18 +13,18 @@ from planetnav_train.config import TrainConfig
 def make_training_env(tc: TrainConfig, monitor_dir: Path | None) -> Any:
     """The training VecEnv: ``n_envs`` rows of the native vector env (one compiled step for all rows)
     under SB3's ``VecMonitor``, with the recipe's options on arrays
-    (:class:`planetnav_agents.vec_training.NavTrainingVecEnv`): the pointing shaping, the features
+    (:class:`planetnav_train.vec_training.NavTrainingVecEnv`): the pointing shaping, the features
     (``since_measured``, ``gain``, ``pd_torque``), action repeat and relative actions, in every action mode.
 
     ``vec_env: dummy`` builds ``n_envs`` single environments, each running the same option layers with one
-    row (:func:`planetnav_agents.batch_wrappers.single_training_env`), in SB3's ``DummyVecEnv``: the same
+    row (:func:`planetnav_train.batch_wrappers.single_training_env`), in SB3's ``DummyVecEnv``: the same
     MDP (``tests/test_vec_training.py``), slower; kept to compare the two (``benchmarks/bench_train.py``)."""
     from stable_baselines3.common.env_util import make_vec_env
     from stable_baselines3.common.vec_env import DummyVecEnv, VecMonitor
 
-    from planetnav_agents.batch_wrappers import single_training_env
-    from planetnav_agents.vec_training import NavTrainingVecEnv
     from planetnav_env.env import PlanetNavEnv
+    from planetnav_train.batch_wrappers import single_training_env
+    from planetnav_train.vec_training import NavTrainingVecEnv
 
     env_cfg = tc.env_config()
     options = {

@@ -5,7 +5,7 @@ schedule sweep (:func:`sweep_periodic`).
 
 A saved SB3 model is evaluated with its seeds as rows of the native vector env (:func:`batch_reason` says
 when it cannot be): one batched ``model.predict`` per decision for all rows, through the training
-recipe's layers (:class:`planetnav_agents.batch_wrappers.TrainingOptions`: features, action repeat,
+recipe's layers (:class:`planetnav_train.batch_wrappers.TrainingOptions`: features, action repeat,
 relative actions) over :class:`~planetnav_env.vector_env.PlanetNavVectorEnv`, each row one episode from
 its own seed. Row ``i`` of the vector env is the single env seeded alike, bit for bit, and the layers are
 the same code, so the per-episode results equal the one-episode-at-a-time path's given the same actions
@@ -29,10 +29,10 @@ from typing import Any
 import numpy as np
 
 from planetnav_agents import NotApplicableError, make_agent, not_applicable, requires_idle_action
-from planetnav_agents.batch_wrappers import RowsWrapper, TrainingOptions, VectorRows
-from planetnav_agents.stats import mean_ci, paired_difference
 from planetnav_env.config import EnvConfig
+from planetnav_train.batch_wrappers import RowsWrapper, TrainingOptions, VectorRows
 from planetnav_train.config import REFERENCE
+from planetnav_train.stats import mean_ci, paired_difference
 
 #: Seeds of the periodic sweep: disjoint from the evaluation seeds (the chosen setting is not tuned on them).
 SWEEP_SEED = 20_000
@@ -137,7 +137,7 @@ def batch_reason(agent: Any, exact_actions: bool = True) -> str | None:
     generator, which rows cannot share), a target-choice policy run in a target+torque env (its
     action conversion is per-env), and with ``exact_actions`` a recurrent policy with continuous actions
     (its rows would need the LSTM state split per row to predict alone; not done)."""
-    from planetnav_agents.sb3 import SB3Agent
+    from planetnav_train.sb3 import SB3Agent
 
     if not isinstance(agent, SB3Agent):
         return f"{type(agent).__name__} has no batched action"

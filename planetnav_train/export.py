@@ -1,9 +1,9 @@
 """Policy-only export of a saved Stable-Baselines3 / sb3-contrib model (issue 19, item 6: shipped baselines
-under 1 MB; format and loader: :mod:`planetnav_agents.policy_only`).
+under 1 MB; format and loader: :mod:`planetnav_train.policy_only`).
 
 :func:`export_policy` loads a model ``.zip``, keeps the tensors its deterministic actions use (the actor;
 DQN's online Q-network; RecurrentPPO's actor LSTM, policy MLP and action net: :data:`ACTING_RULES
-<planetnav_agents.policy_only.ACTING_RULES>`) in their own dtype, with the policy class, its constructor
+<planetnav_train.policy_only.ACTING_RULES>`) in their own dtype, with the policy class, its constructor
 arguments, the spaces and a masking MaskablePPO's ``observation_layout``, and drops the critics, target
 networks, optimizer states and every other training-only attribute (an off-policy model's zip has no
 replay buffer; it is saved apart, if at all). It then checks its own output: the file is read back
@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from planetnav_agents import policy_only as po
+from planetnav_train import policy_only as po
 
 #: Observations sampled (seeded) from the observation space for the export's self-check.
 CHECK_ROWS = 16
@@ -52,7 +52,7 @@ def _stack(samples: list[Any]) -> Any:
 
 
 def check_same_actions(source: Any, export: Any, seed: int = 0) -> int:
-    """Raise ``RuntimeError`` unless ``export`` (a :class:`~planetnav_agents.policy_only.PolicyOnlyModel`)
+    """Raise ``RuntimeError`` unless ``export`` (a :class:`~planetnav_train.policy_only.PolicyOnlyModel`)
     acts exactly as ``source`` (the full model) on :data:`CHECK_ROWS` observations sampled from the
     observation space with ``seed`` (a recurrent policy: over :data:`CHECK_STEPS` steps, states carried,
     episode starts at step 0 and for rows 0-1 half-way). Returns how many actions were compared."""
@@ -79,13 +79,13 @@ def check_same_actions(source: Any, export: Any, seed: int = 0) -> int:
 
 def export_policy(source: str | Path, dest: str | Path, algo: str) -> Path:
     """Write the policy-only export of the SB3 model ``source`` (a ``.zip`` or a run directory) of algorithm
-    ``algo`` (a name in :data:`planetnav_agents.sb3.ALGORITHMS`; required: an A2C zip also loads as PPO, so
+    ``algo`` (a name in :data:`planetnav_train.sb3.ALGORITHMS`; required: an A2C zip also loads as PPO, so
     trying each algorithm would misname it) to ``dest``, then check it (module docstring).
 
     Raises ``ValueError`` naming the value that cannot be stored (an exotic space or constructor
     argument, a parameter no rule covers) and ``RuntimeError`` when the read-back check fails; a failed
     export leaves no file at ``dest``."""
-    from planetnav_agents.sb3 import load_model, resolve_model_path
+    from planetnav_train.sb3 import load_model, resolve_model_path
 
     src = resolve_model_path(source)
     name = str(algo).lower()
@@ -157,7 +157,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--algo", required=True, help="its algorithm (ppo, dqn, sac, recurrent_ppo, ...)")
     ap.add_argument("--out", help="the export's path (default: MODEL's name with .policy.zip)")
     args = ap.parse_args(argv)
-    from planetnav_agents.sb3 import resolve_model_path
+    from planetnav_train.sb3 import resolve_model_path
 
     src = resolve_model_path(args.model)
     dest = Path(args.out) if args.out else src.with_suffix(".policy.zip")

@@ -12,10 +12,10 @@ from typing import Any
 
 import numpy as np
 
-from planetnav_agents.stats import MeanCI
 from planetnav_env.config import EnvConfig
 from planetnav_train.config import TrainConfig
 from planetnav_train.evaluate import EvalResult, results_json
+from planetnav_train.stats import MeanCI
 
 
 def _paired_cell(r: EvalResult, mean_key: str, ci_key: str) -> str:

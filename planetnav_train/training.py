@@ -12,10 +12,10 @@ from typing import Any
 import numpy as np
 import yaml
 
-from planetnav_agents.sb3 import algorithm_class
 from planetnav_train.algorithms import algo_kwargs
 from planetnav_train.config import TrainConfig, load_config, resolve_config_path
 from planetnav_train.envs import make_training_env
+from planetnav_train.sb3 import algorithm_class
 
 
 def _nav_callback_class() -> type:
@@ -78,7 +78,7 @@ def train(tc: TrainConfig, run_dir: Path, progress: bool = True) -> tuple[Path, 
     t0 = time.perf_counter()
     pretrain_stats: dict[str, Any] = {}
     if tc.pretrain:
-        from planetnav_agents.pretrain import clone, dagger, demonstrations
+        from planetnav_train.pretrain import clone, dagger, demonstrations
 
         teacher = tc.pretrain.get("teacher")
         if "teacher_config" in tc.pretrain:

@@ -19,11 +19,11 @@ from planetnav_agents import (
     requires_idle_action,
 )
 from planetnav_agents.base import with_planet_choice
-from planetnav_agents.features import FeatureState, NavFeatures, check_features
 from planetnav_agents.periodic import parse_cycle
-from planetnav_agents.shaping import PointingShaping
 from planetnav_env.config import EnvConfig
 from planetnav_env.env import PlanetNavEnv
+from planetnav_train.batch_wrappers import NavFeatures, PointingShaping
+from planetnav_train.features import FeatureState, check_features
 
 
 def _run(agent, env: PlanetNavEnv, seed: int) -> tuple[list[str | None], list[float], list[float]]:
@@ -194,8 +194,8 @@ def test_pointing_shaping_is_potential_based_between_decisions_under_action_repe
     gamma): the decision-level terms telescope, and each equals gamma Phi(s') - Phi(s) of the observations
     the agent sees. (Taken per env step below the repeat, a decision's sum would carry
     (gamma - 1)(Phi(s_1) + ... + Phi(s_{k-1})), which is not potential-based.)"""
-    from planetnav_agents.batch_wrappers import single_training_env
-    from planetnav_agents.shaping import PointingPotential
+    from planetnav_train.batch_wrappers import single_training_env
+    from planetnav_train.shaping import PointingPotential
 
     gamma = 0.9
     raw = PlanetNavEnv(episode_steps=20, action_mode="torque")
@@ -223,7 +223,7 @@ def test_sb3_agent_holds_its_action_like_training(tmp_path: Path) -> None:
     """``action_repeat`` in the run's config: one decision per 3 steps, as the training wrapper did."""
     from stable_baselines3 import PPO
 
-    from planetnav_agents.features import ActionRepeat
+    from planetnav_train.batch_wrappers import ActionRepeat
 
     train_env = ActionRepeat(PlanetNavEnv(episode_steps=30), 3)
     model = PPO("MlpPolicy", train_env, n_steps=32, batch_size=32, n_epochs=1, seed=0, device="cpu")
@@ -249,7 +249,8 @@ def test_sb3_agent_holds_its_action_like_training(tmp_path: Path) -> None:
 def test_relative_target_actions(tmp_path: Path) -> None:
     from stable_baselines3 import PPO
 
-    from planetnav_agents.features import ActionRepeat, RelativeTargets, relative_action, relative_to_absolute
+    from planetnav_train.batch_wrappers import ActionRepeat, RelativeTargets
+    from planetnav_train.features import relative_action, relative_to_absolute
 
     assert [relative_to_absolute(a, -1, 3) for a in range(3)] == [0, 1, 2]
     assert relative_to_absolute(2, 1, 3) == 0 and relative_to_absolute(0, 2, 3) == 2
@@ -294,7 +295,7 @@ def test_behaviour_cloning_copies_the_teacher() -> None:
     """A policy cloned from the baseline's torque-mode demonstrations reproduces its actions closely."""
     from stable_baselines3 import PPO
 
-    from planetnav_agents.pretrain import clone, demonstrations
+    from planetnav_train.pretrain import clone, demonstrations
 
     cfg = EnvConfig.from_dict({"action_mode": "torque", "episode_steps": 60})
     obs, actions = demonstrations(cfg, "baseline", 2, ["pd_torque"])
@@ -313,8 +314,9 @@ def test_demonstrations_are_recorded_in_the_training_mdp(mode: str) -> None:
     """With action_repeat and relative actions, the recorded (observation, action) pairs replay exactly in
     the training wrappers: feeding the recorded actions to NavFeatures + ActionRepeat + RelativeTargets
     reproduces the recorded observations bit for bit, and the teacher's targets are the ones chosen."""
-    from planetnav_agents.features import ActionRepeat, RelativeTargets, absolute_to_relative, relative_action
-    from planetnav_agents.pretrain import DEMO_SEED, demonstrations
+    from planetnav_train.batch_wrappers import ActionRepeat, RelativeTargets
+    from planetnav_train.features import absolute_to_relative, relative_action
+    from planetnav_train.pretrain import DEMO_SEED, demonstrations
 
     cfg = EnvConfig.from_dict({"action_mode": mode, "episode_steps": 25})
     features = ["since_measured", "gain"]
@@ -347,8 +349,9 @@ def test_dagger_records_the_students_states_with_the_teachers_labels(mode: str) 
     target the student holds; ``dagger`` aggregates the rounds and refits."""
     from stable_baselines3 import PPO
 
-    from planetnav_agents.features import ActionRepeat, RelativeTargets, absolute_to_relative, relative_action
-    from planetnav_agents.pretrain import DEMO_SEED, dagger, demonstrations
+    from planetnav_train.batch_wrappers import ActionRepeat, RelativeTargets
+    from planetnav_train.features import absolute_to_relative, relative_action
+    from planetnav_train.pretrain import DEMO_SEED, dagger, demonstrations
 
     cfg = EnvConfig.from_dict({"action_mode": mode, "episode_steps": 25})
     features = ["since_measured"]
@@ -387,8 +390,8 @@ def test_agreement_of_a_policy_with_itself_and_with_another_teacher(tmp_path: Pa
     through ``Agent.follow``) never differs; labelled by a periodic schedule it differs at some decisions."""
     from stable_baselines3 import PPO
 
-    from planetnav_agents.features import ActionRepeat, RelativeTargets
-    from planetnav_agents.pretrain import DEMO_SEED, agreement, demonstrations
+    from planetnav_train.batch_wrappers import ActionRepeat, RelativeTargets
+    from planetnav_train.pretrain import DEMO_SEED, agreement, demonstrations
 
     cfg = EnvConfig.from_dict({"episode_steps": 40})
     env = RelativeTargets(ActionRepeat(NavFeatures(PlanetNavEnv(cfg), ["since_measured"]), 4))
@@ -436,7 +439,7 @@ def test_target_policy_acts_in_target_torque_and_keep_std(tmp_path: Path) -> Non
     import torch
     from stable_baselines3 import PPO
 
-    from planetnav_agents.pretrain import clone
+    from planetnav_train.pretrain import clone
 
     target_env = PlanetNavEnv(episode_steps=20)
     model = PPO("MlpPolicy", target_env, n_steps=32, batch_size=32, n_epochs=1, seed=0, device="cpu")

@@ -34,13 +34,13 @@ from planetnav_agents import (
     Agent,
     BaselineAgent,
     GreedyAgent,
-    SB3Agent,
     make_agent,
     parse_observation,
 )
 from planetnav_agents.gain import bang_bang_time
 from planetnav_env.env import PlanetNavEnv
 from planetnav_env.ephemeris import DEEphemeris
+from planetnav_train.sb3 import SB3Agent
 
 SEEDS = range(10_000, 10_006)
 STEPS = 120
@@ -195,7 +195,7 @@ def test_gain_feature_is_greedys_score_relative_to_the_trace() -> None:
     scores (its
     parsed observation) are one formula: score / best score, -1 where the planet is not observable, and
     greedy picks the planet whose gain is 1."""
-    from planetnav_agents.features import FeatureBatch
+    from planetnav_train.features import FeatureBatch
 
     env = PlanetNavEnv(scenario="random-cruise", episode_steps=80)
     g = GreedyAgent(env)

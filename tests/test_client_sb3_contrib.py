@@ -18,7 +18,7 @@ from sb3_contrib.common.wrappers import ActionMasker
 
 import planetnav_env  # noqa: F401  (registers the ids)
 from planetnav_env.core.layout import TF_OBSERVABLE
-from planetnav_env.sb3_vec import PlanetNavSB3VecEnv
+from planetnav_train.sb3_vec import PlanetNavSB3VecEnv
 
 #: Seed 0 of the random cruise draws a geometry where Venus (action 0) cannot be observed.
 MASK_ID, MASK_SEED = "planetnav/RandomCruise-Target-v0", 0

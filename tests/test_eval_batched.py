@@ -22,11 +22,11 @@ import yaml
 
 import planetnav_env  # noqa: F401  (registers the ids)
 from planetnav_agents import make_agent
-from planetnav_agents.vec_training import NavTrainingVecEnv
 from planetnav_env.config import EnvConfig
 from planetnav_env.env import PlanetNavEnv
 from planetnav_env.registration import ENV_IDS
 from planetnav_train.evaluate import batch_reason, evaluate_agent
+from planetnav_train.vec_training import NavTrainingVecEnv
 
 SEED = 10_000
 EPISODES = 3
@@ -42,7 +42,7 @@ def _cfg(env_id: str, steps: int) -> EnvConfig:
 def _save_model(tmp_path: Path, algo: str, cfg: EnvConfig, options: dict[str, Any]) -> Path:
     """A randomly initialised policy (no training: equality does not depend on what it learned) saved as
     ``train.py`` saves a run: ``model.zip`` with a ``config.yaml`` naming its recipe options."""
-    from planetnav_agents.sb3 import algorithm_class
+    from planetnav_train.sb3 import algorithm_class
 
     venv = NavTrainingVecEnv(2, cfg, seed=0, **options)
     kwargs: dict[str, Any] = {"n_steps": 8, "batch_size": 8, "policy_kwargs": {"net_arch": [16]}}

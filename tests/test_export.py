@@ -1,4 +1,4 @@
-"""Policy-only exports (planetnav_train/export.py, planetnav_agents.policy_only; docs/suite.md "Shipped
+"""Policy-only exports (planetnav_train/export.py, planetnav_train.policy_only; docs/suite.md "Shipped
 baselines"): per algorithm, a model trained a few dozen steps on a 10-step episode is exported, and the
 export must act exactly as the full model on real observations of the env (a recurrent policy: over a
 sequence with its LSTM state and episode starts), with the same acting outputs (logits, Q-values, Gaussian
@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from planetnav_agents import policy_only as po
+from planetnav_train import policy_only as po
 from planetnav_train import suite
 from planetnav_train.export import export_policy
 
@@ -61,7 +61,7 @@ def _observations(env: Any, n: int = 3 * STEPS) -> tuple[np.ndarray, np.ndarray]
 
 def _train(algo: str, env: Any, path: Path) -> Path:
     """A model of ``algo`` after a few dozen steps (so its optimizers have state, as after training)."""
-    from planetnav_agents.sb3 import algorithm_class
+    from planetnav_train.sb3 import algorithm_class
 
     kw: dict[str, Any] = {"seed": 0, "device": "cpu"}
     if algo in ("ppo", "recurrent_ppo", "maskable_ppo"):
@@ -80,7 +80,7 @@ def _train(algo: str, env: Any, path: Path) -> Path:
 @pytest.fixture(scope="module", params=CASES, ids=[f"{a}-{t}" for a, t in CASES])
 def exported(request, tmp_path_factory) -> tuple[str, Any, Any, Path, Path, Any]:
     """(algorithm, full model, export, full zip, export file, env) of one algorithm."""
-    from planetnav_agents.sb3 import load_model
+    from planetnav_train.sb3 import load_model
 
     algo, task = request.param
     env = _env(task)
@@ -186,9 +186,9 @@ def test_export_bytes_are_reproducible(exported, tmp_path) -> None:
 def test_maskable_export_keeps_the_mask(tmp_path) -> None:
     """The export records the training env's layout and masks from the observation as the model does: with
     the chosen target made unobservable, both choose the same other target."""
-    from planetnav_agents.masking import layout_of
-    from planetnav_agents.sb3 import load_model
     from planetnav_env.core.layout import TARGET_FEATURES, TF_OBSERVABLE
+    from planetnav_train.masking import layout_of
+    from planetnav_train.sb3 import load_model
 
     env = _env("Cruise-Target-v0")
     full_zip = _train("maskable_ppo", env, tmp_path / "m.zip")

@@ -9,11 +9,11 @@ import numpy as np
 import pytest
 
 from planetnav_agents import make_agent
-from planetnav_agents.features import FeatureBatch, gain_horizon
 from planetnav_agents.gain import DEFAULT_HORIZON
 from planetnav_agents.greedy import GREEDY_PD_HORIZON_S
 from planetnav_env.env import PlanetNavEnv
 from planetnav_env.registration import ENV_IDS
+from planetnav_train.features import FeatureBatch, gain_horizon
 
 
 def test_gain_horizon_keeps_greedys_steps_at_60_s_and_greedy_pds_time_below() -> None:

@@ -1,9 +1,11 @@
-"""The project's import graph: dependencies point one way (no cycle), and nothing imports train.py.
+"""The project's import graph: packages depend one way, no module cycle, and nothing imports train.py.
 
 Read from the source with ``ast`` (nothing is imported): every ``import`` and ``from ... import``
 anywhere in a module counts, including those inside functions, since a lazy import still ties the two
-modules together, except in a module-level ``__getattr__`` (a deprecated alias). The folder
-``agents/`` is the package ``planetnav_agents``.
+modules together. The folder ``agents/`` is the package ``planetnav_agents``. The packages are layered
+``planetnav_env <- planetnav_agents <- planetnav_train <- planetnav_rl``: each imports only those on its
+left (:data:`ALLOWED`); the packages above the environment meet through registries filled from entry
+points (``pyproject.toml``), not imports. No package imports a top-level ``research`` package.
 """
 
 from __future__ import annotations
@@ -19,6 +21,15 @@ PACKAGES = {
     "planetnav_rl": "planetnav_rl",
     "planetnav_train": "planetnav_train",
 }
+#: package -> the project packages it may import (itself aside)
+ALLOWED = {
+    "planetnav_env": set(),
+    "planetnav_agents": {"planetnav_env"},
+    "planetnav_train": {"planetnav_env", "planetnav_agents"},
+    "planetnav_rl": {"planetnav_env", "planetnav_agents", "planetnav_train"},
+}
+#: top-level names no package may import (research scripts live outside the packages)
+FORBIDDEN_TOP_LEVEL = {"research", "agents", "train"}
 
 
 def project_modules() -> dict[str, Path]:
@@ -42,13 +53,7 @@ def _imported_names(path: Path, module: str, is_package: bool) -> set[str]:
     tree = ast.parse(path.read_text(), filename=str(path))
     package = module if is_package else module.rpartition(".")[0]
     out: set[str] = set()
-    # A module-level __getattr__ is a deprecated alias (an old name resolved to its new home when
-    # used): it is not a dependency of the module's own code, and it necessarily points at the new home.
-    aliases = [n for n in tree.body if isinstance(n, ast.FunctionDef) and n.name == "__getattr__"]
-    skipped = {id(sub) for a in aliases for sub in ast.walk(a)}
     for node in ast.walk(tree):
-        if id(node) in skipped:
-            continue
         if isinstance(node, ast.Import):
             out.update(alias.name for alias in node.names)
         elif isinstance(node, ast.ImportFrom):
@@ -124,7 +129,7 @@ def test_the_graph_reader_finds_a_planted_cycle() -> None:
     assert cycles({"a": {"b"}, "b": set()}) == []
 
 
-def test_deprecated_alias_imports_are_not_edges(tmp_path) -> None:
+def test_lazy_imports_are_edges(tmp_path) -> None:
     mod = tmp_path / "m.py"
     mod.write_text(
         "import os\n"
@@ -132,7 +137,7 @@ def test_deprecated_alias_imports_are_not_edges(tmp_path) -> None:
         "def f():\n    from planetnav_env import config\n"
     )
     names = _imported_names(mod, "m", False)
-    assert names == {"os", "planetnav_env.config"}
+    assert names == {"os", "planetnav_env.env", "planetnav_env.config"}
 
 
 def test_the_graph_reader_sees_known_edges() -> None:
@@ -164,4 +169,85 @@ def test_nothing_imports_train_py() -> None:
                 offenders.append(str(rel))
         if "train.py" in text and ("spec_from_file_location" in text or "sys.path.insert" in text):
             offenders.append(f"{rel} (loads train.py by path)")
+    assert not offenders, offenders
+
+
+def _all_imports() -> dict[str, set[str]]:
+    """Module -> every dotted name it imports (project or not)."""
+    return {
+        name: _imported_names(path, name, path.name == "__init__.py")
+        for name, path in project_modules().items()
+    }
+
+
+def test_the_layer_check_sees_a_planted_upward_import() -> None:
+    assert _layer_violations({"planetnav_agents.x": {"planetnav_train.sb3", "numpy"}}) == [
+        "planetnav_agents.x imports planetnav_train.sb3"
+    ]
+    assert _layer_violations({"planetnav_rl.x": {"planetnav_train.sb3"}}) == []
+
+
+def _layer_violations(imports: dict[str, set[str]]) -> list[str]:
+    out = []
+    for module, names in sorted(imports.items()):
+        pkg = module.split(".")[0]
+        for name in sorted(names):
+            top = name.split(".")[0]
+            if top in ALLOWED and top != pkg and top not in ALLOWED[pkg]:
+                out.append(f"{module} imports {name}")
+            elif top in FORBIDDEN_TOP_LEVEL:
+                out.append(f"{module} imports the top-level {top!r}")
+    return out
+
+
+def test_packages_depend_one_way() -> None:
+    """env <- agents <- train <- rl, lazy imports included; no package imports ``research``."""
+    found = _layer_violations(_all_imports())
+    assert not found, found
+
+
+def test_no_module_level_getattr_aliases() -> None:
+    """No module resolves names lazily through a module-level ``__getattr__`` (an alias of an old path)."""
+    offenders = []
+    for name, path in project_modules().items():
+        tree = ast.parse(path.read_text(), filename=str(path))
+        for node in tree.body:
+            targets = [t.id for t in getattr(node, "targets", []) if isinstance(t, ast.Name)]
+            if (isinstance(node, ast.FunctionDef) and node.name == "__getattr__") or "__getattr__" in targets:
+                offenders.append(name)
+    assert not offenders, offenders
+
+
+def _docstring_nodes(tree: ast.AST) -> set[int]:
+    """The ids of the docstrings' nodes of a module and of its classes and functions."""
+    out: set[int] = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Module | ast.ClassDef | ast.FunctionDef | ast.AsyncFunctionDef):
+            body = node.body
+            if body and isinstance(body[0], ast.Expr) and isinstance(body[0].value, ast.Constant):
+                out.add(id(body[0].value))
+    return out
+
+
+def test_the_product_does_not_use_research() -> None:
+    """research/ (experiments, probes, commit-pair tools) may use the packages; the packages and train.py
+    never import research code nor open a file under research/ (docstrings may cite it)."""
+    offenders = []
+    paths = [ROOT / "train.py", *(p for folder in PACKAGES.values() for p in (ROOT / folder).rglob("*.py"))]
+    for path in paths:
+        tree = ast.parse(path.read_text(), filename=str(path))
+        docs = _docstring_nodes(tree)
+        rel = path.relative_to(ROOT)
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Import) and any(a.name.split(".")[0] == "research" for a in node.names):
+                offenders.append(f"{rel}: imports research")
+            elif isinstance(node, ast.ImportFrom) and (node.module or "").split(".")[0] == "research":
+                offenders.append(f"{rel}: imports from research")
+            elif (
+                isinstance(node, ast.Constant)
+                and isinstance(node.value, str)
+                and id(node) not in docs
+                and ("research/" in node.value or node.value == "research")
+            ):
+                offenders.append(f"{rel}: the string {node.value!r}")
     assert not offenders, offenders

@@ -62,12 +62,21 @@ SCRIPT = textwrap.dedent(
             obs, reward, terminated, truncated, info = venv.step(venv.action_space.sample())
             assert obs.shape[0] == 3 and np.all(np.isfinite(reward))
         assert info["target"].shape == (3,)
+    # the rule agents are the agents package's own: nothing of the training packages was imported
+    training = sorted(m for m in sys.modules if m.partition(".")[0] in ("planetnav_train", "planetnav_rl"))
+    assert not training, training
     try:
-        import planetnav_env.sb3_vec  # noqa: F401
+        make_agent("no/such/model", gym.make("planetnav/Cruise-Target-v0"))
+    except ValueError as exc:
+        assert "planetnav_train" in str(exc), exc
+    else:
+        raise AssertionError("make_agent of a missing model path built an agent")
+    try:
+        import planetnav_train.sb3_vec  # noqa: F401
     except ImportError as exc:
         assert "planetnav[train]" in str(exc), exc
     else:
-        raise AssertionError("planetnav_env.sb3_vec imported without Stable-Baselines3")
+        raise AssertionError("planetnav_train.sb3_vec imported without Stable-Baselines3")
     loaded = sorted(m for m in sys.modules if m.partition(".")[0] in BLOCKED)
     assert not loaded, loaded
     print("OK", steps, planetnav_agents.__name__)

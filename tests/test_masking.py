@@ -1,4 +1,4 @@
-"""MaskablePPO's mask of unobservable targets (planetnav_agents.masking) at the env's own observation
+"""MaskablePPO's mask of unobservable targets (planetnav_train.masking) at the env's own observation
 layout, on a target-choice cruise, the Mars approach (planet + pulsars) and the thrust arc (operations
 block, and the last action "stay" that is never masked): in the rollouts MaskablePPO collects, and in the
 ``predict`` of a saved and reloaded model."""
@@ -8,9 +8,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from planetnav_agents.masking import layout_of, observable_mask
 from planetnav_env.core.layout import TF_OBSERVABLE
 from planetnav_env.env import PlanetNavEnv
+from planetnav_train.masking import layout_of, observable_mask
 
 IDS = ("planetnav/Cruise-Target-v0", "planetnav/MarsApproach-Tasking-v0", "planetnav/ThrustArc-TCM-v0")
 
@@ -66,8 +66,8 @@ def test_maskable_ppo_rollout_masks_and_saved_predict(env_id: str, tmp_path) -> 
     pytest.importorskip("sb3_contrib", reason="sb3-contrib is not installed (the [bench] extra)")
     from sb3_contrib.common.maskable.utils import get_action_masks
 
-    from planetnav_agents.sb3 import algorithm_class, load_model
-    from planetnav_env.sb3_vec import PlanetNavSB3VecEnv
+    from planetnav_train.sb3 import algorithm_class, load_model
+    from planetnav_train.sb3_vec import PlanetNavSB3VecEnv
 
     vec = PlanetNavSB3VecEnv(4, env_id, seed=1, episode_steps=16)
     cls = algorithm_class("maskable_ppo")

@@ -14,13 +14,13 @@ from conftest import play_episode
 
 import planetnav_env  # noqa: F401  (registers the ids)
 from planetnav_agents import make_agent
-from planetnav_agents.stats import mean_ci, paired_difference
 from planetnav_env.config import EnvConfig
 from planetnav_env.env import PlanetNavEnv
 from planetnav_env.registration import ENV_IDS
 from planetnav_train.cli import main
 from planetnav_train.evaluate import add_paired, evaluate_agent, results_json
 from planetnav_train.report import markdown_table
+from planetnav_train.stats import mean_ci, paired_difference
 
 ID = "planetnav/ThrustArc-TCM-v0"
 DT = ENV_IDS[ID]["step_s"]

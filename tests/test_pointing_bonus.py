@@ -7,13 +7,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from planetnav_agents.batch_wrappers import single_training_env
-from planetnav_agents.shaping import PointingPotential
-from planetnav_agents.vec_training import NavTrainingVecEnv
 from planetnav_env.env import PlanetNavEnv
 from planetnav_env.errors import ConfigError
 from planetnav_env.registration import ENV_IDS
+from planetnav_train.batch_wrappers import single_training_env
 from planetnav_train.config import parse_config
+from planetnav_train.shaping import PointingPotential
+from planetnav_train.vec_training import NavTrainingVecEnv
 
 TORQUE = "planetnav/Cruise-TorqueControl-v0"
 

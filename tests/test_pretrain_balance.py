@@ -1,4 +1,4 @@
-"""agents/pretrain.py ``clone(..., balance=True)``: each discrete action weighs the same in the fit."""
+"""planetnav_train.pretrain ``clone(..., balance=True)``: each discrete action weighs the same in the fit."""
 
 from __future__ import annotations
 
@@ -25,7 +25,7 @@ class _OneState(gym.Env):
 def _probs_after_clone(balance: bool) -> np.ndarray:
     from stable_baselines3 import PPO
 
-    from planetnav_agents.pretrain import clone
+    from planetnav_train.pretrain import clone
 
     torch.manual_seed(0)
     model = PPO("MlpPolicy", _OneState(), n_steps=8, batch_size=8, seed=0, device="cpu")
@@ -52,7 +52,7 @@ def test_balance_weighs_each_action_the_same() -> None:
 def test_balance_needs_discrete_actions() -> None:
     from stable_baselines3 import PPO
 
-    from planetnav_agents.pretrain import clone
+    from planetnav_train.pretrain import clone
 
     env = _OneState()
     env.action_space = spaces.Box(-1.0, 1.0, (2,), np.float32)

@@ -1,4 +1,4 @@
-"""Publishing the suite (planetnav_train/publish.py, planetnav_agents.shipped; docs/suite.md "Publishing"):
+"""Publishing the suite (planetnav_train.suite.publish, planetnav_train.shipped; docs/suite.md "Publishing"):
 the README summary block, the summary tables against direct numpy IQMs, choosing and shipping the best
 raw-track model of each task with its size limit, and loading a shipped baseline by name. The end-to-end
 path (a real smoke suite, then ``suite-publish`` and ``compare --agents suite:<task>``) is in
@@ -13,9 +13,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from planetnav_agents import make_agent, shipped
+from planetnav_agents import make_agent
 from planetnav_env.errors import ConfigError
-from planetnav_train import publish, suite
+from planetnav_train import shipped, suite
+from planetnav_train.suite import publish, runner
 
 README = f"# x\n\nintro\n\n{publish.README_START}\nold text\n{publish.README_END}\n\n## after\n"
 
@@ -131,7 +132,7 @@ def suite_out(tmp_path: Path) -> Path:
     for seed, score in ((0, 0.4), (1, 0.8)):
         rec = _record("Cruise-Target-v0", "ppo", seed, score)
         cell = suite.Cell(rec["task"], "ppo", "raw", seed)
-        suite._write_json_atomic(suite.record_path(out, cell), rec)
+        runner.write_json_atomic(suite.record_path(out, cell), rec)
         (out / "models" / cell.key).mkdir(parents=True)
         PPO("MlpPolicy", env, seed=seed, n_steps=16, batch_size=16).save(out / "models" / cell.key / "model")
     return out
@@ -189,7 +190,7 @@ def test_ship_baselines_refuses_a_large_model_before_copying(suite_out, tmp_path
         publish.ship_baselines(suite_out, dest, max_bytes=small)
     assert not dest.exists()  # nothing copied, no manifest written
     rec = _record("Cruise-Target-v0", "rllib_ppo", 0, 2.0)
-    suite._write_json_atomic(
+    runner.write_json_atomic(
         suite.record_path(suite_out, suite.Cell(rec["task"], "rllib_ppo", "raw", 0)), rec
     )
     with pytest.raises(ConfigError, match="rllib_ppo__raw__s0 is an RLlib checkpoint"):
@@ -200,9 +201,9 @@ def test_a_large_model_ships_as_its_policy_only_export(suite_out, tmp_path, monk
     """A model of the limit or more ships as its policy-only export when that is under the limit; loaded by
     name it acts and evaluates (batched, as the suite evaluates) exactly as the source model; shipped again
     under a higher limit, the full model replaces it and the export's file goes."""
-    from planetnav_agents.policy_only import PolicyOnlyModel
     from planetnav_env.env import PlanetNavEnv
     from planetnav_train.evaluate import evaluate_agent
+    from planetnav_train.policy_only import PolicyOnlyModel
 
     dest = tmp_path / "baselines"
     source = suite_out / "models" / "Cruise-Target-v0__ppo__raw__s1" / "model.zip"

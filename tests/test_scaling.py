@@ -29,8 +29,10 @@ HAS_RAY = importlib.util.find_spec("ray") is not None
 
 def test_importing_planetnav_never_imports_ray() -> None:
     code = (
-        "import sys, planetnav_env, agents, planetnav_rl, planetnav_rl.cluster, planetnav_rl.rllib, "
-        "planetnav_rl.tune, planetnav_agents.rllib, train; "
+        "import sys, planetnav_env, planetnav_agents, planetnav_rl, planetnav_rl.cluster, "
+        "planetnav_rl.rllib, planetnav_rl.tune, planetnav_rl.agent, planetnav_rl.extensions, "
+        "planetnav_rl.suite_grid, train; "
+        "planetnav_rl.extensions.register(); planetnav_rl.extensions.register_agent_loader(); "
         "import gymnasium as gym; gym.make('planetnav/Cruise-Target-v0'); "
         "bad = sorted(m for m in sys.modules if m == 'ray' or m.startswith('ray.')); "
         "assert not bad, bad[:5]"

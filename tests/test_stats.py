@@ -1,4 +1,4 @@
-"""planetnav_agents.stats against scipy.stats: the t-interval of a mean and the paired t-interval."""
+"""planetnav_train.stats against scipy.stats: the t-interval of a mean and the paired t-interval."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from planetnav_agents.stats import mean_ci, paired_difference
+from planetnav_train.stats import mean_ci, paired_difference
 
 
 @pytest.mark.parametrize("n", [2, 5, 20])

@@ -1,4 +1,4 @@
-"""The benchmark suite (planetnav_train/suite.py, scores.py; docs/suite.md): the normalized score, the
+"""The benchmark suite (planetnav_train.suite; docs/suite.md): the normalized score, the
 rliable aggregation against direct numpy computations, the action mask, resume, and the CI smoke run of
 ``train.py suite`` end to end on one tiny task and budget."""
 
@@ -13,7 +13,8 @@ import pytest
 from planetnav_env.errors import ConfigError
 from planetnav_env.registration import ENV_IDS
 from planetnav_train import suite
-from planetnav_train.scores import normalized_score
+from planetnav_train.suite import runner
+from planetnav_train.suite.scoring import normalized_score
 
 #: A fixed (runs, tasks) score matrix: 5 seeds x 3 tasks.
 SCORES = np.array(
@@ -48,7 +49,7 @@ def _direct_iqm(m: np.ndarray) -> float:
 
 def test_iqm_with_stratified_bootstrap_matches_numpy() -> None:
     pytest.importorskip("rliable")
-    from planetnav_train.scores import iqm_intervals
+    from planetnav_train.suite.scoring import iqm_intervals
 
     got = iqm_intervals({"a": SCORES}, reps=4_000, seed=1)["a"]
     assert got["iqm"] == pytest.approx(_direct_iqm(SCORES), abs=1e-12)
@@ -68,7 +69,7 @@ def test_iqm_with_stratified_bootstrap_matches_numpy() -> None:
 
 def test_profiles_and_probability_of_improvement_match_numpy() -> None:
     pytest.importorskip("rliable")
-    from planetnav_train.scores import improvement_probabilities, performance_profiles
+    from planetnav_train.suite.scoring import improvement_probabilities, performance_profiles
 
     taus = [0.0, 0.5, 1.0]
     prof = performance_profiles({"a": SCORES}, taus=taus, reps=200)["a"]
@@ -203,7 +204,7 @@ def test_exact_actions_reaches_the_evaluation_the_record_and_the_command(tmp_pat
         return evaluate.EvalResult(spec, metrics, np.zeros(0), np.zeros(0))
 
     monkeypatch.setattr(evaluate, "evaluate_agent", fake_evaluate)
-    monkeypatch.setattr(suite, "train_cell", lambda tc, run_dir, progress: (run_dir / "model.zip", {}))
+    monkeypatch.setattr(runner, "train_cell", lambda tc, run_dir, progress: (run_dir / "model.zip", {}))
     refs = {"random": "random", "best": "greedy", "J_random": 300.0, "J_best": 100.0}
     cell = suite.Cell("Cruise-Torque-v0", "sac", "raw", 0)
     for exact in (True, False):
@@ -217,7 +218,7 @@ def test_exact_actions_reaches_the_evaluation_the_record_and_the_command(tmp_pat
 def test_contrib_algorithm_without_sb3_contrib_names_the_extra(monkeypatch) -> None:
     import sys
 
-    from planetnav_agents.sb3 import algorithm_class
+    from planetnav_train.sb3 import algorithm_class
 
     monkeypatch.setitem(sys.modules, "sb3_contrib", None)  # import sb3_contrib raises ImportError
     with pytest.raises(ConfigError, match=r"\.\[bench\]"):
@@ -237,8 +238,8 @@ def test_resume_skips_finished_runs(tmp_path, monkeypatch) -> None:
         trained.append(cell.key)
         return _fake_record(cell, settings)
 
-    monkeypatch.setattr(suite, "run_cell", fake_run_cell)
-    monkeypatch.setattr(suite, "task_references", lambda task, settings: {"task": task.id})
+    monkeypatch.setattr(runner, "run_cell", fake_run_cell)
+    monkeypatch.setattr(runner, "task_references", lambda task, settings: {"task": task.id})
     settings = suite.Settings(out=tmp_path)
     cells = suite.make_cells(["Cruise-Target-v0"], ["ppo"], [0, 1], "raw")
     first = suite.run_suite(cells, settings, use_ray=False)
@@ -291,8 +292,8 @@ def test_suite_smoke_end_to_end(tmp_path, monkeypatch) -> None:
     assert (args.budget_scale, args.episode_steps, args.eval_episodes) == (0.003, 20, 2)
 
     # Publishing (nothing trains): the JSON into the repository, the README's summary, the best model.
-    from planetnav_agents import shipped
-    from planetnav_train import publish
+    from planetnav_train import shipped
+    from planetnav_train.suite import publish
 
     readme, bench_json, baselines = tmp_path / "README.md", tmp_path / "benchmark.json", tmp_path / "bl"
     readme.write_text(f"# r\n\n{publish.README_START}\nnot yet\n{publish.README_END}\n\n## next\n")

@@ -138,10 +138,15 @@ def _sb3_configs() -> list[str]:
 
 
 def test_shipped_configs_parse() -> None:
+    """Every training config parses: the shipped ones (configs/) and the research ones (research/), so
+    that the experiments recorded in docs/training.md and docs/operations.md stay runnable."""
     has_ray = importlib.util.find_spec("ray") is not None
     configs = ROOT / "configs"
-    paths = sorted(configs.glob("*.yaml")) + sorted((configs / "experiments").glob("*.yaml"))
+    paths = sorted(configs.glob("*.yaml")) + sorted((configs / "operations").glob("*.yaml"))
     assert len(paths) >= 9
+    research = sorted((ROOT / "research").rglob("*.yaml"))
+    assert len(research) >= 20
+    paths += research
     for path in paths:
         if path.name.startswith("sweep"):
             continue  # Tune sweep configs, not training configs: tests/test_scaling.py loads them
@@ -241,8 +246,11 @@ def test_every_shipped_config_trains_and_evaluates(tmp_path: Path, name: str) ->
 
 
 def _operations_configs() -> list[str]:
-    """The training configs of the operations scenarios (issue 17; docs/operations.md)."""
-    return sorted(p.name for p in (ROOT / "configs" / "operations").glob("*.yaml"))
+    """The training configs of the operations scenarios (docs/operations.md): the shipped recipe in
+    configs/operations/ and the experiment variants in research/operations/, as paths from the root."""
+    paths = sorted((ROOT / "configs" / "operations").glob("*.yaml"))
+    paths += sorted((ROOT / "research" / "operations").glob("*.yaml"))
+    return [p.relative_to(ROOT).as_posix() for p in paths]
 
 
 def _operations_smoke_version(path: Path, tmp_path: Path, steps: int = 30) -> Path:
@@ -270,16 +278,17 @@ def _operations_smoke_version(path: Path, tmp_path: Path, steps: int = 30) -> Pa
 
 def test_operations_configs_are_found() -> None:
     """The smoke test below is not vacuous: issue 17 ships at least one config per operations scenario."""
-    assert "thrust_arc_tcm.yaml" in _operations_configs()
+    assert "configs/operations/thrust_arc_tcm.yaml" in _operations_configs()
 
 
 @pytest.mark.parametrize("name", _operations_configs())
 def test_every_operations_config_trains_and_evaluates(
     tmp_path: Path, name: str, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    """CI smoke test of each configs/operations/*.yaml (cloning stage, training, evaluation with the
-    config's rules and references): every agent reports the scenario objective J [km] per episode."""
-    cfg = _operations_smoke_version(ROOT / "configs" / "operations" / name, tmp_path)
+    """CI smoke test of each configs/operations/*.yaml and research/operations/*.yaml (cloning stage,
+    training, evaluation with the config's rules and references): every agent reports the scenario
+    objective J [km] per episode."""
+    cfg = _operations_smoke_version(ROOT / name, tmp_path)
     run_dir = tmp_path / "run"
     rc = main(["train", "--config", str(cfg), "--run-dir", str(run_dir), "--no-progress"])
     assert rc == 0

@@ -68,8 +68,8 @@ def rollout_hashes(venv: Any) -> dict[str, str]:
 
 def build(case: dict[str, Any]) -> Any:
     """The native training VecEnv of ``case`` (every option on arrays)."""
-    from planetnav_agents.vec_training import NavTrainingVecEnv
     from planetnav_env.config import EnvConfig
+    from planetnav_train.vec_training import NavTrainingVecEnv
 
     cfg = EnvConfig(
         action_mode=case["mode"], episode_steps=EPISODE_STEPS, scenario=case["scenario"],

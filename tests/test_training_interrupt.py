@@ -31,6 +31,6 @@ def test_interrupt_saves_the_model_and_reports_it(tmp_path: Path, monkeypatch: p
     assert stats["interrupted"] is True
     assert 128 <= stats["timesteps"] < tc.n_timesteps
     assert model_path.is_file()
-    from planetnav_agents.sb3 import load_model
+    from planetnav_train.sb3 import load_model
 
     assert load_model(model_path).num_timesteps == stats["timesteps"]

@@ -1,4 +1,4 @@
-"""The training options written once over a batch (planetnav_agents.batch_wrappers): the native training
+"""The training options written once over a batch (planetnav_train.batch_wrappers): the native training
 VecEnv's rows equal single environments running the same layers with N = 1 (in SB3's DummyVecEnv), for
 every feature, the shaping, action repeat and relative actions, in every action mode; the deprecated
 single-env wrappers still work and warn; the agent-side formulas equal their one-row forms."""
@@ -11,11 +11,11 @@ import numpy as np
 import pytest
 from stable_baselines3.common.vec_env import DummyVecEnv
 
-from planetnav_agents.batch_wrappers import single_training_env
-from planetnav_agents.features import FeatureBatch, relative_actions_batch
-from planetnav_agents.vec_training import NavTrainingVecEnv
 from planetnav_env.config import EnvConfig
 from planetnav_env.env import PlanetNavEnv
+from planetnav_train.batch_wrappers import single_training_env
+from planetnav_train.features import FeatureBatch, relative_actions_batch
+from planetnav_train.vec_training import NavTrainingVecEnv
 
 
 def _dummy(cfg: EnvConfig, n: int, **options) -> DummyVecEnv:
@@ -24,8 +24,7 @@ def _dummy(cfg: EnvConfig, n: int, **options) -> DummyVecEnv:
 
 def _deprecated_stack(cfg: EnvConfig, features, repeat: int, relative: bool, pointing, gamma):
     """The old way of building a training env: the deprecated single-env wrappers, nested."""
-    from planetnav_agents.features import ActionRepeat, NavFeatures, RelativeTargets
-    from planetnav_agents.shaping import PointingShaping
+    from planetnav_train.batch_wrappers import ActionRepeat, NavFeatures, PointingShaping, RelativeTargets
 
     env = PlanetNavEnv(cfg)
     if features:
@@ -93,7 +92,7 @@ def test_deprecated_wrappers_warn_and_equal_the_single_env_adapter(
     mode, features, repeat, relative, pointing, gamma
 ):
     cfg = EnvConfig(action_mode=mode, episode_steps=12)
-    with pytest.warns(DeprecationWarning, match="is deprecated; use planetnav_agents.batch_wrappers"):
+    with pytest.warns(DeprecationWarning, match="is deprecated; use planetnav_train.batch_wrappers"):
         old = _deprecated_stack(cfg, features, repeat, relative, pointing, gamma)
     new = single_training_env(
         PlanetNavEnv(cfg), features, repeat, relative_actions=relative, pointing=pointing, gamma=gamma
@@ -119,7 +118,7 @@ def test_deprecated_feature_state_warns_and_equals_feature_batch():
     env = PlanetNavEnv(episode_steps=6, action_mode="torque")
     features = ["since_measured", "gain", "pd_torque"]
     with pytest.warns(DeprecationWarning, match="FeatureState is deprecated"):
-        from planetnav_agents.features import FeatureState
+        from planetnav_train.features import FeatureState
 
         old = FeatureState(env, features)
     new = FeatureBatch.for_env(env, features)

@@ -221,7 +221,7 @@ def test_sb3_adapter_trains_and_reports_terminal_observations() -> None:
     from stable_baselines3 import PPO
     from stable_baselines3.common.vec_env import VecMonitor
 
-    from planetnav_env.sb3_vec import PlanetNavSB3VecEnv
+    from planetnav_train.sb3_vec import PlanetNavSB3VecEnv
 
     vec = VecMonitor(PlanetNavSB3VecEnv(4, seed=0, episode_steps=16))
     obs = vec.reset()
@@ -376,7 +376,7 @@ def test_vector_env_takes_an_env_id_and_reports_the_episode_length() -> None:
     with pytest.raises(UnknownOptionError, match="got an unexpected keyword argument 'frameskip'"):
         gym.make_vec("planetnav/Cruise-Target-v0", num_envs=2, frameskip=4)
     pytest.importorskip("stable_baselines3", reason="the SB3 adapter needs the [train] extra")
-    from planetnav_env.sb3_vec import PlanetNavSB3VecEnv
+    from planetnav_train.sb3_vec import PlanetNavSB3VecEnv
 
     sb3 = PlanetNavSB3VecEnv(4, "planetnav/MarsApproach-Tasking-v0")
     assert sb3.config == PlanetNavVectorEnv(4, "planetnav/MarsApproach-Tasking-v0").config

@@ -30,7 +30,6 @@ import math
 import numpy as np
 from numba import njit
 
-from planetnav_env._deprecation import moved_names
 from planetnav_env.attitude.pointing import (
     LoopScratch,
     PdLoop,
@@ -363,18 +362,3 @@ def reset_rows(prm, st, rows) -> None:  # pragma: no cover - compiled
     sc = make_scratch(prm)
     for r in range(rows.shape[0]):
         reset_row(prm, st, rows[r], sc)
-
-
-# Names that moved out of this module (issue 20) resolve here with a DeprecationWarning.
-_MOVED = {
-    "planetnav_env.core.records": ("CoreParams", "Scratch"),
-    "planetnav_env.estimation.measurement_kernels": ("los_basis_kernel", "measurement_vector_kernel"),
-    "planetnav_env.sensors.pulsar": ("pulsar_visibility_row",),
-    "planetnav_env.core.row_noise": ("NOISE_STAR", "NOISE_RATE", "NOISE_CAMERA", "NOISE_PULSAR0"),
-    "planetnav_env.core.what_if": (
-        "coasted_position_trace",
-        "predicted_planet_trace",
-        "predicted_pulsar_trace",
-    ),
-}
-__getattr__ = moved_names(__name__, {name: mod for mod, names in _MOVED.items() for name in names})

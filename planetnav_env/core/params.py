@@ -19,6 +19,7 @@ from planetnav_env.core.ephemeris_table import SEGMENT_S
 from planetnav_env.core.records import CoreParams, make_scalars
 from planetnav_env.estimation.ekf import process_noise
 from planetnav_env.estimation.ekf_kernels import KIND_CODES
+from planetnav_env.options import kernel_values
 from planetnav_env.portable_math import norm3
 from planetnav_env.sensors import pulsar as psr
 from planetnav_env.sensors.star_tracker import StarTrackerConfig, star_fix_tables
@@ -97,19 +98,13 @@ def build_params(cfg: EnvConfig, plan: ChannelPlan, mu_central: float, mus: np.n
     pos_scale, vel_scale = L.observation_scales(cfg.scenario)
     ops_q_par, ops_q_perp = ops.psd_km2_s3 if ops is not None else (0.0, 0.0)
     scalars = make_scalars(
-        step_s=cfg.step_s,
-        substep_s=cfg.attitude_substep_s,
-        coarse_s=coarse_s,
+        **kernel_values(cfg),  # the scalars that copy an option (declared with kernel=)
         n_sub=cfg.n_substeps,
         n_coarse=round(cfg.step_s / coarse_s) if coarse_s > 0 else 0,
-        episode_steps=cfg.episode_steps,
         segment_s=SEGMENT_S,
-        k_a=att.k_a,
-        k_w=att.k_w,
         rate_noise=math.radians(att.rate_noise_deg_s),
         settle_angle=SETTLE_ANGLE_RAD,
         settle_rate=SETTLE_RATE_RAD_S,
-        torque_scale=cfg.torque_action_scale,
         mode=L.MODE_CODES[cfg.action_mode],
         mu=mu_central,
         central_radius=body(plan.central_body).radius,
@@ -121,13 +116,8 @@ def build_params(cfg: EnvConfig, plan: ChannelPlan, mu_central: float, mus: np.n
         alpha_max=2.0 * min(cam.half_fov_rad),
         sigma_alpha=cam.sigma_alpha_rad,
         ideal_star=cfg.star_tracker == "ideal",
-        psr_int_s=cfg.detector.integration_time_s,
         det_half_fov=math.radians(0.5 * cfg.detector_fov_deg),
         sun_avoid=math.radians(cfg.detector.sun_avoidance_deg),
-        ambig_k=cfg.ambiguity_k_sigma,
-        reward_scale=cfg.reward_scale_km,
-        torque_penalty=cfg.torque_penalty,
-        divergence=cfg.divergence_km,
         reward_truth=cfg.reward == "truth",
         n_planets=cfg.n_planets,
         n_pulsars=cfg.n_pulsars,
@@ -153,8 +143,6 @@ def build_params(cfg: EnvConfig, plan: ChannelPlan, mu_central: float, mus: np.n
         ops_q_par=ops_q_par,
         ops_q_perp=ops_q_perp,
         ops_cos_tol=math.cos(math.radians(ops.attitude_tolerance_deg)) if ops is not None else 0.0,
-        ops_encounter=ops.encounter_s if ops is not None else 0.0,
-        ops_weight=ops.cost_weight if ops is not None else 0.0,
     )
     # The thesis's star camera is one instrument: the stars in the planet image give the attitude.
     # Sharing the boresight matters: a tracker's weak axis is roll about its own boresight, which would

@@ -13,8 +13,10 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
+from planetnav_env.config import EnvConfig
 from planetnav_env.core import rng as crng
 from planetnav_env.core.layout import TARGET_FEATURES
+from planetnav_env.options import kernel_fields
 from planetnav_env.sensors.camera_kernels import (
     N_VIS_SLOTS,
 )
@@ -23,46 +25,39 @@ from planetnav_env.sensors.star_tracker import FIX_WORK_SHAPE
 #: The scalar parameters, one definition each: (name, numpy type, meaning [unit]). Kernels read them by
 #: name from the one-element structured array ``CoreParams.scalars``: ``c = prm.scalars[0]``, ``c.mu``
 #: (numba compiles a field read to one load at a fixed offset, as fast as the former numbered slots, and
-#: the dispatcher types the array as cheaply as any other). Flags are int64 0/1.
+#: the dispatcher types the array as cheaply as any other). Flags are int64 0/1. The scalars that copy an
+#: option come first, generated from its declaration (``option(..., kernel=<name>)`` in
+#: :class:`~planetnav_env.config.EnvConfig` and its sections); the rest, computed in
+#: :func:`~planetnav_env.core.params.build_params`, are listed here with the options they come from.
 SCALAR_FIELDS: tuple[tuple[str, str, str], ...] = (
+    *kernel_fields(EnvConfig),
     # time steps
-    ("step_s", "f8", "agent step [s]"),
-    ("substep_s", "f8", "attitude sub-step [s]"),
-    ("coarse_s", "f8", "coarse attitude sub-step of a settled, held target [s] (0: none)"),
-    ("n_sub", "i8", "attitude sub-steps per step"),
-    ("n_coarse", "i8", "coarse sub-steps per step (0: no coarse stepping)"),
-    ("episode_steps", "i8", "steps of an episode"),
+    ("n_sub", "i8", "attitude sub-steps per step (step_s / attitude_substep_s)"),
+    ("n_coarse", "i8", "coarse sub-steps per step (step_s / settled_substep_s; 0: no coarse stepping)"),
     ("segment_s", "f8", "span of one ephemeris-table segment [s]"),
     # attitude
-    ("k_a", "f8", "PD pointing law: angle gain [1/s^2]"),
-    ("k_w", "f8", "PD pointing law: rate gain [1/s]"),
-    ("rate_noise", "f8", "gyro rate noise [rad/s]"),
+    ("rate_noise", "f8", "gyro rate noise [rad/s] (attitude.rate_noise_deg_s)"),
     ("settle_angle", "f8", "pointing error below which a held target counts as settled [rad]"),
     ("settle_rate", "f8", "body rate below which a held target counts as settled [rad/s]"),
-    ("torque_scale", "f8", "torque per unit of a torque action [N m]"),
-    ("mode", "i8", "action mode (layout.MODE_CODES)"),
+    ("mode", "i8", "action mode (layout.MODE_CODES of action_mode)"),
     # orbit and filter
-    ("mu", "f8", "central body's GM [km^3/s^2]"),
-    ("central_radius", "f8", "central body's radius [km]"),
-    ("euler", "i8", "1: the filter's STM by one Euler step (EnvConfig.filter.stm), 0: RK4"),
-    ("kind", "i8", "measurement model (estimation.ekf_kernels.KIND_CODES)"),
+    ("mu", "f8", "central body's GM [km^3/s^2] (scenario)"),
+    ("central_radius", "f8", "central body's radius [km] (scenario)"),
+    ("euler", "i8", "1: the filter's STM by one Euler step (filter.stm), 0: RK4"),
+    ("kind", "i8", "measurement model (estimation.ekf_kernels.KIND_CODES of measurement_model)"),
     # camera
-    ("sig_dir", "f8", "direction sigma of a planet fix, camera and star tracker combined [rad]"),
-    ("sig_size", "f8", "apparent-size sigma of a planet fix [rad]"),
-    ("cos_half_diag", "f8", "cosine of the camera's half diagonal field of view"),
-    ("alpha_max", "f8", "largest apparent diameter the camera measures [rad]"),
-    ("sigma_alpha", "f8", "apparent-diameter sigma, the observation's size scale [rad]"),
-    ("ideal_star", "i8", "1: the star tracker returns the true attitude"),
+    ("sig_dir", "f8", "direction sigma of a planet fix [rad] (camera.direction_noise_arcsec and "
+     "star_tracker_sigma_arcsec combined)"),
+    ("sig_size", "f8", "apparent-size sigma of a planet fix [rad] (camera.diameter_noise_px / f_px)"),
+    ("cos_half_diag", "f8", "cosine of the camera's half diagonal field of view (camera sensor, focus)"),
+    ("alpha_max", "f8", "largest apparent diameter the camera measures [rad] (camera field of view)"),
+    ("sigma_alpha", "f8", "apparent-diameter sigma, the observation's size scale [rad] (as sig_size)"),
+    ("ideal_star", "i8", "1: the star tracker returns the true attitude (star_tracker 'ideal')"),
     # pulsars
-    ("psr_int_s", "f8", "X-ray detector integration time [s]"),
-    ("det_half_fov", "f8", "detector half field of view [rad]"),
-    ("sun_avoid", "f8", "detector Sun-avoidance angle [rad]"),
-    ("ambig_k", "f8", "k-sigma phase-ambiguity threshold [-]"),
+    ("det_half_fov", "f8", "detector half field of view [rad] (detector_fov_deg / 2)"),
+    ("sun_avoid", "f8", "detector Sun-avoidance angle [rad] (detector.sun_avoidance_deg)"),
     # reward and termination
-    ("reward_scale", "f8", "reward scale [km]"),
-    ("torque_penalty", "f8", "reward penalty per squared torque action [-]"),
-    ("divergence", "f8", "position error ending an episode [km]"),
-    ("reward_truth", "i8", "1: reward from the true error, 0: from the filter's sigma"),
+    ("reward_truth", "i8", "1: reward from the true error, 0: from the filter's sigma (reward)"),
     # counts and ephemeris channels
     ("n_planets", "i8", "planets P"),
     ("n_pulsars", "i8", "pulsars Q"),
@@ -72,27 +67,25 @@ SCALAR_FIELDS: tuple[tuple[str, str, str], ...] = (
     ("ch_pert0", "i8", "ephemeris channel of the first perturber"),
     ("n_pert", "i8", "perturbers"),
     ("ch_ssb", "i8", "ephemeris channel of the Solar-system barycentre (-1: none)"),
-    ("approach", "i8", "1: a planetary approach (central body not the Sun)"),
-    ("noise_per_step", "i8", "1: noise from a per-step stream (EnvConfig.noise_streams 'per_step')"),
+    ("approach", "i8", "1: a planetary approach (central body not the Sun; scenario)"),
+    ("noise_per_step", "i8", "1: noise from a per-step stream (noise_streams 'per_step')"),
     # observation
-    ("pos_scale", "f8", "observation's position scale [km]"),
-    ("vel_scale", "f8", "observation's velocity scale [km/s]"),
+    ("pos_scale", "f8", "observation's position scale [km] (scenario)"),
+    ("vel_scale", "f8", "observation's velocity scale [km/s] (scenario)"),
     ("obs_planets", "i8", "first index of the observation's planet block"),
     ("obs_pulsars", "i8", "first index of the observation's pulsar block"),
     ("obs_target", "i8", "first index of the observation's target block"),
     ("obs_elapsed", "i8", "index of the observation's elapsed fraction"),
-    ("obs_in_field", "i8", "first index of the observation's in-field block (-1: none)"),
+    ("obs_in_field", "i8", "first index of the observation's in-field block (-1: none; observe_in_field)"),
     ("obs_ops", "i8", "first index of the observation's operations block"),
     # operations (EnvConfig.operations; zero without)
     ("ops", "i8", "1: an operations scenario"),
     ("ops_n_dl", "i8", "deadlines (the first ops_n_dl entries of CoreParams.ops_deadlines)"),
-    ("ops_acc", "f8", "thrust acceleration [km/s^2]"),
-    ("ops_q_par", "f8", "thrust acceleration PSD along the thrust [km^2/s^3]"),
-    ("ops_q_perp", "f8", "thrust acceleration PSD across the thrust [km^2/s^3]"),
-    ("ops_cos_tol", "f8", "cosine of the thrust attitude tolerance"),
-    ("ops_encounter", "f8", "encounter epoch [s from episode start]"),
-    ("ops_weight", "f8", "cost weight of delta-v [km/(m/s)]"),
-)
+    ("ops_acc", "f8", "thrust acceleration [km/s^2] (operations.thrust_n / operations.mass_kg)"),
+    ("ops_q_par", "f8", "thrust acceleration PSD along the thrust [km^2/s^3] (operations.psd_km2_s3)"),
+    ("ops_q_perp", "f8", "thrust acceleration PSD across the thrust [km^2/s^3] (operations.psd_km2_s3)"),
+    ("ops_cos_tol", "f8", "cosine of the thrust attitude tolerance (operations.attitude_tolerance_deg)"),
+)  # fmt: skip
 #: The record of :data:`SCALAR_FIELDS` (aligned: every field at a multiple of 8 bytes).
 SCALARS_DTYPE = np.dtype([(name, kind) for name, kind, _ in SCALAR_FIELDS], align=True)
 

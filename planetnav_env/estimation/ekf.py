@@ -32,34 +32,27 @@ from scipy.stats import chi2
 from planetnav_env.dynamics.orbit import GravityModel, PerturberFn, euler_stm, rk4_step_stm
 from planetnav_env.errors import InvalidParameterError, require_finite, require_positive
 from planetnav_env.estimation.measurements import wrap_angle
+from planetnav_env.options import check_options, option
 
 
 @dataclass(frozen=True)
 class FilterConfig:
-    """EKF settings with units.
+    """EKF settings, each declared with its unit and range (:func:`~planetnav_env.options.option`)."""
 
-    sigma_pos0 [km], sigma_vel0 [km/s]: initial 1-sigma per axis (P0 diagonal).
-    accel_psd [km^2/s^3]: power spectral density of the white unmodelled acceleration
-        that sets Q (continuous white-noise-acceleration model), per axis.
-    gate_probability: chi-square probability of the innovation gate (1.0 disables gating).
-    stm: ``"rk4"`` (variational equations, default) or ``"euler"`` (thesis, I + F dt).
-    """
-
-    sigma_pos0: float = 1000.0
-    sigma_vel0: float = 1e-3
-    accel_psd: float = 1e-20
-    gate_probability: float = 0.9999
-    stm: str = "rk4"
+    sigma_pos0: float = option(1000.0, gt=0, unit="km", doc="initial 1-sigma position error per axis (P0)")
+    sigma_vel0: float = option(1e-3, gt=0, unit="km/s", doc="initial 1-sigma velocity error per axis (P0)")
+    accel_psd: float = option(
+        1e-20, ge=0, unit="km^2/s^3", doc="PSD of the white unmodelled acceleration per axis (sets Q)"
+    )
+    gate_probability: float = option(
+        0.9999, gt=0, le=1, doc="chi-square probability of the innovation gate (1 disables gating)"
+    )
+    stm: str = option(
+        "rk4", choices=("rk4", "euler"), doc="``rk4`` (variational equations) or ``euler`` (thesis, I + F dt)"
+    )
 
     def __post_init__(self) -> None:
-        require_positive("sigma_pos0", self.sigma_pos0)
-        require_positive("sigma_vel0", self.sigma_vel0)
-        if not np.isfinite(self.accel_psd) or self.accel_psd < 0.0:
-            raise InvalidParameterError(f"accel_psd must be >= 0, got {self.accel_psd!r}")
-        if not 0.0 < self.gate_probability <= 1.0:
-            raise InvalidParameterError(f"gate_probability must be in (0, 1], got {self.gate_probability!r}")
-        if self.stm not in ("rk4", "euler"):
-            raise InvalidParameterError(f"stm must be 'rk4' or 'euler', got {self.stm!r}")
+        check_options(self, "filter.")
 
     def initial_covariance(self) -> np.ndarray:
         """P0 (6, 6)."""

@@ -25,8 +25,7 @@ Modules
 This module is the public API: :func:`visibility`, :func:`measure`, their result records, and re-exports of
 the configuration (:mod:`~planetnav_env.sensors.camera_config`: :class:`CameraConfig`, ``DEFAULT_CAMERA``) and
 of the geometry helpers (:mod:`~planetnav_env.sensors.camera_geometry`: projection, field of view, apparent
-size, Sun angle). The compiled row and batch kernels live in :mod:`~planetnav_env.sensors.camera_kernels`;
-their old path here (``V_*``, ``N_VIS_SLOTS``, ``*_kernel``) is a deprecated alias.
+size, Sun angle). The compiled row and batch kernels live in :mod:`~planetnav_env.sensors.camera_kernels`.
 
 Implementation
 --------------
@@ -44,7 +43,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from planetnav_env._deprecation import moved_names
 from planetnav_env.codes import VisibilityReason
 from planetnav_env.errors import (
     InvalidParameterError,
@@ -91,21 +89,6 @@ __all__ += camera_geometry.__all__
 #: ``VisibilityResult.occulter`` when nothing hides the target / when the Sun does.
 NO_OCCULTER = -1
 SUN_OCCULTER = -2
-
-# Names whose home moved (issue 20): the compiled kernels and their record slots. Their old path here
-# still resolves, with a DeprecationWarning naming the new one.
-_KERNEL_NAMES = (
-    "V_REASON", "V_IN_FOV", "V_SUN_EX", "V_OCCULTED", "V_SMALL", "V_OCCULTER", "V_ALPHA", "V_ANG_B",
-    "V_ANG_T", "V_PIX_X", "V_PIX_Y", "N_VIS_SLOTS",
-    "visibility_row_kernel", "measure_row_kernel", "visibility_codes_kernel", "measure_into_kernel",
-)  # fmt: skip
-__getattr__ = moved_names(
-    __name__,
-    {
-        **dict.fromkeys(_KERNEL_NAMES, "planetnav_env.sensors.camera_kernels"),
-        "SUN_RADIUS_KM": "planetnav_env.sensors.camera_config",
-    },
-)
 
 
 @dataclass(frozen=True, slots=True)

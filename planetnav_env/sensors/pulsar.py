@@ -68,6 +68,7 @@ from planetnav_env.errors import (
     require_positive,
 )
 from planetnav_env.jit import row_kernel
+from planetnav_env.options import check_options, option
 
 __all__ = [
     "DEFAULT_DETECTOR",
@@ -254,47 +255,40 @@ def pulsar(name: str | Pulsar) -> Pulsar:
 
 @dataclass(frozen=True)
 class XrayDetector:
-    """X-ray timing detector.
+    """X-ray timing detector, each setting declared with its unit and range (``options.option``)."""
 
-    area_cm2
-        Effective area A [cm^2]. Default 1 m^2 = 1e4 cm^2, the detector size assumed in Sheikh et al. (2006)
-        and used by most XNAV feasibility studies (NICER's is ~0.19 m^2 at 1.5 keV).
-    integration_time_s
-        Photon integration (folding) time t per TOA [s]. Default 1000 s, within the 500-3000 s range of the
-        XNAV literature. One TOA is delivered per integration window.
-    background_ph_cm2_s
-        Diffuse X-ray background B_x in the detector's field of view [ph/cm^2/s], 2-10 keV. Default 0.005
-        (Sheikh et al. 2006).
-    sun_avoidance_deg
-        Minimum angle [deg] between the pulsar direction and the Sun direction for a usable observation.
-        Default 30 deg: an assumed baffle/thermal constraint (the patent gives none).
-    """
-
-    area_cm2: float = 1.0e4
-    integration_time_s: float = 1000.0
-    background_ph_cm2_s: float = 0.005
-    sun_avoidance_deg: float = 30.0
+    area_cm2: float = option(
+        1.0e4,
+        gt=0,
+        unit="cm^2",
+        doc="effective area A. Default 1 m^2, the detector size assumed in Sheikh et al. (2006) and used by "
+        "most XNAV feasibility studies (NICER's is ~0.19 m^2 at 1.5 keV)",
+    )
+    integration_time_s: float = option(
+        1000.0,
+        gt=0,
+        unit="s",
+        kernel="psr_int_s",
+        doc="photon integration (folding) time t per TOA, within the 500-3000 s of the XNAV literature; one "
+        "TOA per integration window",
+    )
+    background_ph_cm2_s: float = option(
+        0.005,
+        ge=0,
+        unit="ph/cm^2/s",
+        doc="diffuse X-ray background B_x in the field of view, 2-10 keV (Sheikh et al. 2006)",
+    )
+    sun_avoidance_deg: float = option(
+        30.0,
+        ge=0,
+        lt=180,
+        unit="deg",
+        doc="least angle between the pulsar and the Sun for a usable observation: an assumed baffle/thermal "
+        "constraint (the patent gives none)",
+    )
 
     def __post_init__(self) -> None:
-        for name in ("area_cm2", "integration_time_s"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)):
-                raise InvalidParameterError(f"XrayDetector.{name} must be a positive number, got {v!r}")
-            if not math.isfinite(float(v)) or float(v) <= 0.0:
-                raise InvalidParameterError(
-                    f"XrayDetector.{name} must be a positive finite number, got {v!r}"
-                )
-            object.__setattr__(self, name, float(v))
-        b = float(self.background_ph_cm2_s)
-        if not math.isfinite(b) or b < 0.0:
-            raise InvalidParameterError(
-                f"XrayDetector.background_ph_cm2_s must be >= 0, got {self.background_ph_cm2_s!r}"
-            )
-        object.__setattr__(self, "background_ph_cm2_s", b)
-        s = float(self.sun_avoidance_deg)
-        if not 0.0 <= s < 180.0:
-            raise InvalidParameterError(f"XrayDetector.sun_avoidance_deg must be in [0, 180), got {s!r}")
-        object.__setattr__(self, "sun_avoidance_deg", s)
+        check_options(self, "detector.", coerce=True)
 
 
 DEFAULT_DETECTOR = XrayDetector()

@@ -1,0 +1,182 @@
+"""The suite's outputs: the JSON of all runs with the aggregates (``OUT/suite.json``), the markdown
+summary (the README's block) and the leaderboard page (``OUT/benchmark.md``) with its plots.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+from planetnav_train.suite.cells import Settings, coverage_lines
+from planetnav_train.suite.runner import write_json_atomic
+from planetnav_train.suite.scoring import aggregate
+from planetnav_train.suite.tasks import SUITE_VERSION, TASKS
+
+
+def suite_json(
+    records: Sequence[Mapping[str, Any]], references: Mapping[str, Any], agg: Mapping[str, Any]
+) -> dict[str, Any]:
+    """The published JSON: the protocol, the tasks, the references used, every run, and the aggregates."""
+    return {
+        "suite_version": SUITE_VERSION,
+        "tasks": [t.to_dict() for t in TASKS],
+        "references": dict(references),
+        "runs": list(records),
+        "aggregate": dict(agg),
+    }
+
+
+def _fmt_interval(v: Mapping[str, float]) -> str:
+    return f"{v['iqm']:.2f} [{v['low']:.2f}, {v['high']:.2f}]"
+
+
+#: What the normalized score and its aggregate mean, said once for the page and the README summary.
+SCORE_LEGEND = (
+    "Normalized score = (J_random − J) / (J_random − J_best): 0 is random, 1 the best non-learned "
+    "reference; IQM over runs with stratified-bootstrap 95 % intervals (rliable)."
+)
+
+
+def aggregate_rows(track_agg: Mapping[str, Any]) -> list[str]:
+    """Markdown table of one track's aggregate (:func:`aggregate`): per algorithm, the tasks it ran on, its
+    runs per task and its IQM over tasks with the 95 % interval, best first."""
+    overall = track_agg["overall"]
+    lines = ["| algorithm | tasks | runs per task | IQM [95 % CI] |", "|---|---|---|---|"]
+    for x in sorted(overall, key=lambda k: (-overall[k]["iqm"], k)):
+        lines.append(
+            f"| {x} | {len(track_agg['tasks'][x])} | {track_agg['runs'][x]} | {_fmt_interval(overall[x])} |"
+        )
+    return lines
+
+
+def best_per_task_rows(track_agg: Mapping[str, Any], references: Mapping[str, Any]) -> list[str]:
+    """Markdown table of one track: per task the algorithm with the highest IQM of the normalized score
+    (ties: the first by name) and the best non-learned reference it is scored against (its objective
+    in km, on the task's evaluation seeds)."""
+    lines = ["| task | best algorithm | IQM [95 % CI] | best non-learned reference |", "|---|---|---|---|"]
+    for task in sorted(track_agg["per_task"]):
+        per = track_agg["per_task"][task]
+        best = min(per, key=lambda k: (-per[k]["iqm"], k))
+        ref = references.get(task)
+        ref_text = f"{ref['best']} ({ref['J_best']:.1f} km)" if ref else "-"
+        lines.append(f"| {task} | {best} | {_fmt_interval(per[best])} | {ref_text} |")
+    return lines
+
+
+def summary_markdown(data: Mapping[str, Any]) -> str:
+    """The summary of a suite JSON (``OUT/suite.json``, :func:`suite_json`) as markdown: per track the
+    algorithms' IQM over tasks with 95 % intervals and per task the best algorithm. Flags smoke-setting
+    runs ("Not a leaderboard"). The README's summary block is this text
+    (:mod:`planetnav_train.suite.publish`)."""
+    runs, agg = list(data.get("runs") or []), dict(data.get("aggregate") or {})
+    if not runs or not agg:
+        return "No run recorded yet.\n"
+    tasks = sorted({r["task"] for r in runs})
+    lines = [f"Suite version {data.get('suite_version')}: {len(runs)} runs on {len(tasks)} task(s). "
+             + SCORE_LEGEND, ""]  # fmt: skip
+    unofficial = sum(not r.get("official", False) for r in runs)
+    if unofficial:
+        lines += [f"**Not a leaderboard**: {unofficial} of {len(runs)} runs used smoke settings.", ""]
+    lines += coverage_lines(runs, table=False)
+    for track, a in agg.items():
+        lines += [f"Track `{track}`, aggregated over tasks:", "", *aggregate_rows(a), ""]
+        lines += [f"Track `{track}`, best algorithm per task:", ""]
+        lines += [*best_per_task_rows(a, data.get("references") or {}), ""]
+    return "\n".join(lines)
+
+
+def write_leaderboard(
+    records: Sequence[Mapping[str, Any]],
+    references: Mapping[str, Any],
+    agg: Mapping[str, Any],
+    path: Path,
+    plots: bool = True,
+) -> Path:
+    """The leaderboard markdown at ``path`` (plots beside it in ``<stem>_plots/``): the references used,
+    per track the per-task and aggregated IQM tables, P(improvement), the plots, and every run with its
+    command. Runs with smoke settings are flagged at the top: such a page is no leaderboard."""
+    from planetnav_train.suite import scoring
+
+    path.parent.mkdir(parents=True, exist_ok=True)
+    lines = ["# planetnav benchmark suite: results", ""]
+    unofficial = [r for r in records if not r.get("official", False)]
+    if not records:
+        lines += ["No run recorded yet.", ""]
+    if unofficial:
+        lines += [
+            f"**Not a leaderboard**: {len(unofficial)} of {len(records)} runs used smoke settings (budget "
+            "scale, episode length or evaluation seeds other than the task's). Their numbers check the "
+            "machinery only.",
+            "",
+        ]
+    lines += [SCORE_LEGEND, ""]
+    lines += ["## Coverage", "", *coverage_lines(records)]
+    lines += ["## References", "", "| task | agent | objective [95 % CI] | role |", "|---|---|---|---|"]
+    for task, ref in sorted(references.items()):
+        for agent, v in ref["agents"].items():
+            role = (
+                "random" if agent == ref["random"] else ("**best**" if agent == ref["best"] else "candidate")
+            )
+            lines.append(
+                f"| {task} | {agent} | {v['objective']:.1f} [{v['ci95'][0]:.1f}, {v['ci95'][1]:.1f}] "
+                f"| {role} |"
+            )
+    lines.append("")
+    plot_dir = path.parent / f"{path.stem}_plots"
+    for track, a in agg.items():
+        lines += [f"## Track `{track}`", "", "### Per task (IQM of the normalized score over seeds)", ""]
+        algos = sorted(a["overall"])
+        lines += ["| task | " + " | ".join(algos) + " |", "|---|" + "---|" * len(algos)]
+        for task in sorted(a["per_task"]):
+            cells = [
+                _fmt_interval(a["per_task"][task][x]) if x in a["per_task"][task] else "-" for x in algos
+            ]
+            lines.append(f"| {task} | " + " | ".join(cells) + " |")
+        lines += ["", "### Aggregated over tasks", "", *aggregate_rows(a)]
+        lines += ["", "### Best algorithm per task", "", *best_per_task_rows(a, references)]
+        if a["improvement"]:
+            lines += ["", "| P(X > Y) | probability [95 % CI] |", "|---|---|"]
+            for row in a["improvement"]:
+                lines.append(
+                    f"| P({row['x']} > {row['y']}) | {row['probability']:.2f} "
+                    f"[{row['low']:.2f}, {row['high']:.2f}] |"
+                )
+        if plots:
+            for p in scoring.write_plots(
+                a["overall"], a["profiles"], a["improvement"], plot_dir, prefix=f"{track}_"
+            ):
+                lines += ["", f"![{p.stem}]({plot_dir.name}/{p.name})"]
+        lines.append("")
+    lines += ["## Runs", "", "| task | algorithm | track | seed | objective | score | wall s | command |",
+              "|---|---|---|---|---|---|---|---|"]  # fmt: skip
+    for r in sorted(records, key=lambda r: (r["track"], r["task"], r["algorithm"], r["seed"])):
+        lines.append(f"| {r['task']} | {r['algorithm']} | {r['track']} | {r['seed']} | "
+                     f"{r['objective']:.1f} | {r['normalized_score']:+.2f} | {r['wall_seconds']:.0f} | "
+                     f"`{r['command']}` |")  # fmt: skip
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def finish(
+    result: Mapping[str, Any],
+    settings: Settings,
+    json_path: str | None,
+    markdown: Path | None,
+    reps: int | None = None,
+) -> dict[str, Any]:
+    """Aggregate every record under ``settings.out``, write ``OUT/suite.json``, the invocation's runs to
+    ``json_path`` (same form) and the leaderboard markdown (default ``OUT/benchmark.md``)."""
+    records = result["records"]
+    references = dict(result["references"])
+    for p in sorted((settings.out / "references").glob("*.json")):  # tasks run by earlier invocations
+        ref = json.loads(p.read_text())
+        references.setdefault(ref["task"], ref)
+    agg = aggregate(records, reps) if records else {}
+    data = suite_json(records, references, agg)
+    write_json_atomic(settings.out / "suite.json", data)
+    if json_path:
+        write_json_atomic(Path(json_path), {**data, "runs": list(result["ran"])})
+    md = write_leaderboard(records, references, agg, markdown or settings.out / "benchmark.md")
+    return {"json": settings.out / "suite.json", "markdown": md, "aggregate": agg}

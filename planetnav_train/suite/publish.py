@@ -1,0 +1,242 @@
+"""Publishing a benchmark suite's results into the repository (issue 19, docs/suite.md "Publishing"):
+
+- :func:`publish_json`: the aggregated JSON (``OUT/suite.json``: protocol, tasks, references, every run,
+  aggregates) copied to a tracked path, ``docs/benchmark.json`` (``runs/`` is not in the repository);
+- :func:`update_readme`: the summary tables (:func:`planetnav_train.suite.leaderboard.summary_markdown`)
+  written between the README's ``<!-- suite-summary:start -->`` and ``<!-- suite-summary:end -->``
+  markers;
+- :func:`ship_baselines`: the best raw-track policy of each task copied to
+  ``planetnav_train/baselines/<task>.zip`` with its manifest entry, loadable as the agent ``suite:<task>``
+  (:mod:`planetnav_train.shipped`);
+  a model of 1 MB or more ships as its policy-only export (``<task>.policy.zip``,
+  :func:`planetnav_train.export.export_policy`) when that is under 1 MB, and is refused otherwise.
+
+``train.py suite-publish`` re-aggregates every record of an output folder without training anything, then
+does whichever of the three its flags ask; ``train.py suite`` takes ``--publish-json`` and ``--readme``
+too.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import tempfile
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+from planetnav_env.errors import ConfigError
+from planetnav_train.config import is_rllib_algo
+from planetnav_train.export import export_policy
+from planetnav_train.sb3 import resolve_model_path
+from planetnav_train.shipped import (
+    BASELINES_DIR,
+    MANIFEST_NAME,
+    MAX_BASELINE_BYTES,
+    file_sha256,
+    load_manifest,
+)
+from planetnav_train.suite.cells import Cell
+from planetnav_train.suite.leaderboard import summary_markdown
+from planetnav_train.suite.runner import load_records, write_json_atomic
+from planetnav_train.suite.tasks import SUITE_VERSION, get_task
+
+#: The README's summary block lies between these two lines (the text between them is replaced).
+README_START = "<!-- suite-summary:start -->"
+README_END = "<!-- suite-summary:end -->"
+
+
+def load_suite_json(path: str | Path) -> dict[str, Any]:
+    """A suite JSON (``OUT/suite.json`` or a published copy); :class:`ConfigError` naming a missing file."""
+    p = Path(path)
+    if not p.is_file():
+        raise ConfigError(f"no suite JSON at {p}: run `train.py suite` (or `suite-publish`) first")
+    return json.loads(p.read_text())
+
+
+def _copy_atomic(src: Path, dest: Path) -> None:
+    """Copy so that an interrupted copy leaves the old file or the new one, never half of one."""
+    dest.parent.mkdir(parents=True, exist_ok=True)
+    tmp = dest.with_name(dest.name + f".tmp{os.getpid()}")
+    shutil.copyfile(src, tmp)
+    os.replace(tmp, dest)
+
+
+def publish_json(suite_json_path: str | Path, dest: str | Path) -> Path:
+    """Copy the aggregated suite JSON to ``dest`` (a tracked path, e.g. ``docs/benchmark.json``)."""
+    src = Path(suite_json_path)
+    load_suite_json(src)  # a missing or unreadable JSON fails here, before anything is replaced
+    _copy_atomic(src, Path(dest))
+    return Path(dest)
+
+
+def replace_block(text: str, block: str, where: str = "README") -> str:
+    """``text`` with the lines between :data:`README_START` and :data:`README_END` replaced by ``block``.
+    Raises :class:`ConfigError` naming ``where`` unless each marker occurs once, start before end."""
+    starts, ends = text.count(README_START), text.count(README_END)
+    if starts != 1 or ends != 1:
+        raise ConfigError(
+            f"{where}: expected one {README_START!r} and one {README_END!r} line, found {starts} and {ends}"
+        )
+    head, rest = text.split(README_START)
+    if README_END not in rest:
+        raise ConfigError(f"{where}: {README_END!r} comes before {README_START!r}")
+    tail = rest.split(README_END)[1]
+    return f"{head}{README_START}\n{block.rstrip()}\n{README_END}{tail}"
+
+
+def update_readme(readme: str | Path, data: Mapping[str, Any]) -> Path:
+    """Write the summary of suite JSON ``data`` into the README's summary block (the rest untouched)."""
+    p = Path(readme)
+    if not p.is_file():
+        raise ConfigError(f"--readme {p}: no such file")
+    p.write_text(replace_block(p.read_text(), summary_markdown(data), str(p)))
+    return p
+
+
+def best_raw_runs(
+    records: Sequence[Mapping[str, Any]], tasks: Sequence[str] | None = None, official_only: bool = True
+) -> dict[str, Mapping[str, Any]]:
+    """Per task, the raw-track run with the lowest objective (ties: algorithm, then seed, by name/number);
+    ``tasks`` (default: every task with raw-track runs) must each have one. ``official_only``: runs with
+    smoke settings (``official: false``) are not candidates.
+
+    Raises :class:`ConfigError` naming a task without candidate runs, and what it does have."""
+    raw = [r for r in records if r["track"] == "raw"]
+    pool = [r for r in raw if r.get("official", False) or not official_only]
+    wanted = [get_task(t).id for t in tasks] if tasks else sorted({r["task"] for r in pool})
+    if not wanted:
+        raise ConfigError(
+            f"no raw-track run to ship ({len(raw)} raw-track records, none official; smoke runs ship only "
+            "with --allow-smoke)"
+            if raw
+            else "no raw-track run to ship: the output folder has no raw-track record"
+        )
+    best = {}
+    for task in wanted:
+        runs = [r for r in pool if r["task"] == task]
+        if not runs:
+            smoke = sum(r["task"] == task for r in raw)
+            raise ConfigError(
+                f"task {task}: no {'official ' if official_only else ''}raw-track run to ship ({smoke} "
+                "raw-track record(s) with smoke settings)"
+            )
+        best[task] = min(runs, key=lambda r: (r["objective"], r["algorithm"], int(r["seed"])))
+    return best
+
+
+def _shippable(task: str, algo: str, model: Path, max_bytes: int, scratch: Path) -> tuple[str, Path]:
+    """(form, file) to ship for the best model ``model`` of ``task``: ``("full", model)`` when it is under
+    ``max_bytes``, else ``("policy-only", export)`` with its policy-only export written under ``scratch``
+    when that is. Raises :class:`ConfigError` naming the task, the algorithm and both sizes when even the
+    export is ``max_bytes`` or more."""
+    size = model.stat().st_size
+    if size < max_bytes:
+        return "full", model
+    try:
+        export = export_policy(model, scratch / f"{task}.policy.zip", algo)
+    except ValueError as exc:  # a space, argument or parameter the format cannot hold: named in exc
+        raise ConfigError(
+            f"task {task}: the best raw-track model {model} ({algo}) is {size:,} bytes, not under the "
+            f"shipped limit of {max_bytes:,} bytes, and has no policy-only export: {exc}"
+        ) from None
+    small = export.stat().st_size
+    if small >= max_bytes:
+        raise ConfigError(
+            f"task {task}: the best raw-track model {model} ({algo}) is {size:,} bytes ({size / 1e6:.2f} MB) "
+            f"and its policy-only export {small:,} bytes ({small / 1e6:.2f} MB), neither under the shipped "
+            f"limit of {max_bytes:,} bytes"
+        )
+    return "policy-only", export
+
+
+def ship_baselines(
+    out: str | Path,
+    dest: str | Path = BASELINES_DIR,
+    tasks: Sequence[str] | None = None,
+    official_only: bool = True,
+    max_bytes: int = MAX_BASELINE_BYTES,
+) -> list[dict[str, Any]]:
+    """Ship the best raw-track model of each task (:func:`best_raw_runs` over ``OUT/runs``) to ``dest``
+    and record it in ``dest/manifest.json`` (entries of other tasks kept): a model under ``max_bytes``
+    bytes as it is (``dest/<task>.zip``, form ``"full"``), a larger one as its policy-only export
+    (``dest/<task>.policy.zip``, form ``"policy-only"``: the acting network alone,
+    :func:`planetnav_train.export.export_policy`, which checks it acts as the model does) when that is
+    under ``max_bytes``. Every chosen model is checked (and exported) before anything is written: an RLlib
+    checkpoint (a folder, not one SB3 model), a missing model, or a model whose export is still
+    ``max_bytes`` or more is refused with :class:`ConfigError` naming the cell or task, the algorithm and
+    the sizes. A task's file of the other form, named by its old entry, is removed. Returns the new
+    manifest entries."""
+    out, dest = Path(out), Path(dest)
+    best = best_raw_runs(load_records(out), tasks, official_only)
+    with tempfile.TemporaryDirectory(prefix="planetnav-ship-") as scratch:
+        chosen = []
+        for task, r in best.items():
+            cell = Cell(r["task"], r["algorithm"], r["track"], int(r["seed"]))
+            if is_rllib_algo(r["algorithm"]):
+                raise ConfigError(
+                    f"task {task}: the best raw-track run {cell.key} is an RLlib checkpoint (a folder), not "
+                    "one SB3 model file; only SB3 models ship (pass --baseline-tasks without this task)"
+                )
+            try:
+                model = resolve_model_path(out / "models" / cell.key)
+            except FileNotFoundError:
+                raise ConfigError(
+                    f"task {task}: the best raw-track run {cell.key} has no model at "
+                    f"{out / 'models' / cell.key}"
+                ) from None
+            form, file = _shippable(task, r["algorithm"], model, max_bytes, Path(scratch))
+            chosen.append((task, r, cell, model, form, file))
+        manifest = load_manifest(dest)
+        entries = []
+        for task, r, cell, model, form, src in chosen:
+            file = f"{task}.zip" if form == "full" else f"{task}.policy.zip"
+            _copy_atomic(src, dest / file)
+            old = manifest["baselines"].get(task, {}).get("file")
+            if old and old != file and Path(old).name == old:  # the other form's file: not left behind
+                (dest / old).unlink(missing_ok=True)
+            entry = {
+                "task": task,
+                "env_id": get_task(task).env_id,
+                "task_version": r.get("task_version"),
+                "suite_version": r.get("suite_version"),
+                "algorithm": r["algorithm"],
+                "track": "raw",
+                "seed": int(r["seed"]),
+                "objective_name": r.get("objective_name"),
+                "objective": r["objective"],
+                "objective_ci95": r.get("objective_ci95"),
+                "normalized_score": r["normalized_score"],
+                "reference": r.get("reference"),
+                "eval_seed": r.get("eval_seed"),
+                "eval_episodes": r.get("eval_episodes"),
+                "official": bool(r.get("official", False)),
+                "source_cell": cell.key,
+                "command": r.get("command"),
+                "form": form,
+                "file": file,
+                "bytes": (dest / file).stat().st_size,
+                "sha256": file_sha256(dest / file),
+            }
+            if form == "policy-only":  # the model it was exported from (not shipped)
+                entry["source_bytes"] = model.stat().st_size
+                entry["source_sha256"] = file_sha256(model)
+            manifest["baselines"][task] = entry
+            entries.append(entry)
+    manifest["suite_version"] = SUITE_VERSION
+    manifest["baselines"] = dict(sorted(manifest["baselines"].items()))
+    write_json_atomic(dest / MANIFEST_NAME, manifest)
+    return entries
+
+
+__all__ = [
+    "README_END",
+    "README_START",
+    "best_raw_runs",
+    "load_suite_json",
+    "publish_json",
+    "replace_block",
+    "ship_baselines",
+    "update_readme",
+]
