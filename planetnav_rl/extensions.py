@@ -44,10 +44,12 @@ def register_agent_loader() -> None:
     )
 
 
-def _train(tc: Any, run_dir: Path, address: str | None = None, progress: bool = True) -> tuple[Path, dict]:
+def _train(
+    tc: Any, run_dir: Path, address: str | None = None, progress: bool = True, resume: bool = False
+) -> tuple[Path, dict]:
     from planetnav_rl.rllib import train
 
-    return train(tc, run_dir, address=address, progress=progress)
+    return train(tc, run_dir, address=address, progress=progress, resume=resume)
 
 
 def _check_hyperparams(hyperparams: Mapping[str, Any]) -> None:

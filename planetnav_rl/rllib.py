@@ -33,6 +33,7 @@ from typing import Any
 
 from planetnav_rl import require_ray
 from planetnav_rl.hyperparams import ENV_RUNNER_KEYS, LEARNER_KEYS, check_hyperparams
+from planetnav_train.checkpoint import TrainingState, checkpoint_dir, load_state, write_state
 from planetnav_train.config import TrainConfig
 
 #: Name under which the environment creator is registered with Ray (``tune.register_env``).
@@ -142,13 +143,15 @@ def build_algorithm(tc: TrainConfig, num_env_runners: int | None = None) -> Any:
 
 
 def train(
-    tc: TrainConfig, run_dir: Path, address: str | None = None, progress: bool = True
+    tc: TrainConfig, run_dir: Path, address: str | None = None, progress: bool = True, resume: bool = False
 ) -> tuple[Path, dict[str, Any]]:
     """Train ``tc`` with RLlib into ``run_dir``; return the checkpoint directory and training statistics
     (the keys :func:`planetnav_train.training.train` returns: timesteps, seconds, steps_per_s, episodes).
 
     Without ``address`` a local Ray is started on 127.0.0.1 (and shut down at the end); with one, the env
-    runners run on that cluster while the learner stays in this process.
+    runners run on that cluster while the learner stays in this process. Every ``tc.checkpoint_every``
+    env steps (whole iterations) the algorithm is saved into ``run_dir/resume/``
+    (:mod:`planetnav_train.checkpoint`); with ``resume`` a killed run continues from there.
     """
     import yaml
 
@@ -156,33 +159,55 @@ def train(
 
     run_dir = Path(run_dir).resolve()
     run_dir.mkdir(parents=True, exist_ok=True)
-    with open(run_dir / "config.yaml", "w") as fh:
-        yaml.safe_dump(tc.to_dict(), fh, sort_keys=False)
+    state = load_state(run_dir) if resume else None
+    if state is not None and state.done:
+        print(f"{run_dir}: its training finished earlier ({state.timesteps} env steps)")
+        return run_dir / CHECKPOINT_DIR, state.stats
+    if state is None:
+        with open(run_dir / "config.yaml", "w") as fh:
+            yaml.safe_dump(tc.to_dict(), fh, sort_keys=False)
     build_config(tc)  # validate before starting Ray
     ray_info = init_ray(address)
     try:
         from torch.utils.tensorboard import SummaryWriter
 
         algo = build_algorithm(tc)
-        writer = SummaryWriter(str(run_dir / "tb" / f"{tc.algo}_1"))
+        offset = 0
         episodes: list[tuple[int, float, float]] = []
-        t0, steps = time.perf_counter(), 0
+        seconds_before = 0.0
+        if state is not None:
+            algo.restore_from_path(str(checkpoint_dir(run_dir) / state.model))
+            offset, seconds_before = state.timesteps, state.seconds
+            episodes = [tuple(e) for e in state.episodes]
+            print(f"resuming {run_dir} at env step {offset} of {tc.n_timesteps}")
+        writer = SummaryWriter(str(run_dir / "tb" / f"{tc.algo}_1"))
+        t0, steps, last = time.perf_counter(), offset, offset
         while steps < tc.n_timesteps:
             result = algo.train()
             s = iteration_summary(result)
-            steps = int(s["timesteps"])
+            # The lifetime counter comes back with the restored state in recent RLlib versions; where it
+            # restarts at 0, the steps before the checkpoint are added.
+            steps = int(s["timesteps"]) if int(s["timesteps"]) > offset else offset + int(s["timesteps"])
             if not math.isnan(s["return"]):
                 episodes.append((steps, s["return"], s["final_pos_err_km"]))
                 writer.add_scalar("rollout/ep_rew_mean", s["return"], steps)
             if not math.isnan(s["final_pos_err_km"]):
                 writer.add_scalar("nav/final_pos_err_km", s["final_pos_err_km"], steps)
-            writer.add_scalar("time/fps", steps / max(time.perf_counter() - t0, 1e-9), steps)
+            writer.add_scalar("time/fps", (steps - offset) / max(time.perf_counter() - t0, 1e-9), steps)
             if progress:
                 print(
                     f"  iteration {result['training_iteration']}: {steps} env steps, "
                     f"return {s['return']:.2f}, final pos err {s['final_pos_err_km']:.0f} km"
                 )
-        elapsed = time.perf_counter() - t0
+            if tc.checkpoint_every and steps - last >= tc.checkpoint_every and steps < tc.n_timesteps:
+                name = f"algo_{steps}"
+                algo.save_to_path(str(checkpoint_dir(run_dir) / name))
+                write_state(run_dir, TrainingState(
+                    timesteps=steps, seconds=seconds_before + time.perf_counter() - t0, model=name,
+                    episodes=[list(e) for e in episodes],
+                ))  # fmt: skip
+                last = steps
+        elapsed = seconds_before + time.perf_counter() - t0
         writer.close()
         checkpoint = run_dir / CHECKPOINT_DIR
         algo.save_to_path(str(checkpoint))
@@ -195,5 +220,9 @@ def train(
         "seconds": elapsed,
         "steps_per_s": steps / max(elapsed, 1e-9),
         "episodes": episodes,
+        "resumed_at": offset or None,
     }
+    done = TrainingState(timesteps=steps, seconds=elapsed, model="", episodes=[list(e) for e in episodes])
+    done.done, done.stats = True, stats
+    write_state(run_dir, done)
     return checkpoint, stats

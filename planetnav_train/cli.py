@@ -97,23 +97,36 @@ def _eval_env_config(args: argparse.Namespace, specs: Sequence[str]) -> tuple[En
 def cmd_train(args: argparse.Namespace) -> int:
     """``train``: train a configuration (SB3 or RLlib), then evaluate it with the rule-based agents and write
     the report (unless ``--no-eval``)."""
-    tc = load_config(args.config)
-    if args.timesteps:
-        tc.n_timesteps = args.timesteps
-    if args.seed is not None:
-        if args.seed < 0:
-            raise ConfigError(f"--seed must be >= 0, got {args.seed}")
-        tc.seed = args.seed
-    run_dir = Path(args.run_dir) if args.run_dir else ROOT / "runs" / tc.name
+    if args.resume:
+        # The run's own config.yaml, as it was written when it started: nothing else may change.
+        given = [
+            f"--{k.replace('_', '-')}" for k in ("config", "run_dir", "timesteps", "seed") if getattr(args, k)
+        ]
+        if given:
+            raise ConfigError(f"--resume RUN_DIR takes the run's own config.yaml; drop {' '.join(given)}")
+        run_dir = Path(args.resume)
+        if not (run_dir / "config.yaml").is_file():
+            raise ConfigError(f"--resume {run_dir}: no run there (its config.yaml is missing)")
+        tc = load_config(run_dir / "config.yaml")
+    else:
+        tc = load_config(args.config or DEFAULT_CONFIG)
+        if args.timesteps:
+            tc.n_timesteps = args.timesteps
+        if args.seed is not None:
+            if args.seed < 0:
+                raise ConfigError(f"--seed must be >= 0, got {args.seed}")
+            tc.seed = args.seed
+        run_dir = Path(args.run_dir) if args.run_dir else ROOT / "runs" / tc.name
     progress = not args.no_progress
     print(f"training {tc.algo.upper()} for {tc.n_timesteps} steps on {tc.n_envs} envs -> {run_dir}")
+    resume = bool(args.resume)
     if is_rllib_algo(tc.algo):
         trainer = extensions.trainer(tc.algo)  # registered by planetnav_rl
-        model_path, stats = trainer.train(tc, run_dir, address=args.address, progress=progress)
+        model_path, stats = trainer.train(tc, run_dir, address=args.address, progress=progress, resume=resume)
     elif args.address:
         raise ConfigError(f"--address {args.address!r}: only RLlib configs (algo: rllib_ppo) train on Ray")
     else:
-        model_path, stats = train(tc, run_dir, progress=progress)
+        model_path, stats = train(tc, run_dir, progress=progress, resume=resume)
     print(
         f"trained {stats['timesteps']} decisions = {stats.get('env_steps', stats['timesteps'])} env steps"
         + (f" + the teacher's {stats['teacher_env_steps']}" if stats.get("teacher_env_steps") else "")
@@ -300,6 +313,7 @@ def cmd_suite(args: argparse.Namespace) -> int:
         assists_path=args.assists,
         progress=not args.no_progress,
         exact_actions=not args.no_exact_actions,
+        resume=args.resume,
     )
     use_ray = False if args.no_ray else None
     result = suite.run_suite(cells, settings, resume=args.resume, use_ray=use_ray, address=args.address)
@@ -355,11 +369,17 @@ def build_parser() -> argparse.ArgumentParser:
     sub = p.add_subparsers(dest="command")
 
     t = sub.add_parser("train", help="train an SB3 agent from a YAML config, then evaluate and report")
-    t.add_argument("--config", default=str(DEFAULT_CONFIG), help="training YAML (default %(default)s)")
+    t.add_argument("--config", help=f"training YAML (default {DEFAULT_CONFIG.relative_to(ROOT)})")
     t.add_argument("--run-dir", help="output directory (default runs/<name>)")
     t.add_argument("--timesteps", type=int, help="override n_timesteps")
     t.add_argument("--seed", type=int, help="override the config's training seed (spread across runs)")
     t.add_argument("--no-eval", action="store_true", help="skip the evaluation and report")
+    t.add_argument(
+        "--resume",
+        metavar="RUN_DIR",
+        help="continue the run in RUN_DIR from its last checkpoint (after a kill or Ctrl-C), with its own "
+        "config.yaml, to its configured steps, then evaluate",
+    )
     t.add_argument("--address", help="RLlib only: join the Ray cluster at HOST:PORT (default: a local Ray)")
     t.set_defaults(func=cmd_train)
 
@@ -454,7 +474,12 @@ def build_parser() -> argparse.ArgumentParser:
     su.add_argument("--episode-steps", type=int, help="smoke only: shorter episodes, training and evaluation")
     su.add_argument("--eval-episodes", type=int, help="smoke only: fewer evaluation seeds than the task's")
     su.add_argument("--out", default="runs/suite", help="records, models, references (default %(default)s)")
-    su.add_argument("--resume", action="store_true", help="skip the cells whose record exists in --out")
+    su.add_argument(
+        "--resume",
+        action="store_true",
+        help="skip the cells whose record exists in --out; a cell killed mid-training continues from its "
+        "checkpoint",
+    )
     su.add_argument("--json", help="write this invocation's runs here (the published JSON's form)")
     su.add_argument("--markdown", help="the leaderboard page (default OUT/benchmark.md)")
     su.add_argument("--address", help="run the grid on the Ray cluster at HOST:PORT (needs the [ray] extra)")

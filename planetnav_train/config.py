@@ -71,6 +71,9 @@ class TrainConfig:
     action_repeat: int = 1  # environment steps per policy decision (planetnav_train.features.ActionRepeat)
     # target mode: "stay" / "move k places" (planetnav_train.features.RelativeTargets)
     relative_actions: bool = False
+    # Decisions between checkpoints in RUN_DIR/resume/ (train.py train --resume RUN_DIR continues a killed run
+    # from the last one; planetnav_train.checkpoint); 0: none.
+    checkpoint_every: int = 50_000
     pretrain: dict[str, Any] = field(
         default_factory=dict
     )  # behaviour-cloning warm start (planetnav_train/pretrain.py)
@@ -131,6 +134,12 @@ def parse_config(data: Mapping[str, Any] | None, name: str = "run") -> TrainConf
         value = getattr(tc, key)
         if not isinstance(value, int) or isinstance(value, bool) or value < 1:
             raise ConfigError(f"config: {key} must be a positive integer, got {value!r}")
+    if (
+        isinstance(tc.checkpoint_every, bool)
+        or not isinstance(tc.checkpoint_every, int)
+        or tc.checkpoint_every < 0
+    ):
+        raise ConfigError(f"config: checkpoint_every must be an integer >= 0, got {tc.checkpoint_every!r}")
     if tc.vec_env not in ("native", "dummy"):
         raise ConfigError(f"config: vec_env must be 'native' or 'dummy', got {tc.vec_env!r}")
     if eval_settings.episodes < 1:

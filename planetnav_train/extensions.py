@@ -27,7 +27,7 @@ ENTRY_POINT_GROUP = "planetnav.train_extensions"
 class Trainer:
     """Training of the ``algo`` names that Stable-Baselines3 does not train.
 
-    ``train(tc, run_dir, *, address=None, progress=True)`` -> (model path, statistics), as
+    ``train(tc, run_dir, *, address=None, progress=True, resume=False)`` -> (model path, statistics), as
     :func:`planetnav_train.training.train`; ``check_hyperparams(hyperparams)`` raises
     :class:`~planetnav_env.errors.ConfigError` on a key the algorithm does not take.
     """

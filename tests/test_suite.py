@@ -204,7 +204,9 @@ def test_exact_actions_reaches_the_evaluation_the_record_and_the_command(tmp_pat
         return evaluate.EvalResult(spec, metrics, np.zeros(0), np.zeros(0))
 
     monkeypatch.setattr(evaluate, "evaluate_agent", fake_evaluate)
-    monkeypatch.setattr(runner, "train_cell", lambda tc, run_dir, progress: (run_dir / "model.zip", {}))
+    monkeypatch.setattr(
+        runner, "train_cell", lambda tc, run_dir, progress, resume: (run_dir / "model.zip", {})
+    )
     refs = {"random": "random", "best": "greedy", "J_random": 300.0, "J_best": 100.0}
     cell = suite.Cell("Cruise-Torque-v0", "sac", "raw", 0)
     for exact in (True, False):

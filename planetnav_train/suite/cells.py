@@ -82,6 +82,9 @@ class Settings:
     # False: a continuous policy predicts all evaluation rows in one call (evaluate_agent's exact_actions;
     # faster, equal to the one-episode evaluation to float rounding only). Recorded and in the command.
     exact_actions: bool = True
+    # --resume: finished cells are skipped and a cell killed mid-training continues from its checkpoint
+    # (planetnav_train.checkpoint) instead of starting again. Not recorded: it changes no result's meaning.
+    resume: bool = False
 
     @property
     def official(self) -> bool:

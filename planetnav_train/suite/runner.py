@@ -103,14 +103,17 @@ def write_json_atomic(path: Path, data: Any) -> None:
     os.replace(tmp, path)
 
 
-def train_cell(tc: TrainConfig, run_dir: Path, progress: bool = False) -> tuple[Path, dict[str, Any]]:
-    """Train one cell's configuration (SB3 / sb3-contrib, or RLlib) into ``run_dir``; the model path and
-    the training statistics. Tests replace this to count trainings."""
+def train_cell(
+    tc: TrainConfig, run_dir: Path, progress: bool = False, resume: bool = False
+) -> tuple[Path, dict[str, Any]]:
+    """Train one cell's configuration (SB3 / sb3-contrib, or RLlib) into ``run_dir``, from its last
+    checkpoint with ``resume``; the model path and the training statistics. Tests replace this to count
+    trainings."""
     if is_rllib_algo(tc.algo):
-        return extensions.trainer(tc.algo).train(tc, run_dir, progress=progress)
+        return extensions.trainer(tc.algo).train(tc, run_dir, progress=progress, resume=resume)
     from planetnav_train.training import train
 
-    return train(tc, run_dir, progress=progress)
+    return train(tc, run_dir, progress=progress, resume=resume)
 
 
 def run_cell(cell: Cell, settings: Settings, references: Mapping[str, Any]) -> dict[str, Any]:
@@ -122,7 +125,7 @@ def run_cell(cell: Cell, settings: Settings, references: Mapping[str, Any]) -> d
     tc, assist_names = cell_config(cell, settings)
     objective = OBJECTIVES[task.objective]
     t0 = time.perf_counter()
-    model_path, stats = train_cell(tc, settings.out / "models" / cell.key, settings.progress)
+    model_path, stats = train_cell(tc, settings.out / "models" / cell.key, settings.progress, settings.resume)
     train_s = time.perf_counter() - t0
     episodes = settings.eval_episodes or task.eval_episodes
     # batched: the seeds as rows of the native vector env, one predict per decision for all of them
