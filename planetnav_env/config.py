@@ -378,7 +378,7 @@ class EnvConfig:
         try:
             return cls(**kwargs)
         except ConfigError:
-            raise
+            raise  # OptionError and the cross-option rules already name the option
         except PlanetNavError as exc:
             raise ConfigError(str(exc)) from None
         except TypeError as exc:
