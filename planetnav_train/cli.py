@@ -270,6 +270,19 @@ def cmd_agreement(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_spread(args: argparse.Namespace) -> int:
+    """``spread``: train a config with several seeds and print the 95 % prediction interval of a new run's
+    figure (argmax and sampled actions); reuses the runs already in ``--out``."""
+    from planetnav_train.spread import format_spread, run_spread
+
+    config = args.config or str(DEFAULT_CONFIG)
+    out = Path(args.out) if args.out else ROOT / "runs" / "spread" / Path(config).stem
+    result = run_spread(config, args.seeds, out, args.episodes, progress=not args.no_progress)
+    print(format_spread(result))
+    print(f"per-run figures and intervals: {out / 'spread.json'}")
+    return 0
+
+
 def cmd_sweep_periodic(args: argparse.Namespace) -> int:
     """``sweep-periodic``: the grid of periodic schedules on the sweep seeds, best first."""
     env_cfg, _ = _eval_env_config(args, [])
@@ -461,7 +474,19 @@ def build_parser() -> argparse.ArgumentParser:
     common(w)
     w.set_defaults(func=cmd_sweep_periodic)
 
-    for sp in (t, e, c, w, tn):
+    sp_ = sub.add_parser(
+        "spread",
+        help="train a config with several seeds; the 95 %% prediction interval of a new run's figure",
+    )
+    sp_.add_argument("--config", help=f"training YAML (default {DEFAULT_CONFIG.relative_to(ROOT)})")
+    sp_.add_argument(
+        "--seeds", nargs="+", type=int, default=[0, 1, 2, 3, 4], help="training seeds (5 or more to publish)"
+    )
+    sp_.add_argument("--out", help="runs and spread.json (default runs/spread/<config name>)")
+    sp_.add_argument("--episodes", type=int, help="evaluation episodes (default: the config's eval.episodes)")
+    sp_.set_defaults(func=cmd_spread)
+
+    for sp in (t, e, c, w, tn, sp_):
         sp.add_argument("--no-progress", action="store_true", help="no progress bars")
 
     su = sub.add_parser("suite", help="benchmark suite: train, evaluate, score, aggregate (docs/suite.md)")
