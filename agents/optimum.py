@@ -45,7 +45,7 @@ bound. Cost: a few thousand schedule evaluations of ~0.3 ms, seconds per episode
 
 The agent then plays its schedule: the session's planet (even if it leaves the field: the env then takes
 no image, and the model counted none), "stay" (the last action) otherwise. ``predicted_objective_km`` is
-the model's J of the played schedule, which ``tests/test_optimum.py`` checks against the env's
+the model's J of the played schedule, which ``tests/agents/test_optimum.py`` checks against the env's
 ``info["objective"]``.
 """
 

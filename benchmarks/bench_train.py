@@ -4,7 +4,7 @@ learning together), on the native vector env against SB3's DummyVecEnv of wrappe
     python benchmarks/bench_train.py                          # the default config, 2 PPO updates each
     python benchmarks/bench_train.py --config configs/random_cruise_ppo.yaml --updates 1
 
-Both paths train the same MDP (``tests/test_vec_training.py``) with the same hyperparameters and seed;
+Both paths train the same MDP (``tests/train/test_vec_training.py``) with the same hyperparameters and seed;
 each is timed over whole PPO rollouts + updates (``model.learn``), after a warm-up that compiles the
 kernels. The figure issue 8 asks for is the ratio native / dummy of the default run.
 """

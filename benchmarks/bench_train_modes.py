@@ -13,7 +13,7 @@ each line also prints this process's CPU time over the wall time of its PPO runs
 took the CPU) and the load average, since the rates on a shared machine scale with both.
 
 Both paths run the same option layers (``planetnav_train.batch_wrappers``: the torque recipe's
-``pd_torque`` feature and pointing shaping included), which ``tests/test_vec_training.py`` holds equal:
+``pd_torque`` feature and pointing shaping included), which ``tests/train/test_vec_training.py`` holds equal:
 the native path steps all rows in one compiled loop with the options on arrays; the DummyVecEnv path
 (``vec_env: dummy``, what torque modes trained on before: a Python env object per row, options computed
 one row at a time) runs them with N = 1 per env. Issue 18 asks for >= 20,000 env steps/s of torque-mode PPO

@@ -21,7 +21,7 @@ Filter
 ------
 One :class:`planetnav_env.estimation.ekf.BatchEKF` per method (the leading axis = Monte Carlo runs), RK4
 prediction with the RK4 state transition matrix at ``dt_s`` (default 60 s), the same force model (the step
-size is the only dynamics error: the truth takes steps of at most 10 s; ``tests/test_approach.py`` bounds
+size is the only dynamics error: the truth takes steps of at most 10 s; ``tests/env/test_approach.py`` bounds
 both against DOP853). Measurements
 (each sensor at its own rate; when both report at one step, they form one stacked vector and one update,
 ``z = [p, l, delta_phi_1, ...]``):
@@ -82,7 +82,7 @@ _ECLIPTIC_POLE = matvec3(ECLIPTIC_TO_EQUATORIAL, np.array([0.0, 0.0, 1.0]))
 #: RK4 steps of the truth integration [s]: at most 2 s within 12 h of closest approach (1/500 of the
 #: dynamical time at the 400-km periapsis, ~1100 s: a velocity error there grows into a position error over
 #: the days before), at most 20 s before. The truth is then within a millimetre of DOP853 (rtol = atol =
-#: 1e-12; tests/test_approach.py).
+#: 1e-12; tests/env/test_approach.py).
 TRUTH_STEP_NEAR_S = 2.0
 TRUTH_STEP_FAR_S = 20.0
 TRUTH_NEAR_CA_S = 12 * 3600.0

@@ -113,7 +113,7 @@ def simulate_navigation(
     names the planet measured after step k at time t (or None), given the filters' current
     estimates ``x_est`` (N, 6); one target serves all runs. ``measure_every`` thins measurements.
     ``engine``: ``"compiled"`` (numba kernels, default) or ``"numpy"`` (the reference core); both
-    run the same equations (``tests/test_fast_ekf.py``).
+    run the same equations (``tests/env/test_fast_ekf.py``).
     """
     if engine not in ("compiled", "numpy"):
         raise InvalidParameterError(f"engine must be 'compiled' or 'numpy', got {engine!r}")

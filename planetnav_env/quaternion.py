@@ -1,6 +1,6 @@
 """Quaternions: the one convention of planetnav.
 
-Convention (pinned by ``tests/test_quaternion.py``)
+Convention (pinned by ``tests/env/test_quaternion.py``)
 ---------------------------------------------------
 * Scalar first: ``q = [q0, q1, q2, q3] = [cos(a/2), sin(a/2) * axis]``.
 * Hamilton product: ``i*j = k``.

@@ -23,7 +23,7 @@ observation; the relative choice outermost: made once per decision). Two adapter
 :class:`planetnav_train.vec_training.NavTrainingVecEnv` as an SB3 ``VecEnv`` over N rows (training), and
 :class:`RowsEnv` as a Gymnasium env over one row (:func:`single_training_env`, and the deprecated
 single-env wrappers at the end of this module). Both run the same code, so a row
-of the batch equals the single env seeded alike, bit for bit (``tests/test_vec_training.py``).
+of the batch equals the single env seeded alike, bit for bit (``tests/train/test_vec_training.py``).
 
 Conventions of a :class:`Rows` (why: a held decision steps only the rows still running, and an episode
 that ends inside it must not be stepped again before its reset):

@@ -18,7 +18,8 @@ def make_training_env(tc: TrainConfig, monitor_dir: Path | None) -> Any:
 
     ``vec_env: dummy`` builds ``n_envs`` single environments, each running the same option layers with one
     row (:func:`planetnav_train.batch_wrappers.single_training_env`), in SB3's ``DummyVecEnv``: the same
-    MDP (``tests/test_vec_training.py``), slower; kept to compare the two (``benchmarks/bench_train.py``)."""
+    MDP (``tests/train/test_vec_training.py``), slower; kept to compare the two
+    (``benchmarks/bench_train.py``)."""
     from stable_baselines3.common.env_util import make_vec_env
     from stable_baselines3.common.vec_env import DummyVecEnv, VecMonitor
 

@@ -9,7 +9,7 @@ recipe's layers (:class:`planetnav_train.batch_wrappers.TrainingOptions`: featur
 relative actions) over :class:`~planetnav_env.vector_env.PlanetNavVectorEnv`, each row one episode from
 its own seed. Row ``i`` of the vector env is the single env seeded alike, bit for bit, and the layers are
 the same code, so the per-episode results equal the one-episode-at-a-time path's given the same actions
-(``tests/test_eval_batched.py``). The one difference can be the policy's forward pass: a batched float32
+(``tests/train/test_eval_batched.py``). The one difference can be the policy's forward pass: a batched float32
 matrix product rounds differently from the 1-row product (another BLAS blocking), in the last bits. A
 discrete policy's argmax does not see it, so discrete (and multi-discrete) policies predict all rows in
 one call. A continuous action is those bits, and an episode amplifies them (a measurement accepted in
@@ -243,7 +243,7 @@ def _predict_each_row(policy: Any, obs: np.ndarray) -> np.ndarray:
     """Deterministic actions of a continuous SB3 ``policy`` for the rows of ``obs``, each row's forward
     pass on that row alone (the tensor ``policy.predict(obs[r])`` builds: the single path's arithmetic);
     ``predict``'s once-per-call work (eval mode, ``no_grad``, the Box post-processing, elementwise and so
-    the same on a stack) done once for all rows. ``tests/test_eval_batched.py`` checks it equals the
+    the same on a stack) done once for all rows. ``tests/train/test_eval_batched.py`` checks it equals the
     single path's actions."""
     import torch
     from gymnasium import spaces

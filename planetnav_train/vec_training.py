@@ -6,7 +6,7 @@ over its rows by :meth:`planetnav_train.batch_wrappers.TrainingOptions.stack`: t
 observation features (``since_measured``, ``gain``, ``pd_torque``), action repeat and relative target
 actions. Those layers are the only implementation of the options; a single env runs them with N = 1
 (:func:`planetnav_train.batch_wrappers.single_training_env`), so row ``i`` here equals that single env
-seeded ``seed + i``, bit for bit (``tests/test_vec_training.py``). Every action mode and every option
+seeded ``seed + i``, bit for bit (``tests/train/test_vec_training.py``). Every action mode and every option
 trains on this path: no per-env Python objects, no SB3 ``DummyVecEnv``.
 
 A row whose episode ends inside a held decision stops there and is reset at the end of the decision;

@@ -13,7 +13,7 @@ In the project convention (``planetnav_env.quaternion``: scalar first, Hamilton,
 (orbital components -> body components). The paper's quaternion ``v`` is therefore *numerically
 the same four numbers* as the project's ``q`` of the body relative to the orbital frame, and the
 paper's formula for ``v(psi, theta, phi)`` is reproduced exactly by :func:`quaternion_from_euler321`
-(pinned by ``tests/test_wahba.py``).
+(pinned by ``tests/env/test_wahba.py``).
 
 All angles in radians; arrays broadcast over leading batch axes.
 """

@@ -47,7 +47,7 @@ term cancels): A = I is asymptotically stable (LaSalle; the other equilibria, 18
 S = 0, are unstable). The thesis's ``omega_rel = omega - A omega_0`` also needs ``A`` to take reference
 components (``omega_0``) into body ones, which only this reading does.
 
-The other readings fail (``tests/test_pointing.py`` simulates all four from 1 degree off the target):
+The other readings fail (``tests/env/test_pointing.py`` simulates all four from 1 degree off the target):
 ``C = R^T`` with columns has a stable equilibrium at the wrong attitude (body axes = the rows of
 ``M = [P P_n P_tau]``; ~49 degrees off in the test geometry); ``C = R`` with either layout feeds ``S`` back
 in the wrong axes (with columns, near the right attitude ``S ~ -2 M theta``) and the spacecraft wanders

@@ -14,7 +14,7 @@ criterion (2)) is
 
 so the paper's matrix ``M_x1x2`` of eq. (1) (with m32 corrected, ERRATA 002 item 1) is ``R(v)^T`` and the
 paper's quaternion ``v`` *is* the project's ``q`` of the body relative to the orbital frame: same four
-numbers, same order (``v0`` scalar). ``tests/test_wahba.py`` pins this.
+numbers, same order (``v0`` scalar). ``tests/env/test_wahba.py`` pins this.
 
 Davenport's q-method, in the paper's form, with the sign convention made explicit
 ----------------------------------------------------------------------------------

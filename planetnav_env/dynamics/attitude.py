@@ -43,8 +43,8 @@ Implementation
 Every formula lives once, in a numba kernel (``*_kernel`` functions below). The public functions validate
 their input and loop the kernels over the batch; a single spacecraft is a batch of one and skips the
 broadcasting. The kernels mirror :mod:`planetnav_env.quaternion` (``Omega`` and ``R(q)``) because numba
-cannot call its numpy code; ``tests/test_attitude.py`` pins the two to each other and carries an independent
-vectorised numpy reference of the integrator.
+cannot call its numpy code; ``tests/env/test_attitude.py`` pins the two to each other and carries an
+independent vectorised numpy reference of the integrator.
 """
 
 from __future__ import annotations

@@ -18,7 +18,7 @@ integrates the variational equations ``dPhi/dt = F(x(t)) Phi`` with the same RK4
 the state, which makes Phi the Jacobian of the discrete RK4 flow map to O(dt^5) instead of
 O(dt^2): the position-velocity coupling ``G dt^2 / 2`` that ``I + F dt`` drops is what lets
 the filter carry velocity information into position between measurements, and it matters for
-long steps and near a planet (``tests/test_orbit.py`` measures both against finite
+long steps and near a planet (``tests/env/test_orbit.py`` measures both against finite
 differences of the flow).
 """
 

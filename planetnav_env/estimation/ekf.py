@@ -3,7 +3,7 @@
 A batched numpy core (leading axis = independent filters, so one filter is a batch of one)
 and an adapter onto filterpy's ``ExtendedKalmanFilter`` used to cross-check it. The numpy core is the
 oracle of the compiled kernels (:mod:`planetnav_env.estimation.ekf_kernels`, the environments' filter):
-``tests/test_fast_ekf.py`` holds them to it, so its equations are written separately on purpose (matrix
+``tests/env/test_fast_ekf.py`` holds them to it, so its equations are written separately on purpose (matrix
 algebra here, scalar loops there); what both filters' front ends share that is not an equation (their
 construction and the Q cache) is written once, in :class:`EKFBase`.
 

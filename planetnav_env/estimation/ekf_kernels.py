@@ -5,7 +5,7 @@ measurement functions and easy to read. An RL environment needs one filter cycle
 microseconds, which numpy's per-call overhead (~1 us per array operation, ~60 operations per
 cycle) cannot give. These kernels run the *same equations* (RK4 state + RK4 variational STM,
 ``P = Phi P Phi^T + Q``, Joseph update, angle wrapping, chi-square gate) as scalar loops;
-``tests/test_fast_ekf.py`` holds them to the numpy core at 1e-10 relative.
+``tests/env/test_fast_ekf.py`` holds them to the numpy core at 1e-10 relative.
 
 Measurement kinds (:class:`~planetnav_env.codes.MeasurementKind`; :data:`KIND_CODES` maps the
 configuration strings to its ints): 0 direction, 1 direction+size, 2 los, 3 los+size, with the
@@ -515,7 +515,7 @@ def cycle_batch_kernel(x, p, dt, mu, p0, p1, p2, mus, q, euler_stm, *update_args
     to ``euler_stm`` (the orbit model by its parts ``mu``, ``p0``, ``p1``, ``p2``, ``mus``: the fields of
     :class:`OrbitModel`), then :func:`update_batch_kernel` on the same ``x``, ``p`` with the rest (``z`` to
     ``acc_out``: the fields of :class:`PlanetFixes` and :class:`FixModel`, then the outputs, in the order
-    of the former positional form, which ``tests/test_fast_ekf.py`` calls). The measurement and basis must
+    of the former positional form, which ``tests/env/test_fast_ekf.py`` calls). The measurement and basis must
     not depend on the prediction."""
     predict_batch_kernel(x, p, dt, OrbitModel(mu=mu, p0=p0, p1=p1, p2=p2, mus=mus), q, euler_stm)
     z, planet, diameter, kind, sig_dir, sig_size, basis, active, gate, nis_out, acc_out = update_args

@@ -32,8 +32,8 @@ Implementation
 The hot paths (:func:`visibility`, :func:`measure`) are numba kernels looping over the batch; the kernels
 mirror :func:`planetnav_env.quaternion.dcm_body_to_inertial` and the projection helpers of
 :mod:`~planetnav_env.sensors.camera_geometry` because numba cannot call numpy-level code.
-``tests/test_camera.py`` pins the kernels to the numpy helpers. Inputs carry a leading batch shape ``(...)``;
-a single spacecraft is a batch of shape ``()``.
+``tests/env/test_camera.py`` pins the kernels to the numpy helpers. Inputs carry a leading batch shape
+``(...)``; a single spacecraft is a batch of shape ``()``.
 """
 
 from __future__ import annotations

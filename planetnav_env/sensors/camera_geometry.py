@@ -5,7 +5,7 @@ Frames (see :mod:`planetnav_env.sensors.camera`): inertial I (ICRF heliocentric,
 ``v_I = R(q) v_B`` (q scalar first), camera C with +Z the boresight and ``v_B = C v_C``. Image-plane
 coordinates are in mm relative to the principal point, pixel coordinates in px from a corner of the sensor.
 The compiled kernels (:mod:`planetnav_env.sensors.camera_kernels`) inline the same projection;
-``tests/test_camera.py`` pins them to these helpers.
+``tests/env/test_camera.py`` pins them to these helpers.
 """
 
 from __future__ import annotations

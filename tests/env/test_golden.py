@@ -4,7 +4,7 @@ Any change that alters a number the environments produce (an observation, a rewa
 value, the filter's estimate and covariance, the true state) changes a hash here. Refactors must keep
 every hash; a change that is meant to alter numbers regenerates the file and says why in its commit:
 
-    PLANETNAV_UPDATE_GOLDEN=1 python -m pytest tests/test_golden.py
+    PLANETNAV_UPDATE_GOLDEN=1 python -m pytest tests/env/test_golden.py
 
 Each quantity has its own hash (and each info key its own), so a new info key is allowed and a
 failure names what moved. A rollout covers a whole episode plus a few steps, so truncation and the
@@ -26,7 +26,7 @@ import pytest
 import planetnav_env  # noqa: F401  (registers the ids)
 from planetnav_env.registration import ENV_IDS
 
-GOLDEN = Path(__file__).parent / "golden" / "rollout_hashes.json"
+GOLDEN = Path(__file__).parents[1] / "golden" / "rollout_hashes.json"
 UPDATE = os.environ.get("PLANETNAV_UPDATE_GOLDEN") == "1"
 SEED = 7
 N_VEC = 3

@@ -26,7 +26,7 @@ from planetnav_env.registration import ENV_IDS
 from planetnav_env.sensors.camera import visibility
 from planetnav_env.spaces import decode_hybrid
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 TORQUE = "planetnav/Cruise-TorqueControl-v0"
 HYBRID = "planetnav/Cruise-Hybrid-v0"
 IDS = (TORQUE, HYBRID)
@@ -48,7 +48,7 @@ def test_ids_are_one_hour_at_one_second_with_the_in_field_block(env_id: str) -> 
 
 
 def test_other_ids_have_no_in_field_block() -> None:
-    """Existing ids keep their observation (tests/test_golden.py pins the numbers)."""
+    """Existing ids keep their observation (tests/env/test_golden.py pins the numbers)."""
     for env_id in ENV_IDS:
         if env_id in IDS:
             continue

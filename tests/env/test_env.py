@@ -214,7 +214,7 @@ def test_sun_blocked_pulsar_is_reported_not_measured():
         PlanetNavEnv(detector={"area_cm2": -1.0})
 
 
-SCENARIO_FILES = sorted((Path(__file__).resolve().parents[1] / "configs" / "scenarios").glob("*.yaml"))
+SCENARIO_FILES = sorted((Path(__file__).resolve().parents[2] / "configs" / "scenarios").glob("*.yaml"))
 
 
 def test_scenario_config_files_exist():

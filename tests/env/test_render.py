@@ -16,7 +16,7 @@ import planetnav_env  # noqa: F401  (registers the ids)
 from planetnav_env import quaternion as qt
 from planetnav_env.render import FRAME_SIZE_PX, FrameData, figure_for, main, render_frame
 
-RENDER_PY = Path(__file__).resolve().parents[1] / "planetnav_env" / "render.py"
+RENDER_PY = Path(__file__).resolve().parents[2] / "planetnav_env" / "render.py"
 SHORT = {"episode_steps": 40}
 
 

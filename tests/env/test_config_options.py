@@ -15,7 +15,7 @@ from planetnav_env.core.records import SCALAR_FIELDS, SCALARS_DTYPE
 from planetnav_env.errors import ConfigError, OptionError, OptionTypeError, UnknownOptionError
 from planetnav_env.options import kernel_fields, kernel_values, option, option_table, replace_table, walk
 
-DOCS = Path(__file__).resolve().parents[1] / "docs" / "environment.md"
+DOCS = Path(__file__).resolve().parents[2] / "docs" / "environment.md"
 LEAVES = [(path, opt) for path, opt, _ in walk(EnvConfig) if opt.kind != "section"]
 
 

@@ -16,7 +16,7 @@ from planetnav_train.algorithms import algo_kwargs
 from planetnav_train.cli import main
 from planetnav_train.config import load_config
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 METRIC_KEYS = {
     "episodes",
     "mean_pos_err_km",
@@ -132,7 +132,7 @@ def test_bad_config_key_is_named(
 
 def _sb3_configs() -> list[str]:
     """The shipped SB3 training configs; the Ray ones (rllib_*, sweep*) need the [ray] extra and are
-    smoke-tested by tests/test_ray.py in the Ray virtual environment (make test-ray)."""
+    smoke-tested by tests/rl/test_ray.py in the Ray virtual environment (make test-ray)."""
     names = (p.name for p in (ROOT / "configs").glob("*.yaml"))
     return sorted(n for n in names if not n.startswith(("rllib", "sweep")))
 
@@ -149,7 +149,7 @@ def test_shipped_configs_parse() -> None:
     paths += research
     for path in paths:
         if path.name.startswith("sweep"):
-            continue  # Tune sweep configs, not training configs: tests/test_scaling.py loads them
+            continue  # Tune sweep configs, not training configs: tests/rl/test_scaling.py loads them
         if path.name.startswith("rllib") and not has_ray:
             continue  # algo: rllib_ppo is validated against RLlib itself: the [ray] extra's venv checks them
         tc = load_config(path)

@@ -1,7 +1,7 @@
 """The Ray integration's parts that need no Ray: import hygiene, address and sweep validation.
 
 These run in both virtual environments (with and without the ``[ray]`` extra); the cluster tests are in
-``tests/test_ray.py``.
+``tests/rl/test_ray.py``.
 """
 
 from __future__ import annotations
@@ -22,7 +22,7 @@ from planetnav_rl.tune import load_sweep
 from planetnav_train.cli import main
 from planetnav_train.config import load_config, parse_config
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 CONFIGS = ROOT / "configs"
 HAS_RAY = importlib.util.find_spec("ray") is not None
 

@@ -5,7 +5,7 @@ the reset and step paths ensure it). One machine can play several CPUs: OpenBLAS
 ``OPENBLAS_CORETYPE`` (Prescott: SSE3; Haswell: AVX2 and FMA; SkylakeX: AVX-512, only where the CPU has
 it), numpy's run-time SIMD dispatch is limited to its baseline by ``NPY_DISABLE_CPU_FEATURES``, and
 numba compiles for a generic x86-64 with ``NUMBA_CPU_NAME=generic``. Each setting runs the golden tests
-(``tests/test_golden.py``, ``tests/test_training_golden.py``) in a fresh process: each must find the
+(``tests/env/test_golden.py``, ``tests/train/test_training_golden.py``) in a fresh process: each must find the
 stored hashes, so all give the same numbers.
 
 Slow (the golden tests once per setting, two settings at a time), so it runs in ``make test`` (CI) but not
@@ -22,8 +22,8 @@ from pathlib import Path
 
 import pytest
 
-ROOT = Path(__file__).resolve().parents[1]
-GOLDEN_TESTS = ["tests/test_golden.py", "tests/test_training_golden.py"]
+ROOT = Path(__file__).resolve().parents[2]
+GOLDEN_TESTS = ["tests/env/test_golden.py", "tests/train/test_training_golden.py"]
 
 
 def _cpu_flags() -> set[str]:

@@ -29,7 +29,7 @@ from planetnav_train.config import load_config, parse_config  # noqa: E402
 
 pytestmark = pytest.mark.ray
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 CONFIGS = ROOT / "configs"
 
 

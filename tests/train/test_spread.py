@@ -54,7 +54,7 @@ def test_spread_command_trains_each_seed_and_prints_the_interval(tmp_path) -> No
     import sys
     from pathlib import Path
 
-    root = Path(__file__).resolve().parents[1]
+    root = Path(__file__).resolve().parents[2]
     cmd = [sys.executable, str(root / "train.py"), "spread", "--config", str(root / "configs" / "smoke.yaml"),
            "--seeds", "0", "1", "--out", str(tmp_path), "--no-progress"]  # fmt: skip
     first = subprocess.run(cmd, cwd=root, capture_output=True, text=True, timeout=900, check=False)

@@ -83,7 +83,7 @@ def test_gym_wrapper_over_the_native_vector_env_rolls_out() -> None:
 
 def _docs_example(marker: str) -> str:
     """The python block of docs/environment.md's Clients section that contains ``marker`` (run as is)."""
-    text = (Path(__file__).parents[1] / "docs" / "environment.md").read_text()
+    text = (Path(__file__).parents[2] / "docs" / "environment.md").read_text()
     section = text.split("## Clients", 1)[1].split("\n## ", 1)[0]
     blocks = [textwrap.dedent(b.split("```", 1)[0]) for b in section.split("```python\n")[1:]]
     found = [b for b in blocks if marker in b]

@@ -9,7 +9,7 @@ import pytest
 from planetnav_train import training
 from planetnav_train.config import load_config
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def test_interrupt_saves_the_model_and_reports_it(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:

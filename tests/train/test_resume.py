@@ -20,7 +20,7 @@ import yaml
 
 pytest.importorskip("stable_baselines3")
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 #: Trains a config with a callback that kills its own process (SIGKILL: no cleanup, no atexit) at a step.
 KILL_DRIVER = """

@@ -2,7 +2,7 @@
 the README summary block, the summary tables against direct numpy IQMs, choosing and shipping the best
 raw-track model of each task with its size limit, and loading a shipped baseline by name. The end-to-end
 path (a real smoke suite, then ``suite-publish`` and ``compare --agents suite:<task>``) is in
-tests/test_suite.py::test_suite_smoke_end_to_end."""
+tests/train/test_suite.py::test_suite_smoke_end_to_end."""
 
 from __future__ import annotations
 
@@ -93,7 +93,7 @@ def test_update_readme_writes_the_summary_block(tmp_path) -> None:
 
 
 def test_the_repositorys_readme_has_one_summary_block() -> None:
-    text = (Path(__file__).resolve().parents[1] / "README.md").read_text()
+    text = (Path(__file__).resolve().parents[2] / "README.md").read_text()
     publish.replace_block(text, "x", "README.md")  # raises unless each marker occurs once, in order
     assert "docs/benchmark.md" in text
 

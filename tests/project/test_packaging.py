@@ -9,7 +9,7 @@ import tomllib
 import zipfile
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def _declared() -> tuple[list[str], dict[str, str]]:
@@ -80,3 +80,11 @@ def test_wheel_build_warns_of_no_undeclared_package(tmp_path: Path) -> None:
         text=True,
     )  # fmt: skip
     assert "absent from the `packages`" not in out.stdout + out.stderr
+
+
+def test_tests_mirror_the_packages() -> None:
+    """One test folder per package (env, agents, train, rl) plus project-wide checks; none loose."""
+    tests = ROOT / "tests"
+    assert not sorted(p.name for p in tests.glob("test_*.py"))
+    folders = {p.name for p in tests.iterdir() if p.is_dir() and any(p.glob("test_*.py"))}
+    assert folders == {"env", "agents", "train", "rl", "project"}

@@ -1,6 +1,6 @@
 """Losing a worker node mid-sweep: the sweep finishes, the lost trials are retried or reported as failed,
-and nothing already finished is lost (its own two-node loopback cluster, set up as in ``tests/test_ray.py``,
-so that removing a node disturbs no other test). An interrupted sweep resumes.
+and nothing already finished is lost (its own two-node loopback cluster, set up as in
+``tests/rl/test_ray.py``, so that removing a node disturbs no other test). An interrupted sweep resumes.
 """
 
 from __future__ import annotations
@@ -31,7 +31,7 @@ from planetnav_rl.tune import load_sweep, run_sweep  # noqa: E402
 
 pytestmark = pytest.mark.ray
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 CONFIGS = ROOT / "configs"
 
 

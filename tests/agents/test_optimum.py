@@ -109,7 +109,7 @@ def test_needs_an_operations_scenario() -> None:
 
 def test_compare_runs_optimum_from_the_shipped_config(tmp_path: Path) -> None:
     """The evaluation path of configs/operations/thrust_arc_tcm.yaml with optimum, cut to 60 steps."""
-    cfg = Path(__file__).resolve().parents[1] / "configs" / "operations" / "thrust_arc_tcm.yaml"
+    cfg = Path(__file__).resolve().parents[2] / "configs" / "operations" / "thrust_arc_tcm.yaml"
     out = tmp_path / "c.json"
     rc = main(
         ["compare", "--config", str(cfg), "--episode-steps", "60", "--episodes", "1", "--agents", "optimum",

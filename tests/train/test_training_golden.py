@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-GOLDEN = Path(__file__).parent / "golden" / "training_env_hashes.json"
+GOLDEN = Path(__file__).parents[1] / "golden" / "training_env_hashes.json"
 UPDATE = os.environ.get("PLANETNAV_UPDATE_GOLDEN") == "1"
 N, SEED, DECISIONS, EPISODE_STEPS = 3, 11, 30, 20
 

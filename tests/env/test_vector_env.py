@@ -419,7 +419,7 @@ def test_info_keys_table_in_the_docs_lists_exactly_the_keys() -> None:
     """docs/environment.md's "Info keys" table is the one documented set: it names every key, no other."""
     from pathlib import Path
 
-    text = (Path(__file__).parents[1] / "docs" / "environment.md").read_text()
+    text = (Path(__file__).parents[2] / "docs" / "environment.md").read_text()
     section = text.split("## Info keys", 1)[1].split("\n## ", 1)[0]
     documented = {line.split("`")[1] for line in section.splitlines() if line.startswith("| `")}
     assert documented == INFO_KEYS | OPERATIONS_INFO_KEYS
