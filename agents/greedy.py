@@ -187,7 +187,7 @@ def greedy_pd(
     pd_slowdown: float = PD_SLOWDOWN,
     lookahead_s: float = 0.0,
 ) -> GreedyAgent:
-    """Greedy + PD, the reference of the wheel-torque tasks (issue 18): greedy's target choice over a
+    """Greedy + PD, the reference of the wheel-torque tasks: greedy's target choice over a
     horizon of ``horizon_s`` seconds (``round(horizon_s / step_s)`` steps, at least 1), executed by the PD
     law: the env's own in ``target`` and ``hybrid`` mode (its PD option), the agent-side
     :class:`~planetnav_agents.base.PointingLaw` as wheel torques in ``torque`` mode (at a 1-s step the

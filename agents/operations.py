@@ -1,5 +1,5 @@
 """Deadline- and cost-aware session rule of ``greedy:threshold=θ`` on the operations scenarios
-(issue 17, ``docs/operations.md`` §3.3 item 2).
+(``docs/operations.md`` §3.3 item 2).
 
 Units: times [s], covariances [km^2, km^2/s, km^2/s^2], σ [km], Δv [m/s], the cost weight ``w`` [km per
 m/s], ``threshold`` θ dimensionless.

@@ -1,5 +1,5 @@
 """``optimum``: the open-loop session schedule of an operations scenario, searched at reset on the filter's
-covariance prediction (issue 17, ``docs/operations.md`` §3.3 item 3).
+covariance prediction (``docs/operations.md`` §3.3 item 3).
 
 Units: times [s], steps of ``step_s``, covariances [km^2, km^2/s, km^2/s^2], σ [km], Δv [m/s], the cost
 weight ``w`` [km per m/s], J [km].

@@ -5,7 +5,7 @@ Prints, in one run, microseconds per call of:
     and batched over 1024 filters (per filter);
   * the same cycle on filterpy's ExtendedKalmanFilter (the reference);
   * one truth step: orbit RK4 + attitude (PD law, 60 sub-steps) for one spacecraft.
-Targets (issue 2): batched core <= 2 us per filter cycle; single path no slower than filterpy.
+Targets: batched core <= 2 us per filter cycle; single path no slower than filterpy.
 
     python benchmarks/bench_core.py [--repeat N]
 """

@@ -6,7 +6,7 @@ environment's own rate is visible beside the rate with the agent.
 
     python benchmarks/bench_env.py [--steps N]
 
-Target (issue 3): >= 7,000 steps/s in target mode on this machine, i.e. within 20x of CartPole.
+Target: >= 7,000 steps/s in target mode on this machine, i.e. within 20x of CartPole.
 """
 
 from __future__ import annotations

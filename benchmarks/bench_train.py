@@ -6,7 +6,7 @@ learning together), on the native vector env against SB3's DummyVecEnv of wrappe
 
 Both paths train the same MDP (``tests/train/test_vec_training.py``) with the same hyperparameters and seed;
 each is timed over whole PPO rollouts + updates (``model.learn``), after a warm-up that compiles the
-kernels. The figure issue 8 asks for is the ratio native / dummy of the default run.
+kernels. The figure that matters is the ratio native / dummy of the default run.
 """
 
 from __future__ import annotations
@@ -57,7 +57,7 @@ def main() -> None:
     print("|---|---|---|")
     print(f"| DummyVecEnv of wrapped single envs | {dummy:,.0f} | 1.00x |")
     print(f"| native vector env (planetnav_train.vec_training) | {native:,.0f} | {native / dummy:.2f}x |")
-    print("Target (issue 8): native >= 2x the DummyVecEnv path of the default run.")
+    print("Target: native >= 2x the DummyVecEnv path of the default run.")
 
 
 if __name__ == "__main__":

@@ -16,7 +16,7 @@ Both paths run the same option layers (``planetnav_train.batch_wrappers``: the t
 ``pd_torque`` feature and pointing shaping included), which ``tests/train/test_vec_training.py`` holds equal:
 the native path steps all rows in one compiled loop with the options on arrays; the DummyVecEnv path
 (``vec_env: dummy``, what torque modes trained on before: a Python env object per row, options computed
-one row at a time) runs them with N = 1 per env. Issue 18 asks for >= 20,000 env steps/s of torque-mode PPO
+one row at a time) runs them with N = 1 per env. The target is >= 20,000 env steps/s of torque-mode PPO
 training on the native path. The rate counts environment steps (decisions x ``action_repeat``).
 """
 
@@ -166,7 +166,7 @@ def main() -> None:
     print(
         f"{updates} PPO update(s) of n_steps x n_envs decisions per path; load average "
         f"{', '.join(f'{x:.1f}' for x in os.getloadavg())} over {os.cpu_count()} CPUs at the end. "
-        "Target (issue 18): native torque-mode PPO training >= 20,000 env steps/s."
+        "Target: native torque-mode PPO training >= 20,000 env steps/s."
     )
 
 

@@ -1,8 +1,8 @@
 """Re-run published suite cells with the command their record holds, and compare with the record.
 
-Issue 19 asks that re-running any cell with its recorded command gives its objective within the cell's
-spread. For each cell key this copies the suite's cached references into the record's ``--out`` (so only
-the cell trains and evaluates), runs the record's ``command`` with this interpreter (plus
+The suite's protocol asks that re-running any cell with its recorded command gives its objective within
+the cell's spread. For each cell key this copies the suite's cached references into the record's ``--out``
+(so only the cell trains and evaluates), runs the record's ``command`` with this interpreter (plus
 ``--no-progress``, and ``--no-ray`` unless the cell is an RLlib one), and prints the published and the
 re-run objective, their difference against the published 95 % half-width, and whether the per-episode
 errors are equal::

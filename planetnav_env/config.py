@@ -66,7 +66,7 @@ MAX_DEADLINES = 8
 
 @dataclass(frozen=True)
 class OperationsSettings:
-    """A navigation-operations scenario (issue 17, docs/operations.md §3): a mission attitude that imaging
+    """A navigation-operations scenario (docs/operations.md §3): a mission attitude that imaging
     interrupts, and knowledge deadlines. ``None`` in :attr:`EnvConfig.operations` is the plain cruise.
 
     Mission attitude: the thrust axis is the camera boresight body axis (the engine sits on the opposite

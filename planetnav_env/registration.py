@@ -21,7 +21,7 @@ from planetnav_env.errors import ConfigError
 #: The single environment's entry point (a spec with another one is not a planetnav environment).
 ENTRY_POINT = "planetnav_env.env:PlanetNavEnv"
 
-#: The attitude's timescale (issue 18, docs/environment.md "Wheel torques at 1 s"): the thesis's h = 1 s
+#: The attitude's timescale (docs/environment.md "Wheel torques at 1 s"): the thesis's h = 1 s
 #: over one hour; the PD loop's time constant is ~20 s and a 90-degree slew takes ~100 s, so a 1-s step
 #: resolves a slew and 3,600 steps leave room for tens of slews between the planets.
 _ONE_SECOND = {
@@ -55,7 +55,7 @@ ENV_IDS: dict[str, dict] = {
         "reward_scale_km": 10.0,
         "filter": {"sigma_pos0": 100.0, "sigma_vel0": 1e-3, "accel_psd": 1e-16},
     },
-    # Navigation operations, scenario A (issue 17, docs/operations.md §3): a 21-day ion-thrust arc before an
+    # Navigation operations, scenario A (docs/operations.md §3): a 21-day ion-thrust arc before an
     # encounter E (DS1-like: 92 mN, 486 kg); imaging a planet turns the thrust axis away (delta-v lost);
     # the objective is the knowledge mapped to E at the TCMs E-14 d, E-5 d, E-1.5 d plus 129.6 km per m/s.
     "planetnav/ThrustArc-TCM-v0": {

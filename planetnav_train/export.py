@@ -1,4 +1,4 @@
-"""Policy-only export of a saved Stable-Baselines3 / sb3-contrib model (issue 19, item 6: shipped baselines
+"""Policy-only export of a saved Stable-Baselines3 / sb3-contrib model (the suite's shipped baselines
 under 1 MB; format and loader: :mod:`planetnav_train.policy_only`).
 
 :func:`export_policy` loads a model ``.zip``, keeps the tensors its deterministic actions use (the actor;

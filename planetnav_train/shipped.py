@@ -31,7 +31,7 @@ SHIPPED_PREFIX = "suite:"
 #: The folder of the shipped models and their manifest (read at call time, so tests may point it elsewhere).
 BASELINES_DIR = Path(__file__).resolve().parent / "baselines"
 MANIFEST_NAME = "manifest.json"
-#: Largest model shipped, in bytes (issue 19: "under 1 MB"; 1 MB read as 10^6 bytes, the stricter).
+#: Largest model shipped, in bytes (the suite's protocol: "under 1 MB", read as 10^6 bytes, the stricter).
 MAX_BASELINE_BYTES = 1_000_000
 #: The entry's ``form``: the SB3 model as trained, or its policy-only export.
 FORMS = ("full", "policy-only")

@@ -1,4 +1,4 @@
-"""Publishing a benchmark suite's results into the repository (issue 19, docs/suite.md "Publishing"):
+"""Publishing a benchmark suite's results into the repository (docs/suite.md "Publishing"):
 
 - :func:`publish_json`: the aggregated JSON (``OUT/suite.json``: protocol, tasks, references, every run,
   aggregates) copied to a tracked path, ``docs/benchmark.json`` (``runs/`` is not in the repository);
