@@ -9,6 +9,7 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
+from planetnav_train.spread import prediction_interval
 from planetnav_train.suite.cells import Settings, coverage_lines
 from planetnav_train.suite.runner import write_json_atomic
 from planetnav_train.suite.scoring import aggregate
@@ -51,17 +52,41 @@ def aggregate_rows(track_agg: Mapping[str, Any]) -> list[str]:
     return lines
 
 
-def best_per_task_rows(track_agg: Mapping[str, Any], references: Mapping[str, Any]) -> list[str]:
+def _new_run_interval(runs: Sequence[Mapping[str, Any]], task: str, algo: str, track: str) -> str:
+    """The 95 % prediction interval of a new training run's objective from the seeds of one cell group
+    (planetnav_train.spread); "-" with fewer than two finite runs."""
+    key = (task, algo, track)
+    values = [r["objective"] for r in runs if (r["task"], r["algorithm"], r.get("track", "raw")) == key]
+    try:
+        pi = prediction_interval(values)
+    except ValueError:
+        return "-"
+    # Objectives are errors (>= 0): a normal interval's lower end below zero is cut there.
+    return f"{pi.mean:.1f} [{max(pi.lo, 0.0):.1f}, {pi.hi:.1f}]"
+
+
+def best_per_task_rows(
+    track_agg: Mapping[str, Any],
+    references: Mapping[str, Any],
+    runs: Sequence[Mapping[str, Any]] = (),
+    track: str = "raw",
+) -> list[str]:
     """Markdown table of one track: per task the algorithm with the highest IQM of the normalized score
-    (ties: the first by name) and the best non-learned reference it is scored against (its objective
-    in km, on the task's evaluation seeds)."""
-    lines = ["| task | best algorithm | IQM [95 % CI] | best non-learned reference |", "|---|---|---|---|"]
+    (ties: the first by name), the objective a new training run of it gives (mean over its seeds and the
+    95 % prediction interval of one more run; from ``runs``), and the best non-learned reference it is
+    scored against (its objective, on the task's evaluation seeds)."""
+    lines = [
+        "| task | best algorithm | IQM [95 % CI] | a new run's objective: mean [95 % prediction interval] "
+        "| best non-learned reference |",
+        "|---|---|---|---|---|",
+    ]
     for task in sorted(track_agg["per_task"]):
         per = track_agg["per_task"][task]
         best = min(per, key=lambda k: (-per[k]["iqm"], k))
         ref = references.get(task)
         ref_text = f"{ref['best']} ({ref['J_best']:.1f} km)" if ref else "-"
-        lines.append(f"| {task} | {best} | {_fmt_interval(per[best])} | {ref_text} |")
+        new_run = _new_run_interval(runs, task, best, track)
+        lines.append(f"| {task} | {best} | {_fmt_interval(per[best])} | {new_run} | {ref_text} |")
     return lines
 
 
@@ -83,7 +108,7 @@ def summary_markdown(data: Mapping[str, Any]) -> str:
     for track, a in agg.items():
         lines += [f"Track `{track}`, aggregated over tasks:", "", *aggregate_rows(a), ""]
         lines += [f"Track `{track}`, best algorithm per task:", ""]
-        lines += [*best_per_task_rows(a, data.get("references") or {}), ""]
+        lines += [*best_per_task_rows(a, data.get("references") or {}, runs, track), ""]
     return "\n".join(lines)
 
 
@@ -135,7 +160,7 @@ def write_leaderboard(
             ]
             lines.append(f"| {task} | " + " | ".join(cells) + " |")
         lines += ["", "### Aggregated over tasks", "", *aggregate_rows(a)]
-        lines += ["", "### Best algorithm per task", "", *best_per_task_rows(a, references)]
+        lines += ["", "### Best algorithm per task", "", *best_per_task_rows(a, references, records, track)]
         if a["improvement"]:
             lines += ["", "| P(X > Y) | probability [95 % CI] |", "|---|---|"]
             for row in a["improvement"]:

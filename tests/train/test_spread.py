@@ -67,3 +67,16 @@ def test_spread_command_trains_each_seed_and_prints_the_interval(tmp_path) -> No
     again = subprocess.run(cmd, cwd=root, capture_output=True, text=True, timeout=900, check=False)
     assert again.returncode == 0, again.stderr[-2000:]
     assert (tmp_path / "seed0" / "model.zip").stat().st_mtime == mtime  # reused, not retrained
+
+
+def test_leaderboard_gives_a_new_runs_prediction_interval() -> None:
+    """The suite's best-algorithm table carries the prediction interval of the best algorithm's seeds."""
+    from planetnav_train.suite.leaderboard import best_per_task_rows
+
+    seeds = {"x": [10.0, 12.0, 11.0, 13.0, 9.0], "y": [50.0, 60.0]}
+    runs = [{"task": "T", "algorithm": a, "track": "raw", "objective": v} for a in seeds for v in seeds[a]]
+    per = {"x": {"iqm": 0.5, "low": 0.4, "high": 0.6}, "y": {"iqm": 0.1, "low": 0.0, "high": 0.2}}
+    agg = {"per_task": {"T": per}}
+    rows = best_per_task_rows(agg, {}, runs, "raw")
+    pi = prediction_interval([10.0, 12.0, 11.0, 13.0, 9.0])
+    assert rows[2] == f"| T | x | 0.50 [0.40, 0.60] | 11.0 [{pi.lo:.1f}, {pi.hi:.1f}] | - |"
