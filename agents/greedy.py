@@ -33,7 +33,7 @@ score is divided by the horizon. An integration under way is always finished.
 
 ``lookahead_s`` (default 0) scores the position covariance coasted that far ahead instead of the current
 one (``r + T v``: velocity information counts): a velocity-aware variant. Every lookahead tried raises the
-day's mean 1σ on both cruises (``docs/training.md``), so the default stays 0.
+day's mean 1σ on both cruises (``research/training_log.md``), so the default stays 0.
 
 ``threshold`` θ (operations scenarios only, ``greedy:threshold=1``): the deadline- and cost-aware session
 rule of :mod:`planetnav_agents.operations` instead (sessions of ``session`` steps, default 2 h; stay at the

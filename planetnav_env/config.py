@@ -66,7 +66,7 @@ MAX_DEADLINES = 8
 
 @dataclass(frozen=True)
 class OperationsSettings:
-    """A navigation-operations scenario (docs/operations.md §3): a mission attitude that imaging
+    """A navigation-operations scenario (research/operations_log.md §3): a mission attitude that imaging
     interrupts, and knowledge deadlines. ``None`` in :attr:`EnvConfig.operations` is the plain cruise.
 
     Mission attitude: the thrust axis is the camera boresight body axis (the engine sits on the opposite
@@ -287,8 +287,8 @@ class EnvConfig:
     operations: OperationsSettings | None = section(
         OperationsSettings,
         optional=True,
-        doc="thrust arc and knowledge deadlines (docs/operations.md), or None: no mission attitude, the "
-        "reward above. Needs action_mode ``target``, idle_action true and no pulsars",
+        doc="thrust arc and knowledge deadlines (the ThrustArc-TCM-v0 scenario), or None: no mission "
+        "attitude, the reward above. Needs action_mode ``target``, idle_action true and no pulsars",
     )
 
     def __post_init__(self) -> None:

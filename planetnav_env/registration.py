@@ -55,7 +55,7 @@ ENV_IDS: dict[str, dict] = {
         "reward_scale_km": 10.0,
         "filter": {"sigma_pos0": 100.0, "sigma_vel0": 1e-3, "accel_psd": 1e-16},
     },
-    # Navigation operations, scenario A (docs/operations.md §3): a 21-day ion-thrust arc before an
+    # Navigation operations, scenario A (research/operations_log.md §3): a 21-day ion-thrust arc before an
     # encounter E (DS1-like: 92 mN, 486 kg); imaging a planet turns the thrust axis away (delta-v lost);
     # the objective is the knowledge mapped to E at the TCMs E-14 d, E-5 d, E-1.5 d plus 129.6 km per m/s.
     "planetnav/ThrustArc-TCM-v0": {

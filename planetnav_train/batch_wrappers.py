@@ -352,8 +352,8 @@ class RelativeTargetRows(RowsWrapper):
 
 @dataclass(frozen=True)
 class TrainingOptions:
-    """The training recipe's options over the environment (``docs/training.md``): the one list of them,
-    whose fields (positionally in this order, or by keyword) are the options of :func:`training_rows`,
+    """The training recipe's options over the environment (``research/training_log.md``): the one list of
+    them, whose fields (positionally in this order, or by keyword) are the options of :func:`training_rows`,
     :func:`single_training_env` and :class:`planetnav_train.vec_training.NavTrainingVecEnv`.
 
     ``features``: observation features appended (``since_measured``, ``gain``, ``pd_torque``);

@@ -136,7 +136,7 @@ def cmd_train(args: argparse.Namespace) -> int:
         return 0
     env_cfg = evaluation_env(tc.env_config(), tc.eval.episode_steps, tc.eval.noise_streams)
     # The trained policy twice: its argmax (the usual deterministic evaluation) and its sampled actions,
-    # which on this problem can differ a lot (docs/training.md).
+    # which on this problem can differ a lot (research/training_log.md).
     specs = [str(model_path), f"{model_path}@sampled", *tc.eval.agents]
     t0 = time.perf_counter()
     results = compare_agents(specs, env_cfg, tc.eval.episodes, tc.eval.seed, progress, tc.eval.reference)
@@ -230,7 +230,7 @@ def cmd_paired(args: argparse.Namespace) -> int:
     if streams[0] != streams[1]:
         print(
             f"note: {args.a} drew {streams[0]} noise, {args.b} {streams[1]}: the two share no sensor noise, "
-            "so the pairing is by seed only (docs/training.md, common random numbers)"
+            "so the pairing is by seed only (common random numbers need the same noise streams)"
         )
     per_seed = np.subtract(a[per_key], b[per_key])
     q05, q50, q95 = np.percentile(per_seed, [5, 50, 95])
@@ -418,7 +418,7 @@ def build_parser() -> argparse.ArgumentParser:
             "--noise-streams",
             choices=NOISE_STREAMS,
             help="override the env's noise_streams: per_step gives every agent the same sensor noise "
-            "wherever it makes the same measurement (common random numbers; docs/training.md)",
+            "wherever it makes the same measurement (common random numbers)",
         )
         sp.add_argument("--json", help="write the metrics as JSON here")
 

@@ -5,8 +5,8 @@ agent spec, e.g. ``baseline``) acts for ``N`` episodes on demonstration seeds 50
 training seeds 0.. and the evaluation seeds 10000..); the policy is then fitted to its actions by
 maximising their log-probability under the policy (``policy.evaluate_actions``), ``E`` passes over the
 data, before the RL algorithm trains as usual on the environment's reward. Why: in torque mode neither PPO
-nor SAC found the first measurement on their own (``docs/training.md``, T1-T4); cloning the baseline's PD
-pointing gives the RL stage a policy that measures, which it may then improve.
+nor SAC found the first measurement on their own (``research/training_log.md``, T1-T4); cloning the
+baseline's PD pointing gives the RL stage a policy that measures, which it may then improve.
 
 The demonstrations are recorded in the training MDP: with ``action_repeat`` the teacher's choice at each
 decision point is recorded and held for the decision, as the policy's will be (the teacher still sees
@@ -15,7 +15,7 @@ evaluation), and with ``relative_actions`` its absolute
 target is encoded as "stay" / "move k places" (:func:`planetnav_train.features.absolute_to_relative`).
 With the
 ``gain`` feature, a greedy teacher's decision is the argmax of an input, which a clone can fit; without
-it, the clone of a teacher that switches ~10 times a day learns "stay" (``docs/training.md``, R2).
+it, the clone of a teacher that switches ~10 times a day learns "stay" (``research/training_log.md``, R2).
 """
 
 from __future__ import annotations
@@ -128,7 +128,7 @@ def clone(
     samples of its action, ``C`` the actions present), so every action weighs the same in the loss. Why: a
     teacher that images at ~3 % of the decisions (``optimum`` on ThrustArc-TCM-v0) is otherwise fitted as
     "stay" wherever its session timing is not a function of the observation, and the argmax never images
-    there (docs/operations.md §7.4)."""
+    there (research/operations_log.md §7.4)."""
     import torch
 
     policy = model.policy
@@ -186,7 +186,8 @@ def dagger(
 
     Why: a clone fitted on the teacher's own states only drifts off them in closed loop, and there it has
     no labels. Distilling the target-mode policy into the target+torque Box policy, the plain clone picked
-    another planet than its teacher at 4 % of its decisions and lost ~5 km (``docs/training.md``, TT7)."""
+    another planet than its teacher at 4 % of its decisions and lost ~5 km (``research/training_log.md``,
+    TT7)."""
     obs, actions = data
     nll = float("nan")
     for r in range(rounds):

@@ -54,7 +54,7 @@ TABLE_HEAD = (
 )
 
 
-#: Columns added after :data:`TABLE_HEAD` when the environment has operations (docs/operations.md §3).
+#: Columns added after :data:`TABLE_HEAD` when the environment has operations (research/operations_log.md §3).
 OBJECTIVE_HEAD = ("J km [95% CI]", "ΔJ vs ref km [95% CI]")
 
 

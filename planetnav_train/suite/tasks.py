@@ -79,7 +79,7 @@ OBJECTIVES: dict[str, Objective] = {
         "per_episode_objective",
         "km",
         "the scenario's J at the episode's end (info['objective']: the knowledge mapped to the encounter at "
-        "each TCM deadline plus w x delta-v lost; docs/operations.md §3.2), averaged over the seeds",
+        "each TCM deadline plus w x delta-v lost), averaged over the seeds",
         kind="operations J",
     ),
 }
@@ -145,9 +145,9 @@ _TARGET_REFS = ("greedy", "periodic", "planner")
 #: Mars approach: one planet (periodic's cycles are over planets, so it has no schedule to run there).
 _APPROACH_REFS = ("greedy", "planner", "baseline")
 _TORQUE_REFS = ("greedy", "periodic", "planner", "baseline")
-#: Wheel torques at 1 s: greedy's choice executed by the PD law (docs/training.md).
+#: Wheel torques at 1 s: greedy's choice executed by the PD law (research/training_log.md).
 _TORQUE_1S_REFS = ("greedy-pd",)
-#: The thrust arc (docs/operations.md §7): the tuned periodic schedule (2-h sessions every 3 d
+#: The thrust arc (research/operations_log.md §7): the tuned periodic schedule (2-h sessions every 3 d
 #: from day 0.75), the tuned deadline-anchored periodic rule (§7.5: blocks ending at each TCM), the tuned
 #: deadline-aware greedy and the open-loop optimum (§3.5); the lower J on the task's seeds is the best.
 #: Another candidate is one more entry here (only it is then evaluated).

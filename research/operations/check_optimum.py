@@ -1,4 +1,4 @@
-"""``optimum`` on planetnav/ThrustArc-TCM-v0 (docs/operations.md §3.5, §7.3): per held-out seed, its
+"""``optimum`` on planetnav/ThrustArc-TCM-v0 (research/operations_log.md §3.5, §7.3): per held-out seed, its
 predicted J (the covariance model's, at reset) beside the env's realised ``info["objective"]``
 (``reward: covariance``, per-step noise streams), the relative difference, the sessions it played
 (start step, planet index, steps), the schedule evaluations and the search's CPU time.

@@ -1,5 +1,6 @@
 """Where a trained ThrustArc policy and ``optimum`` disagree, along the policy's own trajectory of one seed
-(docs/operations.md §7.4): the student drives, ``optimum`` labels each decision (DAgger's relabelling).
+(research/operations_log.md §7.4): the student drives, ``optimum`` labels each decision (DAgger's
+relabelling).
 
     python research/operations/diag_clone.py RUN_DIR/model.zip 10000
 

@@ -3,7 +3,7 @@ run's ``monitor/vec.monitor.csv`` (SB3's Monitor: the episode return, its length
 
 J = -return x ``reward_scale_km`` (the env's reward sums to -J / reward_scale_km; 1000 km in the shipped
 configs). The training episodes act with sampled actions on the training seeds, so these are neither the
-argmax policy's J nor held-out values (docs/operations.md §7.6).
+argmax policy's J nor held-out values (research/operations_log.md §7.6).
 
     .venv/bin/python research/operations/monitor_curve.py /tmp/h17/run_ppo12 --block 80
 """

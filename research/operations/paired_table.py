@@ -1,4 +1,5 @@
-"""The paired J table of docs/operations.md §7.3 from ``train.py compare --json`` files of consecutive seed
+"""The paired J table of research/operations_log.md §7.3 from ``train.py compare --json`` files of
+consecutive seed
 blocks (the 100 held-out seeds were run as two 50-seed commands side by side on the shared machine; each
 episode's seed is the block's first seed + its index, so the blocks joined are the 100-seed run).
 

@@ -1,4 +1,4 @@
-"""Tuning sweep of the operations references on planetnav/ThrustArc-TCM-v0 (docs/operations.md §7):
+"""Tuning sweep of the operations references on planetnav/ThrustArc-TCM-v0 (research/operations_log.md §7):
 ``periodic`` (period, session, phase, cycle) and ``greedy:threshold=θ`` on tuning seeds (20000+, disjoint
 from the evaluation seeds 10000+), per-step noise streams, ``reward: covariance`` (J is then a function of
 the schedule). Prints one line per setting: mean J [km] over the seeds, mean Δv lost [m/s], CPU s.
@@ -7,7 +7,8 @@ the schedule). Prints one line per setting: mean J [km] over the seeds, mean Δv
         --part periodic --episodes 4
 
 ``--part deadline`` sweeps the deadline-anchored sessions ``periodic:lead=L,session=S1-S2-S3,start=S0,
-dwell=D,cycle=C`` (agents/periodic.py; docs/operations.md §7.5) over the product of ``--leads``, ``--s1``,
+dwell=D,cycle=C`` (agents/periodic.py; research/operations_log.md §7.5) over the product of ``--leads``,
+``--s1``,
 ``--s2``, ``--s3`` (block length before each deadline), ``--starts``, ``--dwells`` and ``--cycles`` (all in
 600-s steps), with the tuned periodic of §7.1 first as the bar, and ends with the ``--top`` best settings.
 """
@@ -46,7 +47,7 @@ def deadline_specs(args: argparse.Namespace) -> list[str]:
 
 
 def specs(part: str, base: list[str], phases: int) -> list[str]:
-    """The grid (shortened: docs/operations.md §7 says which). ``phase``: the settings ``base``
+    """The grid (shortened: research/operations_log.md §7 says which). ``phase``: the settings ``base``
     (``period,session,cycle`` as ``P,S,C``) at ``phases`` phases evenly over the period."""
     if part == "greedy":
         return [f"greedy:threshold={t:g}" for t in THRESHOLDS]

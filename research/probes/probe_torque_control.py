@@ -5,7 +5,7 @@
 training env and algorithm from a config (``planetnav_train.envs.make_training_env``,
 ``planetnav_train.algorithms.algo_kwargs``) and prints, every 4 rollouts, the fraction of the rollouts'
 decisions whose last env step measured, the policy's mean std and decisions/s. Runs H7-H17, H19-H21 of
-docs/training.md (issue 18) were made with it::
+research/training_log.md (issue 18) were made with it::
 
     python research/probes/probe_torque_control.py configs/torque_control.yaml --steps 3e6 \\
         --set action_repeat=4 hyperparams.n_epochs=10 "shaping={}" --dense 0.2

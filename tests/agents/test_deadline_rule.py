@@ -1,5 +1,5 @@
-"""Deadline-anchored sessions of the ``periodic`` rule (``periodic:lead=…``; docs/operations.md §7.5): the
-schedule on a tiny ThrustArc config and the spec's named errors."""
+"""Deadline-anchored sessions of the ``periodic`` rule (``periodic:lead=…``; research/operations_log.md
+§7.5): the schedule on a tiny ThrustArc config and the spec's named errors."""
 
 from __future__ import annotations
 

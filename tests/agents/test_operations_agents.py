@@ -1,5 +1,5 @@
-"""The operations references (issue 17, docs/operations.md §3.3): ``periodic`` with sessions and phase, and
-``greedy:threshold=θ`` (planetnav_agents.operations)."""
+"""The operations references (issue 17, research/operations_log.md §3.3): ``periodic`` with sessions and
+phase, and ``greedy:threshold=θ`` (planetnav_agents.operations)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,5 @@
-"""``optimum`` (planetnav_agents.optimum, docs/operations.md §3.3 item 3 and §3.5): its predicted J is the
+"""``optimum`` (planetnav_agents.optimum, research/operations_log.md §3.3 item 3 and §3.5): its predicted J
+is the
 env's realised ``info["objective"]`` with ``reward: covariance``, its search never ends above its starts, and
 bad parameters raise errors that name the value."""
 

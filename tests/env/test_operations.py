@@ -1,4 +1,5 @@
-"""Operations scenario A, ``planetnav/ThrustArc-TCM-v0`` (issue 17, docs/operations.md §3): thrust physics
+"""Operations scenario A, ``planetnav/ThrustArc-TCM-v0`` (issue 17, research/operations_log.md §3): thrust
+physics
 against independent propagation, the discretised execution-error Q against numerical integration of its
 PSD, filter consistency (NEES) under the thrust noise, the deadline bookkeeping against
 ``coasted_position_trace``, and the guarantees every id keeps (vector rows = single envs, pickle, checkers,
@@ -71,7 +72,7 @@ def test_default_is_no_operations_and_the_section_round_trips() -> None:
     assert EnvConfig.from_dict(cfg.to_dict()) == cfg
     a = cfg.operations.thrust_accel_km_s2
     assert a == pytest.approx(0.092 / 486.0 / 1000.0, rel=1e-15)
-    q_par, q_perp = cfg.operations.psd_km2_s3  # docs/operations.md §3.1: 2.48e-12 and 1.89e-12
+    q_par, q_perp = cfg.operations.psd_km2_s3  # research/operations_log.md §3.1: 2.48e-12 and 1.89e-12
     assert q_par == pytest.approx(2 * (0.02 * a) ** 2 * 86400, rel=1e-12)
     assert q_par == pytest.approx(2.48e-12, rel=0.01)
     assert q_perp == pytest.approx(1.89e-12, rel=0.01)

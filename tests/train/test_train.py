@@ -139,7 +139,7 @@ def _sb3_configs() -> list[str]:
 
 def test_shipped_configs_parse() -> None:
     """Every training config parses: the shipped ones (configs/) and the research ones (research/), so
-    that the experiments recorded in docs/training.md and docs/operations.md stay runnable."""
+    that the experiments recorded in research/training_log.md and research/operations_log.md stay runnable."""
     has_ray = importlib.util.find_spec("ray") is not None
     configs = ROOT / "configs"
     paths = sorted(configs.glob("*.yaml")) + sorted((configs / "operations").glob("*.yaml"))
@@ -246,7 +246,7 @@ def test_every_shipped_config_trains_and_evaluates(tmp_path: Path, name: str) ->
 
 
 def _operations_configs() -> list[str]:
-    """The training configs of the operations scenarios (docs/operations.md): the shipped recipe in
+    """The training configs of the operations scenarios (research/operations_log.md): the shipped recipe in
     configs/operations/ and the experiment variants in research/operations/, as paths from the root."""
     paths = sorted((ROOT / "configs" / "operations").glob("*.yaml"))
     paths += sorted((ROOT / "research" / "operations").glob("*.yaml"))
@@ -306,7 +306,8 @@ def test_every_operations_config_trains_and_evaluates(
 
 
 def test_seed_override(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    """``--seed`` trains another seed of a config (the spread across training runs in docs/training.md)."""
+    """``--seed`` trains another seed of a config (the spread across training runs in
+    research/training_log.md)."""
     run_dir = tmp_path / "s3"
     args = ["train", "--config", str(ROOT / "configs" / "smoke.yaml"), "--run-dir", str(run_dir)]
     assert main([*args, "--seed", "3", "--no-eval", "--no-progress"]) == 0
