@@ -20,7 +20,7 @@ from typing import Any
 
 from planetnav_env.env import PlanetNavEnv
 from planetnav_env.errors import ConfigError
-from planetnav_train.config import TrainConfig
+from planetnav_train.config import TrainConfig, is_rllib_algo
 from planetnav_train.export import export_policy
 from planetnav_train.sb3 import algorithm_class
 from planetnav_train.shipped import MAX_BASELINE_BYTES
@@ -63,26 +63,38 @@ def cell_sizes(
     """One row per task and algorithm (``algos``, default: each task's SB3 algorithms of the published
     table), as each model is built: ``task``, ``algorithm``, ``obs`` (observation length), ``full``
     (bytes of the saved model), ``policy_only`` (bytes of its export; None without ``export``),
-    ``ships_as`` (:func:`ships_as`), or ``error`` for a cell whose configuration or export fails (one bad
-    cell does not hide the others' sizes). Unknown task or algorithm names raise :class:`ConfigError`
-    before anything is built."""
+    ``ships_as`` (:func:`ships_as`), or ``error`` for a cell that cannot be built or exported (an
+    algorithm of another action kind, an RLlib one, a missing extra, a configuration or export error:
+    one bad cell does not hide the others' sizes). Unknown task or algorithm names raise
+    :class:`ConfigError` here, before anything is built."""
     chosen = [get_task(t) for t in tasks]
     for a in algos or ():
         get_algo(a)
+    return _rows(chosen, algos, export)
+
+
+def _rows(tasks: Sequence[Task], algos: Sequence[str] | None, export: bool) -> Iterator[dict[str, Any]]:
     with tempfile.TemporaryDirectory(prefix="planetnav-sizes-") as tmp:
         folder = Path(tmp)
         settings = Settings(out=folder)
-        for task in chosen:
+        for task in tasks:
             env = PlanetNavEnv(task.env_config(episode_steps=_BUILD_EPISODE_STEPS))
             obs = int(env.observation_space.shape[0])
             for algo in algos or ALGOS_BY_KIND[task.action_kind]:
                 row: dict[str, Any] = {"task": task.id, "algorithm": algo, "obs": obs}
+                kinds = get_algo(algo).kinds
+                if task.action_kind not in kinds:
+                    yield {**row, "error": f"runs on {' and '.join(kinds)} actions, not {task.action_kind}"}
+                    continue
+                if is_rllib_algo(algo):
+                    yield {**row, "error": "an RLlib checkpoint (a folder), not an SB3 model: does not ship"}
+                    continue
                 try:
                     tc, _ = cell_config(Cell(task.id, algo, "raw", 0), settings)
-                except ConfigError as exc:
+                    path = save_cell_model(task, algo, env, tc, folder)
+                except ConfigError as exc:  # the cell's settings, or a library its algorithm needs
                     yield {**row, "error": f"config error: {exc}"}
                     continue
-                path = save_cell_model(task, algo, env, tc, folder)
                 row["full"] = path.stat().st_size
                 row["policy_only"] = None
                 if export:
