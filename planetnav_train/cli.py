@@ -420,9 +420,10 @@ def cmd_suite_sizes(args: argparse.Namespace) -> int:
     from planetnav_train.suite.sizes import cell_sizes, table_header, table_row
 
     export = not args.no_export
+    rows = cell_sizes(args.tasks or [t.id for t in suite.TASKS], args.algos, export)  # names checked here
     for line in table_header(export):
         print(line)
-    for row in cell_sizes(args.tasks or [t.id for t in suite.TASKS], args.algos, export):
+    for row in rows:
         print(table_row(row, export), flush=True)
     return 0
 
