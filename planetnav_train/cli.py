@@ -13,6 +13,9 @@ Usage::
     python train.py suite --tasks ... --algos ... --seeds ... [--resume]      # benchmark suite, docs/suite.md
     python train.py suite-publish --out runs/suite [--publish-json docs/benchmark.json] \\
         [--readme README.md] [--baselines planetnav_train/baselines]   # publish results; agents suite:<task>
+    python train.py suite-references --tasks ... [--agents random ...]   # reference values, cached in OUT
+    python train.py suite-rerun CELL_KEY ... [--published runs/suite]     # re-run recorded cells, compare
+    python train.py suite-sizes [--tasks ...] [--algos ...] [--no-export]  # model/export bytes (< 1 MB ships)
 
 A training run writes ``runs/<name>/``: ``model.zip``, ``config.yaml`` (the resolved configuration; the SB3
 loader reads ``algo`` from it), ``tb/`` (TensorBoard), ``monitor/`` (episode CSVs), then, unless
@@ -304,6 +307,12 @@ def cmd_sweep_periodic(args: argparse.Namespace) -> int:
     return 0
 
 
+def _positive(flag: str, value: int | None) -> None:
+    """:class:`ConfigError` naming ``flag`` and ``value`` unless it is None or >= 1."""
+    if value is not None and value < 1:
+        raise ConfigError(f"{flag} must be >= 1, got {value}")
+
+
 def cmd_suite(args: argparse.Namespace) -> int:
     """``suite``: train, evaluate, score and aggregate a grid of benchmark cells
     (:mod:`planetnav_train.suite`, docs/suite.md); a Ray Tune grid when Ray is installed; ``--resume``."""
@@ -311,9 +320,8 @@ def cmd_suite(args: argparse.Namespace) -> int:
 
     if not args.budget_scale > 0:
         raise ConfigError(f"--budget-scale must be > 0, got {args.budget_scale}")
-    for flag, value in (("--episode-steps", args.episode_steps), ("--eval-episodes", args.eval_episodes)):
-        if value is not None and value < 1:
-            raise ConfigError(f"{flag} must be >= 1, got {value}")
+    _positive("--episode-steps", args.episode_steps)
+    _positive("--eval-episodes", args.eval_episodes)
     tasks = args.tasks or [t.id for t in suite.TASKS]
     kinds = {suite.get_task(t).action_kind for t in tasks}
     algos = args.algos or sorted({a for k in kinds for a in suite.ALGOS_BY_KIND[k]})
@@ -371,6 +379,52 @@ def cmd_suite_publish(args: argparse.Namespace) -> int:
             print(f"shipped suite:{e['task']}: {e['source_cell']} (objective {e['objective']:.1f}, "
                   f"score {e['normalized_score']:+.2f}, {e['bytes']:,} bytes) -> "
                   f"{args.baselines}/{e['file']}")  # fmt: skip
+    return 0
+
+
+def cmd_suite_references(args: argparse.Namespace) -> int:
+    """``suite-references``: the suite's reference values of ``--tasks`` (``random`` and every
+    best-reference candidate, or ``--agents``), cached under ``OUT/references`` for the suite to read
+    (:mod:`planetnav_train.suite.references`)."""
+    from planetnav_train import suite
+    from planetnav_train.suite.references import reference_lines
+
+    _positive("--eval-episodes", args.eval_episodes)
+    _positive("--episode-steps", args.episode_steps)
+    settings = suite.Settings(
+        out=Path(args.out), eval_episodes=args.eval_episodes, episode_steps=args.episode_steps
+    )
+    for line in reference_lines(args.tasks or [t.id for t in suite.TASKS], settings, args.agents):
+        print(line, flush=True)
+    return 0
+
+
+def cmd_suite_rerun(args: argparse.Namespace) -> int:
+    """``suite-rerun``: re-run published cells with their recorded command and compare each with its record
+    (:mod:`planetnav_train.suite.rerun`); exit status 1 if a re-run objective falls outside its cell's
+    published 95 % interval."""
+    from planetnav_train.suite.rerun import format_rerun, rerun_cell
+
+    inside = []
+    for key in args.cells:
+        result = rerun_cell(key, Path(args.published))
+        print(format_rerun(result), flush=True)
+        inside.append(result["inside"])
+    return 0 if all(inside) else 1
+
+
+def cmd_suite_sizes(args: argparse.Namespace) -> int:
+    """``suite-sizes``: bytes of each suite algorithm's saved model and of its policy-only export per task,
+    and the form it would ship in (:mod:`planetnav_train.suite.sizes`)."""
+    from planetnav_train import suite
+    from planetnav_train.suite.sizes import cell_sizes, table_header, table_row
+
+    export = not args.no_export
+    rows = cell_sizes(args.tasks or [t.id for t in suite.TASKS], args.algos, export)  # names checked here
+    for line in table_header(export):
+        print(line)
+    for row in rows:
+        print(table_row(row, export), flush=True)
     return 0
 
 
@@ -542,6 +596,41 @@ def build_parser() -> argparse.ArgumentParser:
         "--allow-smoke", action="store_true", help="tests only: ship runs with smoke settings too"
     )
     sp.set_defaults(func=cmd_suite_publish)
+
+    sr = sub.add_parser(
+        "suite-references",
+        help="the suite's reference values (random and each best-reference candidate) per task, cached",
+    )
+    sr.add_argument("--tasks", nargs="+", help="task ids, e.g. ThrustArc-TCM-v0 (default: every task)")
+    sr.add_argument(
+        "--agents", nargs="+", help="only these of the tasks' random + candidates (no best chosen)"
+    )
+    sr.add_argument(
+        "--out", default="runs/suite", help="the suite's output folder, the cache (default %(default)s)"
+    )
+    sr.add_argument("--eval-episodes", type=int, help="smoke only: fewer seeds (not the published values)")
+    sr.add_argument("--episode-steps", type=int, help="smoke only: shorter episodes")
+    sr.set_defaults(func=cmd_suite_references)
+
+    rr = sub.add_parser(
+        "suite-rerun",
+        help="re-run published suite cells with their recorded command and compare with the record "
+        "(exit 1 if one falls outside its 95 %% interval)",
+    )
+    rr.add_argument("cells", nargs="+", help="cell keys, e.g. Cruise-Target-v0__ppo__raw__s1")
+    rr.add_argument("--published", default="runs/suite", help="the suite's --out (default %(default)s)")
+    rr.set_defaults(func=cmd_suite_rerun)
+
+    sz = sub.add_parser(
+        "suite-sizes",
+        help="bytes of a saved model and its policy-only export per suite algorithm and task (< 1 MB ships)",
+    )
+    sz.add_argument("--tasks", nargs="+", help="task ids (default: every task)")
+    sz.add_argument("--algos", nargs="+", help="algorithms (default: each task's SB3 ones)")
+    sz.add_argument(
+        "--no-export", action="store_true", help="the full models' bytes only (no policy-only export; faster)"
+    )
+    sz.set_defaults(func=cmd_suite_sizes)
     return p
 
 

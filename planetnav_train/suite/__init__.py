@@ -13,6 +13,9 @@ Modules, by what they hold:
   (rliable), aggregation of the records;
 - :mod:`~planetnav_train.suite.leaderboard`: ``suite.json``, the markdown summary and leaderboard page;
 - :mod:`~planetnav_train.suite.publish`: the published JSON, the README summary, the shipped baselines.
+- :mod:`~planetnav_train.suite.references`, :mod:`~planetnav_train.suite.rerun`,
+  :mod:`~planetnav_train.suite.sizes`: behind ``train.py suite-references`` (reference values, cached),
+  ``suite-rerun`` (recorded cells re-run and compared) and ``suite-sizes`` (model and export bytes).
 
 The names below are the suite's interface, imported from those modules.
 """
