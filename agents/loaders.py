@@ -61,14 +61,20 @@ def register_loader(
     return loader
 
 
+def run_entry_points(group: str) -> None:
+    """Call the registration function (no argument) of every installed entry point of ``group``: how the
+    packages above this one register what they provide without an import edge from here."""
+    for ep in importlib.metadata.entry_points(group=group):
+        ep.load()()
+
+
 def discover_loaders() -> None:
     """Call the registration functions of the :data:`ENTRY_POINT_GROUP` entry points (once)."""
     global _discovered
     if _discovered:
         return
     _discovered = True
-    for ep in importlib.metadata.entry_points(group=ENTRY_POINT_GROUP):
-        ep.load()()
+    run_entry_points(ENTRY_POINT_GROUP)
 
 
 def loaders() -> list[Loader]:

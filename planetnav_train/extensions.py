@@ -12,11 +12,11 @@ below call the first time a name is not registered. ``planetnav_rl`` registers:
 
 from __future__ import annotations
 
-import importlib.metadata
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
+from planetnav_agents.loaders import run_entry_points
 from planetnav_env.errors import ConfigError
 
 #: Entry point group whose objects are functions of no argument that call the ``register_*`` functions.
@@ -68,8 +68,7 @@ def discover() -> None:
     if _discovered:
         return
     _discovered = True
-    for ep in importlib.metadata.entry_points(group=ENTRY_POINT_GROUP):
-        ep.load()()
+    run_entry_points(ENTRY_POINT_GROUP)
 
 
 def _lookup(table: Mapping[str, Any], name: str, what: str) -> Any:
