@@ -16,6 +16,7 @@ import pytest
 from planetnav_agents import make_agent
 from planetnav_env.errors import ConfigError
 from planetnav_train import shipped, suite
+from planetnav_train.spread import prediction_interval
 from planetnav_train.suite import publish, runner
 
 README = f"# x\n\nintro\n\n{publish.README_START}\nold text\n{publish.README_END}\n\n## after\n"
@@ -76,7 +77,10 @@ def test_summary_tables_match_direct_iqms() -> None:
         per = {a: _iqm(vals) for (t, a), vals in SCORES.items() if t == task}
         best = max(per, key=per.get)
         row = _row(text, task)
-        assert row[1] == best and row[2].startswith(f"{per[best]:.2f} [") and row[3] == "greedy (200.0 km)"
+        assert row[1] == best and row[2].startswith(f"{per[best]:.2f} [") and row[4] == "greedy (200.0 km)"
+        # A new training run of the best algorithm: mean objective and 95 % prediction interval of its seeds.
+        pi = prediction_interval([1000.0 - 800.0 * v for v in SCORES[(task, best)]])
+        assert row[3] == f"{pi.mean:.1f} [{max(pi.lo, 0.0):.1f}, {pi.hi:.1f}]"
     smoke = suite.summary_markdown(suite.suite_json([{**records[0], "official": False}], refs, agg))
     assert "**Not a leaderboard**: 1 of 1 runs" in smoke
     assert suite.summary_markdown(suite.suite_json([], refs, {})) == "No run recorded yet.\n"
