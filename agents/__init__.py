@@ -43,7 +43,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import planetnav_env
-from planetnav_env.numba_cache import drop_stale_cache
+from planetnav_env.numerics.numba_cache import drop_stale_cache
 
 # gain.py's compiled kernels call the environment's: a change on either side makes them stale.
 drop_stale_cache(Path(__file__).parent, [Path(__file__).parent, Path(planetnav_env.__file__).parent])

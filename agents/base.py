@@ -25,12 +25,12 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from planetnav_env import quaternion as qt
+from planetnav_env.astro.bodies import AU_KM, body
+from planetnav_env.attitude import quaternion as qt
+from planetnav_env.attitude.plant import AttitudeConfig, raise_state_error
 from planetnav_env.attitude.pointing import _frame_batch, _pd_torque_batch
-from planetnav_env.bodies import AU_KM, body
 from planetnav_env.config import EnvConfig
 from planetnav_env.core import layout as L
-from planetnav_env.dynamics.attitude import AttitudeConfig, raise_state_error
 from planetnav_env.errors import InvalidParameterError, require_finite
 
 _DEG = math.pi / 180.0
@@ -119,7 +119,7 @@ def target_torque_action(idx: int, n_planets: int) -> np.ndarray:
 
 
 def hybrid_action(option: int, n_planets: int, torque: np.ndarray | None = None) -> np.ndarray:
-    """The ``hybrid`` action (P + 1 + 3,) float32 (:func:`planetnav_env.spaces.decode_hybrid`): option
+    """The ``hybrid`` action (P + 1 + 3,) float32 (:func:`planetnav_env.envs.spaces.decode_hybrid`): option
     ``k < P`` slews to planet k by the PD law; ``k = P`` commands ``torque`` (3,) [fraction of
     ``torque_action_scale`` x the wheel limit, body axes] directly. Raises ``ValueError`` naming a bad
     option or torque."""

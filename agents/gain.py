@@ -25,11 +25,11 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit, vectorize
 
-from planetnav_env.bodies import AU_KM
+from planetnav_env.astro.bodies import AU_KM
+from planetnav_env.attitude.plant import dcm_body_to_inertial_kernel
 from planetnav_env.config import EnvConfig
 from planetnav_env.core import layout as L
 from planetnav_env.core.what_if import coasted_position_trace, predicted_planet_trace
-from planetnav_env.dynamics.attitude import dcm_body_to_inertial_kernel
 
 #: Greedy's horizon [steps]: over it, the value of a new line of sight outweighs the slew
 # (``planetnav_agents.greedy``).

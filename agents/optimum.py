@@ -59,7 +59,8 @@ import numpy as np
 from numba import njit
 
 from planetnav_agents.base import ParsedObservation, TargetAgent, unwrapped_config
-from planetnav_env import quaternion as qt
+from planetnav_env.attitude import quaternion as qt
+from planetnav_env.attitude.plant import Plant
 from planetnav_env.attitude.pointing import LoopScratch, PdLoop, frame_kernel, substeps_kernel
 from planetnav_env.core import layout as L
 from planetnav_env.core.observation import observe_row
@@ -67,7 +68,6 @@ from planetnav_env.core.operations import add_thrust_q, apply_thrust, planned_di
 from planetnav_env.core.records import make_scratch
 from planetnav_env.core.row_ephemeris import eval_channel, perturbers_at, planets_at
 from planetnav_env.core.what_if import coasted_position_trace
-from planetnav_env.dynamics.attitude import Plant
 from planetnav_env.estimation.ekf_kernels import (
     OrbitModel,
     PredictScratch,

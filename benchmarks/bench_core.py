@@ -18,11 +18,11 @@ import time
 import numba
 import numpy as np
 
+from planetnav_env.astro.bodies import body
+from planetnav_env.astro.ephemeris import KeplerianEphemeris
+from planetnav_env.attitude.plant import AttitudeConfig
 from planetnav_env.attitude.pointing import propagate_pointing
-from planetnav_env.bodies import body
-from planetnav_env.dynamics.attitude import AttitudeConfig
 from planetnav_env.dynamics.orbit import GravityModel, rk4_step
-from planetnav_env.ephemeris import KeplerianEphemeris
 from planetnav_env.estimation.ekf import BatchEKF, FilterConfig, FilterpyEKF, process_noise
 from planetnav_env.estimation.ekf_kernels import (
     KIND_CODES,

@@ -21,7 +21,7 @@ import time
 import numpy as np
 
 import planetnav_env  # noqa: F401
-from planetnav_env.vector_env import PlanetNavVectorEnv
+from planetnav_env.envs.vector_env import PlanetNavVectorEnv
 
 
 def _acts(env_id: str, n: int, k: int) -> np.ndarray:

@@ -2,7 +2,7 @@
 
 For each id: the env's step rate (scripted targets, no rendering), then the frame rate of ``env.render()``
 with a step between frames (the figure is reused, so the first frame, which builds it, is left out), and the
-share of a frame spent building the :class:`~planetnav_env.render.FrameData` versus drawing it.
+share of a frame spent building the :class:`~planetnav_env.envs.render.FrameData` versus drawing it.
 
     python benchmarks/bench_render.py [--frames N] [--steps N] [--id ID ...]
 
@@ -19,7 +19,7 @@ import gymnasium as gym
 import numpy as np
 
 import planetnav_env  # noqa: F401  (registers the ids)
-from planetnav_env.render import render_frame, scripted_action
+from planetnav_env.envs.render import render_frame, scripted_action
 
 DEFAULT_IDS = ("planetnav/Cruise-Target-v0", "planetnav/MarsApproach-Tasking-v0")
 

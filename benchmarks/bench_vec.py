@@ -24,8 +24,8 @@ import numpy as np
 import planetnav_env  # noqa: F401
 from planetnav_env.core import kernels as K
 from planetnav_env.core.records import Actions
-from planetnav_env.env import PlanetNavEnv
-from planetnav_env.vector_env import PlanetNavVectorEnv
+from planetnav_env.envs.env import PlanetNavEnv
+from planetnav_env.envs.vector_env import PlanetNavVectorEnv
 
 
 def _actions(mode: str, stream: str, n: int, k: int, rng: np.random.Generator) -> np.ndarray:

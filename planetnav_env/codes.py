@@ -71,7 +71,7 @@ _KIND_BY_LABEL = {k.label: k for k in MeasurementKind}
 
 
 class AttitudeStatus(IntEnum):
-    """Status of the attitude batch kernels (:mod:`planetnav_env.dynamics.attitude`,
+    """Status of the attitude batch kernels (:mod:`planetnav_env.attitude.plant`,
     :mod:`planetnav_env.attitude.pointing`)."""
 
     OK = 0

@@ -24,16 +24,16 @@ from typing import Any
 
 import numpy as np
 
-from planetnav_env.approach import DEFAULT_CLOSEST_APPROACH_TDB
-from planetnav_env.bodies import BODIES
+from planetnav_env.astro.bodies import BODIES
+from planetnav_env.astro.ephemeris import DEEphemeris
 from planetnav_env.core.ephemeris_table import SEGMENT_S
-from planetnav_env.ephemeris import DEEphemeris
 from planetnav_env.errors import ConfigError, OptionError, PlanetNavError, UnknownOptionError
 from planetnav_env.estimation.ekf import FilterConfig
 from planetnav_env.estimation.measurements import MODELS
 from planetnav_env.options import check_options, declared, option, option_table, replace_table, section
-from planetnav_env.scenarios import _RANDOM_EPOCHS as RANDOM_EPOCHS
-from planetnav_env.scenarios import CRUISE_EPOCH
+from planetnav_env.scenarios.approach import DEFAULT_CLOSEST_APPROACH_TDB
+from planetnav_env.scenarios.episodes import _RANDOM_EPOCHS as RANDOM_EPOCHS
+from planetnav_env.scenarios.episodes import CRUISE_EPOCH
 from planetnav_env.sensors.camera_config import CameraConfig
 from planetnav_env.sensors.pulsar import XrayDetector, pulsar
 
@@ -159,8 +159,8 @@ class EnvConfig:
         ("venus", "mars", "earth"),
         kind="strs",
         length=(1, None),
-        doc="bodies the camera may target, no repeats, any of planetnav_env.bodies but the Sun (their order "
-        "is the action index)",
+        doc="bodies the camera may target, no repeats, any of planetnav_env.astro.bodies but the Sun "
+        "(their order is the action index)",
     )
     step_s: float = option(
         60.0,

@@ -20,7 +20,7 @@ hyperparams        keyword arguments of ``PPOConfig.training`` (``lr``, ``gamma`
 
 Env runners build their environments with ``gymnasium.make_vec(id, vectorization_mode=
 "vector_entry_point")``: the id's registered vector entry point, so the native vector environment is used
-wherever ``planetnav_env.registration`` provides one, and Gymnasium's ``SyncVectorEnv`` until then.
+wherever ``planetnav_env.envs.registration`` provides one, and Gymnasium's ``SyncVectorEnv`` until then.
 Ray is imported only inside functions.
 """
 

@@ -6,7 +6,7 @@ planetnav environment rows stepped together; a single environment is the batch w
 ====================================== ===================================================================
 class                                  what it does to the rows
 ====================================== ===================================================================
-:class:`VectorRows`                    the native vector env (:class:`~planetnav_env.vector_env.
+:class:`VectorRows`                    the native vector env (:class:`~planetnav_env.envs.vector_env.
                                        PlanetNavVectorEnv`) as rows: one compiled step for all of them
 :class:`SingleEnvRows`                 any (wrapped) single planetnav env as one row (N = 1)
 :class:`PointingShapingRows`           adds the potential-based pointing term to the reward

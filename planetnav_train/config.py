@@ -17,8 +17,8 @@ from typing import Any
 import yaml
 
 from planetnav_env.config import NOISE_STREAMS, EnvConfig
+from planetnav_env.envs.registration import ENV_IDS
 from planetnav_env.errors import ConfigError
-from planetnav_env.registration import ENV_IDS
 from planetnav_train.features import check_features
 from planetnav_train.sb3 import ALGORITHMS, algorithm_class
 from planetnav_train.shaping import SHAPINGS

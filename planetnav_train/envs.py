@@ -23,7 +23,7 @@ def make_training_env(tc: TrainConfig, monitor_dir: Path | None) -> Any:
     from stable_baselines3.common.env_util import make_vec_env
     from stable_baselines3.common.vec_env import DummyVecEnv, VecMonitor
 
-    from planetnav_env.env import PlanetNavEnv
+    from planetnav_env.envs.env import PlanetNavEnv
     from planetnav_train.batch_wrappers import single_training_env
     from planetnav_train.vec_training import NavTrainingVecEnv
 

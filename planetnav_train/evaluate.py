@@ -6,7 +6,7 @@ schedule sweep (:func:`sweep_periodic`).
 A saved SB3 model is evaluated with its seeds as rows of the native vector env (:func:`batch_reason` says
 when it cannot be): one batched ``model.predict`` per decision for all rows, through the training
 recipe's layers (:class:`planetnav_train.batch_wrappers.TrainingOptions`: features, action repeat,
-relative actions) over :class:`~planetnav_env.vector_env.PlanetNavVectorEnv`, each row one episode from
+relative actions) over :class:`~planetnav_env.envs.vector_env.PlanetNavVectorEnv`, each row one episode from
 its own seed. Row ``i`` of the vector env is the single env seeded alike, bit for bit, and the layers are
 the same code, so the per-episode results equal the one-episode-at-a-time path's given the same actions
 (``tests/train/test_eval_batched.py``). The one difference can be the policy's forward pass: a batched float32
@@ -206,13 +206,13 @@ def _batched_episodes(
     exact_actions: bool = True,
 ) -> list[dict[str, Any]]:
     """One episode per seed of the SB3 model behind ``agent`` (:func:`batch_reason` is None), the seeds
-    as rows of one :class:`~planetnav_env.vector_env.PlanetNavVectorEnv`: one ``model.predict`` per
+    as rows of one :class:`~planetnav_env.envs.vector_env.PlanetNavVectorEnv`: one ``model.predict`` per
     decision for all rows, the training recipe's layers (the model's features, action repeat, relative
     actions) over the rows, as :func:`planetnav_train.envs.make_training_env` stacks them (without the
     pointing shaping: evaluation reports the environment's own reward, as the single-env path does).
     ``exact_actions``: a continuous policy predicts row by row (module docstring).
     Returns :func:`_episode`'s dicts; ``seconds`` is the batch's wall time over its rows."""
-    from planetnav_env.vector_env import PlanetNavVectorEnv
+    from planetnav_env.envs.vector_env import PlanetNavVectorEnv
 
     n = len(seeds)
     venv = PlanetNavVectorEnv(n, env_cfg)  # stepped by step_rows only: no autoreset happens
@@ -337,7 +337,7 @@ def evaluate_agent(
     """
     from tqdm.auto import tqdm
 
-    from planetnav_env.env import PlanetNavEnv
+    from planetnav_env.envs.env import PlanetNavEnv
 
     if isinstance(batch_rows, bool) or not isinstance(batch_rows, (int, np.integer)) or batch_rows < 1:
         raise ValueError(f"batch_rows must be a positive integer, got {batch_rows!r}")

@@ -49,9 +49,9 @@ from gymnasium import spaces
 
 from planetnav_agents.base import unwrapped_config, with_planet_choice
 from planetnav_agents.gain import DEFAULT_HORIZON, SlewModel, planet_gains
-from planetnav_env import quaternion as qt
+from planetnav_env.attitude import quaternion as qt
 from planetnav_env.core import layout as L
-from planetnav_env.portable_math import log1p
+from planetnav_env.numerics.portable_math import log1p
 
 _DEG = math.pi / 180.0  # the observation's rates are in deg/s
 
@@ -122,7 +122,8 @@ def advance_since_measured(since: np.ndarray, measured: np.ndarray, target_index
 def since_measured_values(since: np.ndarray) -> np.ndarray:
     """The ``since_measured`` feature (float32, same shape as ``since``): ``log1p(steps) /
     log1p(SINCE_SCALE_STEPS)`` capped at 1, and 1 for a planet not measured this episode."""
-    # libm's log1p, not numpy's: numpy's SIMD version differs across CPUs (planetnav_env.portable_math).
+    # libm's log1p, not numpy's: numpy's SIMD version differs across CPUs
+    # (planetnav_env.numerics.portable_math).
     scaled = log1p(np.where(np.isfinite(since), since, 0.0)) / _SINCE_LOG_SCALE
     return np.where(np.isfinite(since), np.minimum(scaled, 1.0), 1.0).astype(np.float32)
 

@@ -45,7 +45,7 @@ def demonstrations(
     which only labels the states the student visits (DAgger's data collection, :func:`dagger`). The teacher
     is told the target the student holds (:meth:`planetnav_agents.base.Agent.follow`) before each decision."""
     from planetnav_agents import make_agent
-    from planetnav_env.env import PlanetNavEnv
+    from planetnav_env.envs.env import PlanetNavEnv
     from planetnav_train.features import (
         FeatureBatch,
         absolute_to_relative,
@@ -209,7 +209,7 @@ def agreement(
     the state (as in :func:`dagger`). Returns the number of decisions, the fraction where the student
     picks another planet than the teacher, and (``target+torque``) the mean |residual torque| the student
     commands, as a fraction of its action range."""
-    from planetnav_env.env import PlanetNavEnv
+    from planetnav_env.envs.env import PlanetNavEnv
     from planetnav_train.sb3 import SB3Agent
 
     if env_config.action_mode == "torque":

@@ -1,13 +1,13 @@
 """Stable-Baselines3 ``VecEnv`` over the native vector environment.
 
 SB3 does not accept a Gymnasium ``VectorEnv``; this adapter gives it one without per-env Python objects:
-the rows are stepped by one compiled loop (:class:`~planetnav_env.vector_env.PlanetNavVectorEnv` in
+the rows are stepped by one compiled loop (:class:`~planetnav_env.envs.vector_env.PlanetNavVectorEnv` in
 ``same_step`` autoreset mode, which is SB3's convention: a finished row is reset at once and its last
 observation travels in ``infos[i]["terminal_observation"]``, with ``"TimeLimit.truncated"`` set for
 truncations so that SB3 bootstraps them).
 
-``config`` is what :class:`~planetnav_env.env.PlanetNavEnv` takes: an ``EnvConfig``, a mapping of options,
-or a registered id (``PlanetNavSB3VecEnv(4, "planetnav/MarsApproach-Tasking-v0")`` has the options
+``config`` is what :class:`~planetnav_env.envs.env.PlanetNavEnv` takes: an ``EnvConfig``, a mapping of
+options, or a registered id (``PlanetNavSB3VecEnv(4, "planetnav/MarsApproach-Tasking-v0")`` has the options
 ``gym.make`` would pass), with keyword overrides.
 
 Stable-Baselines3 is imported only when this module is, never by ``import planetnav_env``; it comes with
@@ -30,8 +30,8 @@ except ImportError as exc:  # the environment alone installs without SB3 (traini
     ) from exc
 
 from planetnav_env.config import EnvConfig
+from planetnav_env.envs.vector_env import PlanetNavVectorEnv
 from planetnav_env.errors import InvalidParameterError
-from planetnav_env.vector_env import PlanetNavVectorEnv
 
 #: Keys of the single environment's info copied into SB3's per-row info dicts (SB3's Monitor-like
 #: callbacks read these); the full set is ``vec.info_row(i)``.

@@ -7,7 +7,7 @@ the reference frame (its orbital frame O x2 y2 z2) is carried into the body fram
 2. ``theta`` (pitch) about the once-rotated y axis,
 3. ``phi`` (roll) about the twice-rotated x axis, which is the body x1 axis.
 
-In the project convention (``planetnav_env.quaternion``: scalar first, Hamilton,
+In the project convention (``planetnav_env.attitude.quaternion``: scalar first, Hamilton,
 ``v_ref = R(q) @ v_body``) this is ``q = q_z(psi) * q_y(theta) * q_x(phi)``, i.e.
 ``R(q) = Rz(psi) Ry(theta) Rx(phi)``; its transpose is the paper's matrix ``M_x1x2`` of eq. (1)
 (orbital components -> body components). The paper's quaternion ``v`` is therefore *numerically
@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from planetnav_env import quaternion as qt
+from planetnav_env.attitude import quaternion as qt
 
 
 def quaternion_from_euler321(psi: np.ndarray, theta: np.ndarray, phi: np.ndarray) -> np.ndarray:

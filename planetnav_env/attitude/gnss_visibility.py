@@ -38,7 +38,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from planetnav_env.bodies import BODIES
+from planetnav_env.astro.bodies import BODIES
 from planetnav_env.errors import DegenerateGeometryError, InvalidParameterError, require_finite
 
 #: Earth's equatorial radius [km] (from ``bodies.py``); the Earth is a sphere of this radius for shadowing.

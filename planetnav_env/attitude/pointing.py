@@ -74,8 +74,8 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from planetnav_env import quaternion as qt
-from planetnav_env.dynamics.attitude import (
+from planetnav_env.attitude import quaternion as qt
+from planetnav_env.attitude.plant import (
     STATUS_NONFINITE_INPUT,
     STATUS_NONFINITE_RESULT,
     STATUS_OK,
@@ -99,7 +99,7 @@ from planetnav_env.dynamics.attitude import (
     store_row_kernel,
 )
 from planetnav_env.errors import InvalidParameterError, require_finite, require_positive
-from planetnav_env.jit import row_kernel
+from planetnav_env.numerics.jit import row_kernel
 
 __all__ = [
     "BORESIGHT_BODY",
@@ -278,7 +278,7 @@ def substeps_kernel(
     and ``h`` [N m s]: command = PD torque toward ``frame`` (if ``use_pd``) + ``u_bias`` [N m] -> wheel
     limits -> RK4 under the external torque ``u_ext`` [N m] (the one closed-loop sub-step loop:
     :func:`propagate_pointing` and the environment both run it; the plant's sub-step is
-    :func:`~planetnav_env.dynamics.attitude.plant_substep_kernel`). ``u`` holds the last applied wheel
+    :func:`~planetnav_env.attitude.plant.plant_substep_kernel`). ``u`` holds the last applied wheel
     torque [N m]."""
     plant = loop.plant
     for _ in range(n_substeps):
@@ -310,7 +310,7 @@ def propagate_batch_kernel(
     """:func:`substeps_kernel` for every row ``b`` of ``rows``: the PD law toward ``direction[b]`` (if
     ``use_pd``; ``direction`` and ``roll_ref`` are ignored otherwise) plus the constant command
     ``u_bias[b]`` -> wheel limits -> RK4 (the closed loop of :func:`propagate_pointing`; the open loop
-    is :func:`planetnav_env.dynamics.attitude.propagate_open_loop_batch`). Returns a status code.
+    is :func:`planetnav_env.attitude.plant.propagate_open_loop_batch`). Returns a status code.
 
     The gains come as scalars and the :class:`PdLoop` is built here, in compiled code: numba's dispatcher
     types a tuple argument in Python (arrays and scalars in C), and a nested PdLoop from Python made
@@ -442,7 +442,7 @@ def pd_torque(
         Attitude gain [N m] and rate gain [N m s]; the thesis uses 1 and 1.
 
     The torque is not clipped: the wheel model does that
-    (:func:`~planetnav_env.dynamics.attitude.applied_wheel_torque`).
+    (:func:`~planetnav_env.attitude.plant.applied_wheel_torque`).
     """
     k_a = require_positive("k_a", k_a)
     k_w = require_positive("k_w", k_w)
@@ -494,7 +494,7 @@ def propagate_pointing(
     The PD law (:func:`pd_torque` with the current ``h_w``) is evaluated at the start of every sub-step and
     held over it; the reference frame is built once from ``target_dir_inertial`` / ``roll_ref_inertial``
     (held fixed over the call). Batched like
-    :func:`~planetnav_env.dynamics.attitude.propagate_attitude`; returns ``(q, omega, h_w)``.
+    :func:`~planetnav_env.attitude.plant.propagate_attitude`; returns ``(q, omega, h_w)``.
     """
     dt = require_positive("dt", dt)
     n = require_substeps(n_substeps)

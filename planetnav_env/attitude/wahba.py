@@ -2,7 +2,7 @@
 
 Conventions
 -----------
-Every function follows the project convention of ``planetnav_env.quaternion``: scalar-first Hamilton
+Every function follows the project convention of ``planetnav_env.attitude.quaternion``: scalar-first Hamilton
 quaternion ``q`` of the body frame B relative to a reference frame F (inertial for the star tracker, the
 orbital frame O x2 y2 z2 for the paper), acting as ``v_F = R(q) @ v_B``.
 
@@ -34,7 +34,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from planetnav_env import quaternion as qt
+from planetnav_env.attitude import quaternion as qt
 from planetnav_env.errors import DegenerateGeometryError, InvalidParameterError, require_finite
 
 #: Relative threshold on the second invariant of a weighted scatter matrix (``sin^2`` of the largest

@@ -1,7 +1,7 @@
 """BatchCore: the state of N environment rows as arrays, and the Python side of reset and step.
 
-Both environments are shells over this class: :class:`~planetnav_env.env.PlanetNavEnv` holds a batch of
-one, :class:`~planetnav_env.vector_env.PlanetNavVectorEnv` a batch of ``num_envs``. The compiled step is
+Both environments are shells over this class: :class:`~planetnav_env.envs.env.PlanetNavEnv` holds a batch of
+one, :class:`~planetnav_env.envs.vector_env.PlanetNavVectorEnv` a batch of ``num_envs``. The compiled step is
 :mod:`planetnav_env.core.kernels`; here live what needs Python: drawing an episode (the scenario, the
 initial error, from the row's ``numpy`` generator), fitting the row's ephemeris table, choosing the
 serial or the threaded loop, and turning row statuses into named errors.
@@ -21,7 +21,8 @@ from typing import Any
 
 import numpy as np
 
-from planetnav_env import quaternion as qt
+from planetnav_env.astro.ephemeris import DEEphemeris
+from planetnav_env.attitude import quaternion as qt
 from planetnav_env.config import EnvConfig
 from planetnav_env.core import kernels as K
 from planetnav_env.core import layout as L
@@ -30,9 +31,8 @@ from planetnav_env.core.ephemeris_table import SEGMENT_S, TableSpec, fit_table
 from planetnav_env.core.params import ARCSEC, ChannelPlan, build_params, episode_duration_s
 from planetnav_env.core.records import RowState
 from planetnav_env.dynamics.orbit import GravityModel
-from planetnav_env.ephemeris import DEEphemeris
 from planetnav_env.errors import NonFiniteError, PlanetNavError
-from planetnav_env.scenarios import Episode, approach_episode, draw_episode
+from planetnav_env.scenarios.episodes import Episode, approach_episode, draw_episode
 
 #: Batches at least this large step in chunks on several threads (smaller ones are faster serially:
 #: handing chunks to threads costs ~20-50 us a step).

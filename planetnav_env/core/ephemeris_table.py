@@ -19,7 +19,7 @@ across boundaries (up to rounding), not merely within the fit error. Interpolati
 within a factor ``~2 + (2/pi) log D`` of the best polynomial approximation.
 
 Defaults (:data:`SEGMENT_S` = 5 days, :data:`DEGREE` = 12, i.e. 13 coefficients): measured against DE421
-(:class:`planetnav_env.ephemeris.DEEphemeris`) at random epochs 1990-2030, the error of Mercury, Venus,
+(:class:`planetnav_env.astro.ephemeris.DEEphemeris`) at random epochs 1990-2030, the error of Mercury, Venus,
 Earth, Moon, Mars, Jupiter (heliocentric), Earth and Jupiter relative to Mars and the Sun-barycentre
 offset is at most ~1e-5 km (1 cm), which is the floor set by rounding of the time argument (one ulp of
 ``t ~ 1e9 s`` is 1.2e-7 s, i.e. ~6e-6 km at 47 km/s). The hardest channel (the Moon, heliocentric) reaches
@@ -51,9 +51,9 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from planetnav_env import portable_math as pm
 from planetnav_env.errors import InvalidParameterError, NonFiniteError
-from planetnav_env.jit import row_kernel
+from planetnav_env.numerics import portable_math as pm
+from planetnav_env.numerics.jit import row_kernel
 
 #: Default segment length [s]: 5 days (see the module docstring for the accuracy it gives).
 SEGMENT_S = 5.0 * 86400.0

@@ -11,7 +11,7 @@ single environment (a batch of one) equals row ``n`` of the vector environment b
 
 No Python objects and no allocation inside the row kernels (scratch space is allocated once per chunk
 and passed down as :class:`Scratch`): the same row kernels could run one row per GPU thread
-(docs/architecture.md says how). They are compiled with :data:`planetnav_env.jit.row_kernel`, without
+(docs/architecture.md says how). They are compiled with :data:`planetnav_env.numerics.jit.row_kernel`, without
 numba's reference counting (the module says why); only ``step_range`` and ``reset_rows``, which
 allocate the scratch, keep it.
 
@@ -30,6 +30,7 @@ import math
 import numpy as np
 from numba import njit
 
+from planetnav_env.attitude.plant import Plant, store_state_kernel
 from planetnav_env.attitude.pointing import (
     LoopScratch,
     PdLoop,
@@ -96,14 +97,13 @@ from planetnav_env.core.sensing import (
     star_fix_stage,
     time_pulsar,
 )
-from planetnav_env.dynamics.attitude import Plant, store_state_kernel
 from planetnav_env.estimation.ekf_kernels import (
     OrbitModel,
     PredictScratch,
     predict_kernel,
     rk4_kernel,
 )
-from planetnav_env.jit import row_kernel
+from planetnav_env.numerics.jit import row_kernel
 from planetnav_env.sensors.camera_kernels import V_ALPHA, V_REASON
 
 

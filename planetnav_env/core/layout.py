@@ -7,7 +7,7 @@ which numba folds at compile time.
 
 :class:`ObservationLayout` is the one description of the observation vector: the kernels write it at its
 offsets, the environments build their spaces and decode observations from it, and the docstring table
-of :class:`~planetnav_env.env.PlanetNavEnv` is generated from it.
+of :class:`~planetnav_env.envs.env.PlanetNavEnv` is generated from it.
 """
 
 from __future__ import annotations
@@ -312,6 +312,6 @@ class ObservationLayout:
 def observation_scales(scenario: str) -> tuple[float, float]:
     """Position [km] and velocity [km/s] scales of the observation: 1 AU and 30 km/s in cruise; 10^6 km and
     5 km/s on approach (Mars-centred)."""
-    from planetnav_env.bodies import AU_KM
+    from planetnav_env.astro.bodies import AU_KM
 
     return (1.0e6, 5.0) if scenario == "mars-approach" else (AU_KM, 30.0)

@@ -8,7 +8,8 @@ import math
 
 from numba import njit
 
-from planetnav_env.bodies import AU_KM
+from planetnav_env.astro.bodies import AU_KM
+from planetnav_env.attitude.plant import dcm_body_to_inertial_kernel
 from planetnav_env.core.layout import (
     F_DV_LOST,
     F_HW,
@@ -38,8 +39,7 @@ from planetnav_env.core.layout import (
     TF_SIZE,
 )  # fmt: skip
 from planetnav_env.core.row_ephemeris import eval_channel, planets_at, row_time
-from planetnav_env.dynamics.attitude import dcm_body_to_inertial_kernel
-from planetnav_env.jit import ROW_KERNEL_OPTIONS, row_kernel
+from planetnav_env.numerics.jit import ROW_KERNEL_OPTIONS, row_kernel
 from planetnav_env.sensors.camera_kernels import (
     V_ALPHA,
     V_REASON,

@@ -43,7 +43,7 @@ from planetnav_env.core.layout import (
 )  # fmt: skip
 from planetnav_env.core.row_noise import NOISE_THRUST, next_normal, noise_begin
 from planetnav_env.core.what_if import coasted_position_trace
-from planetnav_env.jit import row_kernel
+from planetnav_env.numerics.jit import row_kernel
 
 #: A deadline counts as reached at the first step end within this relative tolerance of its epoch.
 _EPOCH_RTOL = 1e-12

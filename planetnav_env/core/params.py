@@ -12,15 +12,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from planetnav_env.bodies import body
+from planetnav_env.astro.bodies import body
 from planetnav_env.config import EnvConfig
 from planetnav_env.core import layout as L
 from planetnav_env.core.ephemeris_table import SEGMENT_S
 from planetnav_env.core.records import CoreParams, make_scalars
 from planetnav_env.estimation.ekf import process_noise
 from planetnav_env.estimation.ekf_kernels import KIND_CODES
+from planetnav_env.numerics.portable_math import norm3
 from planetnav_env.options import kernel_values
-from planetnav_env.portable_math import norm3
 from planetnav_env.sensors import pulsar as psr
 from planetnav_env.sensors.star_tracker import StarTrackerConfig, star_fix_tables
 

@@ -47,7 +47,7 @@ import numpy as np
 from numba import njit
 
 from planetnav_env.errors import InvalidParameterError
-from planetnav_env.jit import row_kernel
+from planetnav_env.numerics.jit import row_kernel
 
 #: Number of uint64 words in one row's state.
 STATE_WORDS = 4

@@ -8,7 +8,7 @@ from planetnav_env.core.layout import (
     F_T0,
     I_K,
 )  # fmt: skip
-from planetnav_env.jit import row_kernel
+from planetnav_env.numerics.jit import row_kernel
 
 
 @row_kernel

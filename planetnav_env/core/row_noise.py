@@ -7,7 +7,7 @@ from planetnav_env.core import rng as crng
 from planetnav_env.core.layout import (
     I_K,
 )  # fmt: skip
-from planetnav_env.jit import row_kernel
+from planetnav_env.numerics.jit import row_kernel
 
 #: Stream ids of the per-step noise (``noise_streams: per_step``): one per sensor; pulsar j uses
 #: ``NOISE_PULSAR0 + j``; ``NOISE_THRUST`` is the thrust execution error of an operations scenario.

@@ -22,7 +22,7 @@ from planetnav_env.core.operations import score_operations
 from planetnav_env.estimation.ekf_kernels import (
     nees_kernel,
 )
-from planetnav_env.jit import row_kernel
+from planetnav_env.numerics.jit import row_kernel
 
 
 @row_kernel

@@ -10,6 +10,7 @@ import math
 
 import numpy as np
 
+from planetnav_env.attitude.plant import dcm_body_to_inertial_kernel
 from planetnav_env.core.layout import (
     F_ATT_ERR,
     F_INTEGRATED,
@@ -37,13 +38,12 @@ from planetnav_env.core.row_noise import (
     next_normal,
     noise_begin,
 )
-from planetnav_env.dynamics.attitude import dcm_body_to_inertial_kernel
 from planetnav_env.estimation.ekf_kernels import (
     planet_model_kernel,
     update_kernel,
 )
 from planetnav_env.estimation.measurement_kernels import measurement_vector_kernel
-from planetnav_env.jit import row_kernel
+from planetnav_env.numerics.jit import row_kernel
 from planetnav_env.sensors.camera_kernels import (
     CameraFix,
     CameraModel,

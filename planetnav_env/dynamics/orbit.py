@@ -29,7 +29,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from planetnav_env.bodies import body
+from planetnav_env.astro.bodies import body
 from planetnav_env.errors import InvalidParameterError, require_finite, require_positive
 
 

@@ -24,7 +24,7 @@ from planetnav_env.codes import MeasurementKind
 from planetnav_env.errors import InvalidParameterError, NonFiniteError, require_finite, require_positive
 from planetnav_env.estimation.ekf import EKFBase
 from planetnav_env.estimation.measurements import MeasurementModel
-from planetnav_env.jit import ROW_KERNEL_OPTIONS, row_kernel
+from planetnav_env.numerics.jit import ROW_KERNEL_OPTIONS, row_kernel
 
 #: Configuration string -> MeasurementKind as an int (what the kernels take).
 KIND_CODES = {k.label: int(k) for k in MeasurementKind}

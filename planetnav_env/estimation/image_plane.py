@@ -30,7 +30,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from planetnav_env import quaternion as qt
+from planetnav_env.attitude import quaternion as qt
 from planetnav_env.errors import InvalidParameterError, NotVisibleError, require_finite, require_positive
 from planetnav_env.sensors.camera import DEFAULT_CAMERA, CameraConfig, camera_to_image_mm
 

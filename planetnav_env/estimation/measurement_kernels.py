@@ -7,8 +7,8 @@ from __future__ import annotations
 
 import math
 
-from planetnav_env.dynamics.attitude import dcm_body_to_inertial_kernel
-from planetnav_env.jit import row_kernel
+from planetnav_env.attitude.plant import dcm_body_to_inertial_kernel
+from planetnav_env.numerics.jit import row_kernel
 
 
 @row_kernel

@@ -29,12 +29,12 @@ from pathlib import Path
 
 import numpy as np
 
-from planetnav_env.bodies import body
-from planetnav_env.ephemeris import Ephemeris, make_ephemeris
+from planetnav_env.astro.bodies import body
+from planetnav_env.astro.ephemeris import Ephemeris, make_ephemeris
 from planetnav_env.estimation.ekf import FilterConfig
 from planetnav_env.estimation.measurements import MeasurementModel
-from planetnav_env.navigation import NavigationResult, simulate_navigation
-from planetnav_env.scenarios import CRUISE_EPOCH, cruise_state
+from planetnav_env.scenarios.episodes import CRUISE_EPOCH, cruise_state
+from planetnav_env.scenarios.navigation import NavigationResult, simulate_navigation
 from planetnav_env.sensors.camera_config import CameraConfig
 
 EPOCH = CRUISE_EPOCH

@@ -33,8 +33,8 @@ from pathlib import Path
 
 import numpy as np
 
-from planetnav_env import quaternion as qt
 from planetnav_env.attitude import gnss_visibility as gv
+from planetnav_env.attitude import quaternion as qt
 from planetnav_env.attitude.euler import euler321_differences, euler321_error_angles, quaternion_from_euler321
 from planetnav_env.attitude.wahba import attitude_error_angle, q_method
 from planetnav_env.errors import InvalidParameterError

@@ -3,9 +3,9 @@
 ``python -m planetnav_env.reproduce optical-pulsar [--quick] [--runs N] [--json PATH] [--plots DIR]``
 
 Runs optical-only (OPN), single-pulsar (PN) and the hybrid (OPHN) on the same Mars approach
-(:mod:`planetnav_env.approach`: 96 h to closest approach on 2021-02-10 12:00 TDB, Mars-centred dynamics with
-Sun, Earth and Jupiter from DE421), a Monte Carlo of ``--runs`` runs per method with common random numbers,
-prints a table, writes the summary JSON and error-vs-time plots with the filters' 3-sigma.
+(:mod:`planetnav_env.scenarios.approach`: 96 h to closest approach on 2021-02-10 12:00 TDB, Mars-centred
+dynamics with Sun, Earth and Jupiter from DE421), a Monte Carlo of ``--runs`` runs per method with common
+random numbers, prints a table, writes the summary JSON and error-vs-time plots with the filters' 3-sigma.
 
 Metrics (per method): ``final_pos_err_km`` the RMS over runs of |position error| at closest approach;
 ``rms_pos_err_km_last_half`` the RMS over runs and over the second half of the span; ``time_to_10km_h`` the
@@ -24,7 +24,10 @@ from pathlib import Path
 
 import numpy as np
 
-from planetnav_env.approach import (
+from planetnav_env.errors import PlanetNavError
+from planetnav_env.estimation.ekf import FilterConfig
+from planetnav_env.estimation.image_plane import image_plane_sigma_mm
+from planetnav_env.scenarios.approach import (
     METHODS,
     ApproachConfig,
     ApproachResult,
@@ -32,9 +35,6 @@ from planetnav_env.approach import (
     NavConfig,
     run_methods,
 )
-from planetnav_env.errors import PlanetNavError
-from planetnav_env.estimation.ekf import FilterConfig
-from planetnav_env.estimation.image_plane import image_plane_sigma_mm
 from planetnav_env.sensors import pulsar as psr
 
 DEFAULT_RUNS = 20

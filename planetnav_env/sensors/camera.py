@@ -7,7 +7,7 @@ Frames and conventions
 ----------------------
 * Inertial frame I: ICRF/J2000 equatorial, heliocentric (the Sun is at the origin). Units km, s, rad.
 * Body frame B and the attitude ``q`` (scalar first): ``v_I = R(q) v_B``
-  (see :mod:`planetnav_env.quaternion`).
+  (see :mod:`planetnav_env.attitude.quaternion`).
 * Camera frame C: the thesis's OXYZ of the CCD. ``+Z`` is the boresight (optical axis, pointing out of the
   lens towards the scene); ``X`` and ``Y`` are parallel to the sides of the sensor. ``v_B = C_cb v_C`` with
   ``C_cb = CameraConfig.camera_to_body``. Default: camera Z -> body +x (the thesis's O'X is the optical axis),
@@ -30,7 +30,7 @@ size, Sun angle). The compiled row and batch kernels live in :mod:`~planetnav_en
 Implementation
 --------------
 The hot paths (:func:`visibility`, :func:`measure`) are numba kernels looping over the batch; the kernels
-mirror :func:`planetnav_env.quaternion.dcm_body_to_inertial` and the projection helpers of
+mirror :func:`planetnav_env.attitude.quaternion.dcm_body_to_inertial` and the projection helpers of
 :mod:`~planetnav_env.sensors.camera_geometry` because numba cannot call numpy-level code.
 ``tests/env/test_camera.py`` pins the kernels to the numpy helpers. Inputs carry a leading batch shape
 ``(...)``; a single spacecraft is a batch of shape ``()``.

@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from planetnav_env.bodies import body
+from planetnav_env.astro.bodies import body
 from planetnav_env.errors import OptionError
 from planetnav_env.options import check_options, option
 

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from planetnav_env import quaternion as qt
+from planetnav_env.attitude import quaternion as qt
 from planetnav_env.errors import InvalidParameterError, require_finite
 from planetnav_env.sensors.camera_config import DEFAULT_CAMERA, CameraConfig
 

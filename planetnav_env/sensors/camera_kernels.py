@@ -9,7 +9,7 @@ simulation core (:mod:`planetnav_env.core`) both call them.
 Inputs are flat ``(n, k)`` float64 arrays: positions [km] ICRF heliocentric, attitudes scalar first
 (``v_I = R(q) v_B``), radii [km]. The camera enters as ``CameraConfig._c2b`` (``v_B = C v_C``, camera +Z the
 boresight) and ``CameraConfig._params`` (slots ``_P_*`` of :mod:`planetnav_env.sensors.camera_config`).
-The kernels mirror :func:`planetnav_env.quaternion.dcm_body_to_inertial` and the projection of
+The kernels mirror :func:`planetnav_env.attitude.quaternion.dcm_body_to_inertial` and the projection of
 :mod:`planetnav_env.sensors.camera_geometry` because numba cannot call numpy-level code. They return status
 codes (:class:`planetnav_env.codes.CameraStatus`), which the API turns into named exceptions.
 """
@@ -22,9 +22,9 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
+from planetnav_env.attitude.plant import dcm_body_to_inertial_kernel
 from planetnav_env.codes import CameraStatus, VisibilityReason
-from planetnav_env.dynamics.attitude import dcm_body_to_inertial_kernel
-from planetnav_env.jit import row_kernel
+from planetnav_env.numerics.jit import row_kernel
 from planetnav_env.sensors.camera_config import (
     _P_CX,
     _P_CY,

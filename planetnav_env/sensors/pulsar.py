@@ -57,8 +57,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import vectorize
 
-from planetnav_env import portable_math as pm
-from planetnav_env.bodies import body
+from planetnav_env.astro.bodies import body
 from planetnav_env.codes import VisibilityReason
 from planetnav_env.errors import (
     InvalidParameterError,
@@ -67,7 +66,8 @@ from planetnav_env.errors import (
     require_finite,
     require_positive,
 )
-from planetnav_env.jit import row_kernel
+from planetnav_env.numerics import portable_math as pm
+from planetnav_env.numerics.jit import row_kernel
 from planetnav_env.options import check_options, option
 
 __all__ = [
@@ -368,7 +368,7 @@ def phase_sigma_cycles(psr: str | Pulsar, detector: XrayDetector = DEFAULT_DETEC
 
 @functools.lru_cache(maxsize=1)
 def _de421():
-    from planetnav_env.ephemeris import DEEphemeris
+    from planetnav_env.astro.ephemeris import DEEphemeris
 
     return DEEphemeris()
 
@@ -377,8 +377,8 @@ def sun_ssb_position(t: np.ndarray | float) -> np.ndarray:
     """Position of the Sun's centre relative to the Solar-system barycentre [km], ICRF, from DE421.
 
     ``t`` [TDB s since J2000], any shape; result ``t.shape + (3,)``. Add it to a heliocentric position
-    (:class:`planetnav_env.ephemeris.DEEphemeris`) to get the barycentric one. Its size is ~1e6 km (mostly
-    Jupiter's pull), far from negligible in ``n . r``.
+    (:class:`planetnav_env.astro.ephemeris.DEEphemeris`) to get the barycentric one. Its size is ~1e6 km
+    (mostly Jupiter's pull), far from negligible in ``n . r``.
     """
     t = require_finite("time t", np.asarray(t, float))
     return _de421().sun_barycentric_position(t)

@@ -24,9 +24,9 @@ Model
 * Estimate: Davenport's q-method (``planetnav_env.attitude.wahba.q_method``) with weights ``1/sigma^2``;
   the error is the total rotation angle between the true and the estimated attitude [rad].
 
-Quaternions follow ``planetnav_env.quaternion``: ``q`` is the body attitude relative to the inertial frame,
-``v_I = R(q) @ v_B``. The environment must turn body-frame planet directions into inertial ones with the
-*estimate* (:func:`body_to_inertial_with_estimate`), which is how attitude error reaches navigation.
+Quaternions follow ``planetnav_env.attitude.quaternion``: ``q`` is the body attitude relative to the inertial
+frame, ``v_I = R(q) @ v_B``. The environment must turn body-frame planet directions into inertial ones with
+the *estimate* (:func:`body_to_inertial_with_estimate`), which is how attitude error reaches navigation.
 
 Row kernels (for the batch-first compiled core; one attitude per call, every buffer passed in)
 --------------------------------------------------------------------------------------------------
@@ -54,10 +54,9 @@ from typing import NamedTuple
 import numba
 import numpy as np
 
-from planetnav_env import portable_math as pm
-from planetnav_env import quaternion as qt
+from planetnav_env.attitude import quaternion as qt
+from planetnav_env.attitude.plant import dcm_body_to_inertial_kernel
 from planetnav_env.attitude.wahba import attitude_error_angle, q_method
-from planetnav_env.dynamics.attitude import dcm_body_to_inertial_kernel
 from planetnav_env.errors import (
     ConfigError,
     DegenerateGeometryError,
@@ -65,7 +64,8 @@ from planetnav_env.errors import (
     NotVisibleError,
     require_finite,
 )
-from planetnav_env.jit import ROW_KERNEL_OPTIONS, row_kernel
+from planetnav_env.numerics import portable_math as pm
+from planetnav_env.numerics.jit import ROW_KERNEL_OPTIONS, row_kernel
 
 ARCSEC = np.pi / (180.0 * 3600.0)
 

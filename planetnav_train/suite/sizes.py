@@ -18,7 +18,7 @@ from collections.abc import Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from planetnav_env.env import PlanetNavEnv
+from planetnav_env.envs.env import PlanetNavEnv
 from planetnav_env.errors import ConfigError
 from planetnav_train.config import TrainConfig, is_rllib_algo
 from planetnav_train.export import export_policy

@@ -21,8 +21,8 @@ from typing import Any
 import numpy as np
 
 from planetnav_env.config import EnvConfig
+from planetnav_env.envs.registration import ENV_IDS
 from planetnav_env.errors import ConfigError
-from planetnav_env.registration import ENV_IDS
 from planetnav_train.config import ROOT
 
 SUITE_VERSION = 0

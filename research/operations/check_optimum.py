@@ -13,7 +13,7 @@ import time
 from pathlib import Path
 
 from planetnav_agents import make_agent
-from planetnav_env.env import PlanetNavEnv
+from planetnav_env.envs.env import PlanetNavEnv
 from planetnav_train.config import load_config
 from planetnav_train.evaluate import evaluation_env
 

@@ -38,8 +38,8 @@ from planetnav_agents import (
     parse_observation,
 )
 from planetnav_agents.gain import bang_bang_time
-from planetnav_env.env import PlanetNavEnv
-from planetnav_env.ephemeris import DEEphemeris
+from planetnav_env.astro.ephemeris import DEEphemeris
+from planetnav_env.envs.env import PlanetNavEnv
 from planetnav_train.sb3 import SB3Agent
 
 SEEDS = range(10_000, 10_006)

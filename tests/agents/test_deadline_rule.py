@@ -9,8 +9,8 @@ import pytest
 import planetnav_env  # noqa: F401  (registers the ids)
 from planetnav_agents import make_agent
 from planetnav_env.config import EnvConfig
-from planetnav_env.env import PlanetNavEnv
-from planetnav_env.registration import ENV_IDS
+from planetnav_env.envs.env import PlanetNavEnv
+from planetnav_env.envs.registration import ENV_IDS
 
 ID = "planetnav/ThrustArc-TCM-v0"
 DT = ENV_IDS[ID]["step_s"]

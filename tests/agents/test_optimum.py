@@ -15,8 +15,8 @@ import planetnav_env  # noqa: F401  (registers the ids)
 from planetnav_agents import make_agent, not_applicable
 from planetnav_agents.optimum import ScheduleSearch, periodic_sessions
 from planetnav_env.config import EnvConfig
-from planetnav_env.env import PlanetNavEnv
-from planetnav_env.registration import ENV_IDS
+from planetnav_env.envs.env import PlanetNavEnv
+from planetnav_env.envs.registration import ENV_IDS
 from planetnav_train.cli import main
 
 ID = "planetnav/ThrustArc-TCM-v0"

@@ -19,12 +19,12 @@ import yaml
 import planetnav_env  # noqa: F401  (registers the ids)
 from planetnav_agents import make_agent
 from planetnav_agents.base import PointingLaw, hybrid_action
-from planetnav_env.bodies import body
+from planetnav_env.astro.bodies import body
 from planetnav_env.core import layout as L
+from planetnav_env.envs.registration import ENV_IDS
+from planetnav_env.envs.spaces import decode_hybrid
 from planetnav_env.errors import InvalidParameterError, NonFiniteError
-from planetnav_env.registration import ENV_IDS
 from planetnav_env.sensors.camera import visibility
-from planetnav_env.spaces import decode_hybrid
 
 ROOT = Path(__file__).resolve().parents[2]
 TORQUE = "planetnav/Cruise-TorqueControl-v0"

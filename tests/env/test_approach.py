@@ -7,7 +7,12 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from planetnav_env.approach import (
+from planetnav_env.astro.bodies import body
+from planetnav_env.dynamics.orbit import GravityModel
+from planetnav_env.errors import InvalidParameterError, NotVisibleError
+from planetnav_env.estimation.ekf import FilterConfig
+from planetnav_env.reproduce import optical_pulsar
+from planetnav_env.scenarios.approach import (
     METHODS,
     ApproachConfig,
     MarsApproach,
@@ -17,11 +22,6 @@ from planetnav_env.approach import (
     run_method,
     run_methods,
 )
-from planetnav_env.bodies import body
-from planetnav_env.dynamics.orbit import GravityModel
-from planetnav_env.errors import InvalidParameterError, NotVisibleError
-from planetnav_env.estimation.ekf import FilterConfig
-from planetnav_env.reproduce import optical_pulsar
 from planetnav_env.sensors import pulsar as psr
 
 MU_MARS = body("mars").gm

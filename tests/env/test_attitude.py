@@ -1,4 +1,4 @@
-"""Rigid body + reaction wheels (planetnav_env/dynamics/attitude.py).
+"""Rigid body + reaction wheels (planetnav_env/attitude/plant.py).
 
 Measured on the reference machine (stated so that the bounds below can be judged):
 * torque-free tumble, |omega| = 0.27 rad/s, J = diag(10, 12, 8), dt = 0.1 s, 1000 s: relative drift of the
@@ -17,9 +17,9 @@ import math
 import numpy as np
 import pytest
 
-from planetnav_env import quaternion as qt
-from planetnav_env.dynamics import attitude as att
-from planetnav_env.dynamics.attitude import (
+from planetnav_env.attitude import plant as att
+from planetnav_env.attitude import quaternion as qt
+from planetnav_env.attitude.plant import (
     AttitudeConfig,
     WheelConfig,
     applied_wheel_torque,

@@ -9,8 +9,8 @@ import pickle
 import numpy as np
 import pytest
 
-from planetnav_env import quaternion as qt
-from planetnav_env.bodies import AU_KM, body
+from planetnav_env.astro.bodies import AU_KM, body
+from planetnav_env.attitude import quaternion as qt
 from planetnav_env.errors import InvalidParameterError, NonFiniteError, NotVisibleError
 from planetnav_env.sensors import camera as cam
 from planetnav_env.sensors.camera import CameraConfig, VisibilityReason

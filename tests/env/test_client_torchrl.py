@@ -32,7 +32,7 @@ from torchrl.envs import GymEnv, GymWrapper
 from torchrl.envs.utils import check_env_specs
 
 import planetnav_env  # noqa: F401  (registers the ids)
-from planetnav_env.registration import ENV_IDS
+from planetnav_env.envs.registration import ENV_IDS
 
 needs_disabled = pytest.mark.skipif(
     not hasattr(gym.vector.AutoresetMode, "DISABLED"),

@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 from numpy.polynomial import chebyshev as npcheb
 
+from planetnav_env.astro.ephemeris import DEEphemeris, de421_path
+from planetnav_env.astro.timescale import J2000_JD, SECONDS_PER_DAY
 from planetnav_env.core import ephemeris_table as et
-from planetnav_env.ephemeris import DEEphemeris, de421_path
 from planetnav_env.errors import InvalidParameterError, NonFiniteError
-from planetnav_env.timescale import J2000_JD, SECONDS_PER_DAY
 
 DAY = 86400.0
 TOL_KM = 1e-3  # the 1 m requirement

@@ -9,9 +9,9 @@ from gymnasium.utils.env_checker import check_env as gym_check_env
 
 import planetnav_env  # noqa: F401  (registers the ids)
 from planetnav_env.config import EnvConfig
-from planetnav_env.env import PlanetNavEnv
+from planetnav_env.envs.env import PlanetNavEnv
+from planetnav_env.envs.registration import ENV_IDS
 from planetnav_env.errors import ConfigError, InvalidParameterError, NonFiniteError, UnknownOptionError
-from planetnav_env.registration import ENV_IDS
 
 SHORT = {"episode_steps": 50}
 
@@ -237,7 +237,7 @@ def test_star_tracker_attitude_error_reaches_navigation():
     """The camera's line of sight is rotated to inertial with the star tracker's attitude, not the truth:
     a 20" attitude bias (identical random streams otherwise) shifts the estimate across the line of sight
     by ~20" x range."""
-    from planetnav_env import quaternion as qt
+    from planetnav_env.attitude import quaternion as qt
     from planetnav_env.core import layout as L
 
     bias_rad = 20.0 / 206264.806

@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from planetnav_env.bodies import ECLIPTIC_TO_EQUATORIAL, GM_SUN, body
-from planetnav_env.ephemeris import (
+from planetnav_env.astro.bodies import ECLIPTIC_TO_EQUATORIAL, GM_SUN, body
+from planetnav_env.astro.ephemeris import (
     DEEphemeris,
     KeplerianEphemeris,
     elements_to_state,
@@ -12,8 +12,8 @@ from planetnav_env.ephemeris import (
     solve_kepler,
     state_to_elements,
 )
+from planetnav_env.astro.timescale import tdb_seconds
 from planetnav_env.errors import InvalidParameterError, NonFiniteError, UnknownBodyError
-from planetnav_env.timescale import tdb_seconds
 
 ARCSEC = np.pi / 180 / 3600
 

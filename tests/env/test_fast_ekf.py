@@ -3,15 +3,15 @@
 import numpy as np
 import pytest
 
-from planetnav_env.bodies import AU_KM, GM_SUN, body
+from planetnav_env.astro.bodies import AU_KM, GM_SUN, body
+from planetnav_env.astro.ephemeris import DEEphemeris, KeplerianEphemeris, elements_to_state
+from planetnav_env.astro.timescale import tdb_seconds
 from planetnav_env.dynamics.orbit import GravityModel
-from planetnav_env.ephemeris import DEEphemeris, KeplerianEphemeris, elements_to_state
 from planetnav_env.errors import InvalidParameterError, NonFiniteError
 from planetnav_env.estimation.ekf import BatchEKF, FilterConfig, process_noise
 from planetnav_env.estimation.ekf_kernels import KIND_CODES, SingleEKF, cycle_batch_kernel
 from planetnav_env.estimation.measurements import MeasurementModel, los_basis
-from planetnav_env.navigation import perturb_direction
-from planetnav_env.timescale import tdb_seconds
+from planetnav_env.scenarios.navigation import perturb_direction
 
 T0 = tdb_seconds(2021, 1, 1)
 
@@ -132,7 +132,7 @@ def test_single_ekf_bad_input():
 
 @pytest.mark.parametrize("kind", ["direction+size", "los"])
 def test_navigation_harness_engines_agree(kind):
-    from planetnav_env.navigation import simulate_navigation
+    from planetnav_env.scenarios.navigation import simulate_navigation
 
     common = dict(
         x0=_x0(),
@@ -159,7 +159,7 @@ def test_core_what_if_updates_equal_the_numpy_kalman_update():
     import math
 
     from planetnav_env.core.what_if import predicted_planet_trace, predicted_pulsar_trace
-    from planetnav_env.env import PlanetNavEnv
+    from planetnav_env.envs.env import PlanetNavEnv
     from planetnav_env.estimation.measurements import MeasurementModel, los_basis
     from planetnav_env.sensors import pulsar as psr
 

@@ -24,7 +24,7 @@ import numpy as np
 import pytest
 
 import planetnav_env  # noqa: F401  (registers the ids)
-from planetnav_env.registration import ENV_IDS
+from planetnav_env.envs.registration import ENV_IDS
 
 GOLDEN = Path(__file__).parents[1] / "golden" / "rollout_hashes.json"
 UPDATE = os.environ.get("PLANETNAV_UPDATE_GOLDEN") == "1"

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from planetnav_env.bodies import AU_KM
+from planetnav_env.astro.bodies import AU_KM
 from planetnav_env.errors import InvalidParameterError
 from planetnav_env.estimation.measurements import (
     MeasurementModel,

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from planetnav_env.numba_cache import STAMP_NAME, drop_stale_cache, source_digest
+from planetnav_env.numerics.numba_cache import STAMP_NAME, drop_stale_cache, source_digest
 
 
 def _tree(tmp_path: Path) -> tuple[Path, Path, Path]:

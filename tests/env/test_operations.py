@@ -21,11 +21,11 @@ from planetnav_env.config import EnvConfig, OperationsSettings
 from planetnav_env.core import layout as L
 from planetnav_env.core.operations import add_thrust_q
 from planetnav_env.core.what_if import coasted_position_trace
-from planetnav_env.env import PlanetNavEnv
+from planetnav_env.envs.env import PlanetNavEnv
+from planetnav_env.envs.registration import ENV_IDS
+from planetnav_env.envs.vector_env import PlanetNavVectorEnv
 from planetnav_env.errors import ConfigError
 from planetnav_env.estimation.ekf_kernels import rk4_batch_kernel
-from planetnav_env.registration import ENV_IDS
-from planetnav_env.vector_env import PlanetNavVectorEnv
 
 ID = "planetnav/ThrustArc-TCM-v0"
 OPS = dict(ENV_IDS[ID]["operations"])

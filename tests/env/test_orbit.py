@@ -3,7 +3,9 @@
 import numpy as np
 import pytest
 
-from planetnav_env.bodies import AU_KM, GM_SUN
+from planetnav_env.astro.bodies import AU_KM, GM_SUN
+from planetnav_env.astro.ephemeris import DEEphemeris, elements_to_state, state_to_elements
+from planetnav_env.astro.timescale import tdb_seconds
 from planetnav_env.dynamics.orbit import (
     GravityModel,
     angular_momentum,
@@ -13,9 +15,7 @@ from planetnav_env.dynamics.orbit import (
     rk4_step_stm,
     specific_energy,
 )
-from planetnav_env.ephemeris import DEEphemeris, elements_to_state, state_to_elements
 from planetnav_env.errors import InvalidParameterError, NonFiniteError, UnknownBodyError
-from planetnav_env.timescale import tdb_seconds
 
 RNG = np.random.default_rng(42)
 

@@ -17,7 +17,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from planetnav_env import quaternion as qt
+from planetnav_env.attitude import quaternion as qt
+from planetnav_env.attitude.plant import (
+    AttitudeConfig,
+    WheelConfig,
+    attitude_rk4_step,
+    inertial_angular_momentum,
+    propagate_attitude,
+)
 from planetnav_env.attitude.pointing import (
     BORESIGHT_BODY,
     attitude_error_matrix,
@@ -26,13 +33,6 @@ from planetnav_env.attitude.pointing import (
     pointing_error,
     propagate_pointing,
     reference_frame,
-)
-from planetnav_env.dynamics.attitude import (
-    AttitudeConfig,
-    WheelConfig,
-    attitude_rk4_step,
-    inertial_angular_momentum,
-    propagate_attitude,
 )
 from planetnav_env.errors import InvalidParameterError, NonFiniteError
 

@@ -4,11 +4,11 @@ visibility."""
 import numpy as np
 import pytest
 
-from planetnav_env.bodies import AU_KM
-from planetnav_env.ephemeris import DEEphemeris, de421_path
+from planetnav_env.astro.bodies import AU_KM
+from planetnav_env.astro.ephemeris import DEEphemeris, de421_path
+from planetnav_env.astro.timescale import J2000_JD, tdb_seconds
 from planetnav_env.errors import InvalidParameterError, NotVisibleError, PlanetNavError, UnknownBodyError
 from planetnav_env.sensors import pulsar as psr
-from planetnav_env.timescale import J2000_JD, tdb_seconds
 
 # ICRS -> galactic rotation (Hipparcos, ESA 1997, vol. 1, sec. 1.5.3): an independent frame to check the
 # catalogue positions against the pulsars' published galactic coordinates.

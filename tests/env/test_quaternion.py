@@ -1,8 +1,8 @@
-"""Pins the project's quaternion convention (see planetnav_env/quaternion.py)."""
+"""Pins the project's quaternion convention (see planetnav_env/attitude/quaternion.py)."""
 
 import numpy as np
 
-from planetnav_env import quaternion as qt
+from planetnav_env.attitude import quaternion as qt
 
 
 def test_rotation_about_z_is_active_body_to_inertial():

@@ -1,4 +1,4 @@
-"""rgb_array frames (planetnav_env/render.py): shape, content that follows the state, labelled axes, the
+"""rgb_array frames (planetnav_env/envs/render.py): shape, content that follows the state, labelled axes, the
 one-way dependency render <- env, and the command line that regenerates docs/render_frame.png."""
 
 from __future__ import annotations
@@ -13,10 +13,10 @@ import pytest
 from gymnasium.utils.env_checker import check_env as gym_check_env
 
 import planetnav_env  # noqa: F401  (registers the ids)
-from planetnav_env import quaternion as qt
-from planetnav_env.render import FRAME_SIZE_PX, FrameData, figure_for, main, render_frame
+from planetnav_env.attitude import quaternion as qt
+from planetnav_env.envs.render import FRAME_SIZE_PX, FrameData, figure_for, main, render_frame
 
-RENDER_PY = Path(__file__).resolve().parents[2] / "planetnav_env" / "render.py"
+RENDER_PY = Path(__file__).resolve().parents[2] / "planetnav_env" / "envs" / "render.py"
 SHORT = {"episode_steps": 40}
 
 
@@ -122,7 +122,8 @@ def test_gymnasium_checker_passes_with_render(env_id):
 
 
 def test_render_module_does_not_import_the_env():
-    """render.py takes a FrameData; importing planetnav_env.env would make the circle env <-> render again."""
+    """render.py takes a FrameData; importing planetnav_env.envs.env would make the circle env <-> render
+    again."""
     tree = ast.parse(RENDER_PY.read_text())
     imported: set[str] = set()
     for node in ast.walk(tree):
@@ -131,8 +132,10 @@ def test_render_module_does_not_import_the_env():
         elif isinstance(node, ast.ImportFrom) and node.module:
             imported.add(node.module)
             imported.update(f"{node.module}.{alias.name}" for alias in node.names)
-    assert not any(name == "planetnav_env.env" or name.startswith("planetnav_env.env.") for name in imported)
-    assert "planetnav_env.render" not in imported  # and not itself
+    assert not any(
+        name == "planetnav_env.envs.env" or name.startswith("planetnav_env.envs.env.") for name in imported
+    )
+    assert "planetnav_env.envs.render" not in imported  # and not itself
     assert "planetnav_env.sensors.camera" in imported  # the walk does see its imports
 
 

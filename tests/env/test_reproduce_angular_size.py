@@ -5,13 +5,13 @@ import json
 import numpy as np
 import pytest
 
-from planetnav_env.ephemeris import KeplerianEphemeris
+from planetnav_env.astro.ephemeris import KeplerianEphemeris
 from planetnav_env.errors import InvalidParameterError
 from planetnav_env.estimation.ekf import FilterConfig
 from planetnav_env.estimation.measurements import MeasurementModel
-from planetnav_env.navigation import simulate_navigation
 from planetnav_env.reproduce.__main__ import main as dispatch
 from planetnav_env.reproduce.angular_size import EPOCH, initial_state
+from planetnav_env.scenarios.navigation import simulate_navigation
 
 
 def test_cli_quick_writes_json_and_plots(tmp_path):

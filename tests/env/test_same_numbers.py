@@ -1,8 +1,8 @@
 """The same numbers on every machine: the golden hashes hold under every BLAS kernel and SIMD setting.
 
-The environment's numbers must not depend on the CPU they run on (``planetnav_env.portable_math`` says how
-the reset and step paths ensure it). One machine can play several CPUs: OpenBLAS takes its kernels from
-``OPENBLAS_CORETYPE`` (Prescott: SSE3; Haswell: AVX2 and FMA; SkylakeX: AVX-512, only where the CPU has
+The environment's numbers must not depend on the CPU they run on (``planetnav_env.numerics.portable_math``
+says how the reset and step paths ensure it). One machine can play several CPUs: OpenBLAS takes its kernels
+from ``OPENBLAS_CORETYPE`` (Prescott: SSE3; Haswell: AVX2 and FMA; SkylakeX: AVX-512, only where the CPU has
 it), numpy's run-time SIMD dispatch is limited to its baseline by ``NPY_DISABLE_CPU_FEATURES``, and
 numba compiles for a generic x86-64 with ``NUMBA_CPU_NAME=generic``. Each setting runs the golden tests
 (``tests/env/test_golden.py``, ``tests/train/test_training_golden.py``) in a fresh process: each must find the

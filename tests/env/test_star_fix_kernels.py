@@ -15,7 +15,7 @@ import numba
 import numpy as np
 import pytest
 
-from planetnav_env import quaternion as qt
+from planetnav_env.attitude import quaternion as qt
 from planetnav_env.attitude import wahba
 from planetnav_env.errors import DegenerateGeometryError
 from planetnav_env.sensors import star_tracker as st
@@ -348,7 +348,7 @@ _ALLOC_SCRIPT = textwrap.dedent(
     """
     import numba, numpy as np
     from numba.core.runtime import rtsys
-    from planetnav_env import quaternion as qt
+    from planetnav_env.attitude import quaternion as qt
     from planetnav_env.sensors import star_tracker as st
 
     @numba.njit

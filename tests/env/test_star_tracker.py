@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from planetnav_env import quaternion as qt
+from planetnav_env.attitude import quaternion as qt
 from planetnav_env.errors import ConfigError, InvalidParameterError, NonFiniteError, NotVisibleError
 from planetnav_env.sensors import star_tracker as st
 

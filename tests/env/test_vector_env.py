@@ -13,10 +13,10 @@ import pytest
 import planetnav_env  # noqa: F401  (registers the ids)
 from planetnav_env.core import layout as L
 from planetnav_env.core.batch import PARALLEL_MIN_ROWS
-from planetnav_env.env import PlanetNavEnv
+from planetnav_env.envs.env import PlanetNavEnv
+from planetnav_env.envs.registration import ENV_IDS
+from planetnav_env.envs.vector_env import PlanetNavVectorEnv
 from planetnav_env.errors import ConfigError, InvalidParameterError, NonFiniteError, UnknownOptionError
-from planetnav_env.registration import ENV_IDS
-from planetnav_env.vector_env import PlanetNavVectorEnv
 
 SHORT = {"episode_steps": 25}
 

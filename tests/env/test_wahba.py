@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from planetnav_env import quaternion as qt
+from planetnav_env.attitude import quaternion as qt
 from planetnav_env.attitude import wahba
 from planetnav_env.attitude.euler import (
     euler321_differences,

@@ -133,16 +133,16 @@ def test_lazy_imports_are_edges(tmp_path) -> None:
     mod = tmp_path / "m.py"
     mod.write_text(
         "import os\n"
-        "def __getattr__(name):\n    from planetnav_env import env\n    return env\n"
+        "def __getattr__(name):\n    from planetnav_env.envs import env\n    return env\n"
         "def f():\n    from planetnav_env import config\n"
     )
     names = _imported_names(mod, "m", False)
-    assert names == {"os", "planetnav_env.env", "planetnav_env.config"}
+    assert names == {"os", "planetnav_env.envs.env", "planetnav_env.config"}
 
 
 def test_the_graph_reader_sees_known_edges() -> None:
     graph = import_graph()
-    assert "planetnav_env.core.batch" in graph["planetnav_env.env"]
+    assert "planetnav_env.core.batch" in graph["planetnav_env.envs.env"]
     assert "planetnav_env.config" in graph["planetnav_env.core.batch"]
 
 

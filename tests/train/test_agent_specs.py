@@ -21,7 +21,7 @@ from planetnav_agents import (
 from planetnav_agents.base import with_planet_choice
 from planetnav_agents.periodic import parse_cycle
 from planetnav_env.config import EnvConfig
-from planetnav_env.env import PlanetNavEnv
+from planetnav_env.envs.env import PlanetNavEnv
 from planetnav_train.batch_wrappers import NavFeatures, PointingShaping
 from planetnav_train.features import FeatureState, check_features
 

@@ -23,8 +23,8 @@ import yaml
 import planetnav_env  # noqa: F401  (registers the ids)
 from planetnav_agents import make_agent
 from planetnav_env.config import EnvConfig
-from planetnav_env.env import PlanetNavEnv
-from planetnav_env.registration import ENV_IDS
+from planetnav_env.envs.env import PlanetNavEnv
+from planetnav_env.envs.registration import ENV_IDS
 from planetnav_train.evaluate import batch_reason, evaluate_agent
 from planetnav_train.vec_training import NavTrainingVecEnv
 

@@ -38,7 +38,7 @@ STEPS = 10  # episode length: the 30 observations below span three episodes
 
 
 def _env(task: str) -> Any:
-    from planetnav_env.env import PlanetNavEnv
+    from planetnav_env.envs.env import PlanetNavEnv
 
     return PlanetNavEnv(suite.get_task(task).env_config(episode_steps=STEPS))
 

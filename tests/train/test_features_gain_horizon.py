@@ -11,8 +11,8 @@ import pytest
 from planetnav_agents import make_agent
 from planetnav_agents.gain import DEFAULT_HORIZON
 from planetnav_agents.greedy import GREEDY_PD_HORIZON_S
-from planetnav_env.env import PlanetNavEnv
-from planetnav_env.registration import ENV_IDS
+from planetnav_env.envs.env import PlanetNavEnv
+from planetnav_env.envs.registration import ENV_IDS
 from planetnav_train.features import FeatureBatch, gain_horizon
 
 

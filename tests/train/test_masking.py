@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from planetnav_env.core.layout import TF_OBSERVABLE
-from planetnav_env.env import PlanetNavEnv
+from planetnav_env.envs.env import PlanetNavEnv
 from planetnav_train.masking import layout_of, observable_mask
 
 IDS = ("planetnav/Cruise-Target-v0", "planetnav/MarsApproach-Tasking-v0", "planetnav/ThrustArc-TCM-v0")

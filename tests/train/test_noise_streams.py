@@ -18,9 +18,9 @@ import planetnav_env  # noqa: F401  (registers the ids)
 from planetnav_env.config import EnvConfig
 from planetnav_env.core import layout as L
 from planetnav_env.core import rng as prng
-from planetnav_env.env import PlanetNavEnv
+from planetnav_env.envs.env import PlanetNavEnv
+from planetnav_env.envs.vector_env import PlanetNavVectorEnv
 from planetnav_env.errors import ConfigError
-from planetnav_env.vector_env import PlanetNavVectorEnv
 from planetnav_train.cli import main
 from planetnav_train.config import parse_config
 from planetnav_train.evaluate import evaluation_env

@@ -15,8 +15,8 @@ from conftest import play_episode
 import planetnav_env  # noqa: F401  (registers the ids)
 from planetnav_agents import make_agent
 from planetnav_env.config import EnvConfig
-from planetnav_env.env import PlanetNavEnv
-from planetnav_env.registration import ENV_IDS
+from planetnav_env.envs.env import PlanetNavEnv
+from planetnav_env.envs.registration import ENV_IDS
 from planetnav_train.cli import main
 from planetnav_train.evaluate import add_paired, evaluate_agent, results_json
 from planetnav_train.report import markdown_table

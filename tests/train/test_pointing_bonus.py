@@ -7,9 +7,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from planetnav_env.env import PlanetNavEnv
+from planetnav_env.envs.env import PlanetNavEnv
+from planetnav_env.envs.registration import ENV_IDS
 from planetnav_env.errors import ConfigError
-from planetnav_env.registration import ENV_IDS
 from planetnav_train.batch_wrappers import single_training_env
 from planetnav_train.config import parse_config
 from planetnav_train.shaping import PointingPotential

@@ -129,7 +129,7 @@ def suite_out(tmp_path: Path) -> Path:
     untrained PPO: shipping and loading do not need a trained one)."""
     from stable_baselines3 import PPO
 
-    from planetnav_env.env import PlanetNavEnv
+    from planetnav_env.envs.env import PlanetNavEnv
 
     out = tmp_path / "suite"
     env = PlanetNavEnv(suite.get_task("Cruise-Target-v0").env_config(episode_steps=10))
@@ -143,7 +143,7 @@ def suite_out(tmp_path: Path) -> Path:
 
 
 def test_ship_baselines_copies_the_best_and_loads_it_by_name(suite_out, tmp_path, monkeypatch) -> None:
-    from planetnav_env.env import PlanetNavEnv
+    from planetnav_env.envs.env import PlanetNavEnv
 
     dest = tmp_path / "baselines"
     (entry,) = publish.ship_baselines(suite_out, dest)
@@ -205,7 +205,7 @@ def test_a_large_model_ships_as_its_policy_only_export(suite_out, tmp_path, monk
     """A model of the limit or more ships as its policy-only export when that is under the limit; loaded by
     name it acts and evaluates (batched, as the suite evaluates) exactly as the source model; shipped again
     under a higher limit, the full model replaces it and the export's file goes."""
-    from planetnav_env.env import PlanetNavEnv
+    from planetnav_env.envs.env import PlanetNavEnv
     from planetnav_train.evaluate import evaluate_agent
     from planetnav_train.policy_only import PolicyOnlyModel
 
@@ -260,7 +260,7 @@ def test_a_large_model_ships_as_its_policy_only_export(suite_out, tmp_path, monk
 
 
 def test_unshipped_task_names_the_task(tmp_path, monkeypatch) -> None:
-    from planetnav_env.env import PlanetNavEnv
+    from planetnav_env.envs.env import PlanetNavEnv
 
     env = PlanetNavEnv(episode_steps=5)
     monkeypatch.setattr(shipped, "BASELINES_DIR", tmp_path)  # no manifest at all
@@ -272,7 +272,7 @@ def test_unshipped_task_names_the_task(tmp_path, monkeypatch) -> None:
 
 def test_the_repositorys_baselines_load_or_say_they_are_unshipped() -> None:
     """Every task either loads its shipped model (size and sha256 checked) or raises the clear error."""
-    from planetnav_env.env import PlanetNavEnv
+    from planetnav_env.envs.env import PlanetNavEnv
 
     manifest = shipped.load_manifest()
     assert set(manifest["baselines"]) <= set(suite.TASKS_BY_ID)

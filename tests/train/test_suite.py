@@ -10,8 +10,8 @@ import shlex
 import numpy as np
 import pytest
 
+from planetnav_env.envs.registration import ENV_IDS
 from planetnav_env.errors import ConfigError
-from planetnav_env.registration import ENV_IDS
 from planetnav_train import suite
 from planetnav_train.suite import runner
 from planetnav_train.suite.scoring import normalized_score
@@ -114,7 +114,7 @@ def test_references_are_loadable_agents_on_their_task() -> None:
     # Built on the task's own environment (a bad parameter, e.g. a periodic cycle over planets the task
     # lacks, raises here); acting is left to the agents' tests (the planner's kernels compile for minutes).
     from planetnav_agents import make_agent, not_applicable, parse_spec
-    from planetnav_env.env import PlanetNavEnv
+    from planetnav_env.envs.env import PlanetNavEnv
 
     for t in suite.TASKS:
         env_cfg = t.eval_config()  # full length: optimum's sessions must fit the episode

@@ -12,7 +12,7 @@ import pytest
 from stable_baselines3.common.vec_env import DummyVecEnv
 
 from planetnav_env.config import EnvConfig
-from planetnav_env.env import PlanetNavEnv
+from planetnav_env.envs.env import PlanetNavEnv
 from planetnav_train.batch_wrappers import single_training_env
 from planetnav_train.features import FeatureBatch, relative_actions_batch
 from planetnav_train.vec_training import NavTrainingVecEnv

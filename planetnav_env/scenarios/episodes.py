@@ -11,7 +11,7 @@
     node, perihelion and mean anomaly; kept only if at least two of the configured planets are
     within 1.5 AU and more than 10 deg outside the camera's Sun-exclusion cone (redrawn otherwise).
 ``mars-approach``
-    The patent reproduction's approach (``docs/optical_pulsar.md``, :mod:`planetnav_env.approach`):
+    The patent reproduction's approach (``docs/optical_pulsar.md``, :mod:`planetnav_env.scenarios.approach`):
     hyperbolic arrival at 2.65 km/s, periapsis 400 km, closest approach 2021-02-10 12:00 TDB;
     Mars-centred ICRF state. The episode starts ``episode_steps * step_s`` before its end, which
     is ``end_before_ca_h`` before closest approach.
@@ -24,11 +24,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from planetnav_env.bodies import AU_KM, ECLIPTIC_TO_EQUATORIAL, GM_SUN
-from planetnav_env.ephemeris import Ephemeris, elements_to_state
+from planetnav_env.astro.bodies import AU_KM, ECLIPTIC_TO_EQUATORIAL, GM_SUN
+from planetnav_env.astro.ephemeris import Ephemeris, elements_to_state
+from planetnav_env.astro.timescale import tdb_seconds
 from planetnav_env.errors import ConfigError
-from planetnav_env.portable_math import arccos, dot3, matvec3, norm3
-from planetnav_env.timescale import tdb_seconds
+from planetnav_env.numerics.portable_math import arccos, dot3, matvec3, norm3
 
 CRUISE_EPOCH = tdb_seconds(2020, 8, 1)
 _RANDOM_EPOCHS = (tdb_seconds(2018, 1, 1), tdb_seconds(2032, 1, 1))
@@ -75,7 +75,7 @@ class Episode:
 
 @functools.lru_cache(maxsize=8)
 def _approach_start(duration_s: float, end_before_ca_h: float) -> tuple[float, tuple[float, ...]]:
-    from planetnav_env.approach import ApproachConfig, MarsApproach
+    from planetnav_env.scenarios.approach import ApproachConfig, MarsApproach
 
     hours = duration_s / 3600.0 + end_before_ca_h
     app = MarsApproach(ApproachConfig(duration_h=hours, end_before_ca_h=end_before_ca_h, dt_s=duration_s))
@@ -84,7 +84,7 @@ def _approach_start(duration_s: float, end_before_ca_h: float) -> tuple[float, t
 
 def approach_episode(duration_s: float, end_before_ca_h: float) -> Episode:
     """The mars-approach truth at the start of an episode of ``duration_s`` (DOP853 from periapsis)."""
-    from planetnav_env.approach import PERTURBERS
+    from planetnav_env.scenarios.approach import PERTURBERS
 
     t0, x0 = _approach_start(float(duration_s), float(end_before_ca_h))
     return Episode(t0, np.array(x0), "mars", tuple(PERTURBERS))

@@ -21,8 +21,7 @@ from typing import Protocol
 
 import numpy as np
 
-from planetnav_env import portable_math as pm
-from planetnav_env.bodies import (
+from planetnav_env.astro.bodies import (
     AU_KM,
     BODIES,
     ECLIPTIC_TO_EQUATORIAL,
@@ -31,8 +30,9 @@ from planetnav_env.bodies import (
     MEAN_ELEMENTS_VALID_S,
     body,
 )
+from planetnav_env.astro.timescale import DAYS_PER_JULIAN_CENTURY, J2000_JD, SECONDS_PER_DAY
 from planetnav_env.errors import InvalidParameterError, NonFiniteError, UnknownBodyError
-from planetnav_env.timescale import DAYS_PER_JULIAN_CENTURY, J2000_JD, SECONDS_PER_DAY
+from planetnav_env.numerics import portable_math as pm
 
 KEPLER_TOLERANCE_RAD = 1e-12
 _KEPLER_MAX_ITER = 50
@@ -183,7 +183,7 @@ class KeplerianEphemeris:
     ``mu_eff = n^2 a^3`` with ``n`` the mean-longitude rate, so that it is the time
     derivative of the position up to the slow element rates. Positions are rotated from
     the J2000 ecliptic to the equatorial frame. Bodies: the Sun (the origin) and the
-    planets of :data:`planetnav_env.bodies.MEAN_ELEMENTS` ("earth" is the Earth-Moon
+    planets of :data:`planetnav_env.astro.bodies.MEAN_ELEMENTS` ("earth" is the Earth-Moon
     barycentre). Times outside 1800-2050 raise :class:`InvalidParameterError`.
     """
 

@@ -44,9 +44,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from planetnav_env.bodies import ECLIPTIC_TO_EQUATORIAL, body
+from planetnav_env.astro.bodies import ECLIPTIC_TO_EQUATORIAL, body
+from planetnav_env.astro.ephemeris import DEEphemeris
+from planetnav_env.astro.timescale import tdb_seconds
 from planetnav_env.dynamics.orbit import GravityModel, rk4_step
-from planetnav_env.ephemeris import DEEphemeris
 from planetnav_env.errors import InvalidParameterError, require_finite, require_positive
 from planetnav_env.estimation.ekf import BatchEKF, FilterConfig
 from planetnav_env.estimation.ekf_kernels import nees_batch_kernel, rk4_path_kernel
@@ -56,10 +57,9 @@ from planetnav_env.estimation.image_plane import (
     image_plane_jacobian,
     image_plane_sigma_mm,
 )
-from planetnav_env.portable_math import cross3, dot3, matvec3, norm3, unit3
+from planetnav_env.numerics.portable_math import cross3, dot3, matvec3, norm3, unit3
 from planetnav_env.sensors import pulsar as psr
 from planetnav_env.sensors.camera_config import DEFAULT_CAMERA, CameraConfig
-from planetnav_env.timescale import tdb_seconds
 
 __all__ = [
     "METHODS",

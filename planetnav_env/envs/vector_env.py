@@ -1,7 +1,7 @@
 """PlanetNavVectorEnv: N environments stepped by one compiled loop over the batch core.
 
 ``gym.make_vec("planetnav/<id>", num_envs=N)`` returns it (the ids' ``vector_entry_point``). Row ``i``
-after ``reset(seed=s)`` is, bit for bit, the single :class:`~planetnav_env.env.PlanetNavEnv` after
+after ``reset(seed=s)`` is, bit for bit, the single :class:`~planetnav_env.envs.env.PlanetNavEnv` after
 ``reset(seed=s + i)``: both run :class:`~planetnav_env.core.batch.BatchCore`, and each row keeps its own
 Gymnasium ``np_random`` (for episode draws) and its own compiled random stream (for sensor noise).
 
@@ -40,9 +40,8 @@ from planetnav_env.config import EnvConfig
 from planetnav_env.core import batch as B
 from planetnav_env.core import layout as L
 from planetnav_env.core.batch import BatchCore, attitude_err_arcsec
-from planetnav_env.env import EpisodeLengthSpec, check_reset_options, resolve_config
-from planetnav_env.errors import InvalidParameterError
-from planetnav_env.spaces import (
+from planetnav_env.envs.env import EpisodeLengthSpec, check_reset_options, resolve_config
+from planetnav_env.envs.spaces import (
     action_space,
     decode_box_actions,
     decode_observation,
@@ -50,6 +49,7 @@ from planetnav_env.spaces import (
     format_observation,
     observation_space,
 )
+from planetnav_env.errors import InvalidParameterError
 
 _MODES = {"next_step": AutoresetMode.NEXT_STEP, "same_step": AutoresetMode.SAME_STEP}
 #: ``info_keys`` choices: the documented key set, or its numeric, flat form (module docstring).

@@ -4,7 +4,7 @@ Frames and conventions
 ----------------------
 * ``q`` (scalar first, Hamilton) is the attitude of the body frame B relative to the inertial frame I
   (ICRF/J2000 equatorial); it carries body components into inertial ones, ``v_I = R(q) v_B``
-  (see :mod:`planetnav_env.quaternion`).
+  (see :mod:`planetnav_env.attitude.quaternion`).
 * ``omega`` [rad/s]: angular velocity of B relative to I, body components.
 * ``h_w`` [N m s]: total angular momentum of the wheels *relative to the body*, body components. The
   three wheels spin about the body axes x, y, z, so ``h_w[i]`` is wheel i's momentum.
@@ -42,8 +42,8 @@ Implementation
 --------------
 Every formula lives once, in a numba kernel (``*_kernel`` functions below). The public functions validate
 their input and loop the kernels over the batch; a single spacecraft is a batch of one and skips the
-broadcasting. The kernels mirror :mod:`planetnav_env.quaternion` (``Omega`` and ``R(q)``) because numba
-cannot call its numpy code; ``tests/env/test_attitude.py`` pins the two to each other and carries an
+broadcasting. The kernels mirror :mod:`planetnav_env.attitude.quaternion` (``Omega`` and ``R(q)``) because
+numba cannot call its numpy code; ``tests/env/test_attitude.py`` pins the two to each other and carries an
 independent vectorised numpy reference of the integrator.
 """
 
@@ -58,10 +58,10 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from planetnav_env import quaternion as qt
+from planetnav_env.attitude import quaternion as qt
 from planetnav_env.codes import AttitudeStatus
 from planetnav_env.errors import InvalidParameterError, NonFiniteError, require_finite, require_positive
-from planetnav_env.jit import ROW_KERNEL_OPTIONS, row_kernel
+from planetnav_env.numerics.jit import ROW_KERNEL_OPTIONS, row_kernel
 
 __all__ = [
     "AttitudeConfig",
@@ -209,7 +209,8 @@ class AttitudeConfig:
 
 @row_kernel
 def dcm_body_to_inertial_kernel(q0: float, q1: float, q2: float, q3: float, out: np.ndarray) -> None:
-    """R(q) into ``out`` (3, 3); numba mirror of :func:`planetnav_env.quaternion.dcm_body_to_inertial`."""
+    """R(q) into ``out`` (3, 3); numba mirror of
+    :func:`planetnav_env.attitude.quaternion.dcm_body_to_inertial`."""
     out[0, 0] = q0 * q0 + q1 * q1 - q2 * q2 - q3 * q3
     out[0, 1] = 2.0 * (q1 * q2 - q0 * q3)
     out[0, 2] = 2.0 * (q1 * q3 + q0 * q2)

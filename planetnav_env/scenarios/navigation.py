@@ -14,9 +14,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from planetnav_env.bodies import body
+from planetnav_env.astro.bodies import body
+from planetnav_env.astro.ephemeris import Ephemeris
 from planetnav_env.dynamics.orbit import GravityModel, rk4_step
-from planetnav_env.ephemeris import Ephemeris
 from planetnav_env.errors import InvalidParameterError, require_positive
 from planetnav_env.estimation.ekf import BatchEKF, FilterConfig, nees, process_noise
 from planetnav_env.estimation.ekf_kernels import (

@@ -18,7 +18,7 @@ the star tracker's attitude, the reported rates, wheel momenta and the ephemeris
 uses the true error (a privileged training signal; ``reward="covariance"`` is computable on board).
 
 The environment is a shell over :class:`planetnav_env.core.batch.BatchCore` with one row: the vector
-environment (:class:`planetnav_env.vector_env.PlanetNavVectorEnv`) runs the same compiled step over N
+environment (:class:`planetnav_env.envs.vector_env.PlanetNavVectorEnv`) runs the same compiled step over N
 rows, and row i of it equals this environment seeded ``seed + i`` bit for bit.
 
 Simplification: the PD law runs on the true attitude inside the sub-steps (its error, a few arcsec
@@ -41,9 +41,8 @@ from planetnav_env.core import layout as L
 from planetnav_env.core.batch import BatchCore
 from planetnav_env.core.layout import ObservationLayout
 from planetnav_env.core.rng import seed_state
-from planetnav_env.errors import ConfigError, InvalidParameterError
-from planetnav_env.registration import id_options
-from planetnav_env.spaces import (
+from planetnav_env.envs.registration import id_options
+from planetnav_env.envs.spaces import (
     action_space,
     decode_box_actions,
     decode_observation,
@@ -51,6 +50,7 @@ from planetnav_env.spaces import (
     format_observation,
     observation_space,
 )
+from planetnav_env.errors import ConfigError, InvalidParameterError
 
 
 def resolve_config(config: EnvConfig | Mapping | str | None, overrides: dict[str, Any]) -> EnvConfig:
@@ -256,18 +256,18 @@ class PlanetNavEnv(EpisodeLengthSpec, gym.Env):
 
     def render(self) -> np.ndarray | None:
         """The current frame, (480, 1280, 3) uint8 RGB, with ``render_mode="rgb_array"`` (else None): the
-        camera view, the error history and the orbit view (see :mod:`planetnav_env.render`)."""
+        camera view, the error history and the orbit view (see :mod:`planetnav_env.envs.render`)."""
         if self.render_mode != "rgb_array":
             return None
-        from planetnav_env.render import render_frame
+        from planetnav_env.envs.render import render_frame
 
         return render_frame(self._frame_data())
 
     def _frame_data(self) -> Any:
-        """The :class:`planetnav_env.render.FrameData` of the current state. The env hands render.py plain
-        numbers (heliocentric ICRF km), so render.py never imports this module."""
-        from planetnav_env.bodies import body
-        from planetnav_env.render import FrameData
+        """The :class:`planetnav_env.envs.render.FrameData` of the current state. The env hands render.py
+        plain numbers (heliocentric ICRF km), so render.py never imports this module."""
+        from planetnav_env.astro.bodies import body
+        from planetnav_env.envs.render import FrameData
         from planetnav_env.sensors.pulsar import pulsar
         from planetnav_env.sensors.star_tracker import StarTrackerConfig, catalogue_for
 

@@ -21,7 +21,8 @@ redraws only what moves (blitting), several times faster than drawing the whole 
 
 Command line (regenerates ``docs/render_frame.png``)::
 
-    python -m planetnav_env.render --out docs/render_frame.png --id planetnav/Cruise-Target-v0 --steps 300
+    python -m planetnav_env.envs.render --out docs/render_frame.png --id planetnav/Cruise-Target-v0 \
+        --steps 300
 """
 
 from __future__ import annotations
@@ -40,8 +41,8 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from matplotlib.patches import Circle, Ellipse, FancyArrowPatch, Rectangle
 
-from planetnav_env import quaternion as qt
-from planetnav_env.bodies import AU_KM, ECLIPTIC_TO_EQUATORIAL
+from planetnav_env.astro.bodies import AU_KM, ECLIPTIC_TO_EQUATORIAL
+from planetnav_env.attitude import quaternion as qt
 from planetnav_env.sensors.camera import CameraConfig
 
 #: (width, height) of a frame [px]; multiples of 16 so video encoders take it without resizing.
@@ -86,7 +87,8 @@ class FrameData:
     pulsar_names: the X-ray pulsars; ``pulsar_dirs``: (Q, 3) their directions.
     target: the current target's name or None; ``visibility``: why the last measurement was (not) taken
     (the env's ``info["visibility"]``); ``measured``: whether the last step measured.
-    attitude_q: (4,) true attitude quaternion (planetnav convention, :mod:`planetnav_env.quaternion`).
+    attitude_q: (4,) true attitude quaternion (planetnav convention,
+        :mod:`planetnav_env.attitude.quaternion`).
     camera: the camera's intrinsics and mounting.
     star_dirs: (M, 3) the star catalogue.
     history_km: (N, 2) the true position error and the filter's 1-sigma [km] at steps 0..N-1.
@@ -641,7 +643,8 @@ def scripted_action(action_space: Any, step: int, rng: np.random.Generator, hold
 
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(
-        prog="python -m planetnav_env.render", description="Save one rgb_array frame of a scripted rollout."
+        prog="python -m planetnav_env.envs.render",
+        description="Save one rgb_array frame of a scripted rollout.",
     )
     parser.add_argument("--id", default="planetnav/Cruise-Target-v0", help="registered environment id")
     parser.add_argument("--steps", type=int, default=300, help="steps before the frame is taken")

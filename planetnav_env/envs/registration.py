@@ -19,7 +19,7 @@ import gymnasium as gym
 from planetnav_env.errors import ConfigError
 
 #: The single environment's entry point (a spec with another one is not a planetnav environment).
-ENTRY_POINT = "planetnav_env.env:PlanetNavEnv"
+ENTRY_POINT = "planetnav_env.envs.env:PlanetNavEnv"
 
 #: The attitude's timescale (docs/environment.md "Wheel torques at 1 s"): the thesis's h = 1 s
 #: over one hour; the PD loop's time constant is ~20 s and a 90-degree slew takes ~100 s, so a 1-s step
@@ -114,7 +114,7 @@ def register_envs() -> None:
             entry_point=ENTRY_POINT,
             # gym.make_vec(id, num_envs=N) builds the native vector env over the batch core (the id's
             # kwargs are passed to it); vectorization_mode="sync" still gives a SyncVectorEnv.
-            vector_entry_point="planetnav_env.vector_env:PlanetNavVectorEnv",
+            vector_entry_point="planetnav_env.envs.vector_env:PlanetNavVectorEnv",
             kwargs=dict(kwargs),
             disable_env_checker=True,  # the env validates its own actions; check_env runs in the tests
         )

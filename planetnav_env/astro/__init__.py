@@ -1,0 +1,1 @@
+"""Solar-system data, ephemerides and time scales."""
