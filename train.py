@@ -2,7 +2,7 @@
 """Train Stable-Baselines3 agents on planetnav and compare them with the rule-based agents.
 
 The command line over :mod:`planetnav_train` (commands, options and outputs: :mod:`planetnav_train.cli`,
-docs/training.md). ``python train.py`` runs the default training run (``train --config
+docs/howto_training.md). ``python train.py`` runs the default training run (``train --config
 configs/cruise_ppo.yaml``). Nothing imports this file: code and tests import :mod:`planetnav_train`.
 """
 
