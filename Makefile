@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: run test test-ray reproduce bench bench-ray clean
+.PHONY: run test test-ray test-ray-all reproduce bench bench-ray clean
 
 $(STAMP): pyproject.toml
 	$(PY) -m venv $(VENV)
@@ -41,10 +41,18 @@ test: $(STAMP)
 	$(BIN)/ruff check .
 	$(BIN)/python -m pytest
 
-# The whole suite under the [ray] extra's gymnasium, including the Ray tests (two-node loopback clusters,
-# RLlib training, Tune sweeps, node loss) and the client tests (TorchRL, sb3-contrib) that the default
-# environment skips. The CPU-settings reruns of the golden tests ran in `make test` already.
+# Under the [ray] extra's gymnasium (the one RLlib pins): the Ray tests (two-node loopback clusters, RLlib
+# training and resume, Tune sweeps, node loss), the client tests (TorchRL, sb3-contrib) that the default
+# environment skips, and everything that touches Gymnasium's API: the environment package's tests (checkers,
+# seeding, vector env, golden hashes) and the training envs. The rest ran in `make test` already, as did
+# the CPU-settings reruns of the golden tests. `make test-ray-all` runs the whole suite there.
+RAY_TESTS := tests/rl tests/env tests/train/test_client_sb3_contrib.py tests/train/test_training_golden.py \
+	tests/train/test_vec_training.py tests/project
+
 test-ray: $(RAY_STAMP)
+	RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER=0 $(RAY_BIN)/python -m pytest -m "not cpu_settings" $(RAY_TESTS)
+
+test-ray-all: $(RAY_STAMP)
 	RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER=0 $(RAY_BIN)/python -m pytest -m "not cpu_settings"
 
 bench-ray: $(RAY_STAMP)
