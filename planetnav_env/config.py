@@ -40,6 +40,7 @@ from planetnav_env.sensors.pulsar import XrayDetector, pulsar
 SCENARIOS = ("cruise", "random-cruise", "mars-approach")
 ACTION_MODES = ("target", "torque", "target+torque", "hybrid")
 REWARDS = ("truth", "covariance")
+TARGET_ACTIONS = ("absolute", "relative")
 NOISE_STREAMS = ("sequential", "per_step")
 
 
@@ -235,6 +236,28 @@ class EnvConfig:
         doc='add a last discrete action "camera off" (for the idle floor agent); with ``operations`` it '
         'is "stay at the mission attitude" (the engine thrusts). Needs action_mode ``target``',
     )
+    decision_steps: int = option(
+        1,
+        ge=1,
+        unit="steps",
+        doc="physics steps per environment step: the action is held that long and the rewards summed, so one "
+        "decision spans ``decision_steps * step_s`` seconds while the physics step stays ``step_s``. An "
+        "episode that ends inside a decision ends it; ``episode_steps`` still counts physics steps (the "
+        "spec's ``max_episode_steps`` counts decisions)",
+    )
+    target_actions: str = option(
+        "absolute",
+        choices=TARGET_ACTIONS,
+        doc="``absolute``: action k points at target k; ``relative``: 0 keeps the current target and k moves "
+        "k places along the target order (planets, then pulsars; from target 0 after a reset). Needs "
+        "action_mode ``target`` and no idle_action",
+    )
+    observe_since_measured: bool = option(
+        False,
+        doc="add the ``since_measured`` block to the observation (last, one per target: log1p(physics steps "
+        "since that target was last measured) / log1p(1440), capped at 1; 1 when not measured this "
+        "episode). What the spacecraft knows of its own history, which the filter snapshot does not hold",
+    )
     star_tracker: str = option(
         "qmethod",
         choices=("qmethod", "ideal"),
@@ -329,6 +352,11 @@ class EnvConfig:
             raise ConfigError("pulsars (sensor tasking) need action_mode 'target'")
         if self.idle_action and self.action_mode != "target":
             raise ConfigError("idle_action is only available with action_mode 'target'")
+        if self.target_actions == "relative" and (self.action_mode != "target" or self.idle_action):
+            raise ConfigError(
+                "target_actions 'relative' needs action_mode 'target' and idle_action false, got action_mode "
+                f"{self.action_mode!r}, idle_action {self.idle_action!r}"
+            )
         ops_ready = self.action_mode == "target" and self.idle_action and not self.pulsars
         if self.operations is not None and not ops_ready:
             raise ConfigError(
@@ -348,6 +376,12 @@ class EnvConfig:
     @property
     def n_pulsars(self) -> int:
         return len(self.pulsars)
+
+    @property
+    def episode_decisions(self) -> int:
+        """Environment steps (decisions) of a full episode: ``episode_steps`` physics steps in holds of
+        ``decision_steps``, the last one possibly shorter."""
+        return -(-self.episode_steps // self.decision_steps)
 
     @property
     def n_targets(self) -> int:

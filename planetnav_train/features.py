@@ -51,15 +51,17 @@ from planetnav_agents.base import unwrapped_config, with_planet_choice
 from planetnav_agents.gain import DEFAULT_HORIZON, SlewModel, planet_gains
 from planetnav_env.attitude import quaternion as qt
 from planetnav_env.core import layout as L
-from planetnav_env.numerics.portable_math import log1p
+from planetnav_env.core.decisions import (  # noqa: F401 (re-exported: the recipe's names)
+    SINCE_SCALE_STEPS,
+    advance_since_measured,
+    relative_targets,
+    relative_to_absolute,
+    since_measured_values,
+)
 
 _DEG = math.pi / 180.0  # the observation's rates are in deg/s
 
 FEATURES = ("since_measured", "gain", "pd_torque")
-#: Scale of ``since_measured`` [steps]: a constant (one cruise day of 60-s steps), not the episode length,
-#: so that a policy evaluated on shorter episodes than it was trained on sees the same values.
-SINCE_SCALE_STEPS = 1440
-_SINCE_LOG_SCALE = math.log1p(SINCE_SCALE_STEPS)
 #: Values per planet of each feature.
 _WIDTH = {"since_measured": 1, "gain": 1, "pd_torque": 3}
 
@@ -102,30 +104,6 @@ def check_features(features: Sequence[str]) -> tuple[str, ...]:
     if len(set(out)) != len(out):
         raise ValueError(f"observation features repeat: {list(out)}")
     return out
-
-
-def advance_since_measured(since: np.ndarray, measured: np.ndarray, target_index: np.ndarray) -> None:
-    """Advance the steps since each planet was last measured by one environment step, in place.
-
-    since: (N, P) float counts (``inf``: not measured this episode). measured: (N,) bool, the step's
-    ``info["measured"]``. target_index: (N,) int, the index in ``config.planets`` of what was measured
-    (anything outside ``0 .. P - 1``, e.g. -1 or a pulsar, resets nothing). Called by
-    :meth:`FeatureBatch.advance`.
-    """
-    since += 1.0
-    n_planets = since.shape[1]
-    target_index = np.asarray(target_index)
-    rows = np.flatnonzero(np.asarray(measured, dtype=bool) & (target_index >= 0) & (target_index < n_planets))
-    since[rows, target_index[rows]] = 0.0
-
-
-def since_measured_values(since: np.ndarray) -> np.ndarray:
-    """The ``since_measured`` feature (float32, same shape as ``since``): ``log1p(steps) /
-    log1p(SINCE_SCALE_STEPS)`` capped at 1, and 1 for a planet not measured this episode."""
-    # libm's log1p, not numpy's: numpy's SIMD version differs across CPUs
-    # (planetnav_env.numerics.portable_math).
-    scaled = log1p(np.where(np.isfinite(since), since, 0.0)) / _SINCE_LOG_SCALE
-    return np.where(np.isfinite(since), np.minimum(scaled, 1.0), 1.0).astype(np.float32)
 
 
 def check_action_repeat(repeat: Any) -> int:
@@ -290,24 +268,6 @@ class FeatureState(FeatureBatch):
         measured, target, x, p = step_columns(info, self.planets)
         self.advance(measured, target, self._all)
         return FeatureBatch.augment(self, np.reshape(observation, (1, -1)), x, p)[0]
-
-
-def relative_targets(actions: np.ndarray, current: np.ndarray, n_targets: int) -> np.ndarray:
-    """Target indices (N,) of *relative* actions (N,): 0 keeps the current target, ``k`` moves ``k``
-    places along the planet order (``(current + k) mod n``). With no current target (``-1``, the first
-    step) the count starts from target 0, so action ``k`` picks target ``k``. ``ValueError`` naming the
-    row and the value for an action outside ``0 .. n_targets - 1``."""
-    a = np.asarray(actions).reshape(-1)
-    ok = np.isfinite(a) & (a == np.round(a)) & (a >= 0) & (a < n_targets)
-    if not ok.all():
-        r = int(np.flatnonzero(~ok)[0])
-        raise ValueError(f"relative action of row {r} must be in [0, {n_targets}), got {a[r].item()!r}")
-    return (np.maximum(np.asarray(current, dtype=np.int64), 0) + a.astype(np.int64)) % n_targets
-
-
-def relative_to_absolute(action: int, current: int, n_targets: int) -> int:
-    """:func:`relative_targets` for one action."""
-    return int(relative_targets(np.array([action]), np.array([current]), n_targets)[0])
 
 
 def relative_actions_batch(

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import math
 import os
+from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from typing import Any
@@ -27,6 +28,7 @@ from planetnav_env.config import EnvConfig
 from planetnav_env.core import kernels as K
 from planetnav_env.core import layout as L
 from planetnav_env.core import rng as crng
+from planetnav_env.core.decisions import advance_since_measured, since_measured_values
 from planetnav_env.core.ephemeris_table import SEGMENT_S, TableSpec, fit_table
 from planetnav_env.core.params import ARCSEC, ChannelPlan, build_params, episode_duration_s
 from planetnav_env.core.records import RowState
@@ -122,6 +124,8 @@ class BatchCore:
         self.rng = np.zeros((n, crng.STATE_WORDS), dtype=np.uint64)
         self.eph = np.zeros((n, *self.table_spec.shape))
         self.obs = np.zeros((n, self.layout.size))
+        # Physics steps since each target was last measured (observe_since_measured; core/decisions.py).
+        self.since = np.full((n, cfg.n_targets), np.inf) if self.layout.since_measured else None
         self.episodes: list[RowEpisode | None] = [None] * n
         self._ephemeris = DEEphemeris()
         self._table_cache: tuple[float, np.ndarray] | None = None
@@ -184,6 +188,47 @@ class BatchCore:
             f[r, L.F_Q : L.F_Q + 4] = qt.normalize(gen.normal(size=4))
             self.rng[r] = crng.seed_state(gen)
         K.reset_rows(self.params, self.state, rows)
+        if self.since is not None:
+            self.since[rows] = np.inf
+            self._observe_since(rows)
+
+    def _observe_since(self, rows: np.ndarray) -> None:
+        """Count one physics step seen by ``rows`` (indices; a reset's first observation counts, as a step
+        without a measurement) and write their ``since_measured`` observation block."""
+        since = self.since[rows]
+        advance_since_measured(since, self.i[rows, L.I_MEASURED] != 0, self.i[rows, L.I_TARGET])
+        self.since[rows] = since
+        self.obs[rows, self.layout.since_measured_start :] = since_measured_values(since)
+
+    def step_decision(
+        self,
+        targets: np.ndarray,
+        torques: np.ndarray,
+        active: np.ndarray | None = None,
+        on_step: Callable[[np.ndarray], None] | None = None,
+    ) -> None:
+        """One decision: :meth:`step` ``config.decision_steps`` times with the same decoded actions, the
+        rewards summed into the reward column; a row whose episode ends inside the hold stops there (its
+        flags stay as that step set them). ``on_step(stepped)``, when given, runs after every physics step
+        with the bool (N,) mask of the rows it advanced (evaluation records each physics step)."""
+        k = self.config.decision_steps
+        if k == 1:
+            self.step(targets, torques, active)
+            if on_step is not None:
+                on_step(self._all if active is None else active)
+            return
+        running = np.array(self._all if active is None else active, dtype=bool, copy=True)
+        started = running.copy()
+        total = np.zeros(self.num_rows)
+        for _ in range(k):
+            self.step(targets, torques, running)
+            total[running] += self.f[running, L.F_REWARD]
+            if on_step is not None:
+                on_step(running)
+            running &= (self.i[:, L.I_TERMINATED] == 0) & (self.i[:, L.I_TRUNCATED] == 0)
+            if not running.any():
+                break
+        self.f[started, L.F_REWARD] = total[started]
 
     def step(self, targets: np.ndarray, torques: np.ndarray, active: np.ndarray | None = None) -> None:
         """Advance the ``active`` rows (all by default) by one step with decoded actions: ``targets``
@@ -217,6 +262,8 @@ class BatchCore:
                 f"row {r} (of rows {bad.tolist()}) at step {int(self.i[r, L.I_K])}: {what}; "
                 f"q={self.f[r, L.F_Q : L.F_Q + 4]}, omega={self.f[r, L.F_W : L.F_W + 3]}"
             )
+        if self.since is not None:
+            self._observe_since(np.flatnonzero(active))
 
     # ------------------------------------------------------------------------------------------
     def time_s(self, row: int) -> float:

@@ -195,6 +195,12 @@ IN_FIELD_TEXT = (
 )
 
 
+SINCE_MEASURED_TEXT = (
+    "since measured (with EnvConfig.observe_since_measured), one per target: log1p(physics steps since it "
+    "was last measured) / log1p(1440), capped at 1; 1 when not measured this episode"
+)
+
+
 @dataclass(frozen=True)
 class ObservationLayout:
     """Offsets of every block of the flat observation for ``n_planets`` planets and ``n_pulsars`` pulsars,
@@ -208,8 +214,12 @@ class ObservationLayout:
     n_planets: int
     n_pulsars: int
     n_deadlines: int | None = None
-    #: The ``in_field`` block (P values, 0/1) last (``EnvConfig.observe_in_field``; text: IN_FIELD_TEXT).
+    #: The ``in_field`` block (P values, 0/1) after the others (``EnvConfig.observe_in_field``; text:
+    #: IN_FIELD_TEXT).
     in_field: bool = False
+    #: The ``since_measured`` block (T values) last (``EnvConfig.observe_since_measured``; text:
+    #: SINCE_MEASURED_TEXT). Written by :class:`planetnav_env.core.batch.BatchCore`, not the compiled builder.
+    since_measured: bool = False
 
     @classmethod
     def for_config(cls, cfg) -> ObservationLayout:
@@ -218,6 +228,7 @@ class ObservationLayout:
         return cls(
             cfg.n_planets, cfg.n_pulsars, None if ops is None else len(ops.deadlines_s),
             bool(getattr(cfg, "observe_in_field", False)),
+            bool(getattr(cfg, "observe_since_measured", False)),
         )  # fmt: skip
 
     @property
@@ -251,8 +262,13 @@ class ObservationLayout:
         return self.operations_start + (0 if self.n_deadlines is None else self.n_deadlines + 2)
 
     @property
-    def size(self) -> int:
+    def since_measured_start(self) -> int:
+        """First index of the since-measured block (== size without one)."""
         return self.in_field_start + (self.n_planets if self.in_field else 0)
+
+    @property
+    def size(self) -> int:
+        return self.since_measured_start + (self.n_targets if self.since_measured else 0)
 
     @property
     def blocks(self) -> tuple[tuple[str, int, int, tuple[int, ...]], ...]:
@@ -269,7 +285,9 @@ class ObservationLayout:
         if self.n_deadlines is not None:
             out.append(("operations", self.operations_start, self.in_field_start, (self.n_deadlines + 2,)))
         if self.in_field:
-            out.append(("in_field", self.in_field_start, self.size, (self.n_planets,)))
+            out.append(("in_field", self.in_field_start, self.since_measured_start, (self.n_planets,)))
+        if self.since_measured:
+            out.append(("since_measured", self.since_measured_start, self.size, (self.n_targets,)))
         return tuple(out)
 
     def to_dict(self, flat: np.ndarray) -> dict[str, np.ndarray]:
@@ -298,7 +316,8 @@ class ObservationLayout:
         rows.append(("22+7T..", "current target, one-hot (T = P + Q)", "0/1"))
         rows.append(("22+8T", "elapsed fraction of the episode", "0..1"))
         rows.append(("..+D+2", OPERATIONS_TEXT, f"/ {OPS_DAYS_SCALE:g} d, / {OPS_DV_SCALE:g} m/s, 0/1"))
-        rows.append(("last P", IN_FIELD_TEXT, "0/1"))
+        rows.append(("..+P", IN_FIELD_TEXT, "0/1"))
+        rows.append(("last T", SINCE_MEASURED_TEXT, "0..1"))
         w0 = max(len(r[0]) for r in rows)
         w1 = max(len(r[1]) for r in rows)
         w2 = max(len(r[2]) for r in rows)

@@ -39,6 +39,7 @@ from gymnasium.envs.registration import EnvSpec
 from planetnav_env.config import EnvConfig
 from planetnav_env.core import layout as L
 from planetnav_env.core.batch import BatchCore
+from planetnav_env.core.decisions import relative_targets
 from planetnav_env.core.layout import ObservationLayout
 from planetnav_env.core.rng import seed_state
 from planetnav_env.envs.registration import id_options
@@ -51,6 +52,11 @@ from planetnav_env.envs.spaces import (
     observation_space,
 )
 from planetnav_env.errors import ConfigError, InvalidParameterError
+
+#: The per-physics-step values :attr:`PlanetNavEnv.held` holds after a step when ``decision_steps`` > 1
+#: (each (k,), the k physics steps the decision ran): what an evaluation that averages over physics steps
+#: reads (``info`` is the last physics step's, as in the vector environment).
+DECISION_KEYS = ("pos_err_km", "pos_sigma_km", "vel_err_km_s", "measured", "slewing")
 
 
 def resolve_config(config: EnvConfig | Mapping | str | None, overrides: dict[str, Any]) -> EnvConfig:
@@ -102,12 +108,13 @@ class EpisodeLengthSpec:
 
     @property
     def spec(self) -> EnvSpec | None:
-        """The spec the registry gave this environment, with ``max_episode_steps`` = ``episode_steps``."""
+        """The spec the registry gave this environment, with ``max_episode_steps`` = the decisions of an
+        episode (``episode_steps``, or fewer with ``decision_steps`` > 1)."""
         return self._spec
 
     @spec.setter
     def spec(self, value: EnvSpec | None) -> None:
-        self._spec = spec_with_episode_length(value, self.config.episode_steps)
+        self._spec = spec_with_episode_length(value, self.config.episode_decisions)
 
 
 class PlanetNavEnv(EpisodeLengthSpec, gym.Env):
@@ -198,6 +205,8 @@ class PlanetNavEnv(EpisodeLengthSpec, gym.Env):
         self._started = False
         self._done = False
         self.history: list[tuple[float, float]] = []
+        #: With ``decision_steps`` > 1: the last decision's physics steps, ``DECISION_KEYS`` -> (k,) arrays.
+        self.held: dict[str, np.ndarray] = {}
 
     # ------------------------------------------------------------------------------------------
     def reset(self, *, seed: int | None = None, options: dict | None = None):
@@ -223,8 +232,10 @@ class PlanetNavEnv(EpisodeLengthSpec, gym.Env):
                         f"target action must be an integer in [0, {n_act}), got {action!r}"
                     )
                 self._targets[0] = -1 if idx == cfg.n_targets else idx
-                return
-            self._targets[:] = decode_target_actions(cfg, n_act, action, 1, single=True)
+            else:
+                self._targets[:] = decode_target_actions(cfg, n_act, action, 1, single=True)
+            if cfg.target_actions == "relative":
+                self._targets[:] = relative_targets(self._targets, self.core.i[:, L.I_TARGET], cfg.n_targets)
             return
         targets, torques = decode_box_actions(cfg, self.action_space.shape, action, 1, single=True)
         self._targets[:] = targets
@@ -237,12 +248,20 @@ class PlanetNavEnv(EpisodeLengthSpec, gym.Env):
             raise RuntimeError("the episode has ended (terminated or truncated): call reset() before step()")
         self._decode(action)
         core = self.core
-        core.step(self._targets, self._torques)
-        info = core.info_row(0)
+        if self.config.decision_steps == 1:
+            core.step(self._targets, self._torques)
+            info = core.info_row(0)
+            self.history.append((info["pos_err_km"], info["pos_sigma_km"]))
+        else:
+            steps: list[dict[str, Any]] = []
+            record = lambda _: steps.append(core.info_batch())  # noqa: E731
+            core.step_decision(self._targets, self._torques, on_step=record)
+            info = core.info_row(0)
+            self.held = {k: np.array([h[k][0] for h in steps]) for k in DECISION_KEYS}
+            self.history += list(zip(self.held["pos_err_km"], self.held["pos_sigma_km"], strict=True))
         terminated = bool(core.i[0, L.I_TERMINATED])
         truncated = bool(core.i[0, L.I_TRUNCATED])
         self._done = terminated or truncated
-        self.history.append((info["pos_err_km"], info["pos_sigma_km"]))
         obs = format_observation(self.config, self.layout, core.obs[0])
         return obs, float(core.f[0, L.F_REWARD]), terminated, truncated, info
 

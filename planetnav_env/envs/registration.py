@@ -79,6 +79,33 @@ ENV_IDS: dict[str, dict] = {
     },
 }
 
+#: The ``-v1`` ids: the ``-v0`` physics, posed for learners (docs/suite.md, "Tasks v1", gives the ablation
+#: behind each choice). Every ``-v1`` id rewards the filter's own predicted RMS position error,
+#: ``-sqrt(trace P_rr) / reward_scale_km`` per physics step (the spacecraft computes it on board; the true
+#: error it predicts is the objective, and when the filter is consistent ``trace P_rr`` is the expected
+#: squared error) instead of the privileged true error, and observes the time since each target was last
+#: measured. The target-choice tasks hold each decision over several physics steps (a slew takes ~100 s, a
+#: pulsar integration ~1,000 s) and take relative actions (0 = stay). The physics step (``step_s``), the
+#: episode's physical length and the objective do not change; the 1-s torque tasks keep their 1-s control
+#: step, which is their point.
+_POSED: dict[str, dict[str, Any]] = {
+    "Cruise-Target": {"decision_steps": 10, "target_actions": "relative"},
+    "RandomCruise-Target": {"decision_steps": 10, "target_actions": "relative"},
+    "MarsApproach-Tasking": {"decision_steps": 4, "target_actions": "relative"},
+    "Cruise-Torque": {},
+    "Cruise-TargetTorque": {},
+    "Cruise-TorqueControl": {},
+    "Cruise-Hybrid": {},
+    "ThrustArc-TCM": {},
+}
+for _name, _posed in _POSED.items():
+    ENV_IDS[f"planetnav/{_name}-v1"] = {
+        **ENV_IDS[f"planetnav/{_name}-v0"],
+        "reward": "covariance",
+        "observe_since_measured": True,
+        **_posed,
+    }
+
 
 def id_options(env_id: str) -> dict[str, Any]:
     """The environment options that the registered id ``env_id`` stands for (a copy of its spec's

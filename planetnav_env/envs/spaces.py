@@ -38,6 +38,7 @@ def observation_space(cfg: EnvConfig, layout: ObservationLayout) -> spaces.Space
         "target": (0.0, 1.0),
         "elapsed": (0.0, 1.0),
         "in_field": (0.0, 1.0),
+        "since_measured": (0.0, 1.0),
     }
     return spaces.Dict(
         {
@@ -177,7 +178,8 @@ def decode_observation(cfg: EnvConfig, layout: ObservationLayout, observation: A
     """Named arrays in physical units from one ``box`` or ``dict`` observation: position_km,
     velocity_km_s (relative to the central body), log_sigma (6,), q (star tracker), rates_rad_s,
     wheel_fraction, planets (P, 7) and pulsars (Q, 7) as in the layout, target (index or -1), elapsed,
-    and with ``observe_in_field`` in_field (P,) bool (the planets the camera's visibility rule passes now)."""
+    with ``observe_in_field`` in_field (P,) bool (the planets the camera's visibility rule passes now), and
+    with ``observe_since_measured`` since_measured (T,) (the observation's scaled values)."""
     if isinstance(observation, dict):
         try:
             flat = layout.from_dict(observation)
@@ -195,6 +197,8 @@ def decode_observation(cfg: EnvConfig, layout: ObservationLayout, observation: A
     pos_scale, vel_scale = observation_scales(cfg.scenario)
     target_vec = b["target"]
     extra = {"in_field": b["in_field"] > 0.5} if "in_field" in b else {}
+    if "since_measured" in b:
+        extra["since_measured"] = b["since_measured"]
     return {
         **extra,
         "position_km": b["position"] * pos_scale,

@@ -28,7 +28,7 @@ A row whose filter diverges terminates alone.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from typing import Any
 
 import numpy as np
@@ -40,6 +40,7 @@ from planetnav_env.config import EnvConfig
 from planetnav_env.core import batch as B
 from planetnav_env.core import layout as L
 from planetnav_env.core.batch import BatchCore, attitude_err_arcsec
+from planetnav_env.core.decisions import relative_targets
 from planetnav_env.envs.env import EpisodeLengthSpec, check_reset_options, resolve_config
 from planetnav_env.envs.spaces import (
     action_space,
@@ -155,30 +156,45 @@ class PlanetNavVectorEnv(EpisodeLengthSpec, VectorEnv):
             raise RuntimeError("call reset() before step()")
         cfg, n = self.config, self.num_envs
         if cfg.action_mode == "target":
-            return decode_target_actions(cfg, self.single_action_space.n, actions, n), self._torques
+            targets = decode_target_actions(cfg, self.single_action_space.n, actions, n)
+            if cfg.target_actions == "relative":
+                targets = relative_targets(targets, self.core.i[:, L.I_TARGET], cfg.n_targets)
+            return targets, self._torques
         return decode_box_actions(cfg, self.single_action_space.shape, actions, n)
 
-    def step_rows(self, actions: Any, active: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Advance only the ``active`` rows (bool (N,)) by one step, with no autoreset: the building block
+    def step_rows(
+        self, actions: Any, active: np.ndarray, on_step: Callable[[np.ndarray], None] | None = None
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Advance only the ``active`` rows (bool (N,)) by one step (one decision), with no autoreset: the
+        building block
         of wrappers that run their own loop over steps (one policy decision held for several steps,
         ``planetnav_train.vec_training``). Returns ``(reward, terminated, truncated)``, zero / False for
         the rows
         not stepped. The caller resets finished rows (``reset(options={"reset_mask": ...})``, which
         continues each row's generator) before stepping them again; the whole ``actions`` batch is
-        validated, inactive rows included."""
+        validated, inactive rows included. ``on_step(stepped)``: called after every physics step of the
+        decision with the bool (N,) mask of the rows it advanced (``decision_steps`` > 1 holds each
+        decision several physics steps; evaluation records each one through it)."""
         targets, torques = self._decode(actions)
         active = np.asarray(active, dtype=bool)
         if active.shape != (self.num_envs,):
             raise InvalidParameterError(f"active must have shape ({self.num_envs},), got {active.shape}")
-        return self._advance(targets, torques, active)
+        return self._advance(targets, torques, active, on_step)
 
     def _advance(
-        self, targets: np.ndarray, torques: np.ndarray, active: np.ndarray | None = None
+        self,
+        targets: np.ndarray,
+        torques: np.ndarray,
+        active: np.ndarray | None = None,
+        on_step: Callable[[np.ndarray], None] | None = None,
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Step the ``active`` rows (all when None) with decoded actions; (reward, terminated, truncated),
-        zero / False for the rows not stepped."""
+        """Step the ``active`` rows (all when None) by one decision with decoded actions; (reward,
+        terminated, truncated), zero / False for the rows not stepped."""
         core = self.core
-        core.step(targets, torques, active)
+        if self.config.decision_steps == 1 and on_step is None:
+            core.step(targets, torques, active)
+        else:
+            core.step_decision(targets, torques, active, on_step)
         reward = core.f[:, L.F_REWARD].copy()
         terminated = core.i[:, L.I_TERMINATED] != 0
         truncated = core.i[:, L.I_TRUNCATED] != 0

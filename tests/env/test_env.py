@@ -282,7 +282,8 @@ def test_spec_reports_the_episode_length_without_a_time_limit():
     no Gymnasium TimeLimit is added (a second counter would cut an episode longer than the registered
     one)."""
     for env_id, options in ENV_IDS.items():
-        want = options.get("episode_steps", EnvConfig().episode_steps)
+        steps = options.get("episode_steps", EnvConfig().episode_steps)
+        want = -(-steps // options.get("decision_steps", 1))  # decisions: a -v1 id holds each several steps
         env = gym.make(env_id)
         assert env.spec.max_episode_steps == want and env.unwrapped.spec.max_episode_steps == want
         wrapper = env
@@ -294,6 +295,13 @@ def test_spec_reports_the_episode_length_without_a_time_limit():
     assert env.spec.max_episode_steps == 3
     env.reset(seed=0)
     assert [env.step(0)[3] for _ in range(3)] == [False, False, True]
+    # A hold that the episode's end cuts short: 25 physics steps in decisions of 10 are 3 decisions.
+    env = gym.make("planetnav/Cruise-Target-v1", episode_steps=25)
+    assert env.spec.max_episode_steps == 3
+    env.reset(seed=0)
+    ends = [(env.step(0), len(env.unwrapped.held["pos_err_km"])) for _ in range(3)]
+    assert [(e[3], k) for e, k in ends] == [(False, 10), (False, 10), (True, 5)]
+    assert len(env.unwrapped.history) == 26  # the reset's and each physics step's
 
 
 def test_env_accepts_a_registered_id_as_config():

@@ -85,7 +85,8 @@ def _record_step(h: _Hashes, obs: Any, reward: Any, terminated: Any, truncated: 
 
 
 def _steps(env_id: str) -> int:
-    return int(gym.spec(env_id).kwargs.get("episode_steps", 1440)) + 5
+    kw = gym.spec(env_id).kwargs
+    return -(-int(kw.get("episode_steps", 1440)) // int(kw.get("decision_steps", 1))) + 5
 
 
 def rollout_single(env_id: str, options: dict) -> dict[str, Any]:

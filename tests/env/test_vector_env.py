@@ -335,8 +335,9 @@ def test_vector_info_has_the_single_env_keys_row_for_row(env_id: str) -> None:
     (names as object arrays, the filter as (N, 6) and (N, 6, 6)), each value equal to the single env's
     row; the README's ``info["target"]`` works on both."""
     n, seed = 3, 21
-    venv = gym.make_vec(env_id, num_envs=n, episode_steps=8)
-    singles = [gym.make(env_id, episode_steps=8) for _ in range(n)]
+    steps = 8 * gym.spec(env_id).kwargs.get("decision_steps", 1)  # 8 decisions
+    venv = gym.make_vec(env_id, num_envs=n, episode_steps=steps)
+    singles = [gym.make(env_id, episode_steps=steps) for _ in range(n)]
     keys = INFO_KEYS | (OPERATIONS_INFO_KEYS if venv.unwrapped.config.operations is not None else set())
     _, vinfo = venv.reset(seed=seed)
     infos = [env.reset(seed=seed + i)[1] for i, env in enumerate(singles)]
