@@ -154,6 +154,15 @@ def requires_idle_action(name_or_path: str) -> bool:
     return parse_spec(name_or_path)[0] in NEEDS_IDLE_ACTION
 
 
+def acts_at_physics_step(name_or_path: str) -> bool:
+    """Whether agent ``name_or_path`` is a rule agent written for the physics-step interface (absolute
+    targets, one decision per physics step, the base observation): every registered agent but ``random``,
+    which samples whatever action space it is given. Evaluation runs such an agent on
+    :meth:`EnvConfig.at_physics_step` of the task's configuration: the same physics, seeds and objective."""
+    name, _ = parse_spec(name_or_path)
+    return (name in AGENTS or name in OPERATIONS_AGENTS) and name != "random"
+
+
 def not_applicable(name_or_path: str, config: EnvConfig) -> str | None:
     """Why agent ``name_or_path`` cannot act in an environment of ``config``, or None when it can.
 
@@ -220,6 +229,7 @@ __all__ = [
     "PlannerAgent",
     "RandomAgent",
     "TargetAgent",
+    "acts_at_physics_step",
     "make_agent",
     "not_applicable",
     "parse_observation",

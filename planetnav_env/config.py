@@ -377,6 +377,16 @@ class EnvConfig:
     def n_pulsars(self) -> int:
         return len(self.pulsars)
 
+    def at_physics_step(self) -> EnvConfig:
+        """This configuration with the decision interface at its defaults (one physics step per decision,
+        absolute target actions, no ``since_measured`` block): the same physics, seeds and objective, in
+        the interface the rule agents act through (a ``-v1`` id's references run there)."""
+        if (self.decision_steps, self.target_actions, self.observe_since_measured) == (1, "absolute", False):
+            return self
+        return dataclasses.replace(
+            self, decision_steps=1, target_actions="absolute", observe_since_measured=False
+        )
+
     @property
     def episode_decisions(self) -> int:
         """Environment steps (decisions) of a full episode: ``episode_steps`` physics steps in holds of

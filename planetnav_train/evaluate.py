@@ -28,8 +28,15 @@ from typing import Any
 
 import numpy as np
 
-from planetnav_agents import NotApplicableError, make_agent, not_applicable, requires_idle_action
+from planetnav_agents import (
+    NotApplicableError,
+    acts_at_physics_step,
+    make_agent,
+    not_applicable,
+    requires_idle_action,
+)
 from planetnav_env.config import EnvConfig
+from planetnav_env.envs.env import DECISION_KEYS
 from planetnav_train.batch_wrappers import RowsWrapper, TrainingOptions, VectorRows
 from planetnav_train.config import REFERENCE
 from planetnav_train.stats import mean_ci, paired_difference
@@ -69,13 +76,16 @@ def _episode(agent: Any, env: Any, seed: int, on_step: Callable[[], None]) -> di
     err, sig, vel, measured = [], [], [], 0
     slews, ret, diverged = 0, 0.0, False
     t0 = time.perf_counter()
+    held = env.unwrapped.config.decision_steps > 1
     while True:
         obs, reward, terminated, truncated, info = env.step(agent.act(obs, info))
-        err.append(info["pos_err_km"])
-        sig.append(info["pos_sigma_km"])
-        vel.append(info["vel_err_km_s"])
-        measured += bool(info["measured"])
-        slews += bool(info["slewing"])
+        # A held decision ran several physics steps: the record is per physics step (the objective's mean).
+        steps = env.unwrapped.held if held else {k: [info[k]] for k in DECISION_KEYS}
+        err += list(steps["pos_err_km"])
+        sig += list(steps["pos_sigma_km"])
+        vel += list(steps["vel_err_km_s"])
+        measured += int(np.sum(steps["measured"]))
+        slews += int(np.sum(steps["slewing"]))
         ret += float(reward)
         on_step()
         if terminated or truncated:
@@ -180,8 +190,15 @@ class _RecordingRows(RowsWrapper):
         self.on_steps = on_steps
 
     def step_rows(self, actions: Any, active: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        reward, terminated, truncated = self.inner.step_rows(actions, active)
+        # One decision; each of its physics steps recorded as it happens (decision_steps > 1 holds it).
+        reward, terminated, truncated = self.venv.step_rows(actions, active, on_step=self._record)
         rows = np.flatnonzero(active)
+        self.ret[rows] += reward[rows]
+        self.terminated[rows] = terminated[rows]
+        return reward, terminated, truncated
+
+    def _record(self, stepped: np.ndarray) -> None:
+        rows = np.flatnonzero(stepped)
         info = self.venv.info_arrays()
         k = self.steps[rows]
         if k.size and k.max() >= self.err.shape[1]:
@@ -191,11 +208,8 @@ class _RecordingRows(RowsWrapper):
         self.vel[rows, k] = info["vel_err_km_s"][rows]
         self.measured_count[rows] += info["measured"][rows]
         self.slews[rows] += info["slewing"][rows]
-        self.ret[rows] += reward[rows]
-        self.terminated[rows] = terminated[rows]
         self.steps[rows] += 1
         self.on_steps(len(rows))
-        return reward, terminated, truncated
 
 
 def _batched_episodes(
@@ -344,6 +358,8 @@ def evaluate_agent(
     reason = not_applicable(spec, env_cfg)
     if reason:
         raise NotApplicableError(reason)
+    if acts_at_physics_step(spec):
+        env_cfg = env_cfg.at_physics_step()  # same physics and objective, the rule agents' interface
     # Only the idle agent gets the extra "camera off" action: the others keep the trained action space.
     overrides = {"idle_action": True} if requires_idle_action(spec) else {}
     env = PlanetNavEnv(env_cfg, **overrides)

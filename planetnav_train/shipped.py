@@ -110,7 +110,8 @@ def form_of(entry: dict[str, Any]) -> str:
 def make_shipped_agent(spec: str, env: Any = None, **kwargs: Any) -> Any:
     """The :class:`planetnav_train.sb3.SB3Agent` of the shipped baseline named ``spec``
     (``suite:<task>``), with the manifest's algorithm, no features and no action repeat (a raw-track
-    policy); ``kwargs`` go to :class:`SB3Agent` (``deterministic=False`` for sampled actions). A
+    policy) acting in the protocol's evaluation mode (the manifest's ``eval_mode``); ``kwargs`` go to
+    :class:`SB3Agent` (``deterministic`` overrides the mode). A
     policy-only baseline's model is its :class:`~planetnav_train.policy_only.PolicyOnlyModel`, which
     acts through the same ``predict`` and ``policy`` as the full model, so evaluation takes the same path.
     """
@@ -118,6 +119,8 @@ def make_shipped_agent(spec: str, env: Any = None, **kwargs: Any) -> Any:
 
     path, entry = shipped_model(task_of(spec))
     kwargs.setdefault("algo", entry["algorithm"])
+    # The action the suite's protocol scored (its record's eval_mode): sampled for the policy-gradient ones.
+    kwargs.setdefault("deterministic", entry.get("eval_mode", "argmax") != "sampled")
     if form_of(entry) == "full":
         agent = SB3Agent(path, env, features=[], action_repeat=1, **kwargs)
     else:

@@ -196,8 +196,8 @@ def train(
     model_path = run_dir / "model.zip"
     model.save(model_path)
     venv.close()
-    # With action_repeat, SB3's timesteps are decisions; the environment ran ``action_repeat`` steps each.
-    env_steps = int(model.num_timesteps) * tc.action_repeat
+    # SB3's timesteps are decisions; each ran action_repeat x the env's decision_steps physics steps.
+    env_steps = int(model.num_timesteps) * tc.action_repeat * tc.env_config().decision_steps
     # A teacher trained by this run (pretrain.teacher_config) is part of its time and its steps.
     teacher_steps = int(pretrain_stats.get("teacher", {}).get("env_steps", 0))
     stats = {

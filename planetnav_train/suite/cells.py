@@ -129,7 +129,7 @@ def make_cells(tasks: Sequence[str], algos: Sequence[str], seeds: Sequence[int],
 #: The published table's training seeds, the assisted track's algorithms and RLlib's task (docs/suite.md).
 PUBLISHED_SEEDS: tuple[int, ...] = (0, 1, 2, 3, 4)
 ASSISTED_ALGOS: tuple[str, ...] = ("ppo",)
-RLLIB_TASKS: tuple[str, ...] = ("Cruise-Target-v0",)
+RLLIB_TASKS: tuple[str, ...] = ("Cruise-Target-v1",)
 
 
 def published_grid() -> list[Cell]:
@@ -210,14 +210,9 @@ def cell_config(
         names = list(conf["tasks"].get(cell.task, []))
         for name in names:
             data = _merge(data, conf["assists"][name])
-    if algo.name == "maskable_ppo" and (data.get("features") or data.get("relative_actions")):
-        # The mask reads the env's own observation layout and indexes its absolute target actions.
-        raise ConfigError(
-            f"{cell.key}: maskable_ppo masks the env's own targets; the assists {names} change the "
-            "observation or the actions (features, relative_actions): run it on the raw track"
-        )
-    repeat = int(data.get("action_repeat", 1))
-    decisions = max(1, round(task.budget * settings.budget_scale) // repeat)
+    # The budget counts physics steps; a decision is decision_steps of them (the id's), times any repeat.
+    per_decision = int(data.get("action_repeat", 1)) * task.env_config().decision_steps
+    decisions = max(1, round(task.budget * algo.budget_fraction * settings.budget_scale) // per_decision)
     data["n_timesteps"] = decisions
     if not is_rllib_algo(algo.name):
         data["hyperparams"] = _fit_rollout(algo, dict(data["hyperparams"]), decisions)

@@ -202,6 +202,7 @@ def ship_baselines(
                 "task_version": r.get("task_version"),
                 "suite_version": r.get("suite_version"),
                 "algorithm": r["algorithm"],
+                "eval_mode": r.get("eval_mode", "argmax"),
                 "track": "raw",
                 "seed": int(r["seed"]),
                 "objective_name": r.get("objective_name"),

@@ -16,6 +16,8 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from planetnav_env.errors import ConfigError
 from planetnav_train import extensions
 from planetnav_train.config import TrainConfig, is_rllib_algo
@@ -43,16 +45,28 @@ def _agent_summary(objective: Objective, metrics: Mapping[str, Any]) -> dict[str
     return {"objective": ci.mean, "ci95": [ci.low, ci.high], "per_episode": values.tolist()}
 
 
+#: The reference key of the random policy in the task's own interface (a ``-v1`` id's held decisions and
+#: relative actions): reported beside the score, not its zero point.
+INTERFACE_RANDOM = "random@interface"
+
+
 def reference_agent(task: Task, spec: str, settings: Settings) -> dict[str, Any]:
     """Agent ``spec``'s objective on ``task``'s evaluation seeds (mean, 95 % t-interval, per-episode
     values, wall seconds), cached in ``OUT/references/agents/`` per agent (the planner and the 3,000-step
-    tasks take minutes per agent)."""
+    tasks take minutes per agent). The references and the zero point are properties of the physical task:
+    every agent acts at the physics step (:meth:`EnvConfig.at_physics_step`: one decision per physics
+    step, absolute targets), ``random`` included; :data:`INTERFACE_RANDOM` is the random policy in the
+    task's own interface."""
     from planetnav_train.evaluate import evaluate_agent
 
     path = settings.out / "references" / "agents" / f"{task.id}__{_agent_key(task, spec, settings)}.json"
     if path.is_file():
         return json.loads(path.read_text())
     env_cfg = task.eval_config(settings.episode_steps)
+    if spec == INTERFACE_RANDOM:
+        spec = task.random
+    else:
+        env_cfg = env_cfg.at_physics_step()
     episodes = settings.eval_episodes or task.eval_episodes
     t0 = time.perf_counter()
     result = evaluate_agent(spec, env_cfg, episodes, task.eval_seed, progress=settings.progress)
@@ -62,17 +76,29 @@ def reference_agent(task: Task, spec: str, settings: Settings) -> dict[str, Any]
     return summary
 
 
+def zero_candidates(task: Task, env_cfg: Any) -> tuple[str, ...]:
+    """The agents of ``task.zero`` that can act on the task (``idle`` needs the target-choice "camera off"
+    action): the score's zero point is the better of them."""
+    from planetnav_agents import not_applicable
+
+    out = tuple(s for s in task.zero if not_applicable(s, env_cfg) is None)
+    return out or (task.random,)
+
+
 def task_references(task: Task, settings: Settings) -> dict[str, Any]:
-    """The task's reference values on its evaluation seeds: ``random`` and every candidate with 95 %
-    t-intervals (:func:`reference_agent`, cached per agent), and the best candidate: the one with the
-    lowest objective, chosen from the data. Written to ``OUT/references/<task>.json``."""
+    """The task's reference values on its evaluation seeds: ``random``, the zero-point candidates and every
+    best-reference candidate with 95 % t-intervals (:func:`reference_agent`, cached per agent); the zero
+    point (the better of the zero candidates) and the best candidate (the lowest objective), chosen from
+    the data. Written to ``OUT/references/<task>.json``."""
     env_cfg = task.eval_config(settings.episode_steps)
     episodes = settings.eval_episodes or task.eval_episodes
     agents = {}
-    for spec in (task.random, *task.references):
+    zeros = zero_candidates(task, env_cfg.at_physics_step())
+    for spec in dict.fromkeys((task.random, *zeros, *task.references, INTERFACE_RANDOM)):
         summary = reference_agent(task, spec, settings)
         agents[spec] = {k: summary[k] for k in ("objective", "ci95", "per_episode")}
     best = min(task.references, key=lambda s: agents[s]["objective"])
+    zero = min(zeros, key=lambda s: agents[s]["objective"])
     refs = {
         "task": task.id,
         "objective": task.objective,
@@ -82,8 +108,10 @@ def task_references(task: Task, settings: Settings) -> dict[str, Any]:
         "noise_streams": task.noise_streams,
         "agents": agents,
         "random": task.random,
+        "zero": zero,
         "best": best,
         "J_random": agents[task.random]["objective"],
+        "J_zero": agents[zero]["objective"],
         "J_best": agents[best]["objective"],
     }
     write_json_atomic(settings.out / "references" / f"{task.id}.json", refs)
@@ -104,16 +132,98 @@ def write_json_atomic(path: Path, data: Any) -> None:
 
 
 def train_cell(
-    tc: TrainConfig, run_dir: Path, progress: bool = False, resume: bool = False
+    tc: TrainConfig,
+    run_dir: Path,
+    progress: bool = False,
+    resume: bool = False,
+    callbacks: Sequence[Any] = (),
 ) -> tuple[Path, dict[str, Any]]:
     """Train one cell's configuration (SB3 / sb3-contrib, or RLlib) into ``run_dir``, from its last
-    checkpoint with ``resume``; the model path and the training statistics. Tests replace this to count
-    trainings."""
+    checkpoint with ``resume``; the model path and the training statistics. ``callbacks``: SB3 callbacks
+    (the learning curve). Tests replace this to count trainings."""
     if is_rllib_algo(tc.algo):
         return extensions.trainer(tc.algo).train(tc, run_dir, progress=progress, resume=resume)
     from planetnav_train.training import train
 
-    return train(tc, run_dir, progress=progress, resume=resume)
+    return train(tc, run_dir, progress=progress, resume=resume, callbacks=callbacks)
+
+
+#: Held-out seeds of the learning curves: a few, disjoint from every other range (training 0.., train.py's
+#: evaluation 10,000.., the periodic sweep 20,000.., the suite's evaluation 50,000..).
+CURVE_SEED = 60_000
+CURVE_EPISODES = 5
+#: Points of a learning curve (the budget's tenths, the last at the end of training).
+CURVE_POINTS = 10
+EVAL_MODES = ("argmax", "sampled")
+
+
+def _mode_spec(model_path: Path | str, mode: str) -> str:
+    """The agent spec that scores a saved model's ``mode`` actions (``PATH@sampled`` for sampled)."""
+    return f"{model_path}@sampled" if mode == "sampled" else str(model_path)
+
+
+def curve_references(task: Task, settings: Settings, references: Mapping[str, Any]) -> dict[str, float]:
+    """The zero point's and the best reference's objective on the curve seeds (the same agents as
+    ``references`` chose on the evaluation seeds), cached in ``OUT/references/curves/``."""
+    from planetnav_train.evaluate import evaluate_agent
+
+    path = settings.out / "references" / "curves" / f"{task.id}.json"
+    if path.is_file():
+        return json.loads(path.read_text())
+    objective = OBJECTIVES[task.objective]
+    out = {}
+    for key in ("zero", "best"):
+        spec = references[key]
+        cfg = task.eval_config(settings.episode_steps).at_physics_step()  # as reference_agent's
+        m = evaluate_agent(spec, cfg, CURVE_EPISODES, CURVE_SEED, progress=False).metrics
+        out[f"J_{key}"] = float(np.mean(objective.values(m)))
+    write_json_atomic(path, out)
+    return out
+
+
+def learning_curve_callback(
+    task: Task, settings: Settings, references: Mapping[str, Any], run_dir: Path, decisions: int, mode: str,
+    per_decision: int,
+) -> Any:
+    """An SB3 callback that scores the policy at :data:`CURVE_POINTS` points of training on the curve seeds
+    (normalized against :func:`curve_references`) in the protocol's ``mode``; ``.points`` holds
+    ``[physics steps, score]`` pairs."""
+    from stable_baselines3.common.callbacks import BaseCallback
+
+    from planetnav_train.evaluate import evaluate_agent
+    from planetnav_train.suite.scoring import normalized_score
+
+    refs = curve_references(task, settings, references)
+    objective = OBJECTIVES[task.objective]
+    every = max(1, decisions // CURVE_POINTS)
+
+    class LearningCurve(BaseCallback):
+        def __init__(self) -> None:
+            super().__init__()
+            self.points: list[list[float]] = []
+            self._next = every
+
+        def score(self) -> None:
+            path = run_dir / "curve_model.zip"  # beside the run's config.yaml, which the loader reads
+            self.model.save(path)
+            m = evaluate_agent(_mode_spec(path, mode), task.eval_config(settings.episode_steps),
+                               CURVE_EPISODES, CURVE_SEED, progress=False).metrics  # fmt: skip
+            j = float(np.mean(objective.values(m)))
+            steps = int(self.model.num_timesteps) * per_decision
+            self.points.append([steps, normalized_score(j, refs["J_zero"], refs["J_best"])])
+
+        def _on_step(self) -> bool:
+            if self.model.num_timesteps >= self._next:
+                self._next += every
+                self.score()
+            return True
+
+        def _on_training_end(self) -> None:
+            steps = int(self.model.num_timesteps) * per_decision
+            if not self.points or self.points[-1][0] != steps:
+                self.score()
+
+    return LearningCurve()
 
 
 def run_cell(cell: Cell, settings: Settings, references: Mapping[str, Any]) -> dict[str, Any]:
@@ -122,24 +232,45 @@ def run_cell(cell: Cell, settings: Settings, references: Mapping[str, Any]) -> d
     from planetnav_train.suite.scoring import normalized_score
 
     task = get_task(cell.task)
+    algo = get_algo(cell.algo)
     tc, assist_names = cell_config(cell, settings)
     objective = OBJECTIVES[task.objective]
     t0 = time.perf_counter()
-    model_path, stats = train_cell(tc, settings.out / "models" / cell.key, settings.progress, settings.resume)
+    run_dir = settings.out / "models" / cell.key
+    callbacks = []
+    if not is_rllib_algo(cell.algo):
+        per_decision = tc.action_repeat * tc.env_config().decision_steps
+        callbacks.append(learning_curve_callback(
+            task, settings, references, run_dir, tc.n_timesteps, algo.eval_mode, per_decision))  # fmt: skip
+    model_path, stats = train_cell(tc, run_dir, settings.progress, settings.resume, callbacks)
     train_s = time.perf_counter() - t0
     episodes = settings.eval_episodes or task.eval_episodes
-    # batched: the seeds as rows of the native vector env, one predict per decision for all of them
-    # (evaluate.batch_reason says which models fall back to one episode at a time).
-    result = evaluate_agent(
-        str(model_path),
-        task.eval_config(settings.episode_steps),
-        episodes,
-        task.eval_seed,
-        settings.progress,
-        batched=True,
-        exact_actions=settings.exact_actions,
-    )
-    summary = _agent_summary(objective, result.metrics)
+    # argmax batched: the seeds as rows of the native vector env, one predict per decision for all of them
+    # (evaluate.batch_reason says which models fall back to one episode at a time); sampled: per episode.
+    modes = EVAL_MODES if not is_rllib_algo(cell.algo) else ("argmax",)
+    evals = {}
+    for mode in modes:
+        result = evaluate_agent(
+            _mode_spec(model_path, mode),
+            task.eval_config(settings.episode_steps),
+            episodes,
+            task.eval_seed,
+            settings.progress,
+            batched=True,
+            exact_actions=settings.exact_actions,
+        )
+        summary = _agent_summary(objective, result.metrics)
+        j, j_best = summary["objective"], references["J_best"]
+        evals[mode] = {
+            "objective": j,
+            "objective_ci95": summary["ci95"],
+            "per_episode": summary["per_episode"],
+            "normalized_score": normalized_score(j, references["J_zero"], j_best),
+            "score_vs_random": normalized_score(j, references["J_random"], j_best),
+        }
+    mode = algo.eval_mode if algo.eval_mode in evals else "argmax"
+    head = evals[mode]
+    curve = callbacks[0].points if callbacks else []
     return {
         "suite_version": SUITE_VERSION,
         "task": task.id,
@@ -149,13 +280,16 @@ def run_cell(cell: Cell, settings: Settings, references: Mapping[str, Any]) -> d
         "assists": assist_names,
         "seed": cell.seed,
         "objective_name": task.objective,
-        "objective": summary["objective"],
-        "objective_ci95": summary["ci95"],
-        "per_episode": summary["per_episode"],
-        "normalized_score": normalized_score(
-            summary["objective"], references["J_random"], references["J_best"]
-        ),
-        "reference": {k: references[k] for k in ("random", "best", "J_random", "J_best")},
+        "eval_mode": mode,
+        "objective": head["objective"],
+        "objective_ci95": head["objective_ci95"],
+        "per_episode": head["per_episode"],
+        "normalized_score": head["normalized_score"],
+        "score_vs_random": head["score_vs_random"],
+        "evaluations": evals,
+        "learning_curve": curve,
+        "curve_seeds": [CURVE_SEED, CURVE_SEED + CURVE_EPISODES],
+        "reference": {k: references[k] for k in ("random", "zero", "best", "J_random", "J_zero", "J_best")},
         "env_steps": int(stats.get("env_steps", stats.get("timesteps", 0))),
         "train_seconds": train_s,
         "wall_seconds": time.perf_counter() - t0,

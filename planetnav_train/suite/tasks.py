@@ -25,7 +25,7 @@ from planetnav_env.envs.registration import ENV_IDS
 from planetnav_env.errors import ConfigError
 from planetnav_train.config import ROOT
 
-SUITE_VERSION = 0
+SUITE_VERSION = 1
 #: First held-out evaluation seed of every task: disjoint from training (0..), train.py's evaluation
 #: (10_000..) and the periodic sweep (20_000..), so no setting was tuned on these seeds.
 SUITE_EVAL_SEED = 50_000
@@ -92,10 +92,13 @@ class Task:
 
     env_id: str  # registered id, e.g. "planetnav/Cruise-Target-v0"
     action_kind: str  # "discrete" (target choice) or "continuous" (torque, target+torque)
-    budget: int  # training budget in environment steps (decisions x action_repeat)
+    budget: int  # on-policy training budget in physics steps (decisions x decision_steps x action_repeat)
     references: tuple[str, ...]  # candidates for the best non-learned reference (agent specs)
     objective: str = "mean_pos_err_km"
     random: str = "random"
+    #: The score's zero point: the better (lower objective) of these, where they apply (``idle`` needs the
+    #: target-choice "camera off" action). The random-based score is recorded too.
+    zero: tuple[str, ...] = ("random", "idle")
     eval_seed: int = SUITE_EVAL_SEED
     eval_episodes: int = SUITE_EVAL_EPISODES
     noise_streams: str = "per_step"  # common random numbers: every agent draws the same sensor noise
@@ -157,18 +160,18 @@ _THRUST_ARC_REFS = (
     "greedy:threshold=4",
     "optimum",
 )
-#: The task list. Budgets: docs/suite.md ("Budgets") derives them from measured training speed so the
-#: published table (both tracks, 5 seeds) re-runs in under 8 hours on 2 cores.
+#: The task list: the ``-v1`` ids (the ``-v0`` physics posed for learners; docs/suite.md "Tasks v1").
+#: ``budget``: the on-policy algorithms' training budget in physics steps; an algorithm's
+#: ``budget_fraction`` scales it (docs/suite.md "Budgets" derives both from learning curves and speed).
 TASKS: tuple[Task, ...] = (
-    Task("planetnav/Cruise-Target-v0", "discrete", 200_000, _TARGET_REFS),
-    Task("planetnav/RandomCruise-Target-v0", "discrete", 200_000, _TARGET_REFS),
-    Task("planetnav/MarsApproach-Tasking-v0", "discrete", 200_000, _APPROACH_REFS),
-    # Off-policy learners train at 120-190 env steps/s here even at one gradient step per 4 env steps.
-    Task("planetnav/Cruise-Torque-v0", "continuous", 30_000, _TORQUE_REFS),
-    Task("planetnav/Cruise-TargetTorque-v0", "continuous", 30_000, _TORQUE_REFS),
-    Task("planetnav/Cruise-TorqueControl-v0", "continuous", 30_000, _TORQUE_1S_REFS),
-    Task("planetnav/Cruise-Hybrid-v0", "continuous", 30_000, _TORQUE_1S_REFS),
-    Task("planetnav/ThrustArc-TCM-v0", "discrete", 100_000, _THRUST_ARC_REFS, objective="operations_J_km"),
+    Task("planetnav/Cruise-Target-v1", "discrete", 3_000_000, _TARGET_REFS),
+    Task("planetnav/RandomCruise-Target-v1", "discrete", 3_000_000, _TARGET_REFS),
+    Task("planetnav/MarsApproach-Tasking-v1", "discrete", 3_000_000, _APPROACH_REFS),
+    Task("planetnav/Cruise-Torque-v1", "continuous", 1_000_000, _TORQUE_REFS),
+    Task("planetnav/Cruise-TargetTorque-v1", "continuous", 1_000_000, _TORQUE_REFS),
+    Task("planetnav/Cruise-TorqueControl-v1", "continuous", 1_000_000, _TORQUE_1S_REFS),
+    Task("planetnav/Cruise-Hybrid-v1", "continuous", 1_000_000, _TORQUE_1S_REFS),
+    Task("planetnav/ThrustArc-TCM-v1", "discrete", 3_000_000, _THRUST_ARC_REFS, objective="operations_J_km"),
 )
 TASKS_BY_ID: dict[str, Task] = {t.id: t for t in TASKS}
 
@@ -195,6 +198,10 @@ class Algo:
     policy: str = "MlpPolicy"
     n_envs: int = 8
     hyperparams: Mapping[str, Any] = field(default_factory=dict)
+    #: The share of a task's (on-policy) budget this algorithm trains for.
+    budget_fraction: float = 1.0
+    #: ``sampled`` or ``argmax``: the action the protocol scores (both are recorded).
+    eval_mode: str = "argmax"
     extra: str = "train"  # the pyproject extra it needs: train (SB3), bench (sb3-contrib), ray (RLlib)
 
     def check_installed(self) -> None:
@@ -209,29 +216,34 @@ class Algo:
             )
 
 
-# 8 envs x 256 = 2,048 steps per update, 5 epochs of 4 minibatches (as configs/cruise_ppo.yaml's update)
-_ON_POLICY = {"n_steps": 256, "batch_size": 512, "n_epochs": 5}
-# One gradient step per 4 env steps (research/experiments/torque_sac.yaml): SB3's default of one per step
-# trains at ~20 env steps/s on the loaded 2-core machine, which no 8-hour table affords.
+# Many rows and large minibatches: throughput (benchmarks/bench_train.py measures the settings). 64 rows x
+# 64 decisions = 4,096 decisions per update, 4 minibatches of 1,024, 5 epochs; the discount is per decision.
+_ON_POLICY = {"n_steps": 64, "batch_size": 1024, "n_epochs": 5, "gamma": 0.95, "ent_coef": 0.01}
+# One gradient step per 4 env steps: SB3's default of one per step trains at ~20 env steps/s on the
+# 2-core machine, which no 8-hour table affords.
 _OFF_POLICY = {"train_freq": 4, "gradient_steps": 1}
-#: The suite's algorithms: SB3 defaults except where the budget asks for more frequent updates.
+#: The suite's algorithms, each for what it adds: PPO (the on-policy reference, both action kinds), DQN
+#: (value-based, discrete), RecurrentPPO (memory instead of the observation's history block), SAC
+#: (off-policy, continuous); RLlib's PPO on one task (another library's PPO on the same env).
+#: ``eval_mode``: which action the protocol scores (both are recorded): ``sampled`` for the stochastic
+#: policy-gradient policies (their argmax can collapse to one action: research/training_log.md),
+#: ``argmax`` for the value-based and the deterministic-actor ones.
 ALGOS: dict[str, Algo] = {
     a.name: a
     for a in (
-        Algo("ppo", ACTION_KINDS, hyperparams=_ON_POLICY),
-        Algo("a2c", ("discrete",)),
-        Algo("dqn", ("discrete",), n_envs=1),
-        Algo("recurrent_ppo", ("discrete",), policy="MlpLstmPolicy", hyperparams=_ON_POLICY, extra="bench"),
-        Algo("maskable_ppo", ("discrete",), hyperparams=_ON_POLICY, extra="bench"),
-        Algo("sac", ("continuous",), n_envs=1, hyperparams=_OFF_POLICY),
-        Algo("td3", ("continuous",), n_envs=1, hyperparams=_OFF_POLICY),
-        Algo("tqc", ("continuous",), n_envs=1, hyperparams=_OFF_POLICY, extra="bench"),
+        Algo("ppo", ACTION_KINDS, n_envs=64, hyperparams=_ON_POLICY, eval_mode="sampled"),
+        Algo("dqn", ("discrete",), n_envs=1, budget_fraction=1 / 3, eval_mode="argmax",
+             hyperparams={"train_freq": 4, "gradient_steps": 1, "gamma": 0.95}),
+        Algo("recurrent_ppo", ("discrete",), policy="MlpLstmPolicy", n_envs=64, budget_fraction=1 / 3,
+             hyperparams=_ON_POLICY, extra="bench", eval_mode="sampled"),
+        Algo("sac", ("continuous",), n_envs=1, budget_fraction=0.1, hyperparams=_OFF_POLICY,
+             eval_mode="argmax"),
         # Samples in its own process (no env-runner actors): one CPU per cell, in a Tune grid too.
-        Algo("rllib_ppo", ACTION_KINDS, n_envs=8, hyperparams={"num_env_runners": 0}, extra="ray"),
+        Algo("rllib_ppo", ACTION_KINDS, n_envs=8, hyperparams={"num_env_runners": 0}, extra="ray",
+             eval_mode="argmax"),
     )
-}
-#: The algorithms of the published table per action kind (RLlib's PPO on at least one task: see
-#: docs/suite.md).
+}  # fmt: skip
+#: The algorithms of the published table per action kind (RLlib's PPO on one task: see docs/suite.md).
 ALGOS_BY_KIND: dict[str, tuple[str, ...]] = {
     kind: tuple(a.name for a in ALGOS.values() if kind in a.kinds and a.extra != "ray")
     for kind in ACTION_KINDS

@@ -90,8 +90,8 @@ def test_profiles_and_probability_of_improvement_match_numpy() -> None:
 
 
 def test_tasks_are_registered_ids_with_100_seeds() -> None:
-    # Every registered id is a task (a new id joins the suite as one entry), with its own objective.
-    assert {t.env_id for t in suite.TASKS} == set(ENV_IDS)
+    # Every registered v1 id is a task (a new id joins the suite as one entry), with its own objective.
+    assert {t.env_id for t in suite.TASKS} == {i for i in ENV_IDS if i.endswith("-v1")}
     assert len(suite.TASKS_BY_ID) == len(suite.TASKS)
     for t in suite.TASKS:
         assert len(t.eval_seeds) == 100 and t.noise_streams == "per_step"
@@ -103,11 +103,11 @@ def test_tasks_are_registered_ids_with_100_seeds() -> None:
         assert t.objective == ("operations_J_km" if ops else "mean_pos_err_km"), t.id
         space = t.env_config().action_mode
         assert t.action_kind == ("discrete" if space == "target" else "continuous"), t.id
-    assert suite.get_task("ThrustArc-TCM-v0").objective == "operations_J_km"
+    assert suite.get_task("ThrustArc-TCM-v1").objective == "operations_J_km"
     with pytest.raises(ConfigError, match="unknown task 'Nope-v0'"):
         suite.get_task("Nope-v0")
     with pytest.raises(ConfigError, match=r"action_kind 'both' is not one of .*budget 0 must be >= 1"):
-        suite.Task("planetnav/Cruise-Target-v0", "both", 0, ("greedy",))
+        suite.Task("planetnav/Cruise-Target-v1", "both", 0, ("greedy",))
 
 
 def test_references_are_loadable_agents_on_their_task() -> None:
@@ -141,55 +141,62 @@ def test_best_reference_is_chosen_from_the_candidates_and_cached_per_agent(tmp_p
     from planetnav_train import evaluate
 
     evaluated: list[str] = []
-    fake_j = {"random": 20_000.0, "periodic:period=432": 9_000.0, "greedy:threshold=4": 8_500.0,
-              "optimum": 8_000.0}  # fmt: skip
+    fake_j = {"random": 20_000.0, "idle": 15_000.0, "periodic:period=432": 9_000.0,
+              "greedy:threshold=4": 8_500.0, "optimum": 8_000.0}  # fmt: skip
 
     def fake_evaluate(spec, env_cfg, episodes, seed, progress=True):
         evaluated.append(spec)
-        per = [fake_j[spec] + k for k in range(episodes)]
+        # The random policy in the task's interface (held decisions): 18,000 here.
+        j = 18_000.0 if spec == "random" and env_cfg.decision_steps > 1 else fake_j[spec]
+        per = [j + k for k in range(episodes)]
         metrics = {"objective_kind": "operations J", "per_episode_objective": per}
         return evaluate.EvalResult(spec, metrics, np.zeros(0), np.zeros(0))
 
     monkeypatch.setattr(evaluate, "evaluate_agent", fake_evaluate)
     settings = suite.Settings(out=tmp_path, eval_episodes=3, episode_steps=10)
     task = dataclasses.replace(
-        suite.get_task("ThrustArc-TCM-v0"), references=("periodic:period=432", "greedy:threshold=4")
+        suite.get_task("ThrustArc-TCM-v1"), references=("periodic:period=432", "greedy:threshold=4")
     )
     refs = suite.task_references(task, settings)
     assert refs["best"] == "greedy:threshold=4" and refs["J_best"] == pytest.approx(8_501.0)
-    assert refs["J_random"] == pytest.approx(20_001.0) and len(evaluated) == 3
+    assert refs["J_random"] == pytest.approx(20_001.0) and len(evaluated) == 5
+    # The zero point is the better of random and idle (idle here), the random one is kept too.
+    assert refs["zero"] == "idle" and refs["J_zero"] == pytest.approx(15_001.0)
+    assert refs["agents"]["random@interface"]["objective"] == pytest.approx(20_001.0)  # no hold here
     # One more candidate: only it is evaluated; it is the best now.
     more = dataclasses.replace(task, references=(*task.references, "optimum"))
     refs = suite.task_references(more, settings)
-    assert evaluated[3:] == ["optimum"] and refs["best"] == "optimum"
-    assert json.loads((tmp_path / "references" / "ThrustArc-TCM-v0.json").read_text())["best"] == "optimum"
+    assert evaluated[5:] == ["optimum"] and refs["best"] == "optimum"
+    assert json.loads((tmp_path / "references" / "ThrustArc-TCM-v1.json").read_text())["best"] == "optimum"
 
 
 def test_cells_and_bad_values() -> None:
-    cells = suite.make_cells(["Cruise-Target-v0", "Cruise-Torque-v0"], ["ppo", "dqn"], [0, 1], "raw")
+    cells = suite.make_cells(["Cruise-Target-v1", "Cruise-Torque-v1"], ["ppo", "dqn"], [0, 1], "raw")
     # dqn is discrete only: skipped on the torque task; ppo runs on both.
     assert sorted({(c.task, c.algo) for c in cells}) == [
-        ("Cruise-Target-v0", "dqn"), ("Cruise-Target-v0", "ppo"), ("Cruise-Torque-v0", "ppo"),
+        ("Cruise-Target-v1", "dqn"), ("Cruise-Target-v1", "ppo"), ("Cruise-Torque-v1", "ppo"),
     ]  # fmt: skip
     with pytest.raises(ConfigError, match="'sac' runs on"):
-        suite.make_cells(["Cruise-Target-v0"], ["sac"], [0], "raw")
+        suite.make_cells(["Cruise-Target-v1"], ["sac"], [0], "raw")
     with pytest.raises(ConfigError, match="--track 'both'"):
-        suite.make_cells(["Cruise-Target-v0"], ["ppo"], [0], "both")
+        suite.make_cells(["Cruise-Target-v1"], ["ppo"], [0], "both")
     with pytest.raises(ConfigError, match="unknown algorithm 'ppo2'"):
-        suite.make_cells(["Cruise-Target-v0"], ["ppo2"], [0], "raw")
+        suite.make_cells(["Cruise-Target-v1"], ["ppo2"], [0], "raw")
 
 
 def test_raw_and_assisted_configs(tmp_path) -> None:
     settings = suite.Settings(out=tmp_path)
-    raw, names = suite.cell_config(suite.Cell("Cruise-Target-v0", "ppo", "raw", 3), settings)
+    raw, names = suite.cell_config(suite.Cell("Cruise-Target-v1", "ppo", "raw", 3), settings)
     assert names == [] and raw.features == [] and raw.action_repeat == 1 and not raw.pretrain
-    assert raw.env == {} and raw.seed == 3 and raw.n_timesteps == suite.get_task("Cruise-Target-v0").budget
-    assisted, names = suite.cell_config(suite.Cell("Cruise-Target-v0", "ppo", "assisted", 3), settings)
-    assert "since_measured" in names and assisted.features == ["since_measured"]
-    # The budget is in environment steps: with a repeat of 10, a tenth as many decisions.
-    assert assisted.n_timesteps * assisted.action_repeat == raw.n_timesteps
-    with pytest.raises(ConfigError, match="maskable_ppo masks"):
-        suite.cell_config(suite.Cell("Cruise-Target-v0", "maskable_ppo", "assisted", 0), settings)
+    # The budget counts physics steps: the v1 id holds each decision 10 of them.
+    task = suite.get_task("Cruise-Target-v1")
+    assert raw.env == {} and raw.seed == 3 and raw.n_timesteps * 10 == task.budget
+    dqn, _ = suite.cell_config(suite.Cell("Cruise-Target-v1", "dqn", "raw", 3), settings)
+    assert dqn.n_timesteps == round(task.budget * suite.get_algo("dqn").budget_fraction) // 10
+    assisted, names = suite.cell_config(suite.Cell("Cruise-Target-v1", "ppo", "assisted", 3), settings)
+    # The assisted track adds what a rule agent computes, named: greedy's gain.
+    assert names == ["gain"] and assisted.features == ["gain"]
+    assert assisted.n_timesteps == raw.n_timesteps
 
 
 def test_exact_actions_reaches_the_evaluation_the_record_and_the_command(tmp_path, monkeypatch) -> None:
@@ -205,10 +212,11 @@ def test_exact_actions_reaches_the_evaluation_the_record_and_the_command(tmp_pat
 
     monkeypatch.setattr(evaluate, "evaluate_agent", fake_evaluate)
     monkeypatch.setattr(
-        runner, "train_cell", lambda tc, run_dir, progress, resume: (run_dir / "model.zip", {})
+        runner, "train_cell", lambda tc, run_dir, progress, resume, callbacks=(): (run_dir / "model.zip", {})
     )
-    refs = {"random": "random", "best": "greedy", "J_random": 300.0, "J_best": 100.0}
-    cell = suite.Cell("Cruise-Torque-v0", "sac", "raw", 0)
+    refs = {"random": "random", "zero": "random", "best": "greedy", "J_random": 300.0, "J_zero": 300.0,
+            "J_best": 100.0}  # fmt: skip
+    cell = suite.Cell("Cruise-Torque-v1", "sac", "raw", 0)
     for exact in (True, False):
         settings = suite.Settings(out=tmp_path, eval_episodes=2, exact_actions=exact)
         record = suite.run_cell(cell, settings, refs)
@@ -243,14 +251,14 @@ def test_resume_skips_finished_runs(tmp_path, monkeypatch) -> None:
     monkeypatch.setattr(runner, "run_cell", fake_run_cell)
     monkeypatch.setattr(runner, "task_references", lambda task, settings: {"task": task.id})
     settings = suite.Settings(out=tmp_path)
-    cells = suite.make_cells(["Cruise-Target-v0"], ["ppo"], [0, 1], "raw")
+    cells = suite.make_cells(["Cruise-Target-v1"], ["ppo"], [0, 1], "raw")
     first = suite.run_suite(cells, settings, use_ray=False)
     assert len(trained) == 2 and len(first["records"]) == 2
     with pytest.raises(ConfigError, match="--resume"):
         suite.run_suite(cells, settings, use_ray=False)
-    more = suite.make_cells(["Cruise-Target-v0"], ["ppo"], [0, 1, 2], "raw")
+    more = suite.make_cells(["Cruise-Target-v1"], ["ppo"], [0, 1, 2], "raw")
     again = suite.run_suite(more, settings, resume=True, use_ray=False)
-    assert trained == [c.key for c in cells] + ["Cruise-Target-v0__ppo__raw__s2"]  # only the new cell
+    assert trained == [c.key for c in cells] + ["Cruise-Target-v1__ppo__raw__s2"]  # only the new cell
     assert len(again["skipped"]) == 2 and len(again["records"]) == 3
 
 
@@ -262,7 +270,7 @@ def test_suite_smoke_end_to_end(tmp_path, monkeypatch) -> None:
     from planetnav_train.cli import build_parser, main
 
     out, js, md = tmp_path / "suite", tmp_path / "runs.json", tmp_path / "benchmark.md"
-    argv = ["suite", "--tasks", "Cruise-Target-v0", "--algos", "ppo", "--seeds", "0", "1",
+    argv = ["suite", "--tasks", "Cruise-Target-v1", "--algos", "ppo", "--seeds", "0", "1",
             "--budget-scale", "0.003", "--episode-steps", "20", "--eval-episodes", "2",
             "--out", str(out), "--json", str(js), "--markdown", str(md),
             "--no-ray", "--no-progress"]  # fmt: skip
@@ -273,9 +281,18 @@ def test_suite_smoke_end_to_end(tmp_path, monkeypatch) -> None:
         assert r["env_steps"] >= 300 and len(r["per_episode"]) == 2 and not r["official"]
         assert np.isfinite(r["normalized_score"]) and r["wall_seconds"] > 0
     published = json.loads((out / "suite.json").read_text())
-    ref = published["references"]["Cruise-Target-v0"]
-    candidates = {k: v["objective"] for k, v in ref["agents"].items() if k != "random"}
+    ref = published["references"]["Cruise-Target-v1"]
+    task = suite.get_task("Cruise-Target-v1")
+    candidates = {k: ref["agents"][k]["objective"] for k in task.references}
     assert ref["J_best"] == min(candidates.values()) == ref["agents"][ref["best"]]["objective"]
+    # The zero point: the better of random and idle.
+    zeros = {k: ref["agents"][k]["objective"] for k in ("random", "idle")}
+    assert ref["J_zero"] == min(zeros.values()) and ref["zero"] in zeros
+    for r in runs:  # both modes recorded, the protocol's (PPO: sampled) in the headline; a curve
+        assert set(r["evaluations"]) == {"argmax", "sampled"} and r["eval_mode"] == "sampled"
+        assert r["objective"] == r["evaluations"]["sampled"]["objective"]
+        assert len(r["learning_curve"]) >= 10 and r["learning_curve"][-1][0] == r["env_steps"]
+        assert all(np.isfinite(score) for _, score in r["learning_curve"])
     agg = published["aggregate"]["raw"]["overall"]["ppo"]
     assert agg["low"] <= agg["iqm"] <= agg["high"]
     text = md.read_text()
@@ -286,7 +303,7 @@ def test_suite_smoke_end_to_end(tmp_path, monkeypatch) -> None:
     # The recorded command re-runs exactly that cell.
     args = build_parser().parse_args(shlex.split(runs[0]["command"])[2:])
     assert (args.tasks, args.algos, args.seeds, args.track) == (
-        ["Cruise-Target-v0"],
+        ["Cruise-Target-v1"],
         ["ppo"],
         [runs[0]["seed"]],
         "raw",
@@ -306,18 +323,18 @@ def test_suite_smoke_end_to_end(tmp_path, monkeypatch) -> None:
     published = json.loads((out / "suite.json").read_text())
     assert json.loads(bench_json.read_text()) == published and len(published["runs"]) == 2
     summary = suite.summary_markdown(published)
-    assert "| ppo | 1 | 2 |" in summary and "| Cruise-Target-v0 | ppo |" in summary
+    assert "| ppo | 1 | 2 |" in summary and "| Cruise-Target-v1 | ppo |" in summary
     assert readme.read_text() == (
         f"# r\n\n{publish.README_START}\n{summary.rstrip()}\n{publish.README_END}\n\n## next\n"
     )
     best = min(runs, key=lambda r: (r["objective"], r["seed"]))
-    entry = json.loads((baselines / "manifest.json").read_text())["baselines"]["Cruise-Target-v0"]
-    assert entry["source_cell"] == f"Cruise-Target-v0__ppo__raw__s{best['seed']}" and not entry["official"]
+    entry = json.loads((baselines / "manifest.json").read_text())["baselines"]["Cruise-Target-v1"]
+    assert entry["source_cell"] == f"Cruise-Target-v1__ppo__raw__s{best['seed']}" and not entry["official"]
     # The shipped name evaluates to the cell's own record on the same seeds and settings.
     monkeypatch.setattr(shipped, "BASELINES_DIR", baselines)
     cmp = tmp_path / "compare.json"
-    assert main(["compare", "--agents", "suite:Cruise-Target-v0", "--episodes", "2", "--seed", "50000",
+    assert main(["compare", "--agents", "suite:Cruise-Target-v1", "--episodes", "2", "--seed", "50000",
                  "--episode-steps", "20", "--noise-streams", "per_step", "--json", str(cmp),
                  "--no-progress"]) == 0  # fmt: skip
-    got = json.loads(cmp.read_text())["agents"]["suite:Cruise-Target-v0"]
+    got = json.loads(cmp.read_text())["agents"]["suite:Cruise-Target-v1:stochastic"]  # PPO: sampled
     assert got["per_episode_mean_pos_err_km"] == best["per_episode"]
