@@ -50,7 +50,7 @@ def test_ids_are_one_hour_at_one_second_with_the_in_field_block(env_id: str) -> 
 def test_other_ids_have_no_in_field_block() -> None:
     """Existing ids keep their observation (tests/env/test_golden.py pins the numbers)."""
     for env_id in ENV_IDS:
-        if env_id in IDS:
+        if env_id.replace("-v1", "-v0") in IDS:  # the 1-s ids, both versions
             continue
         layout = gym.make(env_id).unwrapped.layout
         assert not layout.in_field and "in_field" not in [b[0] for b in layout.blocks], env_id

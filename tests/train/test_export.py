@@ -16,7 +16,6 @@ import numpy as np
 import pytest
 
 from planetnav_train import policy_only as po
-from planetnav_train import suite
 from planetnav_train.export import export_policy
 
 pytest.importorskip("sb3_contrib")
@@ -40,7 +39,7 @@ STEPS = 10  # episode length: the 30 observations below span three episodes
 def _env(task: str) -> Any:
     from planetnav_env.envs.env import PlanetNavEnv
 
-    return PlanetNavEnv(suite.get_task(task).env_config(episode_steps=STEPS))
+    return PlanetNavEnv(f"planetnav/{task}", episode_steps=STEPS)
 
 
 def _observations(env: Any, n: int = 3 * STEPS) -> tuple[np.ndarray, np.ndarray]:

@@ -50,10 +50,10 @@ def _iqm(values: list[float]) -> float:
 
 #: (task, algorithm) -> four seeds' scores: ppo wins on Cruise, dqn on RandomCruise.
 SCORES = {
-    ("Cruise-Target-v0", "ppo"): [0.9, 1.1, 0.7, 1.3],
-    ("Cruise-Target-v0", "dqn"): [0.2, 0.5, 0.4, 0.1],
-    ("RandomCruise-Target-v0", "ppo"): [0.3, 0.35, 0.2, 0.6],
-    ("RandomCruise-Target-v0", "dqn"): [0.8, 0.6, 0.9, 0.75],
+    ("Cruise-Target-v1", "ppo"): [0.9, 1.1, 0.7, 1.3],
+    ("Cruise-Target-v1", "dqn"): [0.2, 0.5, 0.4, 0.1],
+    ("RandomCruise-Target-v1", "ppo"): [0.3, 0.35, 0.2, 0.6],
+    ("RandomCruise-Target-v1", "dqn"): [0.8, 0.6, 0.9, 0.75],
 }
 
 
@@ -73,7 +73,7 @@ def test_summary_tables_match_direct_iqms() -> None:
         every = [v for (_, a), vals in SCORES.items() if a == algo for v in vals]
         row = _row(text, algo)
         assert row[1:3] == ["2", "4"] and row[3].startswith(f"{_iqm(every):.2f} [")
-    for task in ("Cruise-Target-v0", "RandomCruise-Target-v0"):
+    for task in ("Cruise-Target-v1", "RandomCruise-Target-v1"):
         per = {a: _iqm(vals) for (t, a), vals in SCORES.items() if t == task}
         best = max(per, key=per.get)
         row = _row(text, task)
@@ -104,19 +104,19 @@ def test_the_repositorys_readme_has_one_summary_block() -> None:
 
 def test_best_raw_runs_lowest_objective_official_only() -> None:
     records = [
-        _record("Cruise-Target-v0", "ppo", 0, 0.5),
-        _record("Cruise-Target-v0", "dqn", 3, 0.9),
-        _record("Cruise-Target-v0", "a2c", 1, 1.5, track="assisted"),  # assisted: never shipped
-        _record("Cruise-Target-v0", "ppo", 2, 1.2, official=False),  # smoke settings
-        _record("Cruise-Torque-v0", "sac", 0, 0.1, official=False),
+        _record("Cruise-Target-v1", "ppo", 0, 0.5),
+        _record("Cruise-Target-v1", "dqn", 3, 0.9),
+        _record("Cruise-Target-v1", "a2c", 1, 1.5, track="assisted"),  # assisted: never shipped
+        _record("Cruise-Target-v1", "ppo", 2, 1.2, official=False),  # smoke settings
+        _record("Cruise-Torque-v1", "sac", 0, 0.1, official=False),
     ]
     best = publish.best_raw_runs(records)
-    assert list(best) == ["Cruise-Target-v0"] and (best["Cruise-Target-v0"]["algorithm"], best[
-        "Cruise-Target-v0"]["seed"]) == ("dqn", 3)  # fmt: skip
+    assert list(best) == ["Cruise-Target-v1"] and (best["Cruise-Target-v1"]["algorithm"], best[
+        "Cruise-Target-v1"]["seed"]) == ("dqn", 3)  # fmt: skip
     smoke = publish.best_raw_runs(records, official_only=False)
-    assert smoke["Cruise-Target-v0"]["seed"] == 2 and smoke["Cruise-Torque-v0"]["algorithm"] == "sac"
-    with pytest.raises(ConfigError, match=r"task Cruise-Torque-v0: no official raw-track run .*1 raw"):
-        publish.best_raw_runs(records, tasks=["Cruise-Torque-v0"])
+    assert smoke["Cruise-Target-v1"]["seed"] == 2 and smoke["Cruise-Torque-v1"]["algorithm"] == "sac"
+    with pytest.raises(ConfigError, match=r"task Cruise-Torque-v1: no official raw-track run .*1 raw"):
+        publish.best_raw_runs(records, tasks=["Cruise-Torque-v1"])
     with pytest.raises(ConfigError, match="unknown task 'Nope-v0'"):
         publish.best_raw_runs(records, tasks=["Nope-v0"])
     with pytest.raises(ConfigError, match="no raw-track record"):
@@ -125,16 +125,16 @@ def test_best_raw_runs_lowest_objective_official_only() -> None:
 
 @pytest.fixture
 def suite_out(tmp_path: Path) -> Path:
-    """A suite output folder with two official raw-track records of Cruise-Target-v0 and their models (an
+    """A suite output folder with two official raw-track records of Cruise-Target-v1 and their models (an
     untrained PPO: shipping and loading do not need a trained one)."""
     from stable_baselines3 import PPO
 
     from planetnav_env.envs.env import PlanetNavEnv
 
     out = tmp_path / "suite"
-    env = PlanetNavEnv(suite.get_task("Cruise-Target-v0").env_config(episode_steps=10))
+    env = PlanetNavEnv(suite.get_task("Cruise-Target-v1").env_config(episode_steps=10))
     for seed, score in ((0, 0.4), (1, 0.8)):
-        rec = _record("Cruise-Target-v0", "ppo", seed, score)
+        rec = _record("Cruise-Target-v1", "ppo", seed, score)
         cell = suite.Cell(rec["task"], "ppo", "raw", seed)
         runner.write_json_atomic(suite.record_path(out, cell), rec)
         (out / "models" / cell.key).mkdir(parents=True)
@@ -147,32 +147,32 @@ def test_ship_baselines_copies_the_best_and_loads_it_by_name(suite_out, tmp_path
 
     dest = tmp_path / "baselines"
     (entry,) = publish.ship_baselines(suite_out, dest)
-    source = suite_out / "models" / "Cruise-Target-v0__ppo__raw__s1" / "model.zip"
-    assert (entry["task"], entry["seed"], entry["source_cell"]) == ("Cruise-Target-v0", 1, source.parent.name)
-    shipped_file = dest / "Cruise-Target-v0.zip"
+    source = suite_out / "models" / "Cruise-Target-v1__ppo__raw__s1" / "model.zip"
+    assert (entry["task"], entry["seed"], entry["source_cell"]) == ("Cruise-Target-v1", 1, source.parent.name)
+    shipped_file = dest / "Cruise-Target-v1.zip"
     assert shipped_file.read_bytes() == source.read_bytes()
     assert entry["sha256"] == hashlib.sha256(source.read_bytes()).hexdigest()
     assert entry["bytes"] == source.stat().st_size < shipped.MAX_BASELINE_BYTES
     manifest = json.loads((dest / shipped.MANIFEST_NAME).read_text())
-    assert manifest["baselines"] == {"Cruise-Target-v0": entry}
+    assert manifest["baselines"] == {"Cruise-Target-v1": entry}
 
     monkeypatch.setattr(shipped, "BASELINES_DIR", dest)
-    env = PlanetNavEnv(suite.get_task("Cruise-Target-v0").env_config(episode_steps=10))
-    agent = make_agent("suite:Cruise-Target-v0", env)
+    env = PlanetNavEnv(suite.get_task("Cruise-Target-v1").env_config(episode_steps=10))
+    agent = make_agent("suite:Cruise-Target-v1", env)
     direct = make_agent(str(source), env)
-    assert agent.name == "suite:Cruise-Target-v0" and type(agent.model) is type(direct.model)
+    assert agent.name == "suite:Cruise-Target-v1" and type(agent.model) is type(direct.model)
     obs, info = env.reset(seed=3)
     agent.reset(seed=3)
     direct.reset(seed=3)
     assert agent.act(obs, info) == direct.act(obs, info)  # the same policy
-    assert make_agent("suite:planetnav/Cruise-Target-v0@sampled", env).name.endswith(":stochastic")
+    assert make_agent("suite:planetnav/Cruise-Target-v1@sampled", env).name.endswith(":stochastic")
 
     shipped_file.write_bytes(shipped_file.read_bytes() + b"x")
     with pytest.raises(ValueError, match=r"has sha256 .* the manifest says"):
-        make_agent("suite:Cruise-Target-v0", env)
+        make_agent("suite:Cruise-Target-v1", env)
     shipped_file.unlink()
-    with pytest.raises(FileNotFoundError, match=r"Cruise-Target-v0\.zip, which is missing"):
-        make_agent("suite:Cruise-Target-v0", env)
+    with pytest.raises(FileNotFoundError, match=r"Cruise-Target-v1\.zip, which is missing"):
+        make_agent("suite:Cruise-Target-v1", env)
 
 
 def test_ship_baselines_refuses_a_large_model_before_copying(suite_out, tmp_path) -> None:
@@ -181,19 +181,19 @@ def test_ship_baselines_refuses_a_large_model_before_copying(suite_out, tmp_path
     from planetnav_train.export import export_policy
 
     dest = tmp_path / "baselines"
-    source = suite_out / "models" / "Cruise-Target-v0__ppo__raw__s1" / "model.zip"
+    source = suite_out / "models" / "Cruise-Target-v1__ppo__raw__s1" / "model.zip"
     size = source.stat().st_size
     small = export_policy(source, tmp_path / "probe.policy.zip", "ppo").stat().st_size  # same bytes each time
     assert small < size
     with pytest.raises(
         ConfigError,
-        match=rf"task Cruise-Target-v0: the best raw-track model .*model\.zip \(ppo\) is {size:,} bytes "
+        match=rf"task Cruise-Target-v1: the best raw-track model .*model\.zip \(ppo\) is {size:,} bytes "
         rf"\(.* MB\) and its policy-only export {small:,} bytes \(.* MB\), neither under the shipped limit "
         rf"of {small:,} bytes",
     ):
         publish.ship_baselines(suite_out, dest, max_bytes=small)
     assert not dest.exists()  # nothing copied, no manifest written
-    rec = _record("Cruise-Target-v0", "rllib_ppo", 0, 2.0)
+    rec = _record("Cruise-Target-v1", "rllib_ppo", 0, 2.0)
     runner.write_json_atomic(
         suite.record_path(suite_out, suite.Cell(rec["task"], "rllib_ppo", "raw", 0)), rec
     )
@@ -210,22 +210,22 @@ def test_a_large_model_ships_as_its_policy_only_export(suite_out, tmp_path, monk
     from planetnav_train.policy_only import PolicyOnlyModel
 
     dest = tmp_path / "baselines"
-    source = suite_out / "models" / "Cruise-Target-v0__ppo__raw__s1" / "model.zip"
+    source = suite_out / "models" / "Cruise-Target-v1__ppo__raw__s1" / "model.zip"
     size = source.stat().st_size
     (entry,) = publish.ship_baselines(suite_out, dest, max_bytes=size)  # the full model is not under it
-    shipped_file = dest / "Cruise-Target-v0.policy.zip"
+    shipped_file = dest / "Cruise-Target-v1.policy.zip"
     assert (entry["form"], entry["file"]) == ("policy-only", shipped_file.name)
     assert entry["bytes"] == shipped_file.stat().st_size < size
     assert entry["sha256"] == hashlib.sha256(shipped_file.read_bytes()).hexdigest()
     assert (entry["source_bytes"], entry["source_sha256"]) == (size, shipped.file_sha256(source))
     assert sorted(p.name for p in dest.iterdir()) == sorted([shipped.MANIFEST_NAME, shipped_file.name])
-    assert json.loads((dest / shipped.MANIFEST_NAME).read_text())["baselines"] == {"Cruise-Target-v0": entry}
+    assert json.loads((dest / shipped.MANIFEST_NAME).read_text())["baselines"] == {"Cruise-Target-v1": entry}
 
     monkeypatch.setattr(shipped, "BASELINES_DIR", dest)
-    env = PlanetNavEnv(suite.get_task("Cruise-Target-v0").env_config(episode_steps=10))
-    agent = make_agent("suite:Cruise-Target-v0", env)
+    env = PlanetNavEnv(suite.get_task("Cruise-Target-v1").env_config(episode_steps=10))
+    agent = make_agent("suite:Cruise-Target-v1", env)
     direct = make_agent(str(source), env)
-    assert agent.name == "suite:Cruise-Target-v0" and isinstance(agent.model, PolicyOnlyModel)
+    assert agent.name == "suite:Cruise-Target-v1" and isinstance(agent.model, PolicyOnlyModel)
     obs, info = env.reset(seed=3)
     agent.reset(seed=3)
     direct.reset(seed=3)
@@ -235,8 +235,8 @@ def test_a_large_model_ships_as_its_policy_only_export(suite_out, tmp_path, monk
         obs, _, terminated, truncated, info = env.step(a)
         if terminated or truncated:
             break
-    cfg = suite.get_task("Cruise-Target-v0").eval_config(10)
-    got = evaluate_agent("suite:Cruise-Target-v0", cfg, 3, 50_000, progress=False)
+    cfg = suite.get_task("Cruise-Target-v1").eval_config(10)
+    got = evaluate_agent("suite:Cruise-Target-v1", cfg, 3, 50_000, progress=False)
     want = evaluate_agent(str(source), cfg, 3, 50_000, progress=False)
     assert got.metrics["batched"] and want.metrics["batched"]
     assert got.metrics["per_episode_mean_pos_err_km"] == want.metrics["per_episode_mean_pos_err_km"]
@@ -244,19 +244,19 @@ def test_a_large_model_ships_as_its_policy_only_export(suite_out, tmp_path, monk
     from planetnav_train.cli import main
 
     cmp = tmp_path / "compare.json"
-    assert main(["compare", "--agents", "suite:Cruise-Target-v0", str(source), "--episodes", "2", "--seed",
+    assert main(["compare", "--agents", "suite:Cruise-Target-v1", str(source), "--episodes", "2", "--seed",
                  "50000", "--episode-steps", "10", "--json", str(cmp), "--no-progress"]) == 0  # fmt: skip
     results = json.loads(cmp.read_text())["agents"]
-    (other,) = set(results) - {"suite:Cruise-Target-v0"}
+    (other,) = set(results) - {"suite:Cruise-Target-v1"}
     per = "per_episode_mean_pos_err_km"
-    assert results["suite:Cruise-Target-v0"][per] == results[other][per] and len(results[other][per]) == 2
+    assert results["suite:Cruise-Target-v1"][per] == results[other][per] and len(results[other][per]) == 2
 
     shipped_file.write_bytes(shipped_file.read_bytes() + b"x")
     with pytest.raises(ValueError, match=r"policy\.zip has sha256 .* the manifest says"):
-        make_agent("suite:Cruise-Target-v0", env)
+        make_agent("suite:Cruise-Target-v1", env)
     (again,) = publish.ship_baselines(suite_out, dest)
-    assert (again["form"], again["file"]) == ("full", "Cruise-Target-v0.zip") and not shipped_file.exists()
-    assert make_agent("suite:Cruise-Target-v0", env).name == "suite:Cruise-Target-v0"
+    assert (again["form"], again["file"]) == ("full", "Cruise-Target-v1.zip") and not shipped_file.exists()
+    assert make_agent("suite:Cruise-Target-v1", env).name == "suite:Cruise-Target-v1"
 
 
 def test_unshipped_task_names_the_task(tmp_path, monkeypatch) -> None:
@@ -264,8 +264,8 @@ def test_unshipped_task_names_the_task(tmp_path, monkeypatch) -> None:
 
     env = PlanetNavEnv(episode_steps=5)
     monkeypatch.setattr(shipped, "BASELINES_DIR", tmp_path)  # no manifest at all
-    with pytest.raises(ValueError, match=r"no shipped baseline for task 'Cruise-Target-v0' .*none yet"):
-        make_agent("suite:Cruise-Target-v0", env)
+    with pytest.raises(ValueError, match=r"no shipped baseline for task 'Cruise-Target-v1' .*none yet"):
+        make_agent("suite:Cruise-Target-v1", env)
     with pytest.raises(ValueError, match="no task after 'suite:'"):
         make_agent("suite:", env)
 
@@ -273,9 +273,11 @@ def test_unshipped_task_names_the_task(tmp_path, monkeypatch) -> None:
 def test_the_repositorys_baselines_load_or_say_they_are_unshipped() -> None:
     """Every task either loads its shipped model (size and sha256 checked) or raises the clear error."""
     from planetnav_env.envs.env import PlanetNavEnv
+    from planetnav_env.envs.registration import ENV_IDS
 
     manifest = shipped.load_manifest()
-    assert set(manifest["baselines"]) <= set(suite.TASKS_BY_ID)
+    # Baselines of the current tasks, or of an earlier suite version's (still registered) ids.
+    assert {f"planetnav/{t}" for t in manifest["baselines"]} <= set(ENV_IDS)
     for task in suite.TASKS:
         env = PlanetNavEnv(task.env_config(episode_steps=5))
         if task.id in manifest["baselines"]:
@@ -290,30 +292,30 @@ def test_the_repositorys_baselines_load_or_say_they_are_unshipped() -> None:
 def test_coverage_counts_official_cells_of_the_published_grid() -> None:
     """The page and the summary say how much of the published table the records are: per task and track
     the finished official cells against the grid (every task x its kind's algorithms x 5 seeds, RLlib's
-    PPO on Cruise-Target-v0; assisted: PPO); smoke runs and cells outside the grid do not count."""
+    PPO on Cruise-Target-v1; assisted: PPO); smoke runs and cells outside the grid do not count."""
     grid = suite.published_grid()
     kinds = {t.id: t.action_kind for t in suite.TASKS}
     assert len(grid) == len(set(grid))
     raw = [c for c in grid if c.track == "raw"]
-    assert {c.algo for c in raw if kinds[c.task] == "continuous"} == {"ppo", "sac", "td3", "tqc"}
-    assert {c.algo for c in raw if c.task == "Cruise-Target-v0"} == {
+    assert {c.algo for c in raw if kinds[c.task] == "continuous"} == {"ppo", "sac"}
+    assert {c.algo for c in raw if c.task == "Cruise-Target-v1"} == {
         *suite.ALGOS_BY_KIND["discrete"],
         "rllib_ppo",
     }
     assert {(c.task, c.algo) for c in grid if c.track == "assisted"} == {(t.id, "ppo") for t in suite.TASKS}
-    recs = [_record(c.task, c.algo, c.seed, 0.5, track=c.track) for c in grid if c.task == "Cruise-Target-v0"]
+    recs = [_record(c.task, c.algo, c.seed, 0.5, track=c.track) for c in grid if c.task == "Cruise-Target-v1"]
     recs += [
-        _record("Cruise-Target-v0", "ppo", 9, 0.5),
-        _record("Cruise-Torque-v0", "sac", 0, 0.5, official=False),
+        _record("Cruise-Target-v1", "ppo", 9, 0.5),
+        _record("Cruise-Torque-v1", "sac", 0, 0.5, official=False),
     ]
     cov = suite.coverage(recs)
-    n_ct = sum(c.task == "Cruise-Target-v0" for c in grid)
+    n_ct = sum(c.task == "Cruise-Target-v1" for c in grid)
     assert (cov["done"], cov["expected"]) == (n_ct, len(grid))
-    assert cov["per_task"]["Cruise-Target-v0"] == {"raw": [n_ct - 5, n_ct - 5], "assisted": [5, 5]}
-    assert cov["per_task"]["Cruise-Torque-v0"]["raw"] == [0, 20]
+    assert cov["per_task"]["Cruise-Target-v1"] == {"raw": [n_ct - 5, n_ct - 5], "assisted": [5, 5]}
+    assert cov["per_task"]["Cruise-Torque-v1"]["raw"] == [0, 10]
     text = "\n".join(suite.coverage_lines(recs))
     assert f"**Partial**: {n_ct} of the published table's {len(grid)} cells" in text
-    assert "| Cruise-Torque-v0 | 0 / 20 | 0 / 5 |" in text
+    assert "| Cruise-Torque-v1 | 0 / 10 | 0 / 5 |" in text
     full = [_record(c.task, c.algo, c.seed, 0.5, track=c.track) for c in grid]
     assert (
         suite.coverage_lines(full, table=False)[0]

@@ -23,28 +23,28 @@ SMOKE = ["--eval-episodes", "1", "--episode-steps", "5"]
 
 
 def test_suite_references_caches_one_agent(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    argv = ["suite-references", "--tasks", "Cruise-Target-v0", "--agents", "random", *SMOKE, "--out"]
+    argv = ["suite-references", "--tasks", "Cruise-Target-v1", "--agents", "random", *SMOKE, "--out"]
     assert main([*argv, str(tmp_path)]) == 0
     line = capsys.readouterr().out.strip()
-    assert line.startswith("Cruise-Target-v0 | random | mean_pos_err_km ")
+    assert line.startswith("Cruise-Target-v1 | random | mean_pos_err_km ")
     assert "| 1 seeds from 50000 |" in line
     (cached,) = (tmp_path / "references" / "agents").iterdir()
     summary = json.loads(cached.read_text())
     assert summary["agent"] == "random" and len(summary["per_episode"]) == 1
     # the suite's own path reads the same cache entry: nothing is evaluated again
     settings = suite.Settings(out=tmp_path, eval_episodes=1, episode_steps=5)
-    assert suite.reference_agent(suite.get_task("Cruise-Target-v0"), "random", settings) == summary
+    assert suite.reference_agent(suite.get_task("Cruise-Target-v1"), "random", settings) == summary
     assert main([*argv, str(tmp_path)]) == 0
     assert capsys.readouterr().out.strip() == line  # the cached wall time, not a new one
 
 
 def test_suite_references_names_bad_values(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    task = suite.get_task("Cruise-Target-v0")
+    task = suite.get_task("Cruise-Target-v1")
     assert reference_specs(task) == ["random", *task.references]
     assert reference_specs(task, ["planner", "random"]) == ["random", "planner"]
     out = ["--out", str(tmp_path)]
     cases = [
-        (["--tasks", "Cruise-Target-v0", "--agents", "random", "nope"], "--agents ['nope']: not among"),
+        (["--tasks", "Cruise-Target-v1", "--agents", "random", "nope"], "--agents ['nope']: not among"),
         (["--tasks", "Nope-v0"], "unknown task 'Nope-v0'"),
         (["--eval-episodes", "0"], "--eval-episodes must be >= 1, got 0"),
         (["--episode-steps", "-3"], "--episode-steps must be >= 1, got -3"),
@@ -62,8 +62,8 @@ import json, os, sys
 from pathlib import Path
 out = Path(sys.argv[sys.argv.index("--out") + 1])
 assert "--no-progress" in sys.argv and "--no-ray" in sys.argv
-assert (out / "references" / "Cruise-Target-v0.json").is_file()
-key = "Cruise-Target-v0__ppo__raw__s1"
+assert (out / "references" / "Cruise-Target-v1.json").is_file()
+key = "Cruise-Target-v1__ppo__raw__s1"
 (out / "runs").mkdir(parents=True)
 record = {"objective": float(os.environ["FAKE_OBJECTIVE"]), "per_episode": [1.0, 2.0]}
 (out / "runs" / f"{key}.json").write_text(json.dumps(record))
@@ -74,7 +74,7 @@ def _published(tmp_path: Path, key: str, command: str) -> Path:
     published = tmp_path / "published"
     (published / "runs").mkdir(parents=True)
     (published / "references").mkdir()
-    (published / "references" / "Cruise-Target-v0.json").write_text("{}")
+    (published / "references" / "Cruise-Target-v1.json").write_text("{}")
     record = {"command": command, "algorithm": "ppo", "objective": 600.0, "objective_ci95": [590.0, 610.0],
               "per_episode": [1.0, 2.0]}  # fmt: skip
     (published / "runs" / f"{key}.json").write_text(json.dumps(record))
@@ -84,8 +84,8 @@ def _published(tmp_path: Path, key: str, command: str) -> Path:
 def test_rerun_cell_runs_the_recorded_command_and_compares(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    key = "Cruise-Target-v0__ppo__raw__s1"
-    cell = suite.Cell("Cruise-Target-v0", "ppo", "raw", 1)
+    key = "Cruise-Target-v1__ppo__raw__s1"
+    cell = suite.Cell("Cruise-Target-v1", "ppo", "raw", 1)
     command = suite.rerun_command(cell, suite.Settings(out=tmp_path))
     published = _published(tmp_path, key, command)
     root = tmp_path / "repo"
@@ -114,7 +114,7 @@ def test_rerun_cell_runs_the_recorded_command_and_compares(
 def test_suite_rerun_names_a_missing_cell_or_an_odd_command(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    key = "Cruise-Target-v0__ppo__raw__s9"
+    key = "Cruise-Target-v1__ppo__raw__s9"
     assert main(["suite-rerun", key, "--published", str(tmp_path)]) == 2
     err = capsys.readouterr().err
     assert f"cell {key!r}: no record at {tmp_path / 'runs' / (key + '.json')}" in err
@@ -132,19 +132,19 @@ def test_ships_as() -> None:
 
 
 def test_suite_sizes_builds_and_exports_a_model(capsys: pytest.CaptureFixture[str]) -> None:
-    assert main(["suite-sizes", "--tasks", "Cruise-Target-v0", "--algos", "a2c", "sac"]) == 0
+    assert main(["suite-sizes", "--tasks", "Cruise-Target-v1", "--algos", "dqn", "sac"]) == 0
     lines = capsys.readouterr().out.splitlines()
     assert lines[0] == "| task | algorithm | obs | full bytes | policy-only bytes | ships as |"
-    a2c = lines[2].strip("| ").split(" | ")
-    assert a2c[:2] == ["Cruise-Target-v0", "a2c"]
-    full, small = (int(v.replace(",", "")) for v in a2c[3:5])
-    assert 0 < small < full < MAX_BASELINE_BYTES and a2c[5] == "full"
+    dqn = lines[2].strip("| ").split(" | ")
+    assert dqn[:2] == ["Cruise-Target-v1", "dqn"]
+    full, small = (int(v.replace(",", "")) for v in dqn[3:5])
+    assert 0 < small < full < MAX_BASELINE_BYTES and dqn[5] == "full"
     assert lines[3].endswith("| - | - | runs on continuous actions, not discrete |")
     assert len(lines) == 4
 
 
 def test_suite_sizes_names_bad_values(capsys: pytest.CaptureFixture[str]) -> None:
-    assert main(["suite-sizes", "--tasks", "Cruise-Target-v0", "--algos", "a2c", "nope"]) == 2
+    assert main(["suite-sizes", "--tasks", "Cruise-Target-v1", "--algos", "dqn", "nope"]) == 2
     captured = capsys.readouterr()
     assert "unknown algorithm 'nope'" in captured.err and captured.out == ""  # before the table starts
     assert main(["suite-sizes", "--tasks", "Nope-v0", "--no-export"]) == 2
