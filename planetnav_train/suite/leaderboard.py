@@ -35,8 +35,9 @@ def _fmt_interval(v: Mapping[str, float]) -> str:
 
 #: What the normalized score and its aggregate mean, said once for the page and the README summary.
 SCORE_LEGEND = (
-    "Normalized score = (J_random − J) / (J_random − J_best): 0 is random, 1 the best non-learned "
-    "reference; IQM over runs with stratified-bootstrap 95 % intervals (rliable)."
+    "Normalized score = (J_zero − J) / (J_zero − J_best): 0 is the better of random and idle, 1 the best "
+    "non-learned reference, both acting at the physics step; IQM over runs with stratified-bootstrap 95 % "
+    "intervals (rliable)."
 )
 
 
@@ -141,9 +142,14 @@ def write_leaderboard(
     lines += ["## References", "", "| task | agent | objective [95 % CI] | role |", "|---|---|---|---|"]
     for task, ref in sorted(references.items()):
         for agent, v in ref["agents"].items():
-            role = (
-                "random" if agent == ref["random"] else ("**best**" if agent == ref["best"] else "candidate")
-            )
+            if agent == ref.get("zero"):
+                role = "**zero point**"
+            elif agent == ref["best"]:
+                role = "**best**"
+            elif agent == ref["random"] or agent == "random@interface":
+                role = "random" if agent == ref["random"] else "random in the task's interface"
+            else:
+                role = "candidate"
             lines.append(
                 f"| {task} | {agent} | {v['objective']:.1f} [{v['ci95'][0]:.1f}, {v['ci95'][1]:.1f}] "
                 f"| {role} |"
@@ -173,13 +179,22 @@ def write_leaderboard(
                 a["overall"], a["profiles"], a["improvement"], plot_dir, prefix=f"{track}_"
             ):
                 lines += ["", f"![{p.stem}]({plot_dir.name}/{p.name})"]
+            curve = scoring.write_curve_plot(a.get("curves", {}), plot_dir / f"{track}_curves.png")
+            if curve is not None:
+                title = "### Learning curves (IQM over seeds, 95 % stratified-bootstrap band, 5 curve seeds)"
+                lines += ["", title, "", f"![{curve.stem}]({plot_dir.name}/{curve.name})"]
         lines.append("")
-    lines += ["## Runs", "", "| task | algorithm | track | seed | objective | score | wall s | command |",
-              "|---|---|---|---|---|---|---|---|"]  # fmt: skip
+    lines += ["## Runs", "", "The headline is the protocol's evaluation mode; the other mode's objective "
+              "beside it.", "", "| task | algorithm | track | seed | mode | objective | other mode | score "
+              "| score vs random | wall s | command |", "|---" * 11 + "|"]  # fmt: skip
     for r in sorted(records, key=lambda r: (r["track"], r["task"], r["algorithm"], r["seed"])):
-        lines.append(f"| {r['task']} | {r['algorithm']} | {r['track']} | {r['seed']} | "
-                     f"{r['objective']:.1f} | {r['normalized_score']:+.2f} | {r['wall_seconds']:.0f} | "
-                     f"`{r['command']}` |")  # fmt: skip
+        mode = r.get("eval_mode", "argmax")
+        other = [v["objective"] for m, v in r.get("evaluations", {}).items() if m != mode]
+        vs_random = r.get("score_vs_random")
+        lines.append(f"| {r['task']} | {r['algorithm']} | {r['track']} | {r['seed']} | {mode} | "
+                     f"{r['objective']:.1f} | {f'{other[0]:.1f}' if other else '-'} | "
+                     f"{r['normalized_score']:+.2f} | {'-' if vs_random is None else f'{vs_random:+.2f}'} | "
+                     f"{r['wall_seconds']:.0f} | `{r['command']}` |")  # fmt: skip
     path.write_text("\n".join(lines) + "\n")
     return path
 

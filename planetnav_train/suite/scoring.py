@@ -265,6 +265,78 @@ def score_matrices(
     return out
 
 
+def learning_curves(
+    records: Iterable[Mapping[str, Any]], track: str, reps: int = 2_000
+) -> dict[str, dict[str, dict[str, list[float]]]]:
+    """IQM learning curves of ``track`` with stratified-bootstrap 95 % bands: ``{task: {algorithm: {"steps",
+    "iqm", "low", "high"}}}`` over the seeds' ``learning_curve`` points (aligned by index, cut to the
+    shortest), and under the task ``"all"`` per algorithm over its tasks, the x axis as the fraction of
+    each run's budget."""
+    by: dict[str, dict[str, list[list[list[float]]]]] = {}
+    for r in records:
+        if r["track"] == track and r.get("learning_curve"):
+            by.setdefault(r["task"], {}).setdefault(r["algorithm"], []).append(r["learning_curve"])
+    out: dict[str, dict[str, dict[str, list[float]]]] = {}
+    pooled: dict[str, list[np.ndarray]] = {}
+    for task, algos in sorted(by.items()):
+        for algo, curves in sorted(algos.items()):
+            n = min(len(c) for c in curves)
+            pts = np.array([c[:n] for c in curves], dtype=float)  # (runs, points, 2)
+            scores = pts[:, :, 1]
+            band = [iqm_intervals({algo: scores[:, [k]]}, reps)[algo] for k in range(n)]
+            out.setdefault(task, {})[algo] = {
+                "steps": pts[0, :, 0].tolist(),
+                "iqm": [b["iqm"] for b in band],
+                "low": [b["low"] for b in band],
+                "high": [b["high"] for b in band],
+            }
+            pooled.setdefault(algo, []).append(scores)
+    for algo, mats in sorted(pooled.items()):
+        n = min(m.shape[1] for m in mats)
+        runs = min(m.shape[0] for m in mats)
+        band = [iqm_intervals({algo: np.stack([m[:runs, k] for m in mats], axis=1)}, reps)[algo]
+                for k in range(n)]  # fmt: skip
+        out.setdefault("all", {})[algo] = {
+            "steps": [(k + 1) / n for k in range(n)],
+            "iqm": [b["iqm"] for b in band],
+            "low": [b["low"] for b in band],
+            "high": [b["high"] for b in band],
+        }
+    return out
+
+
+def write_curve_plot(
+    curves: Mapping[str, Mapping[str, Mapping[str, list[float]]]], path: Path
+) -> Path | None:
+    """One panel per task (and the aggregate ``all``): each algorithm's IQM learning curve and its 95 %
+    band; None when there are no curves."""
+    if not curves:
+        return None
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    names = [t for t in curves if t != "all"] + (["all"] if "all" in curves else [])
+    fig, axes = plt.subplots(1, len(names), figsize=(4.2 * len(names), 3.2), squeeze=False)
+    for ax, task in zip(axes[0], names, strict=True):
+        for algo, c in curves[task].items():
+            x = np.asarray(c["steps"], dtype=float) / (1.0 if task == "all" else 1e6)
+            ax.plot(x, c["iqm"], label=algo)
+            ax.fill_between(x, c["low"], c["high"], alpha=0.25)
+        ax.axhline(1.0, color="grey", lw=0.8, ls=":")
+        ax.axhline(0.0, color="grey", lw=0.8)
+        ax.set_title("all tasks" if task == "all" else task, fontsize=9)
+        ax.set_xlabel("fraction of the budget" if task == "all" else "physics steps (millions)")
+        ax.set_ylabel("normalized score (IQM, 95 % band)")
+        ax.legend(fontsize=8)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return path
+
+
 def aggregate(records: Sequence[Mapping[str, Any]], reps: int | None = None) -> dict[str, Any]:
     """Per track: per-task and overall IQM with stratified-bootstrap 95 % intervals per algorithm,
     performance profiles, and the probability of improvement between every two algorithms that ran on the
@@ -295,5 +367,6 @@ def aggregate(records: Sequence[Mapping[str, Any]], reps: int | None = None) -> 
             "overall": overall,
             "profiles": profiles,
             "improvement": improvements,
+            "curves": learning_curves(records, track, reps=min(reps, 2_000)),
         }
     return out

@@ -295,6 +295,12 @@ def test_suite_smoke_end_to_end(tmp_path, monkeypatch) -> None:
         assert all(np.isfinite(score) for _, score in r["learning_curve"])
     agg = published["aggregate"]["raw"]["overall"]["ppo"]
     assert agg["low"] <= agg["iqm"] <= agg["high"]
+    # IQM learning curves with their bands, per task and over tasks, and their plot.
+    curves = published["aggregate"]["raw"]["curves"]
+    for key in ("Cruise-Target-v1", "all"):
+        c = curves[key]["ppo"]
+        assert len(c["steps"]) >= 10 and all(lo <= m <= hi for lo, m, hi in zip(c["low"], c["iqm"], c["high"]))
+    assert (tmp_path / "benchmark_plots" / "raw_curves.png").is_file()
     text = md.read_text()
     assert "Not a leaderboard" in text and (tmp_path / "benchmark_plots" / "raw_iqm.png").is_file()
     # Resume: nothing left to train.
