@@ -299,7 +299,8 @@ def test_suite_smoke_end_to_end(tmp_path, monkeypatch) -> None:
     curves = published["aggregate"]["raw"]["curves"]
     for key in ("Cruise-Target-v1", "all"):
         c = curves[key]["ppo"]
-        assert len(c["steps"]) >= 10 and all(lo <= m <= hi for lo, m, hi in zip(c["low"], c["iqm"], c["high"]))
+        bands = zip(c["low"], c["iqm"], c["high"], strict=True)
+        assert len(c["steps"]) >= 10 and all(lo <= m <= hi for lo, m, hi in bands)
     assert (tmp_path / "benchmark_plots" / "raw_curves.png").is_file()
     text = md.read_text()
     assert "Not a leaderboard" in text and (tmp_path / "benchmark_plots" / "raw_iqm.png").is_file()
