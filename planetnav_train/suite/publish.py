@@ -1,7 +1,8 @@
 """Publishing a benchmark suite's results into the repository (docs/suite.md "Publishing"):
 
 - :func:`publish_json`: the aggregated JSON (``OUT/suite.json``: protocol, tasks, references, every run,
-  aggregates) copied to a tracked path, ``docs/benchmark.json`` (``runs/`` is not in the repository);
+  aggregates), without its per-seed arrays, to a tracked path, ``docs/benchmark.json`` (``runs/`` is not in
+  the repository);
 - :func:`update_readme`: the summary tables (:func:`planetnav_train.suite.leaderboard.summary_markdown`)
   written between the README's ``<!-- suite-summary:start -->`` and ``<!-- suite-summary:end -->``
   markers;
@@ -63,11 +64,31 @@ def _copy_atomic(src: Path, dest: Path) -> None:
     os.replace(tmp, dest)
 
 
+#: Per-seed arrays and full configurations: in ``OUT/suite.json`` (which the suite command writes), left
+#: out of the published copy, whose every figure they only repeat per seed.
+_BULKY = ("per_episode", "config")
+
+
+def compact_suite_json(data: Mapping[str, Any]) -> dict[str, Any]:
+    """The suite JSON without its per-seed arrays and run configurations (:data:`_BULKY`): every mean,
+    interval, score, learning curve, aggregate and command is kept."""
+
+    def strip(v: Any) -> Any:
+        if isinstance(v, Mapping):
+            return {k: strip(x) for k, x in v.items() if k not in _BULKY}
+        if isinstance(v, list):
+            return [strip(x) for x in v]
+        return v
+
+    return strip(data)
+
+
 def publish_json(suite_json_path: str | Path, dest: str | Path) -> Path:
-    """Copy the aggregated suite JSON to ``dest`` (a tracked path, e.g. ``docs/benchmark.json``)."""
+    """Write the aggregated suite JSON, compacted (:func:`compact_suite_json`), to ``dest`` (a tracked path,
+    e.g. ``docs/benchmark.json``); the full one stays in the suite's output folder."""
     src = Path(suite_json_path)
-    load_suite_json(src)  # a missing or unreadable JSON fails here, before anything is replaced
-    _copy_atomic(src, Path(dest))
+    data = load_suite_json(src)  # a missing or unreadable JSON fails here, before anything is replaced
+    write_json_atomic(Path(dest), compact_suite_json(data))
     return Path(dest)
 
 

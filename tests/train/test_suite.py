@@ -328,7 +328,9 @@ def test_suite_smoke_end_to_end(tmp_path, monkeypatch) -> None:
     assert main(pub) == 2 and not baselines.exists()  # smoke runs ship only with --allow-smoke
     assert main([*pub, "--allow-smoke"]) == 0
     published = json.loads((out / "suite.json").read_text())
-    assert json.loads(bench_json.read_text()) == published and len(published["runs"]) == 2
+    compact = json.loads(bench_json.read_text())
+    assert compact == publish.compact_suite_json(published) and len(compact["runs"]) == 2
+    assert "per_episode" not in compact["runs"][0] and compact["runs"][0]["learning_curve"]
     summary = suite.summary_markdown(published)
     assert "| ppo | 1 | 2 |" in summary and "| Cruise-Target-v1 | ppo |" in summary
     assert readme.read_text() == (
