@@ -16,8 +16,9 @@ def play_episode(agent, env, seed: int) -> dict:
 
 
 # The golden tests under other CPU settings (tests/env/test_same_numbers.py, marked cpu_settings) run in
-# background processes, one at a time: they start as soon as the session knows it has such a test, run on
-# the second core beside the rest of the suite, and their tests come last, to collect the results.
+# processes of their own: those for another numba target (minutes of compiling) start in the background as
+# soon as the session knows it has such a test, on the second core beside the rest of the suite; the tests
+# come last, where the host-target settings run and all results are collected.
 _CPU_SETTINGS_MODULE = pytest.StashKey[object]()
 
 

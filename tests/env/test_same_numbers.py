@@ -8,14 +8,14 @@ numba compiles for a generic x86-64 with ``NUMBA_CPU_NAME=generic``. Each settin
 (``tests/env/test_golden.py``, ``tests/train/test_training_golden.py``) in a fresh process: each must find the
 stored hashes, so all give the same numbers.
 
-Slow (the golden tests once per setting, mostly numba compiling the kernels afresh), so the settings run one
-after the other in the background from the start of the session (``tests/conftest.py`` starts them when a
-``cpu_settings`` test is collected and puts these tests last): they use the second core while the rest of
-the suite runs on the first. Each numba target has its own cache, outside the source tree and keyed on the
-source (:func:`numba_cache_dir`), so a background process never writes the cache that the suite's own
-process reads and writes at the same time (numba's cache index is not safe against two concurrent
-writers), and the generic kernels are never mixed with the host's. They run in ``make test`` (CI) but not
-in the [ray] environment's second pass.
+Slow: each setting reruns the golden tests in a fresh process, and the generic numba target compiles every
+kernel afresh (minutes). So the settings that compile for another numba target start in the background as
+soon as the session knows it has these tests (``tests/conftest.py``), one at a time on the second core beside
+the rest of the suite, with a numba cache of their own outside the source tree, keyed on the source
+(:func:`numba_cache_dir`): numba's cache index is not safe against two concurrent writers, and the generic
+kernels never mix with the host's. These tests come last; then the host-target settings (OpenBLAS kernels)
+run one after the other on the suite's own cache, which the suite has filled by then and no other process
+writes meanwhile. They run in ``make test`` (CI) but not in the [ray] environment's second pass.
 """
 
 from __future__ import annotations
@@ -75,7 +75,7 @@ def _settings() -> list:
 
 
 def numba_cache_dir(target: str) -> Path:
-    """The numba cache of the settings that compile for ``target`` (``host`` or a ``NUMBA_CPU_NAME``): in the
+    """The numba cache of the settings that compile for ``target`` (a ``NUMBA_CPU_NAME``): in the
     system's temporary folder, one per checkout, under the digest of the kernels' source (a cache of
     another source is deleted: numba itself only checks a kernel's own file, see
     ``planetnav_env.numerics.numba_cache``)."""
@@ -91,25 +91,41 @@ def numba_cache_dir(target: str) -> Path:
     return path
 
 
+def _own_target(setting: dict[str, str]) -> bool:
+    return "NUMBA_CPU_NAME" in setting
+
+
 class GoldenRuns:
-    """The golden tests under every setting that this CPU can play, one process at a time in a background
-    thread; :meth:`stop` kills what still runs (the session ended early)."""
+    """The golden tests under every setting that this CPU can play, each in a process of its own, one at a
+    time per pool: :meth:`start_host` starts the host-target ones; :meth:`stop` kills what still runs (the
+    session ended early)."""
 
     def __init__(self) -> None:
         self._lock = threading.Lock()
         self._procs: list[subprocess.Popen] = []
         self._stopped = False
-        self._pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="cpu-settings")
+        self._pools = [ThreadPoolExecutor(max_workers=1, thread_name_prefix="cpu-settings") for _ in range(2)]
+        self._params = [
+            p for p in _settings() if not any(m.name == "skipif" and m.args and m.args[0] for m in p.marks)
+        ]
         self.futures: dict[str, Future] = {}
-        for param in _settings():
-            if not any(m.name == "skipif" and m.args and m.args[0] for m in param.marks):
-                self.futures[param.id] = self._pool.submit(self._run, param.values[0])
+        self._submit(own_target=True)
+
+    def _submit(self, own_target: bool) -> None:
+        for param in self._params:
+            if _own_target(param.values[0]) == own_target and param.id not in self.futures:
+                self.futures[param.id] = self._pools[own_target].submit(self._run, param.values[0])
+
+    def start_host(self) -> None:
+        """The settings that compile for this CPU: on the suite's cache, once the suite has filled it."""
+        self._submit(own_target=False)
 
     def _run(self, setting: dict[str, str]) -> subprocess.CompletedProcess:
         env = {k: v for k, v in os.environ.items() if k != "PLANETNAV_UPDATE_GOLDEN"}
         env.pop("OPENBLAS_L2_SIZE", None)  # set beside OPENBLAS_CORETYPE on some machines; goes with it
         env.update(setting)
-        env["NUMBA_CACHE_DIR"] = str(numba_cache_dir(setting.get("NUMBA_CPU_NAME", "host")))
+        if _own_target(setting):
+            env["NUMBA_CACHE_DIR"] = str(numba_cache_dir(setting["NUMBA_CPU_NAME"]))
         cmd = [sys.executable, "-m", "pytest", *GOLDEN_TESTS, "-q", "-p", "no:cacheprovider"]
         with self._lock:
             if self._stopped:
@@ -132,7 +148,8 @@ class GoldenRuns:
             for proc in self._procs:
                 if proc.poll() is None:
                     proc.kill()
-        self._pool.shutdown(wait=True, cancel_futures=True)
+        for pool in self._pools:
+            pool.shutdown(wait=True, cancel_futures=True)
 
 
 _RUNS: GoldenRuns | None = None
@@ -153,8 +170,11 @@ def stop_golden_runs() -> None:
 
 @pytest.fixture(scope="module")
 def golden_runs() -> dict[str, Future]:
-    """The runs' results by setting id (started at collection when the conftest did, else here)."""
-    yield start_golden_runs().futures
+    """The runs' results by setting id (the other-target ones started at collection when the conftest did,
+    else here; the host-target ones start here, after the rest of the suite)."""
+    runs = start_golden_runs()
+    runs.start_host()
+    yield runs.futures
     stop_golden_runs()
 
 
