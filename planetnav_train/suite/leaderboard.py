@@ -11,7 +11,7 @@ from typing import Any
 
 from planetnav_train.spread import prediction_interval
 from planetnav_train.suite.cells import Settings, coverage_lines
-from planetnav_train.suite.runner import write_json_atomic
+from planetnav_train.suite.runner import INTERFACE_RANDOM, write_json_atomic
 from planetnav_train.suite.scoring import aggregate
 from planetnav_train.suite.tasks import SUITE_VERSION, TASKS
 
@@ -78,8 +78,8 @@ def best_per_task_rows(
     scored against (its objective, on the task's evaluation seeds)."""
     lines = [
         "| task | best algorithm | IQM [95 % CI] | a new run's objective: mean [95 % prediction interval] "
-        "| best non-learned reference |",
-        "|---|---|---|---|---|",
+        "| best non-learned reference | random in the task's interface: score |",
+        "|---|---|---|---|---|---|",
     ]
     for task in sorted(track_agg["per_task"]):
         per = track_agg["per_task"][task]
@@ -87,8 +87,18 @@ def best_per_task_rows(
         ref = references.get(task)
         ref_text = f"{ref['best']} ({ref['J_best']:.1f} km)" if ref else "-"
         new_run = _new_run_interval(runs, task, best, track)
-        lines.append(f"| {task} | {best} | {_fmt_interval(per[best])} | {new_run} | {ref_text} |")
+        lines.append(f"| {task} | {best} | {_fmt_interval(per[best])} | {new_run} | {ref_text} | "
+                     f"{_interface_random(ref)} |")  # fmt: skip
     return lines
+
+
+def _interface_random(ref: Mapping[str, Any] | None) -> str:
+    """The normalized score of the random policy in the task's own interface (what the posing alone buys),
+    "-" when the references do not hold it."""
+    if not ref or "J_zero" not in ref or INTERFACE_RANDOM not in ref.get("agents", {}):
+        return "-"
+    j = ref["agents"][INTERFACE_RANDOM]["objective"]
+    return f"{(ref['J_zero'] - j) / (ref['J_zero'] - ref['J_best']):+.2f}"
 
 
 def summary_markdown(data: Mapping[str, Any]) -> str:

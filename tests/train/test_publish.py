@@ -65,7 +65,9 @@ def _row(text: str, first: str) -> list[str]:
 def test_summary_tables_match_direct_iqms() -> None:
     pytest.importorskip("rliable")
     records = [_record(t, a, s, v) for (t, a), vals in SCORES.items() for s, v in enumerate(vals)]
-    refs = {t: {"best": "greedy", "J_best": 200.0} for t, _ in SCORES}
+    # The random policy in the task's interface: (1000 - 600) / (1000 - 200) = 0.5 of the way to greedy.
+    refs = {t: {"best": "greedy", "J_best": 200.0, "J_zero": 1000.0,
+                "agents": {"random@interface": {"objective": 600.0}}} for t, _ in SCORES}  # fmt: skip
     agg = suite.aggregate(records, reps=200)
     text = suite.summary_markdown(suite.suite_json(records, refs, agg))
     assert "runs on 2 task(s)" in text and "Not a leaderboard" not in text
@@ -81,6 +83,7 @@ def test_summary_tables_match_direct_iqms() -> None:
         # A new training run of the best algorithm: mean objective and 95 % prediction interval of its seeds.
         pi = prediction_interval([1000.0 - 800.0 * v for v in SCORES[(task, best)]])
         assert row[3] == f"{pi.mean:.1f} [{max(pi.lo, 0.0):.1f}, {pi.hi:.1f}]"
+        assert row[5] == "+0.50"
     smoke = suite.summary_markdown(suite.suite_json([{**records[0], "official": False}], refs, agg))
     assert "**Not a leaderboard**: 1 of 1 runs" in smoke
     assert suite.summary_markdown(suite.suite_json([], refs, {})) == "No run recorded yet.\n"
