@@ -56,7 +56,14 @@ from typing import Any
 
 import gymnasium as gym
 
-from planetnav_agents.base import Agent, NotApplicableError, ParsedObservation, TargetAgent, parse_observation
+from planetnav_agents.base import (
+    Agent,
+    NotApplicableError,
+    ParsedObservation,
+    TargetAgent,
+    parse_observation,
+    unwrapped_config,
+)
 from planetnav_agents.baseline import BaselineAgent
 from planetnav_agents.greedy import GreedyAgent, greedy_pd
 from planetnav_agents.loaders import MISSING_LOADERS_HINT, find_loader, register_loader
@@ -190,6 +197,15 @@ def make_agent(name_or_path: str | Path, env: gym.Env, **kwargs: Any) -> Agent:
     by a loader.
     """
     key, params = parse_spec(name_or_path)
+    if acts_at_physics_step(str(name_or_path)):
+        cfg = unwrapped_config(env)
+        if cfg.at_physics_step() is not cfg:
+            raise NotApplicableError(
+                f"{key} acts at the physics step with absolute targets and the base observation; this "
+                f"environment holds decisions {cfg.decision_steps} steps, takes {cfg.target_actions} targets "
+                f"and observe_since_measured={cfg.observe_since_measured}: build it from "
+                "config.at_physics_step() (the same physics), as train.py evaluate and compare do"
+            )
     if params:
         try:
             agent = _factory(key)(env, **params, **kwargs)

@@ -44,10 +44,13 @@ SCRIPT = textwrap.dedent(
 
     steps = 0
     for env_id in planetnav_env.ENV_IDS:
-        env = gym.make(env_id, episode_steps=4)
+        hold = planetnav_env.ENV_IDS[env_id].get("decision_steps", 1)
+        env = gym.make(env_id, episode_steps=4 * hold)
+        # Rule agents act at the physics step (a v1 id's references run on its v0 interface).
         agents = ["greedy", "baseline", "planner:horizon=3,replan=2", "random"]
         # The default cycle names three planets; the Mars approach has one (and two pulsars).
         agents.append("periodic:cycle=0" if "MarsApproach" in env_id else "periodic")
+        agents = agents if env_id.endswith("-v0") else ["random"]
         for name in agents:
             agent = make_agent(name, env)
             obs, info = env.reset(seed=1)
@@ -56,7 +59,7 @@ SCRIPT = textwrap.dedent(
                 obs, reward, terminated, truncated, info = env.step(agent.act(obs, info))
                 assert np.isfinite(reward) and np.all(np.isfinite(obs)), (env_id, name)
                 steps += 1
-        venv = gym.make_vec(env_id, num_envs=3, episode_steps=4)
+        venv = gym.make_vec(env_id, num_envs=3, episode_steps=4 * hold)
         obs, info = venv.reset(seed=2)
         for _ in range(5):  # through one next-step autoreset
             obs, reward, terminated, truncated, info = venv.step(venv.action_space.sample())
@@ -86,9 +89,11 @@ SCRIPT = textwrap.dedent(
 
 def test_environment_and_rule_agents_run_without_torch_or_sb3() -> None:
     """``import planetnav_env``, ``gym.make``, stepping, ``gym.make_vec``, ``import planetnav_agents`` and
-    the rule agents (greedy, baseline, periodic, planner, random) on every id, with torch and SB3 absent;
+    the rule agents (greedy, baseline, periodic, planner, random) on every v0 id and random on every v1 id,
+    with torch and SB3 absent;
     the SB3 adapter then fails with an error that names the extra to install."""
     proc = subprocess.run([sys.executable, "-c", SCRIPT], capture_output=True, text=True, timeout=600)
     assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
-    n_ids = len(__import__("planetnav_env").ENV_IDS)
-    assert proc.stdout.split()[:2] == ["OK", str(n_ids * 5 * 3)], proc.stdout
+    ids = __import__("planetnav_env").ENV_IDS
+    v0 = sum(i.endswith("-v0") for i in ids)  # five agents on each v0 id, random alone on each v1 id
+    assert proc.stdout.split()[:2] == ["OK", str((v0 * 5 + (len(ids) - v0)) * 3)], proc.stdout

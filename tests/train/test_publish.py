@@ -286,7 +286,9 @@ def test_the_repositorys_baselines_load_or_say_they_are_unshipped() -> None:
         if task.id in manifest["baselines"]:
             entry = manifest["baselines"][task.id]
             assert entry["bytes"] < shipped.MAX_BASELINE_BYTES and entry["track"] == "raw"
-            assert make_agent(f"suite:{task.id}", env).name == f"suite:{task.id}"
+            # It acts in its record's evaluation mode (sampled: the name says so).
+            sampled = ":stochastic" if entry.get("eval_mode") == "sampled" else ""
+            assert make_agent(f"suite:{task.id}", env).name == f"suite:{task.id}{sampled}"
         else:
             with pytest.raises(ValueError, match=f"no shipped baseline for task '{task.id}'"):
                 make_agent(f"suite:{task.id}", env)

@@ -171,7 +171,7 @@ def test_native_training_env_rejects_bad_options():
 
 
 def test_relative_actions_name_the_bad_row():
-    with pytest.raises(ValueError, match=r"row 1 must be in \[0, 3\), got 5"):
+    with pytest.raises(ValueError, match=r"row 1 must be an integer in \[0, 3\), got 5"):
         relative_actions_batch(np.array([0, 5]), np.array([0, 0]), 3)
     env = NavTrainingVecEnv(2, EnvConfig(episode_steps=5), relative_actions=True)
     env.reset()
