@@ -79,4 +79,5 @@ def test_leaderboard_gives_a_new_runs_prediction_interval() -> None:
     agg = {"per_task": {"T": per}}
     rows = best_per_task_rows(agg, {}, runs, "raw")
     pi = prediction_interval([10.0, 12.0, 11.0, 13.0, 9.0])
-    assert rows[2] == f"| T | x | 0.50 [0.40, 0.60] | 11.0 [{pi.lo:.1f}, {pi.hi:.1f}] | - |"
+    # Last column: the interface random's score, "-" without references.
+    assert rows[2] == f"| T | x | 0.50 [0.40, 0.60] | 11.0 [{pi.lo:.1f}, {pi.hi:.1f}] | - | - |"

@@ -117,7 +117,9 @@ def test_references_are_loadable_agents_on_their_task() -> None:
     from planetnav_env.envs.env import PlanetNavEnv
 
     for t in suite.TASKS:
-        env_cfg = t.eval_config()  # full length: optimum's sessions must fit the episode
+        # Full length: optimum's sessions must fit the episode. At the physics step, where the suite's
+        # references act (runner.reference_agent).
+        env_cfg = t.eval_config().at_physics_step()
         env = PlanetNavEnv(env_cfg)
         for spec in (t.random, *t.references):
             parse_spec(spec)  # a bad key raises ValueError naming it
