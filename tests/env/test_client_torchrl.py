@@ -42,7 +42,8 @@ needs_disabled = pytest.mark.skipif(
 
 @pytest.mark.parametrize("env_id", sorted(ENV_IDS))
 def test_gym_env_builds_and_rolls_out_every_id(env_id: str) -> None:
-    env = GymEnv(env_id, episode_steps=8)
+    hold = gym.spec(env_id).kwargs.get("decision_steps", 1)  # a v1 id's decisions hold several steps
+    env = GymEnv(env_id, episode_steps=8 * hold)  # 8 decisions
     check_env_specs(env)  # TorchRL's own conformance check (a short rollout against the specs)
     td = env.rollout(10, break_when_any_done=False)
     obs_dim = gym.make(env_id).observation_space.shape[0]
