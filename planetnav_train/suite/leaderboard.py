@@ -14,6 +14,7 @@ from planetnav_train.suite.cells import Settings, coverage_lines
 from planetnav_train.suite.runner import INTERFACE_RANDOM, write_json_atomic
 from planetnav_train.suite.scoring import aggregate
 from planetnav_train.suite.tasks import SUITE_VERSION, TASKS
+from planetnav_train.suite.walltime import WallTime, reference_seconds, table_wall_time, wall_time_lines
 
 
 def suite_json(
@@ -129,6 +130,7 @@ def write_leaderboard(
     agg: Mapping[str, Any],
     path: Path,
     plots: bool = True,
+    wall: WallTime | None = None,
 ) -> Path:
     """The leaderboard markdown at ``path`` (plots beside it in ``<stem>_plots/``): the references used,
     per track the per-task and aggregated IQM tables, P(improvement), the plots, and every run with its
@@ -149,6 +151,11 @@ def write_leaderboard(
         ]
     lines += [SCORE_LEGEND, ""]
     lines += ["## Coverage", "", *coverage_lines(records)]
+    if wall is not None:
+        lines += ["## Wall time of the table", "", "Worker-seconds of the published table on this run's "
+                  "machine: the finished cells and references as measured, the rest projected from the "
+                  "finished cells of the same algorithm and track (docs/suite.md).", "",
+                  *wall_time_lines(wall)]  # fmt: skip
     lines += ["## References", "", "| task | agent | objective [95 % CI] | role |", "|---|---|---|---|"]
     for task, ref in sorted(references.items()):
         for agent, v in ref["agents"].items():
@@ -228,5 +235,6 @@ def finish(
     write_json_atomic(settings.out / "suite.json", data)
     if json_path:
         write_json_atomic(Path(json_path), {**data, "runs": list(result["ran"])})
-    md = write_leaderboard(records, references, agg, markdown or settings.out / "benchmark.md")
+    wall = table_wall_time(records, reference_seconds(settings.out))
+    md = write_leaderboard(records, references, agg, markdown or settings.out / "benchmark.md", wall=wall)
     return {"json": settings.out / "suite.json", "markdown": md, "aggregate": agg}
