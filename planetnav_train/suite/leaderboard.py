@@ -11,6 +11,7 @@ from typing import Any
 
 from planetnav_train.spread import prediction_interval
 from planetnav_train.suite.cells import Settings, coverage_lines
+from planetnav_train.suite.challenges import challenge_lines, task_status
 from planetnav_train.suite.runner import INTERFACE_RANDOM, write_json_atomic
 from planetnav_train.suite.scoring import aggregate
 from planetnav_train.suite.tasks import SUITE_VERSION, TASKS
@@ -79,8 +80,8 @@ def best_per_task_rows(
     scored against (its objective, on the task's evaluation seeds)."""
     lines = [
         "| task | best algorithm | IQM [95 % CI] | a new run's objective: mean [95 % prediction interval] "
-        "| best non-learned reference | random in the task's interface: score |",
-        "|---|---|---|---|---|---|",
+        "| best non-learned reference | random in the task's interface: score | status |",
+        "|---|---|---|---|---|---|---|",
     ]
     for task in sorted(track_agg["per_task"]):
         per = track_agg["per_task"][task]
@@ -89,8 +90,13 @@ def best_per_task_rows(
         ref_text = f"{ref['best']} ({ref['J_best']:.1f} km)" if ref else "-"
         new_run = _new_run_interval(runs, task, best, track)
         lines.append(f"| {task} | {best} | {_fmt_interval(per[best])} | {new_run} | {ref_text} | "
-                     f"{_interface_random(ref)} |")  # fmt: skip
+                     f"{_interface_random(ref)} | {task_status(task, per[best]['iqm'])} |")  # fmt: skip
     return lines
+
+
+def best_scores(track_agg: Mapping[str, Any]) -> dict[str, float]:
+    """Per task, the highest IQM normalized score of any algorithm in one track's aggregate."""
+    return {t: max(v["iqm"] for v in per.values()) for t, per in track_agg["per_task"].items()}
 
 
 def _interface_random(ref: Mapping[str, Any] | None) -> str:
@@ -184,6 +190,7 @@ def write_leaderboard(
             lines.append(f"| {task} | " + " | ".join(cells) + " |")
         lines += ["", "### Aggregated over tasks", "", *aggregate_rows(a)]
         lines += ["", "### Best algorithm per task", "", *best_per_task_rows(a, references, records, track)]
+        lines += ["", "### Challenges", "", *challenge_lines(best_scores(a))]
         if a["improvement"]:
             lines += ["", "| P(X > Y) | probability [95 % CI] |", "|---|---|"]
             for row in a["improvement"]:

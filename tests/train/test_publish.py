@@ -84,6 +84,7 @@ def test_summary_tables_match_direct_iqms() -> None:
         pi = prediction_interval([1000.0 - 800.0 * v for v in SCORES[(task, best)]])
         assert row[3] == f"{pi.mean:.1f} [{max(pi.lo, 0.0):.1f}, {pi.hi:.1f}]"
         assert row[5] == "+0.50"
+        assert row[6] == ("target met (≥ 0.9)" if per[best] >= 0.9 else "below the target 0.9")
     smoke = suite.summary_markdown(suite.suite_json([{**records[0], "official": False}], refs, agg))
     assert "**Not a leaderboard**: 1 of 1 runs" in smoke
     assert suite.summary_markdown(suite.suite_json([], refs, {})) == "No run recorded yet.\n"

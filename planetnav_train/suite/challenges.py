@@ -1,0 +1,74 @@
+"""Challenge labels of the leaderboard: a task on which no learner's IQM normalized score passes
+:data:`CHALLENGE_BELOW` is a *challenge*, and the page says what limits it, each limit backed by one
+diagnostic run (docs/suite.md, "Challenges").
+
+A diagnosis is data, not a computation: the diagnostic run is a command of the package (its record names
+its numbers), and :data:`DIAGNOSES` holds what that run showed. A challenge task without an entry is
+labelled "not diagnosed" on the page rather than given a limit nobody measured.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+#: Below this best IQM (over every algorithm of a track) a task is a challenge.
+CHALLENGE_BELOW = 0.5
+#: The target of the target-choice tasks' best raw algorithm (docs/suite.md, "Tasks v1").
+TARGET_SCORE = 0.9
+#: What can limit a learner, each with the diagnostic run that tells it apart.
+LIMITS: dict[str, str] = {
+    "samples": "twice the budget raises the score: the learner has not converged",
+    "exploration": "a shaped or demonstration-seeded run reaches what the raw run does not find alone",
+    "observability": "a policy on the observation cannot express the reference's decisions",
+}
+
+
+@dataclass(frozen=True)
+class Diagnosis:
+    """What one diagnostic run showed about a task (numbers as the run's command prints them)."""
+
+    task: str
+    limit: str  # one of LIMITS
+    finding: str
+    command: str
+
+    def __post_init__(self) -> None:
+        if self.limit not in LIMITS:
+            raise ValueError(f"diagnosis of {self.task}: limit {self.limit!r} is not one of {sorted(LIMITS)}")
+
+
+#: The diagnoses of the published table's challenge tasks (docs/suite.md, "Challenges").
+DIAGNOSES: dict[str, Diagnosis] = {}
+
+
+def task_status(task: str, best_iqm: float, diagnoses: Mapping[str, Diagnosis] = DIAGNOSES) -> str:
+    """The label of a task whose best algorithm scores ``best_iqm`` (IQM of the normalized score)."""
+    if best_iqm >= TARGET_SCORE:
+        return f"target met (≥ {TARGET_SCORE})"
+    if best_iqm >= CHALLENGE_BELOW:
+        return f"below the target {TARGET_SCORE}"
+    d = diagnoses.get(task)
+    return f"**challenge**: {d.limit}" if d else "**challenge**: not diagnosed"
+
+
+def challenge_lines(best: Mapping[str, float], diagnoses: Mapping[str, Diagnosis] = DIAGNOSES) -> list[str]:
+    """Markdown: the challenge tasks of ``best`` (task -> best IQM) with their diagnoses."""
+    tasks = sorted(t for t, v in best.items() if v < CHALLENGE_BELOW)
+    if not tasks:
+        return [f"No task is a challenge: on every task some learner passes {CHALLENGE_BELOW}.", ""]
+    head = f"No learner passes {CHALLENGE_BELOW} on these tasks; each limit is backed by one diagnostic run."
+    lines = [head, ""]
+    for t in tasks:
+        d = diagnoses.get(t)
+        if d is None:
+            lines.append(f"- **{t}** (best {best[t]:+.2f}): not diagnosed yet.")
+        else:
+            lines.append(f"- **{t}** (best {best[t]:+.2f}): limited by **{d.limit}** ({LIMITS[d.limit]}). "
+                         f"{d.finding} (`{d.command}`)")  # fmt: skip
+    return [*lines, ""]
+
+
+__all__ = [
+    "CHALLENGE_BELOW", "DIAGNOSES", "LIMITS", "TARGET_SCORE", "Diagnosis", "challenge_lines", "task_status",
+]  # fmt: skip
