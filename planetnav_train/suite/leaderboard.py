@@ -9,6 +9,8 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from planetnav_train.spread import prediction_interval
 from planetnav_train.suite.cells import Settings, coverage_lines
 from planetnav_train.suite.challenges import challenge_lines, task_status
@@ -106,6 +108,39 @@ def _interface_random(ref: Mapping[str, Any] | None) -> str:
         return "-"
     j = ref["agents"][INTERFACE_RANDOM]["objective"]
     return f"{(ref['J_zero'] - j) / (ref['J_zero'] - ref['J_best']):+.2f}"
+
+
+#: The sample-efficiency budget, physics steps, reported apart from the full budget.
+SAMPLE_EFFICIENCY_STEPS = 1_000_000
+#: A curve has flattened when its IQM rises by less than this over the last 20 % of its budget.
+FLAT_RISE = 0.05
+
+
+def curve_rows(curves: Mapping[str, Mapping[str, Mapping[str, list[float]]]]) -> list[str]:
+    """Markdown table from one track's IQM learning curves (:func:`scoring.learning_curves`): per task and
+    algorithm, the IQM at the last curve point within :data:`SAMPLE_EFFICIENCY_STEPS` (the
+    sample-efficiency budget), at the end of the budget, and the rise over the last 20 % of the budget
+    (from the point nearest 80 % to the end): below :data:`FLAT_RISE` the curve has flattened, unless the
+    final band's half-width exceeds twice that, where 5 curve seeds cannot tell (``unresolved``)."""
+    lines = [
+        f"| task | algorithm | IQM at ≤ {SAMPLE_EFFICIENCY_STEPS / 1e6:g}M physics steps [95 % CI] | "
+        "IQM at the full budget | rise over the last 20 % | flattened |",
+        "|---|---|---|---|---|---|",
+    ]
+    for task in sorted(t for t in curves if t != "all"):
+        for algo, c in sorted(curves[task].items()):
+            steps = np.asarray(c["steps"], dtype=float)
+            within = np.flatnonzero(steps <= SAMPLE_EFFICIENCY_STEPS * 1.001)  # curve points land on rollouts
+            early = (f"{c['iqm'][within[-1]]:.2f} [{c['low'][within[-1]]:.2f}, {c['high'][within[-1]]:.2f}] "
+                     f"at {steps[within[-1]] / 1e6:.2f}M" if within.size else "-")  # fmt: skip
+            k80 = int(np.argmin(np.abs(steps - 0.8 * steps[-1])))
+            rise = c["iqm"][-1] - c["iqm"][k80]
+            half = 0.5 * (c["high"][-1] - c["low"][-1])
+            flat = "unresolved" if half > 2 * FLAT_RISE else "yes" if rise < FLAT_RISE else "**no**"
+            lines.append(f"| {task} | {algo} | {early} | {c['iqm'][-1]:.2f} [{c['low'][-1]:.2f}, "
+                         f"{c['high'][-1]:.2f}] at {steps[-1] / 1e6:.2f}M | {rise:+.2f} | "
+                         f"{flat} |")  # fmt: skip
+    return [*lines, ""]
 
 
 def summary_markdown(data: Mapping[str, Any]) -> str:
@@ -207,6 +242,9 @@ def write_leaderboard(
             if curve is not None:
                 title = "### Learning curves (IQM over seeds, 95 % stratified-bootstrap band, 5 curve seeds)"
                 lines += ["", title, "", f"![{curve.stem}]({plot_dir.name}/{curve.name})"]
+        if a.get("curves"):
+            head = "### Sample efficiency and flattening (from the learning curves, 5 curve seeds)"
+            lines += ["", head, "", *curve_rows(a["curves"])]
         lines.append("")
     lines += ["## Runs", "", "The headline is the protocol's evaluation mode; the other mode's objective "
               "beside it.", "", "| task | algorithm | track | seed | mode | objective | other mode | score "

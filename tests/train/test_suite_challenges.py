@@ -39,3 +39,30 @@ def test_diagnoses_are_of_known_tasks_and_limits():
     for task, d in DIAGNOSES.items():
         assert task == d.task and task in TASKS_BY_ID
         assert d.command.startswith("python ") and d.finding
+
+
+def _curve(steps, iqm, half):
+    return {"steps": steps, "iqm": iqm, "low": [v - half for v in iqm], "high": [v + half for v in iqm]}
+
+
+def test_curve_rows_sample_efficiency_and_flattening():
+    from planetnav_train.suite.leaderboard import curve_rows
+
+    steps = [3e5 * k for k in range(1, 11)]  # 0.3M .. 3M
+    curves = {
+        "Cruise-Target-v1": {
+            "ppo": _curve(steps, [0.1 * k for k in range(1, 11)], 0.01),  # still rising: +0.2 over 2.4M-3M
+            "dqn": _curve(steps, [0.5] * 9 + [0.52], 0.01),  # flat
+        },
+        "RandomCruise-Target-v1": {"ppo": _curve(steps, [0.5] * 10, 0.4)},  # too wide to tell
+        "all": {"ppo": _curve([0.5, 1.0], [0.1, 0.2], 0.1)},  # the aggregate has no row
+    }
+    cells = [[c.strip() for c in ln.strip("|").split("|")] for ln in curve_rows(curves)[2:] if ln]
+    rows = {(c[0], c[1]): c for c in cells}
+    assert set(rows) == {("Cruise-Target-v1", "ppo"), ("Cruise-Target-v1", "dqn"),
+                         ("RandomCruise-Target-v1", "ppo")}  # fmt: skip
+    ppo = rows[("Cruise-Target-v1", "ppo")]
+    assert ppo[2] == "0.30 [0.29, 0.31] at 0.90M"  # the last point within 1M physics steps
+    assert ppo[3] == "1.00 [0.99, 1.01] at 3.00M" and ppo[4] == "+0.20" and ppo[5] == "**no**"
+    assert rows[("Cruise-Target-v1", "dqn")][4:] == ["+0.02", "yes"]
+    assert rows[("RandomCruise-Target-v1", "ppo")][5] == "unresolved"
