@@ -46,26 +46,29 @@ def task_status(task: str, best_iqm: float, diagnoses: Mapping[str, Diagnosis] =
     """The label of a task whose best algorithm scores ``best_iqm`` (IQM of the normalized score)."""
     if best_iqm >= TARGET_SCORE:
         return f"target met (≥ {TARGET_SCORE})"
-    if best_iqm >= CHALLENGE_BELOW:
-        return f"below the target {TARGET_SCORE}"
     d = diagnoses.get(task)
-    return f"**challenge**: {d.limit}" if d else "**challenge**: not diagnosed"
+    limit = d.limit if d else "not diagnosed"
+    if best_iqm >= CHALLENGE_BELOW:
+        return f"below the target {TARGET_SCORE}: {limit}"
+    return f"**challenge**: {limit}"
 
 
 def challenge_lines(best: Mapping[str, float], diagnoses: Mapping[str, Diagnosis] = DIAGNOSES) -> list[str]:
-    """Markdown: the challenge tasks of ``best`` (task -> best IQM) with their diagnoses."""
-    tasks = sorted(t for t, v in best.items() if v < CHALLENGE_BELOW)
+    """Markdown: the tasks of ``best`` (task -> best IQM) below :data:`TARGET_SCORE`, challenges (below
+    :data:`CHALLENGE_BELOW`) marked, each with its diagnosis."""
+    tasks = sorted(t for t, v in best.items() if v < TARGET_SCORE)
     if not tasks:
-        return [f"No task is a challenge: on every task some learner passes {CHALLENGE_BELOW}.", ""]
-    head = f"No learner passes {CHALLENGE_BELOW} on these tasks; each limit is backed by one diagnostic run."
-    lines = [head, ""]
+        return [f"Every task meets the target: some learner reaches {TARGET_SCORE}.", ""]
+    lines = [f"Tasks below the target {TARGET_SCORE}; a **challenge** is one where no learner passes "
+             f"{CHALLENGE_BELOW}. Each limit is backed by one diagnostic run.", ""]  # fmt: skip
     for t in tasks:
+        kind = "**challenge**" if best[t] < CHALLENGE_BELOW else "below the target"
         d = diagnoses.get(t)
         if d is None:
-            lines.append(f"- **{t}** (best {best[t]:+.2f}): not diagnosed yet.")
+            lines.append(f"- **{t}** (best {best[t]:+.2f}, {kind}): not diagnosed yet.")
         else:
-            lines.append(f"- **{t}** (best {best[t]:+.2f}): limited by **{d.limit}** ({LIMITS[d.limit]}). "
-                         f"{d.finding} (`{d.command}`)")  # fmt: skip
+            lines.append(f"- **{t}** (best {best[t]:+.2f}, {kind}): limited by **{d.limit}** "
+                         f"({LIMITS[d.limit]}). {d.finding} (`{d.command}`)")  # fmt: skip
     return [*lines, ""]
 
 

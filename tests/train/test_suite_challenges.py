@@ -18,19 +18,22 @@ SAMPLES = {"Cruise-Torque-v1": Diagnosis("Cruise-Torque-v1", "samples", "Twice t
 
 def test_status_thresholds():
     assert task_status("Cruise-Target-v1", TARGET_SCORE) == "target met (≥ 0.9)"
-    assert task_status("Cruise-Target-v1", 0.89) == "below the target 0.9"
-    assert task_status("Cruise-Target-v1", CHALLENGE_BELOW) == "below the target 0.9"
+    assert task_status("Cruise-Target-v1", 0.89, {}) == "below the target 0.9: not diagnosed"
+    assert task_status("Cruise-Torque-v1", CHALLENGE_BELOW, SAMPLES) == "below the target 0.9: samples"
     assert task_status("Cruise-Torque-v1", 0.49, {}) == "**challenge**: not diagnosed"
     assert task_status("Cruise-Torque-v1", -0.3, SAMPLES) == "**challenge**: samples"
 
 
 def test_challenge_lines_name_the_limit_and_its_run():
-    best = {"Cruise-Torque-v1": 0.1, "Cruise-Hybrid-v1": 0.2, "Cruise-Target-v1": 0.9}
+    best = {"Cruise-Torque-v1": 0.1, "Cruise-Hybrid-v1": 0.2, "Cruise-Target-v1": 0.9,
+            "ThrustArc-TCM-v1": 0.6}  # fmt: skip
     text = "\n".join(challenge_lines(best, SAMPLES))
     assert "Cruise-Target-v1" not in text
-    assert "**Cruise-Torque-v1** (best +0.10): limited by **samples**" in text and "(`cmd`)" in text
-    assert "**Cruise-Hybrid-v1** (best +0.20): not diagnosed yet." in text
-    assert "No task is a challenge" in "\n".join(challenge_lines({"Cruise-Target-v1": 0.5}, SAMPLES))
+    assert "**Cruise-Torque-v1** (best +0.10, **challenge**): limited by **samples**" in text
+    assert "(`cmd`)" in text
+    assert "**Cruise-Hybrid-v1** (best +0.20, **challenge**): not diagnosed yet." in text
+    assert "**ThrustArc-TCM-v1** (best +0.60, below the target): not diagnosed yet." in text
+    assert "Every task meets the target" in "\n".join(challenge_lines({"Cruise-Target-v1": 0.9}, SAMPLES))
 
 
 def test_diagnoses_are_of_known_tasks_and_limits():
