@@ -50,7 +50,7 @@ DIAGNOSES: dict[str, Diagnosis] = {
             "10 physics steps, scores 0.947 sampled (334.6 km against greedy 326.5); PPO from a random start "
             "stays at 0.53-0.69 and twice the budget does not raise it (seed 0: 0.69 at 3M, 0.54 at 6M). "
             "Greedy held over the v1 decision scores 0.955, so the interface is not the limit.",
-            "python train.py train --config research/tasks_v1/random_cruise_v1_clone.yaml",
+            "python train.py train --config configs/diagnostics/random_cruise_v1_clone.yaml",
         ),
         Diagnosis(
             "MarsApproach-Tasking-v1",
@@ -59,7 +59,7 @@ DIAGNOSES: dict[str, Diagnosis] = {
             "physics steps, scores 0.99 (2.60 km against greedy 2.53); PPO's curves are flat from 1M physics "
             "steps at 0.87, and DQN (0.84) and RecurrentPPO (0.83) do no better on seed 0. Greedy held "
             "over the v1 decision scores 0.993.",
-            "python train.py train --config research/tasks_v1/mars_v1_clone.yaml",
+            "python train.py train --config configs/diagnostics/mars_v1_clone.yaml",
         ),
     )
 }

@@ -79,5 +79,6 @@ def test_leaderboard_gives_a_new_runs_prediction_interval() -> None:
     agg = {"per_task": {"T": per}}
     rows = best_per_task_rows(agg, {}, runs, "raw")
     pi = prediction_interval([10.0, 12.0, 11.0, 13.0, 9.0])
-    # Last column: the interface random's score, "-" without references.
-    assert rows[2] == f"| T | x | 0.50 [0.40, 0.60] | 11.0 [{pi.lo:.1f}, {pi.hi:.1f}] | - | - |"
+    # Then the interface random's score ("-" without references) and the task's status.
+    assert rows[2] == (f"| T | x | 0.50 [0.40, 0.60] | 11.0 [{pi.lo:.1f}, {pi.hi:.1f}] | - | - "
+                       "| below the target 0.9: not diagnosed |")  # fmt: skip

@@ -143,7 +143,8 @@ def test_shipped_configs_parse() -> None:
     has_ray = importlib.util.find_spec("ray") is not None
     configs = ROOT / "configs"
     paths = sorted(configs.glob("*.yaml")) + sorted((configs / "operations").glob("*.yaml"))
-    assert len(paths) >= 9
+    paths += sorted((configs / "diagnostics").glob("*.yaml"))
+    assert len(paths) >= 11
     research = sorted((ROOT / "research").rglob("*.yaml"))
     assert len(research) >= 20
     paths += research
