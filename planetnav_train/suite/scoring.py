@@ -244,20 +244,28 @@ def write_plots(
     return paths
 
 
+Scores = dict[str, dict[str, dict[int, float]]]
+
+
+def scores_by_seed(records: Iterable[Mapping[str, Any]], track: str) -> Scores:
+    """``{algorithm: {task: {seed: normalized score}}}`` of ``track``'s records."""
+    by: Scores = {}
+    for r in records:
+        if r["track"] == track:
+            seeds = by.setdefault(r["algorithm"], {}).setdefault(r["task"], {})
+            seeds[int(r["seed"])] = r["normalized_score"]
+    return by
+
+
 def score_matrices(
     records: Iterable[Mapping[str, Any]], track: str
 ) -> dict[str, tuple[list[str], np.ndarray]]:
     """Per algorithm of ``track``: its tasks and the ``(runs, tasks)`` score matrix, runs by seed order.
     Tasks with fewer seeds than the others of the algorithm are cut to the common count (rliable needs a
-    full matrix); the cut is visible in the per-task table."""
-    by: dict[str, dict[str, dict[int, float]]] = {}
-    for r in records:
-        if r["track"] == track:
-            by.setdefault(r["algorithm"], {}).setdefault(r["task"], {})[int(r["seed"])] = r[
-                "normalized_score"
-            ]
+    full matrix): the aggregate over tasks uses the cut (its table gives the runs per task), the per-task
+    intervals of :func:`aggregate` every seed."""
     out = {}
-    for algo, tasks in by.items():
+    for algo, tasks in scores_by_seed(records, track).items():
         names = sorted(tasks)
         n = min(len(tasks[t]) for t in names)
         cols = [[tasks[t][s] for s in sorted(tasks[t])[:n]] for t in names]
@@ -347,10 +355,12 @@ def aggregate(records: Sequence[Mapping[str, Any]], reps: int | None = None) -> 
         mats = score_matrices(records, track)
         if not mats:
             continue
+        # Per task every seed counts; only the aggregate over tasks needs the common count (rliable).
         per_task: dict[str, Any] = {}
-        for algo, (names, m) in mats.items():
-            for j, task in enumerate(names):
-                per_task.setdefault(task, {}).update(iqm_intervals({algo: m[:, [j]]}, reps))
+        for algo, tasks in scores_by_seed(records, track).items():
+            for task, seeds in tasks.items():
+                column = np.array([seeds[s] for s in sorted(seeds)], dtype=float)[:, None]
+                per_task.setdefault(task, {}).update(iqm_intervals({algo: column}, reps))
         overall = iqm_intervals({a: m for a, (_, m) in mats.items()}, reps)
         profiles = performance_profiles({a: m for a, (_, m) in mats.items()}, reps=min(reps, 2_000))
         pairs = {

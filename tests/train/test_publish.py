@@ -331,3 +331,16 @@ def test_coverage_counts_official_cells_of_the_published_grid() -> None:
         suite.coverage_lines(full, table=False)[0]
         == f"Complete: all {len(grid)} cells of the published table."
     )
+
+
+def test_per_task_iqm_uses_every_seed_when_tasks_have_unequal_seeds() -> None:
+    pytest.importorskip("rliable")
+    # Four PPO seeds on Cruise-Target, one on RandomCruise: the aggregate over tasks cuts to one run per
+    # task, the per-task IQM must not.
+    scores = [0.9, 1.1, 0.7, 1.3]
+    records = [_record("Cruise-Target-v1", "ppo", s, v) for s, v in enumerate(scores)]
+    records.append(_record("RandomCruise-Target-v1", "ppo", 0, 0.4))
+    agg = suite.aggregate(records, reps=200)["raw"]
+    assert agg["per_task"]["Cruise-Target-v1"]["ppo"]["iqm"] == pytest.approx(_iqm(scores))
+    assert agg["per_task"]["RandomCruise-Target-v1"]["ppo"]["iqm"] == pytest.approx(0.4)
+    assert agg["runs"]["ppo"] == 1  # the aggregate's common count
