@@ -53,6 +53,14 @@ DIAGNOSES: dict[str, Diagnosis] = {
             "python train.py train --config configs/diagnostics/random_cruise_v1_clone.yaml",
         ),
         Diagnosis(
+            "Cruise-Hybrid-v1",
+            "samples",
+            "PPO at twice the budget (2M physics steps), seed 0, scores 0.65 (554.6 km) against 0.46 "
+            "(784.5 km) at the suite's 1M; greedy-pd 137.0 km.",
+            "python train.py suite --tasks Cruise-Hybrid-v1 --algos ppo --seeds 0 --track raw "
+            "--budget-scale 2 --out runs/diag_hy2x",
+        ),
+        Diagnosis(
             "MarsApproach-Tasking-v1",
             "exploration",
             "The suite's PPO network cloned from greedy (DAgger) on the raw v1 observation, deciding every 4 "
