@@ -212,7 +212,7 @@ def cell_config(
             data = _merge(data, conf["assists"][name])
     # The budget counts physics steps; a decision is decision_steps of them (the id's), times any repeat.
     per_decision = int(data.get("action_repeat", 1)) * task.env_config().decision_steps
-    decisions = max(1, round(task.budget * algo.budget_fraction * settings.budget_scale) // per_decision)
+    decisions = max(1, round(algo.budget(task) * settings.budget_scale) // per_decision)
     data["n_timesteps"] = decisions
     if not is_rllib_algo(algo.name):
         data["hyperparams"] = _fit_rollout(algo, dict(data["hyperparams"]), decisions)

@@ -204,6 +204,10 @@ class Algo:
     eval_mode: str = "argmax"
     extra: str = "train"  # the pyproject extra it needs: train (SB3), bench (sb3-contrib), ray (RLlib)
 
+    def budget(self, task: Task) -> float:
+        """This algorithm's training budget on ``task`` in physics steps: the task's, times the fraction."""
+        return task.budget * self.budget_fraction
+
     def check_installed(self) -> None:
         """Raise :class:`ConfigError` naming the extra when the algorithm's library is missing."""
         import importlib.util

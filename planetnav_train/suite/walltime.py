@@ -17,6 +17,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from planetnav_train.suite.cells import Cell, published_grid
 from planetnav_train.suite.tasks import get_algo, get_task
 
@@ -51,8 +53,8 @@ class WallTime:
 
 
 def _budget(cell: Cell) -> float:
-    """The cell's training budget in physics steps (the task's, times the algorithm's fraction)."""
-    return get_task(cell.task).budget * get_algo(cell.algo).budget_fraction
+    """The cell's training budget in physics steps."""
+    return get_algo(cell.algo).budget(get_task(cell.task))
 
 
 def reference_seconds(out: Path) -> dict[str, float]:
@@ -75,25 +77,24 @@ def table_wall_time(records: Sequence[Mapping[str, Any]], references_s: Mapping[
     }  # fmt: skip
     grid = published_grid()
     tasks = {c.task for c in grid}
+    key = {c: (c.task, c.algo, c.track, c.seed) for c in grid}
+    finished = [c for c in grid if key[c] in done]
     same: dict[tuple[str, str, str], list[float]] = {}
     per_step: dict[tuple[str, str, str], list[float]] = {}
-    for c in grid:
-        key = (c.task, c.algo, c.track, c.seed)
-        if key in done:
-            same.setdefault((c.task, c.algo, c.track), []).append(done[key])
-            kind = get_task(c.task).action_kind
-            per_step.setdefault((kind, c.algo, c.track), []).append(done[key] / _budget(c))
-    measured = [done[k] for k in ((c.task, c.algo, c.track, c.seed) for c in grid) if k in done]
+    for c in finished:
+        same.setdefault((c.task, c.algo, c.track), []).append(done[key[c]])
+        kind = get_task(c.task).action_kind
+        per_step.setdefault((kind, c.algo, c.track), []).append(done[key[c]] / _budget(c))
+    measured = [done[key[c]] for c in finished]
     projected, missing = [], []
     for c in grid:
-        if (c.task, c.algo, c.track, c.seed) in done:
+        if key[c] in done:
             continue
+        kind = get_task(c.task).action_kind
         if (c.task, c.algo, c.track) in same:
-            runs = same[(c.task, c.algo, c.track)]
-            projected.append(sum(runs) / len(runs))
-        elif (get_task(c.task).action_kind, c.algo, c.track) in per_step:
-            rates = per_step[(get_task(c.task).action_kind, c.algo, c.track)]
-            projected.append(sum(rates) / len(rates) * _budget(c))
+            projected.append(float(np.mean(same[(c.task, c.algo, c.track)])))
+        elif (kind, c.algo, c.track) in per_step:
+            projected.append(float(np.mean(per_step[(kind, c.algo, c.track)])) * _budget(c))
         else:
             missing.append(f"{c.task} {c.algo} {c.track}")
     return WallTime(
