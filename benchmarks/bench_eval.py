@@ -7,9 +7,11 @@ depend on what it learned), saved as ``train.py`` saves a run. Each task runs at
 configuration (``Task.eval_config``: full episodes, per-step noise streams, the suite's seeds). The single
 path runs the first ``--single`` seeds, the batched paths ``--batched`` seeds (the suite's 100): ``batched``
 is the default (``exact_actions=True``: a continuous policy predicts row by row), and for a continuous
-policy ``batched-fast`` predicts all rows in one call (``exact_actions=False``). On the seeds every path
-ran it prints each batched path's largest relative difference of the per-episode objective J from the
-single path's (0 expected for ``batched``; float rounding amplified by the episode for ``batched-fast``:
+policy ``batched-fast`` predicts all rows in one call (``exact_actions=False``). ``single-sampled`` and
+``batched-sampled`` score the sampled actions (``PATH@sampled``, the protocol's mode for PPO), the speed-up
+of the latter against the former. On the seeds every path ran it prints each batched path's largest
+relative difference of the per-episode objective J from its single path's (0 expected for ``batched``
+and ``batched-sampled``; float rounding amplified by the episode for ``batched-fast``:
 ``planetnav_train.evaluate``).
 
     nice -n 10 .venv/bin/python benchmarks/bench_eval.py [--tasks Cruise-Target-v0 Cruise-TorqueControl-v0]
@@ -51,7 +53,7 @@ def main() -> None:
     if args.single < 1 or args.batched < args.single:
         raise SystemExit(f"need 1 <= --single <= --batched, got {args.single} and {args.batched}")
     print(
-        f"{'task':26s} {'path':8s} {'episodes':>8s} {'steps/s':>9s} {'episodes/s':>10s} {'speed-up':>8s} "
+        f"{'task':26s} {'path':15s} {'episodes':>8s} {'steps/s':>9s} {'episodes/s':>10s} {'speed-up':>8s} "
         f"{'diverged':>8s}"
     )
     with tempfile.TemporaryDirectory() as tmp:
@@ -62,29 +64,38 @@ def main() -> None:
             evaluate_agent(str(run), cfg, 1, task.eval_seed, progress=False)  # compile / load once
             rates = {}
             res = {}
-            paths = [("single", args.single, False, True), ("batched", args.batched, True, True)]
+            # (path, episodes, batched, exact_actions, agent spec, the single path it is compared with)
+            argmax, sampled = str(run), f"{run}@sampled"
+            paths = [("single", args.single, False, True, argmax, "single"),
+                     ("batched", args.batched, True, True, argmax, "single")]  # fmt: skip
             if cfg.action_mode != "target":  # a continuous policy (Box actions)
-                paths.append(("batched-fast", args.batched, True, False))
-            for path, n, batched, exact in paths:
+                paths.append(("batched-fast", args.batched, True, False, argmax, "single"))
+            # Sampled actions (the protocol's mode for PPO): each row draws from its own generator state.
+            paths += [("single-sampled", args.single, False, True, sampled, "single-sampled"),
+                      ("batched-sampled", args.batched, True, True, sampled, "single-sampled")]  # fmt: skip
+            for path, n, batched, exact, spec, ref in paths:
                 t0 = time.perf_counter()
                 res[path] = evaluate_agent(
-                    str(run), cfg, n, task.eval_seed, progress=False, batched=batched, exact_actions=exact
+                    spec, cfg, n, task.eval_seed, progress=False, batched=batched, exact_actions=exact
                 )
                 wall = time.perf_counter() - t0
                 # Nominal steps: a diverged episode ends early (the last column counts them).
                 steps = n * cfg.episode_steps
                 rates[path] = steps / wall
-                speed = f"{rates[path] / rates['single']:7.1f}x"
+                speed = f"{rates[path] / rates[ref]:7.1f}x"
                 print(
-                    f"{name:26s} {path:8s} {n:8d} {steps / wall:9.0f} {n / wall:10.3f} {speed:>8s} "
+                    f"{name:26s} {path:15s} {n:8d} {steps / wall:9.0f} {n / wall:10.3f} {speed:>8s} "
                     f"{res[path].metrics['diverged']:8d}"
                 )
-            one = np.asarray(res["single"].metrics["per_episode_objective"])
-            for path, *_ in paths[1:]:
+            for path, *_, ref in paths:
+                if path == ref:
+                    continue
+                one = np.asarray(res[ref].metrics["per_episode_objective"])
                 many = np.asarray(res[path].metrics["per_episode_objective"][: args.single])
                 diff = float(np.max(np.abs(many - one) / np.abs(one)))
                 print(
-                    f"{name:26s} {path}: largest relative J difference, first {args.single} seeds: {diff:.2e}"
+                    f"{name:26s} {path} vs {ref}: largest relative J difference, first {args.single} "
+                    f"seeds: {diff:.2e}"
                 )
 
 

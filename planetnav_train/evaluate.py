@@ -16,8 +16,10 @@ one call. A continuous action is those bits, and an episode amplifies them (a me
 one and rejected in the other: 1.5 % on one Cruise-Torque seed's J, ``benchmarks/bench_eval.py``), so by
 default (``exact_actions=True``) a continuous policy predicts row by row, each row the very call the
 single-env path makes, while the env steps stay batched; ``exact_actions=False`` batches its predict
-too (faster; results equal only to float rounding on short episodes). ``benchmarks/bench_eval.py``
-measures the speed-ups."""
+too (faster; results equal only to float rounding on short episodes). Sampled actions (``PATH@sampled``)
+batch as well: the single path seeds torch's global generator with each episode's seed, and each row
+draws from its own copy of that state (:func:`_sample_rows`), so the draws are the single path's.
+``benchmarks/bench_eval.py`` measures the speed-ups."""
 
 from __future__ import annotations
 
@@ -142,22 +144,30 @@ def batch_reason(agent: Any, exact_actions: bool = True) -> str | None:
     """Why ``agent`` cannot be evaluated with its seeds as rows of one vector env, or None when it can.
 
     Batched: a saved SB3 model with deterministic actions (recurrent policies too: each row carries its
-    own LSTM state). Not batched (one episode at a time, as before): rule agents and RLlib checkpoints (no
-    batched action here), sampled actions (``PATH@sampled``: seeded per episode through torch's global
-    generator, which rows cannot share), a target-choice policy run in a target+torque env (its
+    own LSTM state), and its sampled actions (``PATH@sampled``), each row drawing from its own copy of
+    the torch generator state the single path seeds per episode (:func:`_sample_rows`). Not batched (one
+    episode at a time, as before): rule agents and RLlib checkpoints (no batched action here), sampled
+    actions of recurrent and maskable policies (their draw needs the LSTM state or the mask of one
+    row), a target-choice policy run in a target+torque env (its
     action conversion is per-env), and with ``exact_actions`` a recurrent policy with continuous actions
     (its rows would need the LSTM state split per row to predict alone; not done)."""
     from planetnav_train.sb3 import SB3Agent
 
     if not isinstance(agent, SB3Agent):
         return f"{type(agent).__name__} has no batched action"
-    if not agent.deterministic:
-        return "sampled actions are seeded per episode through torch's global generator"
+    if not agent.deterministic and not _samples_per_row(agent.model):
+        return f"sampled actions of {type(agent.model).__name__} are drawn one episode at a time"
     if agent._as_target_torque:
         return "a target-choice policy in a target+torque env converts its action per env"
     if exact_actions and not _argmax_actions(agent.model) and hasattr(agent.model.policy, "lstm_actor"):
         return "a recurrent policy with continuous actions predicts exactly only one episode at a time"
     return None
+
+
+def _samples_per_row(model: Any) -> bool:
+    """Whether ``model``'s sampled actions can be drawn row by row here (:func:`_sample_rows`): not a
+    recurrent policy (its draw needs its LSTM state) nor a maskable one (its draw needs the row's mask)."""
+    return not hasattr(model.policy, "lstm_actor") and "Maskable" not in type(model).__name__
 
 
 def _argmax_actions(model: Any) -> bool:
@@ -247,7 +257,7 @@ def _batched_episodes(
     torch.set_num_threads(1)
     try:
         per_row = exact_actions and not _argmax_actions(model)
-        return _run_rows(rows, rec, venv, model, n, seeds, per_row)
+        return _run_rows(rows, rec, venv, model, n, seeds, per_row, sampled=not agent.deterministic)
     finally:
         torch.set_num_threads(threads)
         venv.close()
@@ -260,17 +270,76 @@ def _predict_each_row(policy: Any, obs: np.ndarray) -> np.ndarray:
     the same on a stack) done once for all rows. ``tests/train/test_eval_batched.py`` checks it equals the
     single path's actions."""
     import torch
-    from gymnasium import spaces
 
     policy.set_training_mode(False)
     with torch.no_grad():
         parts = [policy._predict(policy.obs_to_tensor(row)[0], deterministic=True) for row in obs]
-    actions = torch.cat(parts).cpu().numpy().reshape((-1, *policy.action_space.shape))
-    if isinstance(policy.action_space, spaces.Box):  # as BasePolicy.predict does after its forward pass
+    return _as_env_actions(policy, torch.cat(parts))
+
+
+def _as_env_actions(policy: Any, actions: Any) -> np.ndarray:
+    """A stack of policy outputs (a torch tensor, one row per env row) as ``BasePolicy.predict`` returns
+    them after its forward pass: numpy, reshaped to the action space, Box actions unscaled or clipped."""
+    from gymnasium import spaces
+
+    out = actions.cpu().numpy().reshape((-1, *policy.action_space.shape))
+    if isinstance(policy.action_space, spaces.Box):
         if policy.squash_output:
-            return policy.unscale_action(actions)
-        return np.clip(actions, policy.action_space.low, policy.action_space.high)
-    return actions
+            return policy.unscale_action(out)
+        return np.clip(out, policy.action_space.low, policy.action_space.high)
+    return out
+
+
+def _seeded_states(seeds: Sequence[int]) -> list[Any]:
+    """Per seed, the torch CPU generator state ``torch.manual_seed(seed)`` sets (what the single path's
+    ``SB3Agent.reset(seed)`` does before a sampled episode)."""
+    import torch
+
+    return [torch.Generator().manual_seed(int(s)).get_state() for s in seeds]
+
+
+def _sample_rows(
+    policy: Any, obs: np.ndarray, states: list[Any], active: np.ndarray, per_row: bool
+) -> np.ndarray:
+    """Sampled actions of SB3 ``policy`` for the ``active`` rows of ``obs``, row ``r`` drawing from its own
+    torch generator state ``states[r]`` (updated in place), so that each row draws what the single path
+    draws from the global generator seeded with its episode's seed. Inactive rows draw nothing (their
+    episode has ended; their entry repeats an active row's action and is never applied).
+
+    ``per_row``: each row's forward pass and draw is the single path's very call (``policy._predict``)
+    under the row's state. Otherwise (a discrete policy) one forward pass serves all rows and each row
+    draws its action from its slice of the probabilities as ``torch.distributions.Categorical.sample``
+    does (one ``torch.multinomial`` of a 1-row table); the batched forward pass rounds the last bits of
+    the probabilities differently, which changes a draw only when its uniform falls within that rounding
+    of a cumulative probability. The global generator is restored on return; :func:`_run_rows` leaves
+    it where the single path does."""
+    import torch
+    from stable_baselines3.common.distributions import CategoricalDistribution
+
+    rows = np.flatnonzero(active)
+    saved = torch.get_rng_state()
+    policy.set_training_mode(False)
+    parts: dict[int, Any] = {}
+    try:
+        with torch.no_grad():
+            if per_row:
+                for r in rows:
+                    torch.set_rng_state(states[r])
+                    parts[r] = policy._predict(policy.obs_to_tensor(obs[r])[0], deterministic=False)
+                    states[r] = torch.get_rng_state()
+            else:
+                dist = policy.get_distribution(policy.obs_to_tensor(obs)[0])
+                if not isinstance(dist, CategoricalDistribution):
+                    raise TypeError(f"one forward pass for sampled rows needs Discrete actions, got {dist}")
+                probs = dist.distribution.probs
+                for r in rows:
+                    torch.set_rng_state(states[r])
+                    parts[r] = torch.multinomial(probs[r : r + 1], 1, True).T.reshape(1)
+                    states[r] = torch.get_rng_state()
+    finally:
+        torch.set_rng_state(saved)
+    filler = parts[int(rows[0])]
+    return _as_env_actions(policy, torch.cat([parts.get(r, filler) for r in range(len(obs))]))
 
 
 def _run_rows(
@@ -281,21 +350,30 @@ def _run_rows(
     n: int,
     seeds: Sequence[int],
     per_row: bool,
+    sampled: bool = False,
 ) -> list[dict[str, Any]]:
     """The loop of :func:`_batched_episodes`: reset every row to its seed, one decision for all rows per
-    step (``per_row``: ``model.predict`` on each running row alone, as the single-env path calls it)
-    until every row's episode has ended, then each row's :func:`_episode_record`."""
+    step (``per_row``: ``model.predict`` on each running row alone, as the single-env path calls it;
+    ``sampled``: each running row's draw from its own generator state, :func:`_sample_rows`) until every
+    row's episode has ended, then each row's :func:`_episode_record`."""
+    from gymnasium import spaces
+
     recurrent = hasattr(model.policy, "lstm_actor")
     t0 = time.perf_counter()
     rows.reset_rows(np.ones(n, dtype=bool), [int(s) for s in seeds])
     running = np.ones(n, dtype=bool)
     state: Any = None
     first = True
+    states = _seeded_states(seeds) if sampled else []
+    discrete = isinstance(model.action_space, spaces.Discrete)  # one forward pass serves sampled rows
     while running.any():
         obs = rows.observations()
         # Every row is predicted (the finished ones too: their stale actions are never applied), so the
         # batch keeps one shape; a recurrent policy carries one LSTM state per row from episode_start.
-        if per_row:
+        # Sampled rows draw only while running, so each row's stream is its episode's.
+        if sampled:
+            action = _sample_rows(model.policy, obs, states, running, per_row or not discrete)
+        elif per_row:
             action = _predict_each_row(model.policy, obs)
         elif recurrent:
             action, state = model.predict(
@@ -306,6 +384,12 @@ def _run_rows(
         first = False
         _, terminated, truncated = rows.step_rows(action, running)
         running &= ~(terminated | truncated)
+    if sampled:
+        import torch
+
+        # The global generator as the single path leaves it: after the last seed's episode. A learning
+        # curve scored during training then leaves the trainer's own draws as they were.
+        torch.set_rng_state(states[-1])
     seconds = (time.perf_counter() - t0) / n
     runs = []
     for r in range(n):

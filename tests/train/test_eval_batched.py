@@ -125,13 +125,49 @@ def test_batched_continuous_predict_equals_to_float_rounding(tmp_path: Path) -> 
     _assert_same(single, batched, exact=False)
 
 
-def test_rule_agents_and_sampled_models_fall_back(tmp_path: Path) -> None:
+SAMPLED_CASES = [
+    # Discrete: one forward pass for the rows, each row's draw from its own generator state.
+    CASES[0],
+    # Continuous: each row's forward pass and draw is the single path's call (clipped and squashed).
+    ("planetnav/Cruise-Torque-v0", "ppo", {}, 30),
+    ("planetnav/Cruise-Torque-v0", "sac", {}, 30),
+]
+
+
+@pytest.mark.parametrize(("env_id", "algo", "options", "steps"), SAMPLED_CASES)
+def test_batched_sampled_actions_equal_single_env_evaluation(
+    tmp_path: Path, env_id: str, algo: str, options: dict[str, Any], steps: int
+) -> None:
+    """``PATH@sampled``: each row draws from its own copy of the generator state the single path seeds per
+    episode, so the episodes are the single path's, and the global generator is left as it leaves it
+    (a learning curve scored during training leaves the trainer's draws unchanged)."""
+    import torch
+
+    cfg = _cfg(env_id, steps)
+    run = _save_model(tmp_path, algo, cfg, options)
+    spec = f"{run}@sampled"
+    torch.manual_seed(123)
+    single = evaluate_agent(spec, cfg, EPISODES, SEED, progress=False, batched=False)
+    after_single = torch.get_rng_state()
+    torch.manual_seed(456)  # another state before: the batched path must not depend on it
+    batched = evaluate_agent(spec, cfg, EPISODES, SEED, progress=False, batch_rows=2)
+    _assert_same(single, batched, exact=True)
+    assert torch.equal(torch.get_rng_state(), after_single)
+    argmax = evaluate_agent(str(run), cfg, EPISODES, SEED, progress=False)
+    assert argmax.metrics["per_episode_objective"] != batched.metrics["per_episode_objective"]  # it sampled
+
+
+def test_rule_agents_and_recurrent_sampled_models_fall_back(tmp_path: Path) -> None:
     cfg = _cfg("planetnav/Cruise-Target-v0", 20)
     env = PlanetNavEnv(cfg)
     assert "no batched action" in str(batch_reason(make_agent("greedy", env)))
     run = _save_model(tmp_path, "ppo", cfg, {})
     assert batch_reason(make_agent(str(run), env)) is None
-    assert "sampled" in str(batch_reason(make_agent(f"{run}@sampled", env)))
+    assert batch_reason(make_agent(f"{run}@sampled", env)) is None
+    lstm = tmp_path / "lstm"
+    lstm.mkdir()
+    rec = _save_model(lstm, "recurrent_ppo", cfg, {})
+    assert "drawn one episode at a time" in str(batch_reason(make_agent(f"{rec}@sampled", env)))
     res = evaluate_agent("greedy", cfg, 2, SEED, progress=False)
     assert res.metrics["batched"] is False and "batch_fallback" not in res.metrics
 
