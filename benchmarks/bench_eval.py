@@ -1,5 +1,5 @@
-"""Evaluation throughput: a saved SB3 policy on a suite task's evaluation seeds, one episode at a time
-(single envs, ``evaluate_agent(..., batched=False)``) against the seeds as rows of the native vector env
+"""Evaluation throughput: a saved SB3 policy on a suite task's evaluation seeds, one episode at a time (single
+envs, ``evaluate_agent(..., batched=False)``) against the seeds as rows of the native vector env
 (``batched=True``, one ``model.predict`` per decision for all rows), in the same run.
 
 The policy is a randomly initialised PPO ``MlpPolicy`` (SB3's default 64x64 network; the rate does not
@@ -9,10 +9,10 @@ path runs the first ``--single`` seeds, the batched paths ``--batched`` seeds (t
 is the default (``exact_actions=True``: a continuous policy predicts row by row), and for a continuous
 policy ``batched-fast`` predicts all rows in one call (``exact_actions=False``). ``single-sampled`` and
 ``batched-sampled`` score the sampled actions (``PATH@sampled``, the protocol's mode for PPO), the speed-up
-of the latter against the former. On the seeds every path ran it prints each batched path's largest
-relative difference of the per-episode objective J from its single path's (0 expected for ``batched``
-and ``batched-sampled``; float rounding amplified by the episode for ``batched-fast``:
-``planetnav_train.evaluate``).
+of the latter against the former, and ``fast-sampled`` a continuous policy's with ``exact_actions=False``.
+On the seeds every path ran it prints each batched path's largest relative difference of the per-episode
+objective J from its single path's (0 expected for ``batched`` and ``batched-sampled``; float rounding
+amplified by the episode for ``batched-fast``: ``planetnav_train.evaluate``).
 
     nice -n 10 .venv/bin/python benchmarks/bench_eval.py [--tasks Cruise-Target-v0 Cruise-TorqueControl-v0]
         [--single 3] [--batched 100]
@@ -73,6 +73,8 @@ def main() -> None:
             # Sampled actions (the protocol's mode for PPO): each row draws from its own generator state.
             paths += [("single-sampled", args.single, False, True, sampled, "single-sampled"),
                       ("batched-sampled", args.batched, True, True, sampled, "single-sampled")]  # fmt: skip
+            if cfg.action_mode != "target":
+                paths.append(("fast-sampled", args.batched, True, False, sampled, "single-sampled"))
             for path, n, batched, exact, spec, ref in paths:
                 t0 = time.perf_counter()
                 res[path] = evaluate_agent(

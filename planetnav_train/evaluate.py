@@ -307,14 +307,13 @@ def _sample_rows(
     episode has ended; their entry repeats an active row's action and is never applied).
 
     ``per_row``: each row's forward pass and draw is the single path's very call (``policy._predict``)
-    under the row's state. Otherwise (a discrete policy) one forward pass serves all rows and each row
-    draws its action from its slice of the probabilities as ``torch.distributions.Categorical.sample``
-    does (one ``torch.multinomial`` of a 1-row table); the batched forward pass rounds the last bits of
-    the probabilities differently, which changes a draw only when its uniform falls within that rounding
-    of a cumulative probability. The global generator is restored on return; :func:`_run_rows` leaves
-    it where the single path does."""
+    under the row's state. Otherwise one forward pass serves all rows and each row draws from its slice
+    of the distribution as torch's ``sample`` / ``rsample`` does (:func:`_draw`). The batched forward
+    pass rounds the last bits of the distribution's parameters differently: a discrete draw changes only
+    when its uniform falls within that rounding of a cumulative probability; a continuous action carries
+    them (``exact_actions=False``, as the argmax rows do). The global generator is restored on return;
+    :func:`_run_rows` leaves it where the single path does."""
     import torch
-    from stable_baselines3.common.distributions import CategoricalDistribution
 
     rows = np.flatnonzero(active)
     saved = torch.get_rng_state()
@@ -328,18 +327,48 @@ def _sample_rows(
                     parts[r] = policy._predict(policy.obs_to_tensor(obs[r])[0], deterministic=False)
                     states[r] = torch.get_rng_state()
             else:
-                dist = policy.get_distribution(policy.obs_to_tensor(obs)[0])
-                if not isinstance(dist, CategoricalDistribution):
-                    raise TypeError(f"one forward pass for sampled rows needs Discrete actions, got {dist}")
-                probs = dist.distribution.probs
+                dist = _distribution(policy, policy.obs_to_tensor(obs)[0])
                 for r in rows:
                     torch.set_rng_state(states[r])
-                    parts[r] = torch.multinomial(probs[r : r + 1], 1, True).T.reshape(1)
+                    parts[r] = _draw(dist, r)
                     states[r] = torch.get_rng_state()
     finally:
         torch.set_rng_state(saved)
     filler = parts[int(rows[0])]
     return _as_env_actions(policy, torch.cat([parts.get(r, filler) for r in range(len(obs))]))
+
+
+def _distribution(policy: Any, obs: Any) -> Any:
+    """The SB3 action distribution of ``policy`` for the batch ``obs`` (a tensor): an actor-critic policy's
+    ``get_distribution``, or an off-policy actor's (SAC) distribution from its parameters."""
+    if hasattr(policy, "get_distribution"):
+        return policy.get_distribution(obs)
+    actor = getattr(policy, "actor", None)
+    if actor is None or not hasattr(actor, "get_action_dist_params"):
+        raise TypeError(f"{type(policy).__name__} has no action distribution to sample rows from")
+    mean, log_std, kwargs = actor.get_action_dist_params(obs)
+    return actor.action_dist.proba_distribution(mean, log_std, **kwargs)
+
+
+def _draw(dist: Any, r: int) -> Any:
+    """Row ``r``'s sample of the batched SB3 distribution ``dist`` from torch's global generator, drawn
+    as the distribution draws for a 1-row batch: ``Categorical.sample`` (one ``torch.multinomial`` of the
+    row's probabilities) or ``Normal.rsample`` (``loc + eps * scale``, then ``tanh`` when squashed)."""
+    import torch
+    from stable_baselines3.common.distributions import (
+        CategoricalDistribution,
+        DiagGaussianDistribution,
+        SquashedDiagGaussianDistribution,
+    )
+
+    inner = dist.distribution
+    if isinstance(dist, CategoricalDistribution):
+        return torch.multinomial(inner.probs[r : r + 1], 1, True).T.reshape(1)
+    if isinstance(dist, DiagGaussianDistribution):  # the squashed one is a subclass
+        loc, scale = inner.loc[r : r + 1], inner.scale[r : r + 1]
+        action = loc + torch.empty(loc.shape, dtype=loc.dtype).normal_() * scale
+        return torch.tanh(action) if isinstance(dist, SquashedDiagGaussianDistribution) else action
+    raise TypeError(f"no row-wise draw for {type(dist).__name__}")
 
 
 def _run_rows(
@@ -365,14 +394,18 @@ def _run_rows(
     state: Any = None
     first = True
     states = _seeded_states(seeds) if sampled else []
-    discrete = isinstance(model.action_space, spaces.Discrete)  # one forward pass serves sampled rows
+    # One forward pass serves the sampled rows of a Discrete policy, and of a continuous one when its
+    # argmax rows batch too (exact_actions=False); else each row runs the single path's call.
+    one_pass = isinstance(model.action_space, spaces.Discrete) or (
+        not per_row and isinstance(model.action_space, spaces.Box)
+    )
     while running.any():
         obs = rows.observations()
         # Every row is predicted (the finished ones too: their stale actions are never applied), so the
         # batch keeps one shape; a recurrent policy carries one LSTM state per row from episode_start.
         # Sampled rows draw only while running, so each row's stream is its episode's.
         if sampled:
-            action = _sample_rows(model.policy, obs, states, running, per_row or not discrete)
+            action = _sample_rows(model.policy, obs, states, running, not one_pass)
         elif per_row:
             action = _predict_each_row(model.policy, obs)
         elif recurrent:

@@ -116,11 +116,14 @@ def test_batched_equals_single_env_evaluation(
     assert len(set(single.metrics["per_episode_objective"])) == EPISODES  # the seeds differ
 
 
-def test_batched_continuous_predict_equals_to_float_rounding(tmp_path: Path) -> None:
+@pytest.mark.parametrize(("algo", "mode"), [("ppo", ""), ("ppo", "@sampled"), ("sac", "@sampled")])
+def test_batched_continuous_predict_equals_to_float_rounding(tmp_path: Path, algo: str, mode: str) -> None:
+    """``exact_actions=False``: one forward pass for all rows, argmax or sampled (each row's draw from its
+    own generator state on its slice of the batched distribution, clipped or squashed)."""
     cfg = _cfg("planetnav/Cruise-Torque-v0", 30)
-    run = _save_model(tmp_path, "ppo", cfg, {})
-    single = evaluate_agent(str(run), cfg, EPISODES, SEED, progress=False, batched=False)
-    batched = evaluate_agent(str(run), cfg, EPISODES, SEED, progress=False, exact_actions=False)
+    spec = f"{_save_model(tmp_path, algo, cfg, {})}{mode}"
+    single = evaluate_agent(spec, cfg, EPISODES, SEED, progress=False, batched=False)
+    batched = evaluate_agent(spec, cfg, EPISODES, SEED, progress=False, exact_actions=False)
     assert batched.metrics["exact_actions"] is False
     _assert_same(single, batched, exact=False)
 
