@@ -19,7 +19,7 @@ import yaml
 from planetnav_env.errors import ConfigError
 from planetnav_train.config import TrainConfig, is_rllib_algo, parse_config
 from planetnav_train.suite.tasks import (
-    ALGOS_BY_KIND,
+    ALGOS,
     DEFAULT_ASSISTS,
     TASKS,
     TRACKS,
@@ -106,9 +106,12 @@ class Cell:
         return f"{self.task}__{self.algo}__{self.track}__s{self.seed}"
 
 
-def make_cells(tasks: Sequence[str], algos: Sequence[str], seeds: Sequence[int], track: str) -> list[Cell]:
+def make_cells(
+    tasks: Sequence[str], algos: Sequence[str], seeds: Sequence[int], track: str, table_only: bool = False
+) -> list[Cell]:
     """The grid: every applicable (task, algorithm) pair x ``seeds``; an algorithm that fits none of the
-    given tasks' action kinds is an error naming it (one that fits some is skipped on the others)."""
+    given tasks' action kinds is an error naming it (one that fits some is skipped on the others).
+    ``table_only``: only the pairs the published table runs (:meth:`Algo.in_table`)."""
     if track not in TRACKS:
         raise ConfigError(f"--track {track!r} is not one of {TRACKS}")
     if any(int(s) < 0 for s in seeds):
@@ -117,8 +120,8 @@ def make_cells(tasks: Sequence[str], algos: Sequence[str], seeds: Sequence[int],
     cells = []
     for name in algos:
         algo = get_algo(name)
-        fits = [t for t in ts if t.action_kind in algo.kinds]
-        if not fits:
+        fits = [t for t in ts if (algo.in_table(t) if table_only else t.action_kind in algo.kinds)]
+        if not fits and not table_only:
             raise ConfigError(
                 f"algorithm {algo.name!r} runs on {algo.kinds} tasks; none of {[t.id for t in ts]} is one"
             )
@@ -126,18 +129,18 @@ def make_cells(tasks: Sequence[str], algos: Sequence[str], seeds: Sequence[int],
     return cells
 
 
-#: The published table's training seeds, the assisted track's algorithms and RLlib's task (docs/suite.md).
+#: The published table's training seeds and the assisted track's algorithms (docs/suite.md).
 PUBLISHED_SEEDS: tuple[int, ...] = (0, 1, 2, 3, 4)
 ASSISTED_ALGOS: tuple[str, ...] = ("ppo",)
-RLLIB_TASKS: tuple[str, ...] = ("Cruise-Target-v1",)
 
 
 def published_grid() -> list[Cell]:
-    """Every cell of the published table: raw, each task x the algorithms of its action kind (and
-    ``rllib_ppo`` on :data:`RLLIB_TASKS`); assisted, each task x :data:`ASSISTED_ALGOS`; five seeds each."""
+    """Every cell of the published table: raw, each task x the algorithms that run on it
+    (:meth:`Algo.in_table`: its action kind's, RecurrentPPO on the Mars approach and RLlib's PPO on
+    Cruise-Target-v1 only); assisted, each task x :data:`ASSISTED_ALGOS`; five seeds each."""
     cells = []
     for t in TASKS:
-        raw = [*ALGOS_BY_KIND[t.action_kind], *(("rllib_ppo",) if t.id in RLLIB_TASKS else ())]
+        raw = [a.name for a in ALGOS.values() if a.in_table(t)]
         cells += make_cells([t.id], raw, PUBLISHED_SEEDS, "raw")
         cells += make_cells([t.id], ASSISTED_ALGOS, PUBLISHED_SEEDS, "assisted")
     return cells

@@ -69,6 +69,15 @@ DIAGNOSES: dict[str, Diagnosis] = {
             "over the v1 decision scores 0.993.",
             "python train.py train --config configs/diagnostics/mars_v1_clone.yaml",
         ),
+        Diagnosis(
+            "ThrustArc-TCM-v1",
+            "exploration",
+            "The suite's PPO network cloned from optimum (class-balanced, one DAgger round) on the v1 "
+            "observation scores 0.74 sampled (J 9260.8 km against optimum 7360.5 and idle 14721.0; its "
+            "argmax images too often, 15140.9 km). PPO from a random start learns never to image (J equal "
+            "to idle's, 0.00): a session costs delta-v at once and pays at a TCM deadline days later.",
+            "python train.py train --config configs/diagnostics/thrust_arc_v1_clone.yaml",
+        ),
     )
 }
 

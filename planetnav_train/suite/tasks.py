@@ -203,6 +203,19 @@ class Algo:
     #: ``sampled`` or ``argmax``: the action the protocol scores (both are recorded).
     eval_mode: str = "argmax"
     extra: str = "train"  # the pyproject extra it needs: train (SB3), bench (sb3-contrib), ray (RLlib)
+    #: The published table's tasks it runs on; empty: every task of its action kinds.
+    tasks: tuple[str, ...] = ()
+
+    def __post_init__(self) -> None:
+        unknown = sorted(set(self.tasks) - set(TASKS_BY_ID))
+        if unknown:
+            raise ConfigError(
+                f"algorithm {self.name!r}: unknown task(s) {unknown}; the tasks: {sorted(TASKS_BY_ID)}"
+            )
+
+    def in_table(self, task: Task) -> bool:
+        """Whether the published table runs this algorithm on ``task``."""
+        return task.action_kind in self.kinds and (not self.tasks or task.id in self.tasks)
 
     def budget(self, task: Task) -> float:
         """This algorithm's training budget on ``task`` in physics steps: the task's, times the fraction."""
@@ -229,6 +242,10 @@ _OFF_POLICY = {"train_freq": 4, "gradient_steps": 1}
 #: The suite's algorithms, each for what it adds: PPO (the on-policy reference, both action kinds), DQN
 #: (value-based, discrete), RecurrentPPO (memory instead of the observation's history block), SAC
 #: (off-policy, continuous); RLlib's PPO on one task (another library's PPO on the same env).
+#: RecurrentPPO runs on the Mars approach only: every v1 observation carries its history block
+#: (``since_measured``), and the LSTM's 1,700 physics steps/s would cost the 8-hour table two hours on
+#: all four discrete tasks (docs/suite.md, "Wall time"); the approach, with its 1,000-s pulsar
+#: integrations between planet images, is where memory has the most to add.
 #: ``eval_mode``: which action the protocol scores (both are recorded): ``sampled`` for the stochastic
 #: policy-gradient policies (their argmax can collapse to one action: research/training_log.md),
 #: ``argmax`` for the value-based and the deterministic-actor ones.
@@ -239,12 +256,13 @@ ALGOS: dict[str, Algo] = {
         Algo("dqn", ("discrete",), n_envs=1, budget_fraction=1 / 3, eval_mode="argmax",
              hyperparams={"train_freq": 4, "gradient_steps": 1, "gamma": 0.95}),
         Algo("recurrent_ppo", ("discrete",), policy="MlpLstmPolicy", n_envs=64, budget_fraction=1 / 3,
-             hyperparams=_ON_POLICY, extra="bench", eval_mode="sampled"),
+             hyperparams=_ON_POLICY, extra="bench", eval_mode="sampled",
+             tasks=("MarsApproach-Tasking-v1",)),
         Algo("sac", ("continuous",), n_envs=1, budget_fraction=0.1, hyperparams=_OFF_POLICY,
              eval_mode="argmax"),
         # Samples in its own process (no env-runner actors): one CPU per cell, in a Tune grid too.
         Algo("rllib_ppo", ACTION_KINDS, n_envs=8, hyperparams={"num_env_runners": 0}, extra="ray",
-             eval_mode="argmax"),
+             eval_mode="argmax", tasks=("Cruise-Target-v1",)),
     )
 }  # fmt: skip
 #: The algorithms of the published table per action kind (RLlib's PPO on one task: see docs/suite.md).

@@ -180,6 +180,16 @@ def test_cells_and_bad_values() -> None:
     ]  # fmt: skip
     with pytest.raises(ConfigError, match="'sac' runs on"):
         suite.make_cells(["Cruise-Target-v1"], ["sac"], [0], "raw")
+    # Asked for by name, RecurrentPPO runs on any discrete task; the table's pairs put it on the Mars
+    # approach only, and RLlib's PPO on Cruise-Target-v1 only.
+    tasks = ["Cruise-Target-v1", "MarsApproach-Tasking-v1"]
+    assert {c.task for c in suite.make_cells(tasks, ["recurrent_ppo"], [0], "raw")} == set(tasks)
+    table = suite.make_cells(tasks, ["recurrent_ppo", "rllib_ppo"], [0], "raw", table_only=True)
+    assert {(c.task, c.algo) for c in table} == {
+        ("MarsApproach-Tasking-v1", "recurrent_ppo"), ("Cruise-Target-v1", "rllib_ppo"),
+    }  # fmt: skip
+    with pytest.raises(ConfigError, match="unknown task"):
+        suite.Algo("x", ("discrete",), tasks=("Cruise-Target-v9",))
     with pytest.raises(ConfigError, match="--track 'both'"):
         suite.make_cells(["Cruise-Target-v1"], ["ppo"], [0], "both")
     with pytest.raises(ConfigError, match="unknown algorithm 'ppo2'"):
