@@ -334,7 +334,7 @@ def cmd_suite(args: argparse.Namespace) -> int:
         eval_episodes=args.eval_episodes,
         assists_path=args.assists,
         progress=not args.no_progress,
-        exact_actions=not args.no_exact_actions,
+        exact_actions=args.exact_actions,
         resume=args.resume,
     )
     use_ray = False if args.no_ray else None
@@ -565,9 +565,11 @@ def build_parser() -> argparse.ArgumentParser:
     su.add_argument("--address", help="run the grid on the Ray cluster at HOST:PORT (needs the [ray] extra)")
     su.add_argument("--no-ray", action="store_true", help="run sequentially even where Ray is installed")
     su.add_argument(
-        "--no-exact-actions",
-        action="store_true",
-        help="evaluate a continuous policy's rows in one predict (faster; equal to float rounding only)",
+        "--exact-actions",
+        action=argparse.BooleanOptionalAction,
+        default=False,
+        help="evaluate a continuous policy row by row, each row's forward pass the single env's (slower; "
+        "default: one forward pass for all rows, equal to the single env's to float rounding)",
     )
     su.add_argument("--no-progress", action="store_true", help="no progress bars")
     su.set_defaults(func=cmd_suite)

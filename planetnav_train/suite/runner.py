@@ -207,7 +207,8 @@ def learning_curve_callback(
             path = run_dir / "curve_model.zip"  # beside the run's config.yaml, which the loader reads
             self.model.save(path)
             m = evaluate_agent(_mode_spec(path, mode), task.eval_config(settings.episode_steps),
-                               CURVE_EPISODES, CURVE_SEED, progress=False).metrics  # fmt: skip
+                               CURVE_EPISODES, CURVE_SEED, progress=False,
+                               exact_actions=settings.exact_actions).metrics  # fmt: skip
             j = float(np.mean(objective.values(m)))
             steps = int(self.model.num_timesteps) * per_decision
             self.points.append([steps, normalized_score(j, refs["J_zero"], refs["J_best"])])

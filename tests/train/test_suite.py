@@ -234,7 +234,8 @@ def test_exact_actions_reaches_the_evaluation_the_record_and_the_command(tmp_pat
         record = suite.run_cell(cell, settings, refs)
         assert seen[-1] is exact and record["exact_actions"] is exact
         args = build_parser().parse_args(shlex.split(record["command"])[2:])
-        assert args.no_exact_actions is (not exact)
+        assert args.exact_actions is exact
+    assert suite.Settings(out=tmp_path).exact_actions is False  # the suite's default: one forward pass
 
 
 def test_contrib_algorithm_without_sb3_contrib_names_the_extra(monkeypatch) -> None:
