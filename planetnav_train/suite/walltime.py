@@ -40,6 +40,8 @@ class WallTime:
     reference_s: float  # every reference agent evaluated, all tasks
     reference_tasks: int
     unreferenced: tuple[str, ...] = ()  # tasks of the table whose references have not been evaluated
+    #: "algorithm track" -> (cells, worker-seconds measured + projected): where the time goes.
+    by_algo: tuple[tuple[str, int, float], ...] = ()
 
     @property
     def total_s(self) -> float:
@@ -87,16 +89,21 @@ def table_wall_time(records: Sequence[Mapping[str, Any]], references_s: Mapping[
         per_step.setdefault((kind, c.algo, c.track), []).append(done[key[c]] / _budget(c))
     measured = [done[key[c]] for c in finished]
     projected, missing = [], []
+    parts: dict[str, list[float]] = {}
     for c in grid:
-        if key[c] in done:
-            continue
         kind = get_task(c.task).action_kind
-        if (c.task, c.algo, c.track) in same:
-            projected.append(float(np.mean(same[(c.task, c.algo, c.track)])))
+        if key[c] in done:
+            cost = done[key[c]]
+        elif (c.task, c.algo, c.track) in same:
+            cost = float(np.mean(same[(c.task, c.algo, c.track)]))
+            projected.append(cost)
         elif (kind, c.algo, c.track) in per_step:
-            projected.append(float(np.mean(per_step[(kind, c.algo, c.track)])) * _budget(c))
+            cost = float(np.mean(per_step[(kind, c.algo, c.track)])) * _budget(c)
+            projected.append(cost)
         else:
             missing.append(f"{c.task} {c.algo} {c.track}")
+            continue
+        parts.setdefault(f"{c.algo} {c.track}", []).append(cost)
     return WallTime(
         measured_cells=len(measured),
         measured_cell_s=sum(measured),
@@ -106,6 +113,7 @@ def table_wall_time(records: Sequence[Mapping[str, Any]], references_s: Mapping[
         reference_s=sum(v for t, v in references_s.items() if t in tasks),
         reference_tasks=len(tasks & set(references_s)),
         unreferenced=tuple(sorted(tasks - set(references_s))),
+        by_algo=tuple((k, len(v), sum(v)) for k, v in sorted(parts.items())),
     )
 
 
@@ -121,6 +129,10 @@ def wall_time_lines(wall: WallTime) -> list[str]:
         "",
         f"On {WORKERS} workers: **{wall.hours:.1f} h** (limit {LIMIT_HOURS:.0f} h).",
     ]
+    if wall.by_algo:
+        lines += ["", "Where it goes (cells measured and projected):", "",
+                  "| algorithm, track | cells | worker-seconds |", "|---|---|---|"]  # fmt: skip
+        lines += [f"| {name} | {n} | {s:,.0f} |" for name, n, s in wall.by_algo]
     if wall.unprojected:
         lines += [
             "",

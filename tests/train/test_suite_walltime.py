@@ -40,6 +40,9 @@ def test_projection_from_the_same_cell_then_per_physics_step():
     assert "Cruise-Torque-v1" in wall.unreferenced and "Cruise-Target-v1" not in wall.unreferenced
     text = "\n".join(wall_time_lines(wall))
     assert "Not in the total" in text and "Cruise-Torque-v1 ppo raw" in text
+    # Where the time goes: PPO raw holds every measured and projected cell, nothing else has a basis.
+    assert wall.by_algo == (("ppo raw", 5 + len(other_discrete), pytest.approx(300.0 + expected)),)
+    assert f"| ppo raw | {5 + len(other_discrete)} |" in text
 
 
 def test_smoke_records_and_tasks_outside_the_table_do_not_count():
