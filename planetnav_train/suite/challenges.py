@@ -78,6 +78,15 @@ DIAGNOSES: dict[str, Diagnosis] = {
             "to idle's, 0.00): a session costs delta-v at once and pays at a TCM deadline days later.",
             "python train.py train --config configs/diagnostics/thrust_arc_v1_clone.yaml",
         ),
+        Diagnosis(
+            "Cruise-TorqueControl-v1",
+            "exploration",
+            "The suite's PPO network cloned from greedy-pd (DAgger) on the v1 observation, commanding the "
+            "wheel torques every second, scores 0.93 sampled and 0.94 argmax (192.4 and 182.6 km against "
+            "greedy-pd 137.0, random torques 925.1); PPO from a random start scores -0.14 (1038.5 km): it "
+            "neither points nor switches.",
+            "python train.py train --config configs/diagnostics/torque_control_v1_clone.yaml",
+        ),
     )
 }
 
