@@ -236,9 +236,8 @@ class Algo:
 # Many rows and large minibatches: throughput (benchmarks/bench_train.py measures the settings). 64 rows x
 # 64 decisions = 4,096 decisions per update, 4 minibatches of 1,024, 5 epochs; the discount is per decision.
 _ON_POLICY = {"n_steps": 64, "batch_size": 1024, "n_epochs": 5, "gamma": 0.95, "ent_coef": 0.01}
-# One gradient step per 4 env steps: SB3's default of one per step trains at ~20 env steps/s on the
-# 2-core machine, which no 8-hour table affords.
-_OFF_POLICY = {"train_freq": 4, "gradient_steps": 1}
+# Off-policy: many rows and few gradient steps per transition. SB3's default of one gradient step per
+# step of one row trains at ~20 env steps/s on the 2-core machine, which no 8-hour table affords.
 #: The suite's algorithms, each for what it adds: PPO (the on-policy reference, both action kinds), DQN
 #: (value-based, discrete), RecurrentPPO (memory instead of the observation's history block), SAC
 #: (off-policy, continuous); RLlib's PPO on one task (another library's PPO on the same env).
@@ -254,14 +253,16 @@ ALGOS: dict[str, Algo] = {
     for a in (
         Algo("ppo", ACTION_KINDS, n_envs=64, hyperparams=_ON_POLICY, eval_mode="sampled"),
         # 8 rows, 2 gradient steps per 4 steps of the rows (one per 16 transitions): 4x the throughput
-        # of one row at one step per 4 transitions (research/tasks_v1/diagnostics.md, "Wall time").
+        # of one row at one step per 4 transitions (921 against 225 decisions/s, the Mars approach).
         Algo("dqn", ("discrete",), n_envs=8, budget_fraction=1 / 3, eval_mode="argmax",
              hyperparams={"train_freq": 4, "gradient_steps": 2, "gamma": 0.95}),
         Algo("recurrent_ppo", ("discrete",), policy="MlpLstmPolicy", n_envs=64, budget_fraction=1 / 3,
              hyperparams=_ON_POLICY, extra="bench", eval_mode="sampled",
              tasks=("MarsApproach-Tasking-v1",)),
-        Algo("sac", ("continuous",), n_envs=1, budget_fraction=0.1, hyperparams=_OFF_POLICY,
-             eval_mode="argmax"),
+        # 8 rows, one gradient step per 2 steps of the rows (per 16 transitions): one row at one step per
+        # 4 transitions trained at ~120 physics steps/s on the loaded machine, 14 min per cell.
+        Algo("sac", ("continuous",), n_envs=8, budget_fraction=0.1, eval_mode="argmax",
+             hyperparams={"train_freq": 2, "gradient_steps": 1}),
         # Samples in its own process (no env-runner actors): one CPU per cell, in a Tune grid too.
         Algo("rllib_ppo", ACTION_KINDS, n_envs=8, hyperparams={"num_env_runners": 0}, extra="ray",
              eval_mode="argmax", tasks=("Cruise-Target-v1",)),
