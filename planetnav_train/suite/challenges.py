@@ -87,6 +87,15 @@ DIAGNOSES: dict[str, Diagnosis] = {
             "neither points nor switches.",
             "python train.py train --config configs/diagnostics/torque_control_v1_clone.yaml",
         ),
+        Diagnosis(
+            "Cruise-TargetTorque-v1",
+            "exploration",
+            "The suite's PPO network cloned from greedy (DAgger) on the v1 observation, choosing the target "
+            "and a zero residual torque, scores 0.93 sampled and 0.94 argmax (147.6 and 146.1 km against "
+            "planner 132.0, random 370.3); PPO from a random start scores 0.44 (265.6 km; its curve's last "
+            "points, 0.35-0.52, leave samples open as a second limit).",
+            "python train.py train --config configs/diagnostics/target_torque_v1_clone.yaml",
+        ),
     )
 }
 
