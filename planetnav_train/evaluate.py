@@ -165,9 +165,16 @@ def batch_reason(agent: Any, exact_actions: bool = True) -> str | None:
 
 
 def _samples_per_row(model: Any) -> bool:
-    """Whether ``model``'s sampled actions can be drawn row by row here (:func:`_sample_rows`): not a
-    recurrent policy (its draw needs its LSTM state) nor a maskable one (its draw needs the row's mask)."""
-    return not hasattr(model.policy, "lstm_actor") and "Maskable" not in type(model).__name__
+    """Whether ``model``'s sampled actions can be drawn row by row here (:func:`_sample_rows`): its
+    ``predict`` is SB3's own (DQN's draws its epsilon-greedy exploration from numpy, RecurrentPPO's
+    needs its LSTM state, MaskablePPO's the row's mask) and its policy has an action distribution (an
+    actor-critic's, or an off-policy actor's such as SAC's; TD3's actor is deterministic)."""
+    from stable_baselines3.common.base_class import BaseAlgorithm
+
+    if type(model).predict is not BaseAlgorithm.predict or hasattr(model.policy, "lstm_actor"):
+        return False
+    policy, actor = model.policy, getattr(model.policy, "actor", None)
+    return hasattr(policy, "get_distribution") or hasattr(actor, "get_action_dist_params")
 
 
 def _argmax_actions(model: Any) -> bool:

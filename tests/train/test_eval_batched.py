@@ -46,7 +46,7 @@ def _save_model(tmp_path: Path, algo: str, cfg: EnvConfig, options: dict[str, An
 
     venv = NavTrainingVecEnv(2, cfg, seed=0, **options)
     kwargs: dict[str, Any] = {"n_steps": 8, "batch_size": 8, "policy_kwargs": {"net_arch": [16]}}
-    if algo == "sac":
+    if algo in ("sac", "dqn"):
         kwargs = {"buffer_size": 100, "policy_kwargs": {"net_arch": [16]}}
     if algo == "recurrent_ppo":
         kwargs["policy_kwargs"] = {"net_arch": [16], "lstm_hidden_size": 8}
@@ -167,10 +167,12 @@ def test_rule_agents_and_recurrent_sampled_models_fall_back(tmp_path: Path) -> N
     run = _save_model(tmp_path, "ppo", cfg, {})
     assert batch_reason(make_agent(str(run), env)) is None
     assert batch_reason(make_agent(f"{run}@sampled", env)) is None
-    lstm = tmp_path / "lstm"
-    lstm.mkdir()
-    rec = _save_model(lstm, "recurrent_ppo", cfg, {})
-    assert "drawn one episode at a time" in str(batch_reason(make_agent(f"{rec}@sampled", env)))
+    for algo in ("recurrent_ppo", "dqn"):  # the LSTM state; DQN's epsilon-greedy draws from numpy
+        folder = tmp_path / algo
+        folder.mkdir()
+        other = _save_model(folder, algo, cfg, {})
+        assert "drawn one episode at a time" in str(batch_reason(make_agent(f"{other}@sampled", env)))
+        assert batch_reason(make_agent(str(other), env)) is None
     res = evaluate_agent("greedy", cfg, 2, SEED, progress=False)
     assert res.metrics["batched"] is False and "batch_fallback" not in res.metrics
 
