@@ -21,6 +21,8 @@ LIMITS: dict[str, str] = {
     "samples": "twice the budget raises the score: the learner has not converged",
     "exploration": "a shaped or demonstration-seeded run reaches what the raw run does not find alone",
     "observability": "a policy on the observation cannot express the reference's decisions",
+    "action resolution": "a demonstration-seeded run reaches the reference only with a finer action scale: "
+    "at the task's scale the policy's outputs cannot resolve the commands it needs",
 }
 
 
@@ -95,6 +97,17 @@ DIAGNOSES: dict[str, Diagnosis] = {
             "planner 132.0, random 370.3); PPO from a random start scores 0.44 (265.6 km; its curve's last "
             "points, 0.35-0.52, leave samples open as a second limit).",
             "python train.py train --config configs/diagnostics/target_torque_v1_clone.yaml",
+        ),
+        Diagnosis(
+            "Cruise-Torque-v1",
+            "action resolution",
+            "The suite's PPO network cloned from greedy (DAgger) on the v1 observation never measures at "
+            "the id's scale (an action of 1 = the wheel limit; 1502.9 km, worse than random torques 698.7): "
+            "a pointing torque held for a 60-s step is ~0.005 of that range. The same clone with an action "
+            "of 1 = 5 % of the limit measures at 88 % of the steps and scores 157.9 km argmax, 168.2 "
+            "sampled (0.96 and 0.94 against the task's references; greedy in that env 146.6). A later "
+            "version of the id would pose the torque at that scale.",
+            "python train.py train --config configs/diagnostics/torque_v1_clone_scale005.yaml",
         ),
     )
 }
