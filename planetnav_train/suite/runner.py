@@ -239,8 +239,8 @@ def run_cell(cell: Cell, settings: Settings, references: Mapping[str, Any]) -> d
     t0 = time.perf_counter()
     run_dir = settings.out / "models" / cell.key
     callbacks = []
+    per_decision = tc.action_repeat * tc.env_config().decision_steps
     if not is_rllib_algo(cell.algo):
-        per_decision = tc.action_repeat * tc.env_config().decision_steps
         callbacks.append(learning_curve_callback(
             task, settings, references, run_dir, tc.n_timesteps, algo.eval_mode, per_decision))  # fmt: skip
     model_path, stats = train_cell(tc, run_dir, settings.progress, settings.resume, callbacks)
@@ -291,7 +291,8 @@ def run_cell(cell: Cell, settings: Settings, references: Mapping[str, Any]) -> d
         "learning_curve": curve,
         "curve_seeds": [CURVE_SEED, CURVE_SEED + CURVE_EPISODES],
         "reference": {k: references[k] for k in ("random", "zero", "best", "J_random", "J_zero", "J_best")},
-        "env_steps": int(stats.get("env_steps", stats.get("timesteps", 0))),
+        # Physics steps: SB3's training reports them (env_steps); RLlib's counts decisions (timesteps).
+        "env_steps": int(stats.get("env_steps", stats.get("timesteps", 0) * per_decision)),
         "train_seconds": train_s,
         "wall_seconds": time.perf_counter() - t0,
         "eval_episodes": episodes,
