@@ -238,26 +238,6 @@ def test_exact_actions_reaches_the_evaluation_the_record_and_the_command(tmp_pat
     assert suite.Settings(out=tmp_path).exact_actions is False  # the suite's default: one forward pass
 
 
-def test_record_counts_physics_steps_for_rllib_too(tmp_path, monkeypatch) -> None:
-    """RLlib's trainer counts decisions (``timesteps``); the record's ``env_steps`` is physics steps, as
-    SB3's training reports them: decisions x the id's decision_steps."""
-    pytest.importorskip("ray")  # an RLlib cell's configuration needs the [ray] extra
-    from planetnav_train import evaluate
-
-    def fake_evaluate(spec, env_cfg, episodes, seed, progress=True, batched=True, exact_actions=True):
-        metrics = {"per_episode_mean_pos_err_km": [100.0 + k for k in range(episodes)]}
-        return evaluate.EvalResult(spec, metrics, np.zeros(0), np.zeros(0))
-
-    monkeypatch.setattr(evaluate, "evaluate_agent", fake_evaluate)
-    monkeypatch.setattr(runner, "train_cell", lambda *a, **k: (tmp_path / "checkpoint", {"timesteps": 1234}))
-    refs = {"random": "random", "zero": "random", "best": "greedy", "J_random": 300.0, "J_zero": 300.0,
-            "J_best": 100.0}  # fmt: skip
-    cell = suite.Cell("Cruise-Target-v1", "rllib_ppo", "raw", 0)
-    record = suite.run_cell(cell, suite.Settings(out=tmp_path, eval_episodes=2), refs)
-    decision_steps = suite.get_task("Cruise-Target-v1").env_config().decision_steps
-    assert decision_steps == 10 and record["env_steps"] == 1234 * decision_steps
-
-
 def test_contrib_algorithm_without_sb3_contrib_names_the_extra(monkeypatch) -> None:
     import sys
 
