@@ -347,14 +347,12 @@ def _sample_rows(
 
 def _distribution(policy: Any, obs: Any) -> Any:
     """The SB3 action distribution of ``policy`` for the batch ``obs`` (a tensor): an actor-critic policy's
-    ``get_distribution``, or an off-policy actor's (SAC) distribution from its parameters."""
+    ``get_distribution``, or an off-policy actor's (SAC) distribution from its parameters (the two kinds
+    :func:`_samples_per_row` admits)."""
     if hasattr(policy, "get_distribution"):
         return policy.get_distribution(obs)
-    actor = getattr(policy, "actor", None)
-    if actor is None or not hasattr(actor, "get_action_dist_params"):
-        raise TypeError(f"{type(policy).__name__} has no action distribution to sample rows from")
-    mean, log_std, kwargs = actor.get_action_dist_params(obs)
-    return actor.action_dist.proba_distribution(mean, log_std, **kwargs)
+    mean, log_std, kwargs = policy.actor.get_action_dist_params(obs)
+    return policy.actor.action_dist.proba_distribution(mean, log_std, **kwargs)
 
 
 def _draw(dist: Any, r: int) -> Any:
@@ -401,18 +399,16 @@ def _run_rows(
     state: Any = None
     first = True
     states = _seeded_states(seeds) if sampled else []
-    # One forward pass serves the sampled rows of a Discrete policy, and of a continuous one when its
-    # argmax rows batch too (exact_actions=False); else each row runs the single path's call.
-    one_pass = isinstance(model.action_space, spaces.Discrete) or (
-        not per_row and isinstance(model.action_space, spaces.Box)
-    )
+    # Sampled rows share one forward pass where the argmax rows do (a Discrete policy; a Box one unless
+    # per_row), and _draw knows the distribution; else each row runs the single path's call.
+    sample_per_row = per_row or not isinstance(model.action_space, (spaces.Discrete, spaces.Box))
     while running.any():
         obs = rows.observations()
         # Every row is predicted (the finished ones too: their stale actions are never applied), so the
         # batch keeps one shape; a recurrent policy carries one LSTM state per row from episode_start.
         # Sampled rows draw only while running, so each row's stream is its episode's.
         if sampled:
-            action = _sample_rows(model.policy, obs, states, running, not one_pass)
+            action = _sample_rows(model.policy, obs, states, running, sample_per_row)
         elif per_row:
             action = _predict_each_row(model.policy, obs)
         elif recurrent:
