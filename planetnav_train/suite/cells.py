@@ -206,7 +206,7 @@ def cell_config(
         "policy": algo.policy,
         "n_envs": algo.n_envs,
         "seed": cell.seed,
-        "hyperparams": dict(algo.hyperparams),
+        "hyperparams": algo.hyperparams_for(task),
         "env": {"episode_steps": settings.episode_steps} if settings.episode_steps else {},
     }
     names: list[str] = []

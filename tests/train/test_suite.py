@@ -190,6 +190,8 @@ def test_cells_and_bad_values() -> None:
     }  # fmt: skip
     with pytest.raises(ConfigError, match="unknown task"):
         suite.Algo("x", ("discrete",), tasks=("Cruise-Target-v9",))
+    with pytest.raises(ConfigError, match=r"unknown task\(s\) \['Mars-v1'\]"):
+        suite.Algo("x", ("discrete",), task_hyperparams={"Mars-v1": {"batch_size": 256}})
     with pytest.raises(ConfigError, match="--track 'both'"):
         suite.make_cells(["Cruise-Target-v1"], ["ppo"], [0], "both")
     with pytest.raises(ConfigError, match="unknown algorithm 'ppo2'"):
@@ -209,6 +211,12 @@ def test_raw_and_assisted_configs(tmp_path) -> None:
     # The assisted track adds what a rule agent computes, named: greedy's gain.
     assert names == ["gain"] and assisted.features == ["gain"]
     assert assisted.n_timesteps == raw.n_timesteps
+    # A task's hyperparameter overrides reach its cells only: PPO's minibatch on the Mars approach.
+    mars, _ = suite.cell_config(suite.Cell("MarsApproach-Tasking-v1", "ppo", "raw", 3), settings)
+    assert raw.hyperparams["batch_size"] == 1024 and mars.hyperparams["batch_size"] == 256
+    assert {k: v for k, v in mars.hyperparams.items() if k != "batch_size"} == {
+        k: v for k, v in raw.hyperparams.items() if k != "batch_size"
+    }
 
 
 def test_exact_actions_reaches_the_evaluation_the_record_and_the_command(tmp_path, monkeypatch) -> None:
