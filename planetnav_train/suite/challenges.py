@@ -63,16 +63,6 @@ DIAGNOSES: dict[str, Diagnosis] = {
             "--budget-scale 2 --out runs/diag_hy2x",
         ),
         Diagnosis(
-            "MarsApproach-Tasking-v1",
-            "exploration",
-            "The suite's PPO network cloned from greedy (DAgger) on the raw v1 observation, deciding every 4 "
-            "physics steps, scores 0.99 (2.60 km against greedy 2.53); PPO's curves are flat from 1M physics "
-            "steps at 0.87, and DQN (0.51 with the table's 8 rows; 0.84 with one row and 4x the gradient "
-            "steps per sample) and RecurrentPPO (0.83) do no better on seed 0. Greedy held over the v1 "
-            "decision scores 0.993.",
-            "python train.py train --config configs/diagnostics/mars_v1_clone.yaml",
-        ),
-        Diagnosis(
             "ThrustArc-TCM-v1",
             "exploration",
             "The suite's PPO network cloned from optimum (class-balanced, one DAgger round) on the v1 "
