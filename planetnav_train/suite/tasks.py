@@ -259,7 +259,7 @@ ALGOS: dict[str, Algo] = {
     a.name: a
     for a in (
         # The Mars approach: minibatches of 256, 4x the gradient steps per update (a seed-0 ablation on
-        # seeds 10,000..10,019: sampled 3.2 km against 3.6 with 1,024; research/tasks_v1/diagnostics.md).
+        # seeds 10,000..10,019: sampled 3.2 km against 3.8 with 1,024; research/tasks_v1/diagnostics.md).
         Algo("ppo", ACTION_KINDS, n_envs=64, hyperparams=_ON_POLICY, eval_mode="sampled",
              task_hyperparams={"MarsApproach-Tasking-v1": {"batch_size": 256}}),
         # 8 rows, 2 gradient steps per 4 steps of the rows (one per 16 transitions): 4x the throughput
