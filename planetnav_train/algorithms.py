@@ -1,5 +1,6 @@
 """The SB3 algorithm's constructor arguments from a configuration's ``hyperparams``: :func:`algo_kwargs`
-(activation names, RL-Zoo ``lin_`` schedules). Which algorithms a configuration may name, and which
+(activation names, RL-Zoo ``lin_`` schedules, features extractors by name:
+:mod:`planetnav_train.policies`). Which algorithms a configuration may name, and which
 ``hyperparams`` keys each takes, is checked by :mod:`planetnav_train.config`.
 """
 
@@ -38,6 +39,10 @@ def algo_kwargs(tc: TrainConfig) -> dict[str, Any]:
     pk = dict(kw.get("policy_kwargs") or {})
     if isinstance(pk.get("activation_fn"), str):
         pk["activation_fn"] = _activation(pk["activation_fn"])
+    if "features_extractor" in pk:  # a name of planetnav_train.policies, laid out for this run's env
+        from planetnav_train.policies import extractor_kwargs
+
+        pk.update(extractor_kwargs(pk.pop("features_extractor"), tc.env_config()))
     if pk:
         kw["policy_kwargs"] = pk
     return kw

@@ -207,7 +207,10 @@ def cell_config(
         "n_envs": algo.n_envs,
         "seed": cell.seed,
         "hyperparams": algo.hyperparams_for(task),
-        "env": {"episode_steps": settings.episode_steps} if settings.episode_steps else {},
+        "env": {
+            **algo.env_for(task),
+            **({"episode_steps": settings.episode_steps} if settings.episode_steps else {}),
+        },
     }
     names: list[str] = []
     if cell.track == "assisted":

@@ -208,13 +208,24 @@ class Algo:
     #: Per task id, hyperparameters that replace those of ``hyperparams`` there (each chosen by an ablation
     #: on seeds the suite does not evaluate on; docs/suite.md names it).
     task_hyperparams: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)
+    #: Per task id, the unit of the reward this algorithm trains on (``reward_scale_km``; the id's own
+    #: otherwise). Dividing every reward by a constant changes no policy's ranking, so the task stays the
+    #: task; what it changes is the learner's update (PPO's value loss shares one clipped gradient norm
+    #: with its policy loss). Chosen by ablations like ``task_hyperparams``.
+    task_reward_scale_km: Mapping[str, float] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        unknown = sorted((set(self.tasks) | set(self.task_hyperparams)) - set(TASKS_BY_ID))
+        named = set(self.tasks) | set(self.task_hyperparams) | set(self.task_reward_scale_km)
+        unknown = sorted(named - set(TASKS_BY_ID))
         if unknown:
             raise ConfigError(
                 f"algorithm {self.name!r}: unknown task(s) {unknown}; the tasks: {sorted(TASKS_BY_ID)}"
             )
+        for task, scale in self.task_reward_scale_km.items():
+            if not (isinstance(scale, (int, float)) and np.isfinite(scale) and scale > 0):
+                raise ConfigError(
+                    f"algorithm {self.name!r}: reward scale of {task} must be > 0 km, got {scale!r}"
+                )
 
     def in_table(self, task: Task) -> bool:
         """Whether the published table runs this algorithm on ``task``."""
@@ -223,6 +234,12 @@ class Algo:
     def hyperparams_for(self, task: Task) -> dict[str, Any]:
         """The hyperparameters this algorithm trains with on ``task``: its own, with the task's overrides."""
         return {**self.hyperparams, **self.task_hyperparams.get(task.id, {})}
+
+    def env_for(self, task: Task) -> dict[str, Any]:
+        """The environment options this algorithm trains with on ``task`` over the id's own: at most its
+        reward's unit (:attr:`task_reward_scale_km`)."""
+        scale = self.task_reward_scale_km.get(task.id)
+        return {} if scale is None else {"reward_scale_km": float(scale)}
 
     def budget(self, task: Task) -> float:
         """This algorithm's training budget on ``task`` in physics steps: the task's, times the fraction."""
@@ -260,8 +277,17 @@ ALGOS: dict[str, Algo] = {
     for a in (
         # The Mars approach: minibatches of 256, 4x the gradient steps per update (a seed-0 ablation on
         # seeds 10,000..10,019: sampled 3.2 km against 3.8 with 1,024; research/tasks_v1/diagnostics.md).
+        # RandomCruise: the same, the per-target blocks read in the order of the relative actions, and the
+        # reward in units of 100,000 km (seed 0 on seeds 10,000..10,099: +26 km to greedy against +77;
+        # each of the three alone leaves it at +57 or worse; research/tasks_v1/diagnostics.md section 5).
         Algo("ppo", ACTION_KINDS, n_envs=64, hyperparams=_ON_POLICY, eval_mode="sampled",
-             task_hyperparams={"MarsApproach-Tasking-v1": {"batch_size": 256}}),
+             task_hyperparams={
+                 "MarsApproach-Tasking-v1": {"batch_size": 256},
+                 "RandomCruise-Target-v1": {
+                     "batch_size": 256, "policy_kwargs": {"features_extractor": "relative_order"},
+                 },
+             },
+             task_reward_scale_km={"RandomCruise-Target-v1": 100_000.0}),
         # 8 rows, 2 gradient steps per 4 steps of the rows (one per 16 transitions): 4x the throughput
         # of one row at one step per 4 transitions (921 against 225 decisions/s, the Mars approach).
         Algo("dqn", ("discrete",), n_envs=8, budget_fraction=1 / 3, eval_mode="argmax",

@@ -192,6 +192,10 @@ def test_cells_and_bad_values() -> None:
         suite.Algo("x", ("discrete",), tasks=("Cruise-Target-v9",))
     with pytest.raises(ConfigError, match=r"unknown task\(s\) \['Mars-v1'\]"):
         suite.Algo("x", ("discrete",), task_hyperparams={"Mars-v1": {"batch_size": 256}})
+    with pytest.raises(ConfigError, match=r"unknown task\(s\) \['Mars-v1'\]"):
+        suite.Algo("x", ("discrete",), task_reward_scale_km={"Mars-v1": 10.0})
+    with pytest.raises(ConfigError, match=r"reward scale of Cruise-Target-v1 must be > 0 km, got -1\.0"):
+        suite.Algo("x", ("discrete",), task_reward_scale_km={"Cruise-Target-v1": -1.0})
     with pytest.raises(ConfigError, match="--track 'both'"):
         suite.make_cells(["Cruise-Target-v1"], ["ppo"], [0], "both")
     with pytest.raises(ConfigError, match="unknown algorithm 'ppo2'"):
@@ -217,6 +221,19 @@ def test_raw_and_assisted_configs(tmp_path) -> None:
     assert {k: v for k, v in mars.hyperparams.items() if k != "batch_size"} == {
         k: v for k, v in raw.hyperparams.items() if k != "batch_size"
     }
+    # RandomCruise: PPO reads the target blocks in the relative actions' order and trains on the reward in
+    # units of 100,000 km, on both tracks; the objective and every other task's reward are the id's.
+    for track in ("raw", "assisted"):
+        rc, _ = suite.cell_config(suite.Cell("RandomCruise-Target-v1", "ppo", track, 3), settings)
+        assert rc.env == {"reward_scale_km": 100_000.0} and rc.env_config().reward_scale_km == 100_000.0
+        assert rc.hyperparams["policy_kwargs"] == {"features_extractor": "relative_order"}
+    assert raw.env_config().reward_scale_km == 1000.0 and mars.env == {}
+    rc_dqn, _ = suite.cell_config(suite.Cell("RandomCruise-Target-v1", "dqn", "raw", 3), settings)
+    assert rc_dqn.env == {} and "policy_kwargs" not in rc_dqn.hyperparams
+    smoke, _ = suite.cell_config(
+        suite.Cell("RandomCruise-Target-v1", "ppo", "raw", 3), suite.Settings(out=tmp_path, episode_steps=40)
+    )
+    assert smoke.env == {"reward_scale_km": 100_000.0, "episode_steps": 40}
 
 
 def test_exact_actions_reaches_the_evaluation_the_record_and_the_command(tmp_path, monkeypatch) -> None:
