@@ -26,6 +26,7 @@ from stable_baselines3.common.torch_layers import BaseFeaturesExtractor
 
 from planetnav_env.config import EnvConfig
 from planetnav_env.core import layout as L
+from planetnav_env.core.decisions import relative_targets
 from planetnav_env.errors import ConfigError
 
 #: Names of ``policy_kwargs.features_extractor`` and what they select.
@@ -51,21 +52,18 @@ def relative_order_index(lay: L.ObservationLayout, tail: int = 0) -> np.ndarray:
         raise ConfigError(
             "relative_order: the in_field block (planets only) has no relative order with pulsars"
         )
-    out = np.tile(np.arange(size + tail), (T, 1))
+    # Blocks of one value per target (T wide), each reordered like the targets themselves.
+    vectors = [lay.target_start] + [size + j * T for j in range(tail // T)]
+    vectors += [lay.since_measured_start] if lay.since_measured else []
+    vectors += [lay.in_field_start] if lay.in_field else []
     F = L.TARGET_FEATURES
+    out = np.tile(np.arange(size + tail), (T, 1))
     for c in range(T):
-        for k in range(T):
-            src = (c + k) % T
-            out[c, lay.planets_start + F * k : lay.planets_start + F * (k + 1)] = np.arange(
-                lay.planets_start + F * src, lay.planets_start + F * (src + 1)
-            )
-            out[c, lay.target_start + k] = lay.target_start + src
-            if lay.since_measured:
-                out[c, lay.since_measured_start + k] = lay.since_measured_start + src
-            if lay.in_field:
-                out[c, lay.in_field_start + k] = lay.in_field_start + src
-            for j in range(tail // T):
-                out[c, size + j * T + k] = size + j * T + src
+        src = relative_targets(np.arange(T), np.full(T, c), T)  # the target action k selects, per k
+        feature = lay.planets_start + F * src[:, None] + np.arange(F)  # (T, F) columns of those blocks
+        out[c, lay.planets_start : lay.planets_start + F * T] = feature.reshape(-1)
+        for start in vectors:
+            out[c, start : start + T] = start + src
     return out
 
 
