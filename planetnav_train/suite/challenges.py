@@ -18,7 +18,7 @@ CHALLENGE_BELOW = 0.5
 TARGET_SCORE = 0.9
 #: What can limit a learner, each with the diagnostic run that tells it apart.
 LIMITS: dict[str, str] = {
-    "samples": "twice the budget raises the score: the learner has not converged",
+    "samples": "a larger budget raises the score: the learner has not converged",
     "exploration": "a shaped or demonstration-seeded run reaches what the raw run does not find alone",
     "observability": "a policy on the observation cannot express the reference's decisions",
     "action resolution": "a demonstration-seeded run reaches the reference only with a finer action scale: "
