@@ -49,7 +49,7 @@ import yaml
 from planetnav_env.config import EnvConfig
 from planetnav_env.errors import ConfigError
 from planetnav_rl import require_ray
-from planetnav_train.algorithms import algo_kwargs
+from planetnav_train.algorithms import algo_kwargs, policy_class
 from planetnav_train.config import ROOT, TrainConfig, is_rllib_algo, parse_config, read_yaml_mapping
 from planetnav_train.envs import make_training_env
 from planetnav_train.evaluate import evaluate_agent
@@ -216,7 +216,8 @@ class _SB3Learner:
         if restore is not None:
             self.model = cls.load(restore / "model.zip", env=self.venv, device="cpu")
         else:
-            self.model = cls(tc.policy, self.venv, seed=tc.seed, device="cpu", verbose=0, **algo_kwargs(tc))
+            policy = policy_class(tc)
+            self.model = cls(policy, self.venv, seed=tc.seed, device="cpu", verbose=0, **algo_kwargs(tc))
 
     @property
     def timesteps(self) -> int:

@@ -39,10 +39,43 @@ def algo_kwargs(tc: TrainConfig) -> dict[str, Any]:
     pk = dict(kw.get("policy_kwargs") or {})
     if isinstance(pk.get("activation_fn"), str):
         pk["activation_fn"] = _activation(pk["activation_fn"])
+    pk.pop("action_head", None)  # selects the policy class: policy_class()
+    for key in ("scorer_arch", "contrast"):
+        if key in pk and "action_head" not in (tc.hyperparams.get("policy_kwargs") or {}):
+            raise ConfigError(f"policy_kwargs.{key} needs policy_kwargs.action_head: per_target")
     if "features_extractor" in pk:  # a name of planetnav_train.policies, laid out for this run's env
         from planetnav_train.policies import extractor_kwargs
 
-        pk.update(extractor_kwargs(pk.pop("features_extractor"), tc.env_config()))
+        pk.update(extractor_kwargs(pk.pop("features_extractor"), tc.env_config(), tc.relative_actions))
     if pk:
         kw["policy_kwargs"] = pk
     return kw
+
+
+#: Names of ``policy_kwargs.action_head`` (a policy class of :mod:`planetnav_train.policies`).
+ACTION_HEADS = ("per_target",)
+
+
+def policy_class(tc: TrainConfig) -> Any:
+    """The algorithm's first argument: ``tc.policy`` (an SB3 alias such as ``"MlpPolicy"``), or the
+    class that ``policy_kwargs.action_head`` names. :class:`~planetnav_env.errors.ConfigError` naming the
+    value for an unknown head, or one without the ``relative_order`` extractor it reads."""
+    pk = tc.hyperparams.get("policy_kwargs") or {}
+    head = pk.get("action_head")
+    if head is None:
+        return tc.policy
+    if head not in ACTION_HEADS:
+        raise ConfigError(f"policy_kwargs.action_head {head!r} is not one of {list(ACTION_HEADS)}")
+    if pk.get("features_extractor") != "relative_order" or tc.policy != "MlpPolicy":
+        raise ConfigError(
+            f"policy_kwargs.action_head {head!r} reads the relative-order observation: it needs "
+            f"features_extractor: relative_order and policy: MlpPolicy, got "
+            f"{pk.get('features_extractor')!r} and {tc.policy!r}"
+        )
+    if tc.algo != "ppo":
+        raise ConfigError(
+            f"policy_kwargs.action_head {head!r} is an actor-critic head for ppo, not {tc.algo!r}"
+        )
+    from planetnav_train.policies import PerTargetPolicy
+
+    return PerTargetPolicy

@@ -1,5 +1,6 @@
 """Policy front ends for the learners: :class:`RelativeTargetOrder`, a features extractor that reads the
-per-target blocks of the box observation in the order of *relative* target actions.
+per-target blocks of the box observation in the order of *relative* target actions, and
+:class:`PerTargetPolicy`, whose action head scores every target with one shared MLP.
 
 With ``EnvConfig.target_actions = "relative"`` action ``k`` selects the target ``k`` places after the
 current one (``(current + k) mod T``; :func:`planetnav_env.core.decisions.relative_targets`), while the
@@ -11,9 +12,21 @@ the target that action ``k`` would select. It is a pure function of the raw obse
 block says which target is current), so it adds no information: it is part of the policy's architecture,
 like a convolution's weight sharing.
 
-Config key: ``hyperparams.policy_kwargs.features_extractor: relative_order``
-(:func:`planetnav_train.algorithms.algo_kwargs` fills in the layout from the run's environment, and
-imports this module, which needs torch, only then).
+The per-target head (:class:`PerTargetScorer`) goes one step further: the logit of action ``k`` is one
+MLP, shared by every target, applied to target ``k``'s own values (its block, one-hot, since-measured,
+appended features), the values that belong to no target (spacecraft, elapsed time) and a one-hot of ``k``.
+A rule such as greedy has that form, one score per candidate. With ``contrast`` each target also reads its
+values standardized across the targets. What decides between targets is often a small difference of one
+feature (on RandomCruise the per-target ``log_sigma`` columns have a standard deviation under 0.1); Adam
+moves each weight by about the learning rate per step, so a flat MLP needs many updates before such a
+difference reaches the logits, and the standardized copy puts it at unit scale from the start. Both are
+pure functions of the observation.
+
+Config keys: ``hyperparams.policy_kwargs.features_extractor: relative_order``, and for the head
+``action_head: per_target`` with ``contrast: true`` and ``scorer_arch: [64, 64]`` (hidden widths; the
+value function keeps ``net_arch``). :func:`planetnav_train.algorithms.algo_kwargs` fills in the layout from
+the run's environment and :func:`planetnav_train.algorithms.policy_class` picks the policy class; both
+import this module, which needs torch, only then.
 """
 
 from __future__ import annotations
@@ -22,7 +35,9 @@ from typing import Any
 
 import numpy as np
 import torch
+from stable_baselines3.common.policies import ActorCriticPolicy
 from stable_baselines3.common.torch_layers import BaseFeaturesExtractor
+from torch import nn
 
 from planetnav_env.config import EnvConfig
 from planetnav_env.core import layout as L
@@ -101,15 +116,111 @@ class RelativeTargetOrder(BaseFeaturesExtractor):
         return torch.gather(observations, 1, self.index[current])
 
 
-def extractor_kwargs(name: str, cfg: EnvConfig) -> dict[str, Any]:
+def per_target_columns(lay: L.ObservationLayout, width: int) -> tuple[np.ndarray, np.ndarray]:
+    """Columns of a relative-order observation (:class:`RelativeTargetOrder`'s output, ``width`` wide) for
+    a per-target scorer: ``(T, m)`` indices of target ``k``'s own values (its 7-column block, then one
+    value of each per-target vector: ``target``, ``since_measured``, ``in_field``, each appended chunk)
+    and the ``(g,)`` indices of every other column (the spacecraft, the elapsed time, operations), which
+    every target's scorer reads too."""
+    T = lay.n_targets
+    F = L.TARGET_FEATURES
+    vectors = [lay.target_start] + [lay.size + j * T for j in range((width - lay.size) // T)]
+    vectors += [lay.since_measured_start] if lay.since_measured else []
+    vectors += [lay.in_field_start] if lay.in_field else []
+    k = np.arange(T)[:, None]
+    own = np.hstack([lay.planets_start + F * k + np.arange(F)] + [start + k for start in vectors])
+    shared = np.setdiff1d(np.arange(width), own.reshape(-1))
+    return own, shared
+
+
+class PerTargetScorer(nn.Module):
+    """Logits ``(B, T)`` of the relative target actions from a relative-order observation: one MLP, shared
+    by every target, scores target ``k`` from its own columns, the shared columns and a one-hot of ``k``
+    (action 0 keeps the current target, so it may score differently from a slew). Greedy rules are of this
+    form (one score per candidate); the weight sharing lets a learner find such a rule from far fewer
+    samples than a flat MLP that has to learn the score once per action slot."""
+
+    def __init__(
+        self, own: np.ndarray, shared: np.ndarray, hidden: list[int], activation: type[nn.Module],
+        contrast: bool = False,
+    ) -> None:  # fmt: skip
+        super().__init__()
+        T = own.shape[0]
+        self.contrast = contrast
+        self.register_buffer("own", torch.as_tensor(own))
+        self.register_buffer("shared", torch.as_tensor(shared))
+        self.register_buffer("slot", torch.eye(T))
+        layers: list[nn.Module] = []
+        width = own.shape[1] * (2 if contrast else 1) + len(shared) + T
+        for h in hidden:
+            layers += [nn.Linear(width, h), activation()]
+            width = h
+        self.hidden = nn.Sequential(*layers)
+        self.out = nn.Linear(width, 1)
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        B, T = x.shape[0], self.own.shape[0]
+        own = x[:, self.own]  # (B, T, m)
+        if self.contrast:
+            mean = own.mean(dim=1, keepdim=True)
+            own = torch.cat([own, (own - mean) / (own.std(dim=1, keepdim=True, unbiased=False) + 1e-3)], 2)
+        shared = x[:, self.shared].unsqueeze(1).expand(B, T, -1)
+        slot = self.slot.unsqueeze(0).expand(B, T, T)
+        return self.out(self.hidden(torch.cat([own, shared, slot], dim=2))).squeeze(2)
+
+
+class PerTargetPolicy(ActorCriticPolicy):
+    """SB3 actor-critic whose action head is a :class:`PerTargetScorer` (``scorer_arch`` hidden widths)
+    over :class:`RelativeTargetOrder`'s output; the value function is the usual MLP (``net_arch``, a list
+    or ``{"vf": [...]}``) on the same features. Discrete relative target actions only."""
+
+    def __init__(
+        self, *args: Any, scorer_arch: list[int] | None = None, contrast: bool = False, **kwargs: Any
+    ) -> None:
+        self.scorer_arch = list(scorer_arch) if scorer_arch is not None else [64, 64]
+        self.contrast = bool(contrast)
+        net_arch = kwargs.get("net_arch")
+        vf = net_arch.get("vf", [64, 64]) if isinstance(net_arch, dict) else (net_arch or [64, 64])
+        kwargs["net_arch"] = {"pi": [], "vf": list(vf)}
+        super().__init__(*args, **kwargs)
+
+    def _build(self, lr_schedule: Any) -> None:
+        super()._build(lr_schedule)
+        fx = self.features_extractor_kwargs
+        lay = L.ObservationLayout(
+            fx["n_planets"], fx.get("n_pulsars", 0), fx.get("n_deadlines"), fx.get("in_field", False),
+            fx.get("since_measured", False),
+        )  # fmt: skip
+        n_actions = int(self.action_space.n)
+        if n_actions != lay.n_targets:
+            raise ConfigError(
+                f"policy_kwargs.action_head 'per_target': {n_actions} actions for {lay.n_targets} targets"
+            )
+        own, shared = per_target_columns(lay, self.features_dim)
+        self.action_net = PerTargetScorer(own, shared, self.scorer_arch, self.activation_fn, self.contrast)
+        if self.ortho_init:
+            self.action_net.hidden.apply(lambda m: self.init_weights(m, gain=np.sqrt(2)))
+            self.init_weights(self.action_net.out, gain=0.01)
+        self.optimizer = self.optimizer_class(self.parameters(), lr=lr_schedule(1), **self.optimizer_kwargs)
+
+    def _get_constructor_parameters(self) -> dict[str, Any]:
+        data = super()._get_constructor_parameters()
+        data["scorer_arch"] = self.scorer_arch
+        data["contrast"] = self.contrast
+        return data
+
+
+def extractor_kwargs(name: str, cfg: EnvConfig, relative_actions: bool = False) -> dict[str, Any]:
     """``features_extractor_class`` and ``features_extractor_kwargs`` of the extractor ``name`` for an
-    environment of configuration ``cfg``. :class:`~planetnav_env.errors.ConfigError` naming the value for
-    an unknown name, relative actions off, or a dict observation."""
+    environment of configuration ``cfg``; ``relative_actions``: the training recipe's relative-action
+    layer (:mod:`planetnav_train.features`) over an env of absolute targets, which decodes actions the same
+    way. :class:`~planetnav_env.errors.ConfigError` naming the value for an unknown name, relative actions
+    off, or a dict observation."""
     if name not in FEATURES_EXTRACTORS:
         raise ConfigError(
             f"policy_kwargs.features_extractor {name!r} is not one of {list(FEATURES_EXTRACTORS)}"
         )
-    if cfg.target_actions != "relative":
+    if cfg.target_actions != "relative" and not relative_actions:
         raise ConfigError(
             f"policy_kwargs.features_extractor {name!r} needs relative target actions, "
             f"got target_actions={cfg.target_actions!r}"
@@ -131,4 +242,12 @@ def extractor_kwargs(name: str, cfg: EnvConfig) -> dict[str, Any]:
     }
 
 
-__all__ = ["FEATURES_EXTRACTORS", "RelativeTargetOrder", "extractor_kwargs", "relative_order_index"]
+__all__ = [
+    "FEATURES_EXTRACTORS",
+    "PerTargetPolicy",
+    "PerTargetScorer",
+    "RelativeTargetOrder",
+    "extractor_kwargs",
+    "per_target_columns",
+    "relative_order_index",
+]

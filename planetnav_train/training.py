@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 import yaml
 
-from planetnav_train.algorithms import algo_kwargs
+from planetnav_train.algorithms import algo_kwargs, policy_class
 from planetnav_train.checkpoint import (
     TrainingState,
     checkpoint_callback_class,
@@ -151,7 +151,7 @@ def train(
         print(f"resuming {run_dir} at decision {offset} of {tc.n_timesteps}")
     else:
         model = cls(
-            tc.policy,
+            policy_class(tc),
             venv,
             seed=tc.seed,
             tensorboard_log=str(run_dir / "tb"),

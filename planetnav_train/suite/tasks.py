@@ -279,12 +279,19 @@ ALGOS: dict[str, Algo] = {
         # seeds 10,000..10,019: sampled 3.2 km against 3.8 with 1,024; research/tasks_v1/diagnostics.md).
         # RandomCruise: the same, the per-target blocks read in the order of the relative actions, and the
         # reward in units of 100,000 km (seed 0 on seeds 10,000..10,099: +26 km to greedy against +77;
-        # each of the three alone leaves it at +57 or worse; research/tasks_v1/diagnostics.md section 5).
+        # each of the three alone leaves it at +57 or worse; research/tasks_v1/diagnostics.md section 5),
+        # and one MLP that scores every target from its own features and their contrast across the
+        # targets (planetnav_train.policies.PerTargetPolicy; the filter's 1-sigma gap to greedy +11 km
+        # against +31 with the flat MLP and +21 at five times the budget: diagnostics.md section 7).
         Algo("ppo", ACTION_KINDS, n_envs=64, hyperparams=_ON_POLICY, eval_mode="sampled",
              task_hyperparams={
                  "MarsApproach-Tasking-v1": {"batch_size": 256},
                  "RandomCruise-Target-v1": {
-                     "batch_size": 256, "policy_kwargs": {"features_extractor": "relative_order"},
+                     "batch_size": 256,
+                     "policy_kwargs": {
+                         "features_extractor": "relative_order", "action_head": "per_target",
+                         "contrast": True,
+                     },
                  },
              },
              task_reward_scale_km={"RandomCruise-Target-v1": 100_000.0}),

@@ -84,7 +84,7 @@ def main() -> None:
     from stable_baselines3.common.callbacks import BaseCallback
     from stable_baselines3.common.vec_env import VecEnvWrapper
 
-    from planetnav_train.algorithms import algo_kwargs
+    from planetnav_train.algorithms import algo_kwargs, policy_class
     from planetnav_train.config import load_config
     from planetnav_train.envs import make_training_env
     from planetnav_train.sb3 import algorithm_class
@@ -144,7 +144,7 @@ def main() -> None:
     log = Log()
     log.model = None
     model = algorithm_class(tc.algo)(
-        tc.policy, venv, seed=tc.seed, device="cpu", verbose=0, **algo_kwargs(tc)
+        policy_class(tc), venv, seed=tc.seed, device="cpu", verbose=0, **algo_kwargs(tc)
     )
     t0 = time.perf_counter()
     model.learn(int(a.steps), callback=log)

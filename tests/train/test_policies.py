@@ -80,15 +80,24 @@ def test_named_errors() -> None:
         extractor_kwargs(
             "relative_order", EnvConfig.from_dict(id_options("planetnav/RandomCruise-Target-v0"))
         )
+    # The training recipe's relative-action layer over v0 decodes actions as v1 does: accepted.
+    v0 = EnvConfig.from_dict(id_options("planetnav/RandomCruise-Target-v0"))
+    assert extractor_kwargs("relative_order", v0, relative_actions=True)["features_extractor_kwargs"][
+        "n_planets"
+    ] == 3
     with pytest.raises(ConfigError, match="4 appended columns"):
         relative_order_index(L.ObservationLayout.for_config(cruise), tail=4)
     with pytest.raises(ConfigError, match="shape"):
         _extractor("planetnav/RandomCruise-Target-v1", tail=-2)
 
 
-def test_ppo_with_the_extractor_trains_saves_and_evaluates(tmp_path: Path) -> None:
-    """The config key reaches SB3 (the saved policy holds the extractor), and the saved model reloads and
-    evaluates through train.py like any other."""
+@pytest.mark.parametrize(
+    ("extra", "policy"),
+    [({}, "ActorCriticPolicy"), ({"action_head": "per_target", "contrast": True}, "PerTargetPolicy")],
+)
+def test_ppo_with_the_extractor_trains_saves_and_evaluates(tmp_path: Path, extra: dict, policy: str) -> None:
+    """The config keys reach SB3 (the saved policy holds the extractor, and the per-target head where
+    named), and the saved model reloads and evaluates through train.py like any other."""
     cfg = {
         "name": "rorder",
         "algo": "ppo",
@@ -99,7 +108,7 @@ def test_ppo_with_the_extractor_trains_saves_and_evaluates(tmp_path: Path) -> No
         "hyperparams": {
             "n_steps": 16,
             "batch_size": 16,
-            "policy_kwargs": {"features_extractor": "relative_order"},
+            "policy_kwargs": {"features_extractor": "relative_order", **extra},
         },
         "eval": {"episodes": 1, "agents": []},
     }
@@ -111,8 +120,129 @@ def test_ppo_with_the_extractor_trains_saves_and_evaluates(tmp_path: Path) -> No
 
     model = PPO.load(run / "model.zip", device="cpu")
     assert type(model.policy.features_extractor).__name__ == "RelativeTargetOrder"
+    assert type(model.policy).__name__ == policy
     assert yaml.safe_load((run / "config.yaml").read_text())["hyperparams"]["policy_kwargs"] == {
-        "features_extractor": "relative_order"
+        "features_extractor": "relative_order", **extra
     }
     data = json.loads((run / "eval.json").read_text())
     assert all(np.isfinite(m["mean_pos_err_km"]) for m in data["agents"].values())
+
+
+# ------------------------------------------------------------------------------------------------
+# The per-target action head (policy_kwargs.action_head: per_target)
+# ------------------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("env_id", ["planetnav/RandomCruise-Target-v1", "planetnav/MarsApproach-Tasking-v1"])
+def test_per_target_columns_split_every_column_once(env_id: str) -> None:
+    """Every observation column is read either as one target's own value or as a shared one, never both
+    and never twice; target k's own columns are its block, its one-hot and since-measured entries and its
+    value of each appended chunk."""
+    from planetnav_train.policies import per_target_columns
+
+    lay = L.ObservationLayout.for_config(EnvConfig.from_dict(id_options(env_id)))
+    T, F = lay.n_targets, L.TARGET_FEATURES
+    width = lay.size + 2 * T
+    own, shared = per_target_columns(lay, width)
+    assert own.shape[0] == T
+    assert sorted([*own.reshape(-1), *shared]) == list(range(width))
+    for k in range(T):
+        block = set(range(lay.planets_start + F * k, lay.planets_start + F * (k + 1)))
+        extra = {lay.target_start + k, lay.since_measured_start + k, lay.size + k, lay.size + T + k}
+        assert set(own[k]) == block | extra
+
+
+def _per_target_policy(env_id: str = "planetnav/RandomCruise-Target-v1", contrast: bool = False):
+    from stable_baselines3 import PPO
+
+    from planetnav_train.policies import PerTargetPolicy
+
+    cfg = EnvConfig.from_dict(id_options(env_id))
+    env = gym.make(env_id)
+    pk = {**extractor_kwargs("relative_order", cfg), "scorer_arch": [16], "contrast": contrast}
+    return PPO(PerTargetPolicy, env, n_steps=16, batch_size=16, device="cpu", policy_kwargs=pk), env
+
+
+def test_per_target_logit_k_reads_only_target_k_and_the_shared_columns() -> None:
+    """Perturbing one target's own columns moves that target's logit and no other; perturbing a shared
+    column (the spacecraft's) may move every logit."""
+    from planetnav_train.policies import per_target_columns
+
+    model, env = _per_target_policy()
+    head = model.policy.action_net
+    for p in head.parameters():  # away from the near-zero output init, so changes show
+        torch.nn.init.normal_(p, std=0.5)
+    lay = L.ObservationLayout.for_config(env.unwrapped.config)
+    own, shared = per_target_columns(lay, lay.size)
+    x = torch.randn(4, lay.size)
+    base = head(x)
+    for k in range(lay.n_targets):
+        y = x.clone()
+        y[:, own[k]] += 1.0
+        moved = (head(y) - base).abs().amax(dim=0) > 1e-6
+        assert moved.tolist() == [j == k for j in range(lay.n_targets)]
+    y = x.clone()
+    y[:, shared[0]] += 1.0
+    assert ((head(y) - base).abs() > 1e-6).any()
+
+
+def test_contrast_reads_each_feature_against_the_other_targets() -> None:
+    """With ``contrast`` every target also reads its features standardized across the targets: moving one
+    target's feature moves every logit, and shifting a feature by the same amount for every target leaves
+    the contrast (not the raw value) unchanged, checked on the head's input."""
+    from planetnav_train.policies import per_target_columns
+
+    model, env = _per_target_policy(contrast=True)
+    head = model.policy.action_net
+    for p in head.parameters():
+        torch.nn.init.normal_(p, std=0.5)
+    lay = L.ObservationLayout.for_config(env.unwrapped.config)
+    own, _ = per_target_columns(lay, lay.size)
+    x = torch.randn(4, lay.size)
+    y = x.clone()
+    y[:, own[1, 0]] += 1.0
+    assert ((head(y) - head(x)).abs().amin(dim=0) > 1e-6).all()
+    seen = []
+    head.hidden.register_forward_hook(lambda m, inp, out: seen.append(inp[0]))
+    z = x.clone()
+    z[:, own[:, 0]] += 0.7  # the same column of every target
+    head(x), head(z)
+    m = own.shape[1]
+    torch.testing.assert_close(seen[0][:, :, m : 2 * m], seen[1][:, :, m : 2 * m])
+    assert not torch.allclose(seen[0][:, :, :m], seen[1][:, :, :m])
+
+
+def test_per_target_policy_saves_and_reloads_its_head(tmp_path: Path) -> None:
+    from stable_baselines3 import PPO
+
+    model, env = _per_target_policy(contrast=True)
+    model.save(tmp_path / "m.zip")
+    again = PPO.load(tmp_path / "m.zip", device="cpu")
+    assert type(again.policy).__name__ == "PerTargetPolicy" and again.policy.scorer_arch == [16]
+    assert again.policy.contrast and again.policy.action_net.contrast
+    obs, _ = env.reset(seed=1)
+    t = torch.as_tensor(obs[None])
+    a = model.policy.get_distribution(t).distribution.probs
+    b = again.policy.get_distribution(t).distribution.probs
+    torch.testing.assert_close(a, b)
+
+
+def test_per_target_head_named_errors() -> None:
+    from planetnav_train.algorithms import algo_kwargs, policy_class
+    from planetnav_train.config import TrainConfig
+
+    def tc(pk: dict, algo: str = "ppo") -> TrainConfig:
+        env_id = "planetnav/RandomCruise-Target-v1"
+        return TrainConfig(algo=algo, env_id=env_id, hyperparams={"policy_kwargs": pk})
+
+    assert policy_class(tc({})) == "MlpPolicy"
+    with pytest.raises(ConfigError, match="'pointer'"):
+        policy_class(tc({"action_head": "pointer", "features_extractor": "relative_order"}))
+    with pytest.raises(ConfigError, match="features_extractor: relative_order"):
+        policy_class(tc({"action_head": "per_target"}))
+    with pytest.raises(ConfigError, match="'dqn'"):
+        policy_class(tc({"action_head": "per_target", "features_extractor": "relative_order"}, "dqn"))
+    with pytest.raises(ConfigError, match="scorer_arch needs"):
+        algo_kwargs(tc({"scorer_arch": [8]}))
+    with pytest.raises(ConfigError, match="contrast needs"):
+        algo_kwargs(tc({"contrast": True}))

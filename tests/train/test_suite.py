@@ -221,12 +221,15 @@ def test_raw_and_assisted_configs(tmp_path) -> None:
     assert {k: v for k, v in mars.hyperparams.items() if k != "batch_size"} == {
         k: v for k, v in raw.hyperparams.items() if k != "batch_size"
     }
-    # RandomCruise: PPO reads the target blocks in the relative actions' order and trains on the reward in
-    # units of 100,000 km, on both tracks; the objective and every other task's reward are the id's.
+    # RandomCruise: PPO reads the target blocks in the relative actions' order, scores every target with
+    # one MLP and trains on the reward in units of 100,000 km, on both tracks; the objective and every
+    # other task's reward are the id's.
     for track in ("raw", "assisted"):
         rc, _ = suite.cell_config(suite.Cell("RandomCruise-Target-v1", "ppo", track, 3), settings)
         assert rc.env == {"reward_scale_km": 100_000.0} and rc.env_config().reward_scale_km == 100_000.0
-        assert rc.hyperparams["policy_kwargs"] == {"features_extractor": "relative_order"}
+        assert rc.hyperparams["policy_kwargs"] == {
+            "features_extractor": "relative_order", "action_head": "per_target", "contrast": True,
+        }
     assert raw.env_config().reward_scale_km == 1000.0 and mars.env == {}
     rc_dqn, _ = suite.cell_config(suite.Cell("RandomCruise-Target-v1", "dqn", "raw", 3), settings)
     assert rc_dqn.env == {} and "policy_kwargs" not in rc_dqn.hyperparams
