@@ -47,18 +47,16 @@ DIAGNOSES: dict[str, Diagnosis] = {
     for d in (
         Diagnosis(
             "RandomCruise-Target-v1",
-            "samples",
-            "PPO at five times the budget (15M physics steps), seed 0, scores 0.86 (347.8 km) against 0.82 "
-            "(354.2 km) at the suite's 3M. A separate 15M run of the same settings, on 100 other seeds, "
-            "trails greedy by +20.5 [+15.8, +25.3] km in the filter's own predicted error (what the reward "
-            "trains on), outside the suite's five 3M seeds (+30.1 to +37.4); twice the budget and every "
-            "other setting tried (discount 0.8-0.99, GAE lambda, decaying learning rates, a first policy "
-            "that stays) leave it inside that spread. Its curve has not flattened at 3M, and five times "
-            "the budget still leaves it below 0.9. The suite's PPO network cloned from greedy (DAgger) on "
-            "the same observation scores 0.947 (configs/diagnostics/random_cruise_v1_clone.yaml): neither "
-            "the observation nor the interface is the limit.",
-            "python train.py suite --tasks RandomCruise-Target-v1 --algos ppo --seeds 0 --track raw "
-            "--budget-scale 5 --out runs/diag_rc5x",
+            "exploration",
+            "The suite's PPO network (the per-target head with contrast) seeded by a DAgger clone of greedy, "
+            "then trained by PPO for the suite's 3M physics steps, scores 0.92 sampled and 1.01 argmax "
+            "(339.4 and 325.6 km against greedy 326.5); its filter's predicted error trails greedy's by "
+            "+2.0 [+0.9, +3.1] km. From a random start PPO settles at +11.1 [+8.8, +13.4] km on 100 other "
+            "seeds (seed 0), and twice the budget (+11.2), no entropy bonus (+11.0), a higher learning rate "
+            "(+12.6), a discount of 0.99 or four times the updates (+15.2) leave it there or behind, at a "
+            "policy that switches targets 40-80 times per episode, against "
+            "the seeded policy's ~20 (research/tasks_v1/diagnostics.md, section 7).",
+            "python train.py train --config configs/diagnostics/random_cruise_v1_seeded.yaml",
         ),
         Diagnosis(
             "Cruise-Hybrid-v1",
