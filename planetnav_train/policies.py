@@ -33,6 +33,7 @@ from __future__ import annotations
 
 from typing import Any
 
+import gymnasium as gym
 import numpy as np
 import torch
 from stable_baselines3.common.policies import ActorCriticPolicy
@@ -137,8 +138,9 @@ class PerTargetScorer(nn.Module):
     """Logits ``(B, T)`` of the relative target actions from a relative-order observation: one MLP, shared
     by every target, scores target ``k`` from its own columns, the shared columns and a one-hot of ``k``
     (action 0 keeps the current target, so it may score differently from a slew). Greedy rules are of this
-    form (one score per candidate); the weight sharing lets a learner find such a rule from far fewer
-    samples than a flat MLP that has to learn the score once per action slot."""
+    form (one score per candidate). With ``contrast`` each target also reads its columns standardized
+    across the targets; on RandomCruise-Target-v1 that, not the weight sharing alone, is what brought PPO
+    near greedy (docs/suite.md)."""
 
     def __init__(
         self, own: np.ndarray, shared: np.ndarray, hidden: list[int], activation: type[nn.Module],
@@ -191,6 +193,11 @@ class PerTargetPolicy(ActorCriticPolicy):
             fx["n_planets"], fx.get("n_pulsars", 0), fx.get("n_deadlines"), fx.get("in_field", False),
             fx.get("since_measured", False),
         )  # fmt: skip
+        if not isinstance(self.action_space, gym.spaces.Discrete):
+            raise ConfigError(
+                "policy_kwargs.action_head 'per_target' needs discrete target actions, "
+                f"got {self.action_space}"
+            )
         n_actions = int(self.action_space.n)
         if n_actions != lay.n_targets:
             raise ConfigError(

@@ -246,3 +246,13 @@ def test_per_target_head_named_errors() -> None:
         algo_kwargs(tc({"scorer_arch": [8]}))
     with pytest.raises(ConfigError, match="contrast needs"):
         algo_kwargs(tc({"contrast": True}))
+    # A continuous action space has no target per action.
+    from planetnav_train.policies import PerTargetPolicy
+
+    cfg = EnvConfig.from_dict(id_options("planetnav/RandomCruise-Target-v1"))
+    box = gym.spaces.Box(-1.0, 1.0, (3,), np.float32)
+    with pytest.raises(ConfigError, match="needs discrete target actions"):
+        PerTargetPolicy(
+            gym.spaces.Box(-np.inf, np.inf, (50,), np.float32), box, lambda _: 3e-4,
+            **extractor_kwargs("relative_order", cfg),
+        )  # fmt: skip
