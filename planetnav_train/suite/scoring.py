@@ -66,11 +66,19 @@ def require_rliable() -> None:
 
 
 @contextlib.contextmanager
-def _quiet_arch() -> Iterator[None]:
-    """No FutureWarning from arch about ``random_state``: rliable 1.2 passes one, which arch honours."""
-    with warnings.catch_warnings():
-        warnings.filterwarnings("ignore", category=FutureWarning, module="arch")
-        yield
+def _rliable_draws(seed: int) -> Iterator[None]:
+    """rliable's bootstrap, seeded: rliable 1.2's stratified bootstrap draws its resamples from numpy's
+    legacy global generator (the ``random_state`` it hands to arch is never used for them), so the global
+    generator is seeded for the call and restored after it. Also silences arch's FutureWarning about that
+    ``random_state``."""
+    state = np.random.get_state()  # noqa: NPY002 - rliable reads the legacy global generator
+    np.random.seed(seed)  # noqa: NPY002
+    try:
+        with warnings.catch_warnings():
+            warnings.filterwarnings("ignore", category=FutureWarning, module="arch")
+            yield
+    finally:
+        np.random.set_state(state)  # noqa: NPY002
 
 
 def iqm(scores: np.ndarray) -> float:
@@ -104,7 +112,7 @@ def iqm_intervals(
     from rliable import metrics
 
     scores = _check_matrices(score_dict)
-    with _quiet_arch():
+    with _rliable_draws(seed):
         point, ci = rly.get_interval_estimates(
             scores,
             lambda x: np.array([metrics.aggregate_iqm(x)]),
@@ -128,14 +136,8 @@ def performance_profiles(
     from rliable import library as rly
 
     scores = _check_matrices(score_dict)
-    # rliable's profile bootstrap draws from numpy's global generator (it takes no random_state).
-    state = np.random.get_state()  # noqa: NPY002 - rliable reads the legacy global generator
-    np.random.seed(seed)  # noqa: NPY002
-    try:
-        with _quiet_arch():
-            prof, cis = rly.create_performance_profile(scores, np.asarray(taus, dtype=float), reps=int(reps))
-    finally:
-        np.random.set_state(state)  # noqa: NPY002
+    with _rliable_draws(seed):
+        prof, cis = rly.create_performance_profile(scores, np.asarray(taus, dtype=float), reps=int(reps))
     return {
         k: {
             "tau": [float(t) for t in taus],
@@ -164,7 +166,7 @@ def improvement_probabilities(
         mx, my = (_check_matrices({x: sx})[x], _check_matrices({y: sy})[y])
         if mx.shape[1] != my.shape[1]:
             raise ValueError(f"P({x} > {y}): the score matrices cover {mx.shape[1]} and {my.shape[1]} tasks")
-        with _quiet_arch():
+        with _rliable_draws(seed):
             point, ci = rly.get_interval_estimates(
                 {"pair": (mx, my)},
                 metrics.probability_of_improvement,

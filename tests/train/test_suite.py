@@ -67,6 +67,27 @@ def test_iqm_with_stratified_bootstrap_matches_numpy() -> None:
     assert got["low"] < got["iqm"] < got["high"]
 
 
+def test_bootstrap_intervals_are_the_same_on_every_call() -> None:
+    """The published intervals are a function of the records: the same scores and seed give the same
+    bounds on every call, whatever numpy's global generator holds before it (rliable draws from that
+    generator), and the caller's generator is left as it was."""
+    pytest.importorskip("rliable")
+    from planetnav_train.suite.scoring import improvement_probabilities, iqm_intervals, performance_profiles
+
+    np.random.seed(123)  # noqa: NPY002 - the state a caller may hold
+    first = iqm_intervals({"a": SCORES}, reps=300)
+    after = np.random.random()  # noqa: NPY002
+    np.random.seed(456)  # noqa: NPY002 - another state: the intervals must not depend on it
+    assert iqm_intervals({"a": SCORES}, reps=300) == first
+    pair = {("a", "b"): (SCORES, SCORES[::-1])}
+    assert improvement_probabilities(pair, reps=200) == improvement_probabilities(pair, reps=200)
+    assert performance_profiles({"a": SCORES}, reps=200) == performance_profiles({"a": SCORES}, reps=200)
+    np.random.seed(123)  # noqa: NPY002
+    iqm_intervals({"a": SCORES}, reps=300)
+    assert np.random.random() == after  # noqa: NPY002 - restored around the call
+    assert iqm_intervals({"a": SCORES}, reps=300, seed=1) != first  # the seed does reach the draws
+
+
 def test_profiles_and_probability_of_improvement_match_numpy() -> None:
     pytest.importorskip("rliable")
     from planetnav_train.suite.scoring import improvement_probabilities, performance_profiles
