@@ -49,6 +49,16 @@ from planetnav_env.errors import ConfigError
 FEATURES_EXTRACTORS = ("relative_order",)
 
 
+def _per_target_vectors(lay: L.ObservationLayout, width: int) -> list[int]:
+    """Start columns of the blocks of one value per target (T wide) in a flat observation ``width`` wide:
+    the one-hot ``target``, each appended chunk, ``since_measured`` and ``in_field`` where present."""
+    T = lay.n_targets
+    vectors = [lay.target_start] + [lay.size + j * T for j in range((width - lay.size) // T)]
+    vectors += [lay.since_measured_start] if lay.since_measured else []
+    vectors += [lay.in_field_start] if lay.in_field else []
+    return vectors
+
+
 def relative_order_index(lay: L.ObservationLayout, tail: int = 0) -> np.ndarray:
     """Gather indices (T, size + tail): row ``c`` reorders a flat observation of layout ``lay`` so that
     every per-target quantity of block ``k`` is that of target ``(c + k) mod T``: the target blocks
@@ -68,10 +78,7 @@ def relative_order_index(lay: L.ObservationLayout, tail: int = 0) -> np.ndarray:
         raise ConfigError(
             "relative_order: the in_field block (planets only) has no relative order with pulsars"
         )
-    # Blocks of one value per target (T wide), each reordered like the targets themselves.
-    vectors = [lay.target_start] + [size + j * T for j in range(tail // T)]
-    vectors += [lay.since_measured_start] if lay.since_measured else []
-    vectors += [lay.in_field_start] if lay.in_field else []
+    vectors = _per_target_vectors(lay, size + tail)
     F = L.TARGET_FEATURES
     out = np.tile(np.arange(size + tail), (T, 1))
     for c in range(T):
@@ -125,9 +132,7 @@ def per_target_columns(lay: L.ObservationLayout, width: int) -> tuple[np.ndarray
     every target's scorer reads too."""
     T = lay.n_targets
     F = L.TARGET_FEATURES
-    vectors = [lay.target_start] + [lay.size + j * T for j in range((width - lay.size) // T)]
-    vectors += [lay.since_measured_start] if lay.since_measured else []
-    vectors += [lay.in_field_start] if lay.in_field else []
+    vectors = _per_target_vectors(lay, width)
     k = np.arange(T)[:, None]
     own = np.hstack([lay.planets_start + F * k + np.arange(F)] + [start + k for start in vectors])
     shared = np.setdiff1d(np.arange(width), own.reshape(-1))
