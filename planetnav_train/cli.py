@@ -14,6 +14,7 @@ Usage::
     python train.py suite-publish --out runs/suite [--publish-json docs/benchmark.json] \\
         [--readme README.md] [--baselines planetnav_train/baselines]   # publish results; agents suite:<task>
     python train.py suite-references --tasks ... [--agents random ...]   # reference values, cached in OUT
+    python train.py suite-restore --from docs/benchmark.json --out runs/suite   # records back from a JSON
     python train.py suite-rerun CELL_KEY ... [--published runs/suite]     # re-run recorded cells, compare
     python train.py suite-sizes [--tasks ...] [--algos ...] [--no-export]  # model/export bytes (< 1 MB ships)
 
@@ -383,6 +384,16 @@ def cmd_suite_publish(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_suite_restore(args: argparse.Namespace) -> int:
+    """``suite-restore``: the records, references and reference cache of a published suite JSON written
+    back into an output folder, so that cells can be re-run there and the page published again without
+    re-running the table (:mod:`planetnav_train.suite.restore`)."""
+    from planetnav_train.suite.restore import format_restored, restore
+
+    print(format_restored(restore(args.source, args.out), args.out))
+    return 0
+
+
 def cmd_suite_references(args: argparse.Namespace) -> int:
     """``suite-references``: the suite's reference values of ``--tasks`` (``random`` and every
     best-reference candidate, or ``--agents``), cached under ``OUT/references`` for the suite to read
@@ -614,6 +625,18 @@ def build_parser() -> argparse.ArgumentParser:
     sr.add_argument("--eval-episodes", type=int, help="smoke only: fewer seeds (not the published values)")
     sr.add_argument("--episode-steps", type=int, help="smoke only: shorter episodes")
     sr.set_defaults(func=cmd_suite_references)
+
+    rs = sub.add_parser(
+        "suite-restore",
+        help="write a published suite JSON's records and references back into an output folder "
+        "(re-run some cells there, then publish again)",
+    )
+    rs.add_argument(
+        "--from", dest="source", default="docs/benchmark.json",
+        help="the published suite JSON (default %(default)s)",
+    )  # fmt: skip
+    rs.add_argument("--out", default="runs/suite", help="the output folder (default %(default)s)")
+    rs.set_defaults(func=cmd_suite_restore)
 
     rr = sub.add_parser(
         "suite-rerun",

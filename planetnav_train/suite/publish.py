@@ -1,8 +1,8 @@
 """Publishing a benchmark suite's results into the repository (docs/suite.md "Publishing"):
 
 - :func:`publish_json`: the aggregated JSON (``OUT/suite.json``: protocol, tasks, references, every run,
-  aggregates), without its per-seed arrays, to a tracked path, ``docs/benchmark.json`` (``runs/`` is not in
-  the repository);
+  aggregates), without the runs' per-seed arrays, to a tracked path, ``docs/benchmark.json`` (``runs/``
+  is not in the repository; :mod:`planetnav_train.suite.restore` writes the records back from it);
 - :func:`update_readme`: the summary tables (:func:`planetnav_train.suite.leaderboard.summary_markdown`)
   written between the README's ``<!-- suite-summary:start -->`` and ``<!-- suite-summary:end -->``
   markers;
@@ -64,14 +64,16 @@ def _copy_atomic(src: Path, dest: Path) -> None:
     os.replace(tmp, dest)
 
 
-#: Per-seed arrays and full configurations: in ``OUT/suite.json`` (which the suite command writes), left
-#: out of the published copy, whose every figure they only repeat per seed.
+#: The runs' per-seed arrays and full configurations: in ``OUT/suite.json`` (which the suite command
+#: writes), left out of the published copy, whose every figure they only repeat per seed.
 _BULKY = ("per_episode", "config")
 
 
 def compact_suite_json(data: Mapping[str, Any]) -> dict[str, Any]:
-    """The suite JSON without its per-seed arrays and run configurations (:data:`_BULKY`): every mean,
-    interval, score, learning curve, aggregate and command is kept."""
+    """The suite JSON without its runs' per-seed arrays and configurations (:data:`_BULKY`): every mean,
+    interval, score, learning curve, aggregate and command is kept, and the references whole (their
+    per-seed values are what :func:`planetnav_train.suite.restore.restore` caches, so that a re-run cell
+    in a restored folder does not evaluate the references again)."""
 
     def strip(v: Any) -> Any:
         if isinstance(v, Mapping):
@@ -80,7 +82,7 @@ def compact_suite_json(data: Mapping[str, Any]) -> dict[str, Any]:
             return [strip(x) for x in v]
         return v
 
-    return strip(data)
+    return {**data, "runs": strip(list(data.get("runs", [])))}
 
 
 def publish_json(suite_json_path: str | Path, dest: str | Path) -> Path:

@@ -59,16 +59,22 @@ def rerun_cell(key: str, published: str | Path, root: Path = ROOT) -> dict[str, 
         "published": rec["objective"],
         "rerun": new["objective"],
         "half_width": (hi - lo) / 2,
-        "per_episode_equal": new.get("per_episode") == rec.get("per_episode"),
+        # A record restored from the published JSON has no per-seed values to compare: None.
+        "per_episode_equal": None if rec.get("per_episode") is None
+        else new.get("per_episode") == rec.get("per_episode"),
         "inside": lo <= new["objective"] <= hi,
     }
+
+
+def _equal(flag: bool | None) -> str:
+    return "not published" if flag is None else str(flag)
 
 
 def format_rerun(r: Mapping[str, Any]) -> str:
     """One line of :func:`rerun_cell`'s result."""
     return (f"{r['key']}: published {r['published']!r}, re-run {r['rerun']!r}, "
             f"diff {r['rerun'] - r['published']:+.3g} (95 % half-width {r['half_width']:.1f}), "
-            f"per-episode equal: {r['per_episode_equal']}, inside: {r['inside']}")  # fmt: skip
+            f"per-episode equal: {_equal(r['per_episode_equal'])}, inside: {r['inside']}")  # fmt: skip
 
 
 __all__ = ["format_rerun", "rerun_cell"]

@@ -50,6 +50,11 @@ def _agent_summary(objective: Objective, metrics: Mapping[str, Any]) -> dict[str
 INTERFACE_RANDOM = "random@interface"
 
 
+def agent_cache_path(task: Task, spec: str, settings: Settings) -> Path:
+    """Where :func:`reference_agent` caches agent ``spec``'s values on ``task`` under ``settings.out``."""
+    return settings.out / "references" / "agents" / f"{task.id}__{_agent_key(task, spec, settings)}.json"
+
+
 def reference_agent(task: Task, spec: str, settings: Settings) -> dict[str, Any]:
     """Agent ``spec``'s objective on ``task``'s evaluation seeds (mean, 95 % t-interval, per-episode
     values, wall seconds), cached in ``OUT/references/agents/`` per agent (the planner and the 3,000-step
@@ -59,7 +64,7 @@ def reference_agent(task: Task, spec: str, settings: Settings) -> dict[str, Any]
     task's own interface."""
     from planetnav_train.evaluate import evaluate_agent
 
-    path = settings.out / "references" / "agents" / f"{task.id}__{_agent_key(task, spec, settings)}.json"
+    path = agent_cache_path(task, spec, settings)
     if path.is_file():
         return json.loads(path.read_text())
     env_cfg = task.eval_config(settings.episode_steps)
@@ -96,7 +101,7 @@ def task_references(task: Task, settings: Settings) -> dict[str, Any]:
     zeros = zero_candidates(task, env_cfg.at_physics_step())
     for spec in dict.fromkeys((task.random, *zeros, *task.references, INTERFACE_RANDOM)):
         summary = reference_agent(task, spec, settings)
-        agents[spec] = {k: summary[k] for k in ("objective", "ci95", "per_episode")}
+        agents[spec] = {k: summary[k] for k in ("objective", "ci95", "per_episode", "wall_seconds")}
     best = min(task.references, key=lambda s: agents[s]["objective"])
     zero = min(zeros, key=lambda s: agents[s]["objective"])
     refs = {

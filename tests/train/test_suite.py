@@ -327,7 +327,8 @@ def test_resume_skips_finished_runs(tmp_path, monkeypatch) -> None:
 def test_suite_smoke_end_to_end(tmp_path, monkeypatch) -> None:
     """CI: train a few hundred steps, evaluate on 2 seeds of 20 steps, score, aggregate, write the JSON and
     the markdown; then re-parse the recorded command of a cell; then publish (the JSON copied, the README
-    summary, the best model shipped) and evaluate the shipped baseline by name."""
+    summary, the best model shipped), evaluate the shipped baseline by name, and restore a folder from the
+    published JSON."""
     pytest.importorskip("rliable")
     from planetnav_train.cli import build_parser, main
 
@@ -409,3 +410,12 @@ def test_suite_smoke_end_to_end(tmp_path, monkeypatch) -> None:
                  "--no-progress"]) == 0  # fmt: skip
     got = json.loads(cmp.read_text())["agents"]["suite:Cruise-Target-v1:stochastic"]  # PPO: sampled
     assert got["per_episode_mean_pos_err_km"] == best["per_episode"]
+    # A fresh folder restored from the published JSON publishes the same runs and aggregates.
+    from planetnav_train.suite.restore import restore
+
+    restored = tmp_path / "restored"
+    assert len(restore(bench_json, restored).records) == 2
+    assert main(["suite-publish", "--out", str(restored), "--markdown", str(tmp_path / "again.md")]) == 0
+    again = json.loads((restored / "suite.json").read_text())
+    assert again["aggregate"] == published["aggregate"] and again["references"] == published["references"]
+    assert [r["objective"] for r in again["runs"]] == [r["objective"] for r in published["runs"]]
