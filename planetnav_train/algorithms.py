@@ -40,7 +40,7 @@ def algo_kwargs(tc: TrainConfig) -> dict[str, Any]:
     if isinstance(pk.get("activation_fn"), str):
         pk["activation_fn"] = _activation(pk["activation_fn"])
     pk.pop("action_head", None)  # selects the policy class: policy_class()
-    for key in ("scorer_arch", "contrast"):
+    for key in ("scorer_arch", "contrast", "keep_bias"):
         if key in pk and "action_head" not in (tc.hyperparams.get("policy_kwargs") or {}):
             raise ConfigError(f"policy_kwargs.{key} needs policy_kwargs.action_head: per_target")
     if "features_extractor" in pk:  # a name of planetnav_train.policies, laid out for this run's env
@@ -72,10 +72,13 @@ def policy_class(tc: TrainConfig) -> Any:
             f"features_extractor: relative_order and policy: MlpPolicy, got "
             f"{pk.get('features_extractor')!r} and {tc.policy!r}"
         )
-    if tc.algo != "ppo":
+    if tc.algo not in ("ppo", "dqn"):
         raise ConfigError(
-            f"policy_kwargs.action_head {head!r} is an actor-critic head for ppo, not {tc.algo!r}"
+            f"policy_kwargs.action_head {head!r} is a head for ppo (actor-critic) or dqn (Q-network), "
+            f"not {tc.algo!r}"
         )
-    from planetnav_train.policies import PerTargetPolicy
+    if tc.algo == "dqn" and "keep_bias" in pk:
+        raise ConfigError("policy_kwargs.keep_bias is an initial logit offset of ppo's per-target head")
+    from planetnav_train.policies import PerTargetPolicy, PerTargetQPolicy
 
-    return PerTargetPolicy
+    return PerTargetPolicy if tc.algo == "ppo" else PerTargetQPolicy

@@ -22,11 +22,14 @@ moves each weight by about the learning rate per step, so a flat MLP needs many 
 difference reaches the logits, and the standardized copy puts it at unit scale from the start. Both are
 pure functions of the observation.
 
+The same scorer serves DQN as its Q-network (:class:`PerTargetQPolicy`: ``Q(s, k)`` per target).
+
 Config keys: ``hyperparams.policy_kwargs.features_extractor: relative_order``, and for the head
-``action_head: per_target`` with ``contrast: true`` and ``scorer_arch: [64, 64]`` (hidden widths; the
-value function keeps ``net_arch``). :func:`planetnav_train.algorithms.algo_kwargs` fills in the layout from
-the run's environment and :func:`planetnav_train.algorithms.policy_class` picks the policy class; both
-import this module, which needs torch, only then.
+``action_head: per_target`` (PPO or DQN) with ``contrast: true`` and ``scorer_arch: [64, 64]`` (hidden
+widths; PPO's value function keeps ``net_arch``); for PPO ``keep_bias: b``, a learned offset that starts
+action 0 (keep the current target) ``b`` logits ahead. :func:`planetnav_train.algorithms.algo_kwargs`
+fills in the layout from the run's environment and :func:`planetnav_train.algorithms.policy_class` picks
+the policy class; both import this module, which needs torch, only then.
 """
 
 from __future__ import annotations
@@ -38,6 +41,7 @@ import numpy as np
 import torch
 from stable_baselines3.common.policies import ActorCriticPolicy
 from stable_baselines3.common.torch_layers import BaseFeaturesExtractor
+from stable_baselines3.dqn.policies import DQNPolicy, QNetwork
 from torch import nn
 
 from planetnav_env.config import EnvConfig
@@ -149,7 +153,7 @@ class PerTargetScorer(nn.Module):
 
     def __init__(
         self, own: np.ndarray, shared: np.ndarray, hidden: list[int], activation: type[nn.Module],
-        contrast: bool = False,
+        contrast: bool = False, keep_bias: float = 0.0,
     ) -> None:  # fmt: skip
         super().__init__()
         T = own.shape[0]
@@ -164,6 +168,9 @@ class PerTargetScorer(nn.Module):
             width = h
         self.hidden = nn.Sequential(*layers)
         self.out = nn.Linear(width, 1)
+        # A learned per-action offset that starts action 0 (keep the current target) ``keep_bias`` ahead;
+        # absent at 0, so that policies saved without it load unchanged.
+        self.slot_bias = nn.Parameter(torch.eye(T)[0] * keep_bias) if keep_bias else None
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
         B, T = x.shape[0], self.own.shape[0]
@@ -173,7 +180,8 @@ class PerTargetScorer(nn.Module):
             own = torch.cat([own, (own - mean) / (own.std(dim=1, keepdim=True, unbiased=False) + 1e-3)], 2)
         shared = x[:, self.shared].unsqueeze(1).expand(B, T, -1)
         slot = self.slot.unsqueeze(0).expand(B, T, T)
-        return self.out(self.hidden(torch.cat([own, shared, slot], dim=2))).squeeze(2)
+        logits = self.out(self.hidden(torch.cat([own, shared, slot], dim=2))).squeeze(2)
+        return logits if self.slot_bias is None else logits + self.slot_bias
 
 
 class PerTargetPolicy(ActorCriticPolicy):
@@ -182,10 +190,12 @@ class PerTargetPolicy(ActorCriticPolicy):
     or ``{"vf": [...]}``) on the same features. Discrete relative target actions only."""
 
     def __init__(
-        self, *args: Any, scorer_arch: list[int] | None = None, contrast: bool = False, **kwargs: Any
-    ) -> None:
+        self, *args: Any, scorer_arch: list[int] | None = None, contrast: bool = False,
+        keep_bias: float = 0.0, **kwargs: Any,
+    ) -> None:  # fmt: skip
         self.scorer_arch = list(scorer_arch) if scorer_arch is not None else [64, 64]
         self.contrast = bool(contrast)
+        self.keep_bias = float(keep_bias)
         net_arch = kwargs.get("net_arch")
         vf = net_arch.get("vf", [64, 64]) if isinstance(net_arch, dict) else (net_arch or [64, 64])
         kwargs["net_arch"] = {"pi": [], "vf": list(vf)}
@@ -193,27 +203,64 @@ class PerTargetPolicy(ActorCriticPolicy):
 
     def _build(self, lr_schedule: Any) -> None:
         super()._build(lr_schedule)
-        fx = self.features_extractor_kwargs
-        lay = L.ObservationLayout(
-            fx["n_planets"], fx.get("n_pulsars", 0), fx.get("n_deadlines"), fx.get("in_field", False),
-            fx.get("since_measured", False),
-        )  # fmt: skip
-        if not isinstance(self.action_space, gym.spaces.Discrete):
-            raise ConfigError(
-                "policy_kwargs.action_head 'per_target' needs discrete target actions, "
-                f"got {self.action_space}"
-            )
-        n_actions = int(self.action_space.n)
-        if n_actions != lay.n_targets:
-            raise ConfigError(
-                f"policy_kwargs.action_head 'per_target': {n_actions} actions for {lay.n_targets} targets"
-            )
-        own, shared = per_target_columns(lay, self.features_dim)
-        self.action_net = PerTargetScorer(own, shared, self.scorer_arch, self.activation_fn, self.contrast)
+        own, shared = _scorer_layout(self)
+        self.action_net = PerTargetScorer(
+            own, shared, self.scorer_arch, self.activation_fn, self.contrast, self.keep_bias
+        )
         if self.ortho_init:
             self.action_net.hidden.apply(lambda m: self.init_weights(m, gain=np.sqrt(2)))
             self.init_weights(self.action_net.out, gain=0.01)
         self.optimizer = self.optimizer_class(self.parameters(), lr=lr_schedule(1), **self.optimizer_kwargs)
+
+    def _get_constructor_parameters(self) -> dict[str, Any]:
+        data = super()._get_constructor_parameters()
+        data["scorer_arch"] = self.scorer_arch
+        data["contrast"] = self.contrast
+        data["keep_bias"] = self.keep_bias
+        return data
+
+
+def _scorer_layout(policy: Any) -> tuple[np.ndarray, np.ndarray]:
+    """``per_target_columns`` of a policy built over :class:`RelativeTargetOrder` (its extractor kwargs
+    give the layout), with named errors for a non-discrete space or one action per target missing."""
+    fx = policy.features_extractor_kwargs
+    lay = L.ObservationLayout(
+        fx["n_planets"], fx.get("n_pulsars", 0), fx.get("n_deadlines"), fx.get("in_field", False),
+        fx.get("since_measured", False),
+    )  # fmt: skip
+    if not isinstance(policy.action_space, gym.spaces.Discrete):
+        raise ConfigError(
+            f"policy_kwargs.action_head 'per_target' needs discrete target actions, got {policy.action_space}"
+        )
+    n_actions = int(policy.action_space.n)
+    if n_actions != lay.n_targets:
+        raise ConfigError(
+            f"policy_kwargs.action_head 'per_target': {n_actions} actions for {lay.n_targets} targets"
+        )
+    width = int(np.prod(policy.observation_space.shape))
+    return per_target_columns(lay, width)
+
+
+class PerTargetQPolicy(DQNPolicy):
+    """SB3 DQN policy whose Q-network (and target network) is a :class:`PerTargetScorer` over
+    :class:`RelativeTargetOrder`'s output: ``Q(s, k)`` is one MLP, shared by every target, of target
+    ``k``'s own columns, the shared columns and a one-hot of ``k``, as greedy scores its candidates.
+    ``scorer_arch`` (hidden widths) and ``contrast`` as for :class:`PerTargetPolicy`."""
+
+    def __init__(
+        self, *args: Any, scorer_arch: list[int] | None = None, contrast: bool = False, **kwargs: Any
+    ) -> None:
+        self.scorer_arch = list(scorer_arch) if scorer_arch is not None else [64, 64]
+        self.contrast = bool(contrast)
+        super().__init__(*args, **kwargs)
+
+    def make_q_net(self) -> QNetwork:
+        q = super().make_q_net()
+        own, shared = _scorer_layout(self)
+        q.q_net = PerTargetScorer(own, shared, self.scorer_arch, self.activation_fn, self.contrast).to(
+            self.device
+        )
+        return q
 
     def _get_constructor_parameters(self) -> dict[str, Any]:
         data = super()._get_constructor_parameters()
@@ -257,6 +304,7 @@ def extractor_kwargs(name: str, cfg: EnvConfig, relative_actions: bool = False) 
 __all__ = [
     "FEATURES_EXTRACTORS",
     "PerTargetPolicy",
+    "PerTargetQPolicy",
     "PerTargetScorer",
     "RelativeTargetOrder",
     "extractor_kwargs",

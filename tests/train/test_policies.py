@@ -152,15 +152,66 @@ def test_per_target_columns_split_every_column_once(env_id: str) -> None:
         assert set(own[k]) == block | extra
 
 
-def _per_target_policy(env_id: str = "planetnav/RandomCruise-Target-v1", contrast: bool = False):
+def _per_target_policy(
+    env_id: str = "planetnav/RandomCruise-Target-v1", contrast: bool = False, **extra: float
+):  # fmt: skip
     from stable_baselines3 import PPO
 
     from planetnav_train.policies import PerTargetPolicy
 
     cfg = EnvConfig.from_dict(id_options(env_id))
     env = gym.make(env_id)
-    pk = {**extractor_kwargs("relative_order", cfg), "scorer_arch": [16], "contrast": contrast}
+    pk = {**extractor_kwargs("relative_order", cfg), "scorer_arch": [16], "contrast": contrast, **extra}
     return PPO(PerTargetPolicy, env, n_steps=16, batch_size=16, device="cpu", policy_kwargs=pk), env
+
+
+def test_keep_bias_starts_keep_ahead_by_that_logit_and_is_learned(tmp_path: Path) -> None:
+    """``keep_bias`` b: at initialization (output layer near zero) P(keep) / P(slew k) = e^b for every
+    observation; the offset is a parameter (it trains and saves); at 0 the head has no such parameter, so
+    policies saved before it load."""
+    from stable_baselines3 import PPO
+
+    model, env = _per_target_policy(contrast=True, keep_bias=2.0)
+    obs = torch.as_tensor(np.stack([env.reset(seed=s)[0] for s in range(3)]))
+    probs = model.policy.get_distribution(obs).distribution.probs
+    ratio = probs[:, 0] / probs[:, 1]
+    torch.testing.assert_close(ratio, torch.full((3,), float(np.exp(2.0))), rtol=0.05, atol=0)
+    head = model.policy.action_net
+    assert any(p is head.slot_bias for p in model.policy.parameters())
+    model.save(tmp_path / "m.zip")
+    assert PPO.load(tmp_path / "m.zip", device="cpu").policy.action_net.slot_bias[0].item() == 2.0
+    plain, _ = _per_target_policy(contrast=True)
+    assert plain.policy.action_net.slot_bias is None
+    assert "action_net.slot_bias" not in plain.policy.state_dict()
+
+
+def test_dqn_per_target_q_network_scores_each_target_and_reloads(tmp_path: Path) -> None:
+    """The DQN head: Q(s, k) moves only with target k's own columns (and the shared ones), the target
+    network has the same form, and the saved model reloads with the same Q-values."""
+    from stable_baselines3 import DQN
+
+    from planetnav_train.policies import PerTargetQPolicy, PerTargetScorer, per_target_columns
+
+    env_id = "planetnav/RandomCruise-Target-v1"
+    cfg = EnvConfig.from_dict(id_options(env_id))
+    env = gym.make(env_id)
+    pk = {**extractor_kwargs("relative_order", cfg), "scorer_arch": [16]}
+    model = DQN(PerTargetQPolicy, env, learning_starts=0, device="cpu", policy_kwargs=pk)
+    assert isinstance(model.q_net.q_net, PerTargetScorer)
+    assert isinstance(model.q_net_target.q_net, PerTargetScorer)
+    lay = L.ObservationLayout.for_config(cfg)
+    own, _ = per_target_columns(lay, lay.size)
+    x = torch.randn(4, lay.size)
+    head = model.q_net.q_net
+    base = head(x)
+    y = x.clone()
+    y[:, own[2]] += 1.0
+    assert ((head(y) - base).abs().amax(dim=0) > 1e-6).tolist() == [False, False, True]
+    model.save(tmp_path / "q.zip")
+    again = DQN.load(tmp_path / "q.zip", device="cpu")
+    assert type(again.policy).__name__ == "PerTargetQPolicy" and again.policy.scorer_arch == [16]
+    obs = torch.as_tensor(env.reset(seed=0)[0][None])
+    torch.testing.assert_close(model.q_net(obs), again.q_net(obs))
 
 
 def test_per_target_logit_k_reads_only_target_k_and_the_shared_columns() -> None:
@@ -240,8 +291,14 @@ def test_per_target_head_named_errors() -> None:
         policy_class(tc({"action_head": "pointer", "features_extractor": "relative_order"}))
     with pytest.raises(ConfigError, match="features_extractor: relative_order"):
         policy_class(tc({"action_head": "per_target"}))
-    with pytest.raises(ConfigError, match="'dqn'"):
-        policy_class(tc({"action_head": "per_target", "features_extractor": "relative_order"}, "dqn"))
+    head = {"action_head": "per_target", "features_extractor": "relative_order"}
+    with pytest.raises(ConfigError, match="not 'recurrent_ppo'"):
+        policy_class(tc(head, "recurrent_ppo"))
+    assert policy_class(tc(head, "dqn")).__name__ == "PerTargetQPolicy"
+    with pytest.raises(ConfigError, match="keep_bias is an initial logit offset of ppo"):
+        policy_class(tc({**head, "keep_bias": 2.0}, "dqn"))
+    with pytest.raises(ConfigError, match="keep_bias needs"):
+        algo_kwargs(tc({"keep_bias": 2.0}))
     with pytest.raises(ConfigError, match="scorer_arch needs"):
         algo_kwargs(tc({"scorer_arch": [8]}))
     with pytest.raises(ConfigError, match="contrast needs"):
