@@ -136,11 +136,14 @@ def test_the_command_restores_and_a_restored_record_reruns_without_per_seed_valu
 
 
 def test_the_repositorys_published_json_restores(tmp_path) -> None:
-    """docs/benchmark.json restores whole: one record per published run, every task's references."""
+    """docs/benchmark.json restores whole: one record per published run, every task's references and
+    every reference agent's cache (so a re-run cell evaluates no reference again)."""
     src = Path(__file__).resolve().parents[2] / "docs" / "benchmark.json"
     data = json.loads(src.read_text())
     done = restore(src, tmp_path / "suite")
     assert len(done.records) == len(data["runs"]) and len(done.references) == len(data["references"])
+    agents = sum(len(r["agents"]) for r in data["references"].values())
+    assert not done.uncached and len(done.agents) == agents
 
     def cells(runs: list[dict]) -> list[tuple]:
         return sorted((r["task"], r["algorithm"], r["track"], r["seed"], r["objective"]) for r in runs)
