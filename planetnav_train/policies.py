@@ -184,45 +184,10 @@ class PerTargetScorer(nn.Module):
         return logits if self.slot_bias is None else logits + self.slot_bias
 
 
-class PerTargetPolicy(ActorCriticPolicy):
-    """SB3 actor-critic whose action head is a :class:`PerTargetScorer` (``scorer_arch`` hidden widths)
-    over :class:`RelativeTargetOrder`'s output; the value function is the usual MLP (``net_arch``, a list
-    or ``{"vf": [...]}``) on the same features. Discrete relative target actions only."""
-
-    def __init__(
-        self, *args: Any, scorer_arch: list[int] | None = None, contrast: bool = False,
-        keep_bias: float = 0.0, **kwargs: Any,
-    ) -> None:  # fmt: skip
-        self.scorer_arch = list(scorer_arch) if scorer_arch is not None else [64, 64]
-        self.contrast = bool(contrast)
-        self.keep_bias = float(keep_bias)
-        net_arch = kwargs.get("net_arch")
-        vf = net_arch.get("vf", [64, 64]) if isinstance(net_arch, dict) else (net_arch or [64, 64])
-        kwargs["net_arch"] = {"pi": [], "vf": list(vf)}
-        super().__init__(*args, **kwargs)
-
-    def _build(self, lr_schedule: Any) -> None:
-        super()._build(lr_schedule)
-        own, shared = _scorer_layout(self)
-        self.action_net = PerTargetScorer(
-            own, shared, self.scorer_arch, self.activation_fn, self.contrast, self.keep_bias
-        )
-        if self.ortho_init:
-            self.action_net.hidden.apply(lambda m: self.init_weights(m, gain=np.sqrt(2)))
-            self.init_weights(self.action_net.out, gain=0.01)
-        self.optimizer = self.optimizer_class(self.parameters(), lr=lr_schedule(1), **self.optimizer_kwargs)
-
-    def _get_constructor_parameters(self) -> dict[str, Any]:
-        data = super()._get_constructor_parameters()
-        data["scorer_arch"] = self.scorer_arch
-        data["contrast"] = self.contrast
-        data["keep_bias"] = self.keep_bias
-        return data
-
-
-def _scorer_layout(policy: Any) -> tuple[np.ndarray, np.ndarray]:
-    """``per_target_columns`` of a policy built over :class:`RelativeTargetOrder` (its extractor kwargs
-    give the layout), with named errors for a non-discrete space or one action per target missing."""
+def _make_scorer(policy: Any, keep_bias: float = 0.0) -> PerTargetScorer:
+    """The :class:`PerTargetScorer` of a policy built over :class:`RelativeTargetOrder` (its extractor
+    kwargs give the layout) with the policy's ``scorer_arch``, activation and ``contrast``; named errors
+    for a non-discrete action space or not one action per target."""
     fx = policy.features_extractor_kwargs
     lay = L.ObservationLayout(
         fx["n_planets"], fx.get("n_pulsars", 0), fx.get("n_deadlines"), fx.get("in_field", False),
@@ -237,11 +202,54 @@ def _scorer_layout(policy: Any) -> tuple[np.ndarray, np.ndarray]:
         raise ConfigError(
             f"policy_kwargs.action_head 'per_target': {n_actions} actions for {lay.n_targets} targets"
         )
-    width = int(np.prod(policy.observation_space.shape))
-    return per_target_columns(lay, width)
+    own, shared = per_target_columns(lay, int(np.prod(policy.observation_space.shape)))
+    return PerTargetScorer(own, shared, policy.scorer_arch, policy.activation_fn, policy.contrast, keep_bias)
 
 
-class PerTargetQPolicy(DQNPolicy):
+class _PerTargetHead:
+    """The scorer settings that the PPO and DQN per-target policies share and save with the model."""
+
+    #: The constructor keywords saved with the model (SB3 rebuilds the policy from them on load).
+    head_keys: tuple[str, ...] = ("scorer_arch", "contrast")
+
+    def _set_head(self, scorer_arch: list[int] | None, contrast: bool) -> None:
+        self.scorer_arch = list(scorer_arch) if scorer_arch is not None else [64, 64]
+        self.contrast = bool(contrast)
+
+    def _get_constructor_parameters(self) -> dict[str, Any]:
+        data = super()._get_constructor_parameters()  # type: ignore[misc]
+        data.update({k: getattr(self, k) for k in self.head_keys})
+        return data
+
+
+class PerTargetPolicy(_PerTargetHead, ActorCriticPolicy):
+    """SB3 actor-critic whose action head is a :class:`PerTargetScorer` (``scorer_arch`` hidden widths)
+    over :class:`RelativeTargetOrder`'s output; the value function is the usual MLP (``net_arch``, a list
+    or ``{"vf": [...]}``) on the same features. Discrete relative target actions only."""
+
+    head_keys = ("scorer_arch", "contrast", "keep_bias")
+
+    def __init__(
+        self, *args: Any, scorer_arch: list[int] | None = None, contrast: bool = False,
+        keep_bias: float = 0.0, **kwargs: Any,
+    ) -> None:  # fmt: skip
+        self._set_head(scorer_arch, contrast)
+        self.keep_bias = float(keep_bias)
+        net_arch = kwargs.get("net_arch")
+        vf = net_arch.get("vf", [64, 64]) if isinstance(net_arch, dict) else (net_arch or [64, 64])
+        kwargs["net_arch"] = {"pi": [], "vf": list(vf)}
+        super().__init__(*args, **kwargs)
+
+    def _build(self, lr_schedule: Any) -> None:
+        super()._build(lr_schedule)
+        self.action_net = _make_scorer(self, self.keep_bias)
+        if self.ortho_init:
+            self.action_net.hidden.apply(lambda m: self.init_weights(m, gain=np.sqrt(2)))
+            self.init_weights(self.action_net.out, gain=0.01)
+        self.optimizer = self.optimizer_class(self.parameters(), lr=lr_schedule(1), **self.optimizer_kwargs)
+
+
+class PerTargetQPolicy(_PerTargetHead, DQNPolicy):
     """SB3 DQN policy whose Q-network (and target network) is a :class:`PerTargetScorer` over
     :class:`RelativeTargetOrder`'s output: ``Q(s, k)`` is one MLP, shared by every target, of target
     ``k``'s own columns, the shared columns and a one-hot of ``k``, as greedy scores its candidates.
@@ -250,23 +258,13 @@ class PerTargetQPolicy(DQNPolicy):
     def __init__(
         self, *args: Any, scorer_arch: list[int] | None = None, contrast: bool = False, **kwargs: Any
     ) -> None:
-        self.scorer_arch = list(scorer_arch) if scorer_arch is not None else [64, 64]
-        self.contrast = bool(contrast)
+        self._set_head(scorer_arch, contrast)
         super().__init__(*args, **kwargs)
 
     def make_q_net(self) -> QNetwork:
         q = super().make_q_net()
-        own, shared = _scorer_layout(self)
-        q.q_net = PerTargetScorer(own, shared, self.scorer_arch, self.activation_fn, self.contrast).to(
-            self.device
-        )
+        q.q_net = _make_scorer(self).to(self.device)
         return q
-
-    def _get_constructor_parameters(self) -> dict[str, Any]:
-        data = super()._get_constructor_parameters()
-        data["scorer_arch"] = self.scorer_arch
-        data["contrast"] = self.contrast
-        return data
 
 
 def extractor_kwargs(name: str, cfg: EnvConfig, relative_actions: bool = False) -> dict[str, Any]:

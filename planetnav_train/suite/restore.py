@@ -34,6 +34,7 @@ from planetnav_train.suite.runner import (
     Settings,
     agent_cache_path,
     record_path,
+    reference_settings,
     write_json_atomic,
 )
 from planetnav_train.suite.tasks import SUITE_VERSION, get_task
@@ -93,18 +94,12 @@ def restore(published: str | Path, out: str | Path) -> Restored:
         task = get_task(name)
         _write_new(settings.out / "references" / f"{task.id}.json", refs, done.references, done.kept)
         # The cache is keyed by the official evaluation settings: references of smoke settings stay out.
-        official = {
-            "eval_seed": task.eval_seed,
-            "eval_episodes": task.eval_episodes,
-            "episode_steps": task.eval_config(None).episode_steps,
-            "noise_streams": task.noise_streams,
-        }
-        is_official = all(refs.get(k) == v for k, v in official.items())
+        official = all(refs.get(k) == v for k, v in reference_settings(task, settings).items())
         for spec, agent in refs.get("agents", {}).items():
-            if not is_official or "per_episode" not in agent or "wall_seconds" not in agent:
+            if not official or "per_episode" not in agent or "wall_seconds" not in agent:
                 done.uncached.append(f"{task.id}/{spec}")
                 continue
-            cached = {"agent": agent.get("agent", spec), **agent}
+            cached = {"agent": spec, **agent}
             _write_new(agent_cache_path(task, spec, settings), cached, done.agents, done.kept)
     return done
 

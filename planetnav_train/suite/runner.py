@@ -90,13 +90,25 @@ def zero_candidates(task: Task, env_cfg: Any) -> tuple[str, ...]:
     return out or (task.random,)
 
 
+def reference_settings(task: Task, settings: Settings) -> dict[str, Any]:
+    """What a task's references were evaluated on (the head of ``OUT/references/<task>.json``): the task,
+    its objective, the seeds, the episode length and the noise streams."""
+    return {
+        "task": task.id,
+        "objective": task.objective,
+        "eval_seed": task.eval_seed,
+        "eval_episodes": settings.eval_episodes or task.eval_episodes,
+        "episode_steps": settings.episode_steps or task.eval_config(settings.episode_steps).episode_steps,
+        "noise_streams": task.noise_streams,
+    }
+
+
 def task_references(task: Task, settings: Settings) -> dict[str, Any]:
     """The task's reference values on its evaluation seeds: ``random``, the zero-point candidates and every
     best-reference candidate with 95 % t-intervals (:func:`reference_agent`, cached per agent); the zero
     point (the better of the zero candidates) and the best candidate (the lowest objective), chosen from
     the data. Written to ``OUT/references/<task>.json``."""
     env_cfg = task.eval_config(settings.episode_steps)
-    episodes = settings.eval_episodes or task.eval_episodes
     agents = {}
     zeros = zero_candidates(task, env_cfg.at_physics_step())
     for spec in dict.fromkeys((task.random, *zeros, *task.references, INTERFACE_RANDOM)):
@@ -105,12 +117,7 @@ def task_references(task: Task, settings: Settings) -> dict[str, Any]:
     best = min(task.references, key=lambda s: agents[s]["objective"])
     zero = min(zeros, key=lambda s: agents[s]["objective"])
     refs = {
-        "task": task.id,
-        "objective": task.objective,
-        "eval_seed": task.eval_seed,
-        "eval_episodes": episodes,
-        "episode_steps": settings.episode_steps or env_cfg.episode_steps,
-        "noise_streams": task.noise_streams,
+        **reference_settings(task, settings),
         "agents": agents,
         "random": task.random,
         "zero": zero,
