@@ -27,7 +27,7 @@ __all__ = [
 class VisibilityReason(IntEnum):
     """Why a target can or cannot be measured; the first failing test in this order is reported.
 
-    The camera's kernel reports 0-4; the simulation core adds 5-8 (``info["visibility"]`` is the
+    The camera's kernel reports 0-4; the simulation core adds 5-9 (``info["visibility"]`` is the
     lower-case name).
     """
 
@@ -40,6 +40,7 @@ class VisibilityReason(IntEnum):
     NONE = 6  # no target this step
     INTEGRATING = 7  # X-ray photons still accumulating on the pulsar
     AMBIGUOUS = 8  # the pulsar's whole number of cycles cannot be trusted: the phase is skipped
+    IMAGE_FAILED = 9  # in view, but image processing yielded no fix (EnvConfig.image_success_min)
 
     @property
     def label(self) -> str:

@@ -258,6 +258,42 @@ class EnvConfig:
         "since that target was last measured) / log1p(1440), capped at 1; 1 when not measured this "
         "episode). What the spacecraft knows of its own history, which the filter snapshot does not hold",
     )
+    image_success_min: float = option(
+        1.0,
+        ge=0,
+        le=1,
+        unit="probability",
+        kernel="img_min",
+        doc="image-processing failures the filter does not model (stray light, faint or low-contrast "
+        "beacons): at reset each planet draws the probability that an image of it in view yields a fix, "
+        "uniformly from [image_success_min, 1], fixed for the episode and not observed; an image that fails "
+        "gives no measurement (``info['visibility']`` ``image_failed``). 1: every image succeeds (the v0 and "
+        "v1 physics; nothing is drawn)",
+    )
+    centroid_bias_max: float = option(
+        0.0,
+        ge=0,
+        le=2,
+        unit="fraction of the uniformly bright disk's offset",
+        kernel="cob_max",
+        doc="a centre-of-brightness centroid bias the filter does not model (it assumes the centre of "
+        "figure): at reset each planet draws a scale b uniformly from [0, centroid_bias_max], fixed for the "
+        "episode and not observed, and every image of it is displaced toward the Sun by b * 4 / (3 pi) * "
+        "(apparent radius) * (1 - cos phase angle), the offset of a uniformly bright illuminated disk "
+        "(b = 1). 0: none (the v0 and v1 physics; nothing is drawn)",
+    )
+    observe_residual_log: bool = option(
+        False,
+        doc="add the ``residual_log`` block to the observation (last, one per planet: the mean normalized "
+        "NIS of this episode's fixes of it, with a prior of two consistent ones, capped at 10, / 10): the "
+        "filter's own consistency check per beacon",
+    )
+    observe_image_log: bool = option(
+        False,
+        doc="add the ``image_log`` block to the observation (last, two per planet: (fixes + 1) / (images "
+        "+ 2) and log1p(images) / log1p(1440), over this episode's images of it in view): what the "
+        "spacecraft knows of its own image processing",
+    )
     star_tracker: str = option(
         "qmethod",
         choices=("qmethod", "ideal"),

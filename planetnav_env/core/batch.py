@@ -28,7 +28,14 @@ from planetnav_env.config import EnvConfig
 from planetnav_env.core import kernels as K
 from planetnav_env.core import layout as L
 from planetnav_env.core import rng as crng
-from planetnav_env.core.decisions import advance_since_measured, since_measured_values
+from planetnav_env.core.decisions import (
+    advance_image_log,
+    advance_residual_log,
+    advance_since_measured,
+    image_log_values,
+    residual_log_values,
+    since_measured_values,
+)
 from planetnav_env.core.ephemeris_table import SEGMENT_S, TableSpec, fit_table
 from planetnav_env.core.params import ARCSEC, ChannelPlan, build_params, episode_duration_s
 from planetnav_env.core.records import RowState
@@ -126,6 +133,11 @@ class BatchCore:
         self.obs = np.zeros((n, self.layout.size))
         # Physics steps since each target was last measured (observe_since_measured; core/decisions.py).
         self.since = np.full((n, cfg.n_targets), np.inf) if self.layout.since_measured else None
+        # Images of each planet in view and the fixes they gave this episode (observe_image_log).
+        self.image_log = np.zeros((n, 2, cfg.n_planets)) if self.layout.image_log else None
+        # Fixes of each planet and the sum of their normalized NIS this episode (observe_residual_log).
+        self.residual_log = np.zeros((n, 2, cfg.n_planets)) if self.layout.residual_log else None
+        self._fix_dof = 3.0 if cfg.measurement_model.endswith("+size") else 2.0
         self.episodes: list[RowEpisode | None] = [None] * n
         self._ephemeris = DEEphemeris()
         self._table_cache: tuple[float, np.ndarray] | None = None
@@ -174,7 +186,7 @@ class BatchCore:
         (the row's Gymnasium ``np_random``): scenario, initial filter error, attitude, then the row's
         compiled random stream. The same generator state gives the same row, whatever the batch."""
         rows = np.asarray(rows, dtype=np.int64).reshape(-1)
-        f = self.f
+        f, cfg = self.f, self.config
         for r, gen in zip(rows, generators, strict=True):
             ep = self._draw(gen)
             self.episodes[r] = RowEpisode(ep.epoch, ep.central, tuple(ep.perturbers))
@@ -187,10 +199,23 @@ class BatchCore:
             self.p[r] = self._p0
             f[r, L.F_Q : L.F_Q + 4] = qt.normalize(gen.normal(size=4))
             self.rng[r] = crng.seed_state(gen)
+            if cfg.image_success_min < 1.0:
+                # Drawn last, so the rest of the episode is the one the same seed gives without failures.
+                p_fix = gen.uniform(cfg.image_success_min, 1.0, cfg.n_planets)
+                f[r, L.F_IMG_P : L.F_IMG_P + cfg.n_planets] = p_fix
+            if cfg.centroid_bias_max > 0.0:
+                scale = gen.uniform(0.0, cfg.centroid_bias_max, cfg.n_planets)
+                f[r, L.F_COB : L.F_COB + cfg.n_planets] = scale
         K.reset_rows(self.params, self.state, rows)
         if self.since is not None:
             self.since[rows] = np.inf
             self._observe_since(rows)
+        if self.image_log is not None:
+            self.image_log[rows] = 0.0
+            self._observe_image_log(rows)
+        if self.residual_log is not None:
+            self.residual_log[rows] = 0.0
+            self._observe_residual_log(rows)
 
     def _observe_since(self, rows: np.ndarray) -> None:
         """Count one physics step seen by ``rows`` (indices; a reset's first observation counts, as a step
@@ -198,7 +223,47 @@ class BatchCore:
         since = self.since[rows]
         advance_since_measured(since, self.i[rows, L.I_MEASURED] != 0, self.i[rows, L.I_TARGET])
         self.since[rows] = since
-        self.obs[rows, self.layout.since_measured_start :] = since_measured_values(since)
+        lay = self.layout
+        self.obs[rows, lay.since_measured_start : lay.image_log_start] = since_measured_values(since)
+
+    def _observe_image_log(self, rows: np.ndarray) -> None:
+        """Count the last physics step's image of ``rows`` (indices) in their image log, and write their
+        ``image_log`` observation block."""
+        log = self.image_log[rows]
+        i = self.i[rows]
+        advance_image_log(log, i[:, L.I_SENSOR] == L.SENSOR_CAMERA, i[:, L.I_REASON] == L.REASON_IMAGE_FAILED,
+                          i[:, L.I_TARGET])  # fmt: skip
+        self.image_log[rows] = log
+        lay = self.layout
+        values = image_log_values(log).reshape(len(rows), 2 * self.config.n_planets)
+        self.obs[rows, lay.image_log_start : lay.residual_log_start] = values
+
+    def _observe_residual_log(self, rows: np.ndarray) -> None:
+        """Add the last physics step's fix of ``rows`` (its normalized NIS) to their residual log, and write
+        their ``residual_log`` observation block."""
+        log = self.residual_log[rows]
+        i = self.i[rows]
+        advance_residual_log(log, i[:, L.I_SENSOR] == L.SENSOR_CAMERA, self.f[rows, L.F_NIS] / self._fix_dof,
+                             i[:, L.I_TARGET])  # fmt: skip
+        self.residual_log[rows] = log
+        self.obs[rows, self.layout.residual_log_start :] = residual_log_values(log)
+
+    def true_image_success(self) -> np.ndarray:
+        """(N, P) each row's probability that an image of planet p in view yields a fix this episode (1
+        without failures): the event's realization, privileged (the oracle reference reads it; agents and
+        learners do not)."""
+        n_p = self.config.n_planets
+        if self.config.image_success_min >= 1.0:
+            return np.ones((self.num_rows, n_p))
+        return self.f[:, L.F_IMG_P : L.F_IMG_P + n_p].copy()
+
+    def true_centroid_bias(self) -> np.ndarray:
+        """(N, P) each row's centroid-bias scale of each planet this episode (0 without the event):
+        privileged, as :meth:`true_image_success`."""
+        n_p = self.config.n_planets
+        if self.config.centroid_bias_max <= 0.0:
+            return np.zeros((self.num_rows, n_p))
+        return self.f[:, L.F_COB : L.F_COB + n_p].copy()
 
     def step_decision(
         self,
@@ -262,8 +327,14 @@ class BatchCore:
                 f"row {r} (of rows {bad.tolist()}) at step {int(self.i[r, L.I_K])}: {what}; "
                 f"q={self.f[r, L.F_Q : L.F_Q + 4]}, omega={self.f[r, L.F_W : L.F_W + 3]}"
             )
-        if self.since is not None:
-            self._observe_since(np.flatnonzero(active))
+        if self.since is not None or self.image_log is not None or self.residual_log is not None:
+            stepped = np.flatnonzero(active)
+            if self.since is not None:
+                self._observe_since(stepped)
+            if self.image_log is not None:
+                self._observe_image_log(stepped)
+            if self.residual_log is not None:
+                self._observe_residual_log(stepped)
 
     # ------------------------------------------------------------------------------------------
     def time_s(self, row: int) -> float:

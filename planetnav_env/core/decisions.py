@@ -52,6 +52,65 @@ def since_measured_values(since: np.ndarray) -> np.ndarray:
     return np.where(finite, np.minimum(scaled, 1.0), 1.0).astype(np.float32)
 
 
+def advance_image_log(
+    log: np.ndarray, fixed: np.ndarray, failed: np.ndarray, target_index: np.ndarray
+) -> None:
+    """Count one physics step's image in the image log, in place.
+
+    log: (N, 2, P) counts, ``log[:, 0]`` images of each planet in view, ``log[:, 1]`` the fixes they gave.
+    fixed: (N,) bool, the camera measured its target this step (``info["sensor"] == "camera"``); failed:
+    (N,) bool, the image of a planet in view yielded no fix (``info["visibility"] == "image_failed"``);
+    target_index: (N,) int, the planet imaged. Rows with neither (no image, or the planet out of view)
+    count nothing.
+    """
+    n_planets = log.shape[2]
+    target_index = np.asarray(target_index)
+    on_planet = (target_index >= 0) & (target_index < n_planets)
+    for flag, add_fix in ((np.asarray(fixed, dtype=bool), 1.0), (np.asarray(failed, dtype=bool), 0.0)):
+        rows = np.flatnonzero(flag & on_planet)
+        log[rows, 0, target_index[rows]] += 1.0
+        log[rows, 1, target_index[rows]] += add_fix
+
+
+def image_log_values(log: np.ndarray) -> np.ndarray:
+    """The ``image_log`` observation (N, P, 2) float32 from the counts (N, 2, P): ``(fixes + 1) / (images +
+    2)`` (the mean of a Beta(1, 1) prior updated by the counts) and ``log1p(images) /
+    log1p(SINCE_SCALE_STEPS)`` capped at 1."""
+    images, fixes = log[:, 0], log[:, 1]
+    mean = (fixes + 1.0) / (images + 2.0)
+    scaled = np.minimum(log1p(images) / _SINCE_LOG_SCALE, 1.0)
+    return np.stack([mean, scaled], axis=-1).astype(np.float32)
+
+
+#: Cap of the residual log's normalized NIS (the observation is its value / the cap).
+RESIDUAL_CAP = 10.0
+
+
+def advance_residual_log(
+    log: np.ndarray, fixed: np.ndarray, nis_norm: np.ndarray, target_index: np.ndarray
+) -> None:
+    """Add one physics step's fix to the residual log, in place.
+
+    log: (N, 2, P), ``log[:, 0]`` fixes of each planet, ``log[:, 1]`` the sum of their NIS divided by the
+    measurement's degrees of freedom. fixed: (N,) bool, the camera measured its target this step;
+    nis_norm: (N,) that fix's NIS / dof (the filter's, gated fixes included); target_index: (N,) the planet.
+    """
+    n_planets = log.shape[2]
+    target_index = np.asarray(target_index)
+    ok = np.asarray(fixed, dtype=bool) & (target_index >= 0) & (target_index < n_planets)
+    ok &= np.isfinite(nis_norm)
+    rows = np.flatnonzero(ok)
+    log[rows, 0, target_index[rows]] += 1.0
+    log[rows, 1, target_index[rows]] += np.asarray(nis_norm)[rows]
+
+
+def residual_log_values(log: np.ndarray) -> np.ndarray:
+    """The ``residual_log`` observation (N, P) float32: ``(sum + 2) / (fixes + 2)`` (the mean normalized
+    NIS with a prior of two consistent fixes), capped at :data:`RESIDUAL_CAP`, divided by it."""
+    mean = (log[:, 1] + 2.0) / (log[:, 0] + 2.0)
+    return (np.minimum(mean, RESIDUAL_CAP) / RESIDUAL_CAP).astype(np.float32)
+
+
 def relative_targets(actions: np.ndarray, current: np.ndarray, n_targets: int) -> np.ndarray:
     """Target indices (N,) of *relative* actions (N,): 0 keeps the current target, ``k`` moves ``k``
     places along the target order (``(current + k) mod n``). With no current target (``-1``, the first

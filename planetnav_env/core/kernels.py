@@ -42,6 +42,7 @@ from planetnav_env.core.layout import (
     F_DV_LOST,
     F_DV_STEP,
     F_HW,
+    F_IMG_P,
     F_INTEGRATED,
     F_NIS,
     F_PIX,
@@ -68,6 +69,7 @@ from planetnav_env.core.layout import (
     MODE_HYBRID,
     MODE_TARGET,
     MODE_TORQUE,
+    REASON_IMAGE_FAILED,
     REASON_NONE,
     REASON_TOO_LARGE,
     REASON_VISIBLE,
@@ -89,6 +91,7 @@ from planetnav_env.core.operations import (
 )
 from planetnav_env.core.records import Actions, RowState, make_scratch
 from planetnav_env.core.row_ephemeris import eval_channel, perturbers_at, planets_at, row_time
+from planetnav_env.core.row_noise import NOISE_IMAGE, next_uniform, noise_begin
 from planetnav_env.core.scoring import score_row
 from planetnav_env.core.sensing import (
     measure_planet,
@@ -275,6 +278,12 @@ def step_row(prm, st, n, target, torque, sc) -> bool:  # pragma: no cover - comp
             # A disk wider than the sensor's field gives neither its centre nor its diameter.
             if reason == REASON_VISIBLE and sc.vals[V_ALPHA] > ps.alpha_max:
                 reason = REASON_TOO_LARGE
+            if reason == REASON_VISIBLE and ps.img_min < 1.0:
+                # Image processing fails with the planet's episode probability (the filter does not model
+                # it: it simply gets no measurement). Drawn only with the option on, so v0/v1 draw nothing.
+                noise_begin(prm, i, rng, n, NOISE_IMAGE, sc)
+                if next_uniform(prm, rng, n, sc) >= f[n, F_IMG_P + idx]:
+                    reason = REASON_IMAGE_FAILED
             if reason == REASON_VISIBLE:
                 measured, rejected = measure_planet(prm, st, n, idx, sc)
                 sensor = SENSOR_CAMERA

@@ -54,6 +54,13 @@ _F_FIELDS = (
     ("THRUSTING", 1),  # 1: the thrust axis was within tolerance at the end of the last step
     ("DL_SIGMA", 8),  # per deadline: sqrt(trace) of the position covariance coasted to E [km]; 0 before
     ("DL_ERR", 8),  # per deadline: |dr + t_go dv| of the filter's true error mapped to E [km]; 0 before
+    # image-processing failures (EnvConfig.image_success_min < 1; unused, 0, otherwise): per planet, the
+    # probability, drawn at reset and fixed for the episode, that an image of it in view yields a fix
+    ("IMG_P", 7),
+    # centroid bias (EnvConfig.centroid_bias_max > 0; unused, 0, otherwise): per planet, the scale of its
+    # centre-of-brightness offset drawn at reset (sensors.camera_kernels.centroid_bias_kernel)
+    ("COB", 7),
+    ("COB_LAST", 1),  # the offset of the last image [rad] (0: none)
 )
 F_OFFSETS: dict[str, tuple[int, int]] = {}
 _o = 0
@@ -72,6 +79,10 @@ F_REWARD, F_NIS, F_PIX = (F_OFFSETS[k][0] for k in ("REWARD", "NIS", "PIX"))
 F_DV_STEP, F_DV_LOST, F_OBJECTIVE, F_THRUSTING, F_DL_SIGMA, F_DL_ERR = (
     F_OFFSETS[k][0] for k in ("DV_STEP", "DV_LOST", "OBJECTIVE", "THRUSTING", "DL_SIGMA", "DL_ERR")
 )
+F_IMG_P = F_OFFSETS["IMG_P"][0]
+F_COB, F_COB_LAST = F_OFFSETS["COB"][0], F_OFFSETS["COB_LAST"][0]
+#: Planet slots of IMG_P: every body a camera may target (``astro.bodies.BODIES`` but the Sun).
+MAX_PLANETS = F_OFFSETS["IMG_P"][1]
 #: Deadline slots of the state (``config.MAX_DEADLINES``; the width of DL_SIGMA and DL_ERR).
 MAX_DEADLINES = F_OFFSETS["DL_SIGMA"][1]
 
@@ -114,6 +125,7 @@ REASONS = tuple(r.label for r in VisibilityReason)
     REASON_NONE,
     REASON_INTEGRATING,
     REASON_AMBIGUOUS,
+    REASON_IMAGE_FAILED,
 ) = (int(r) for r in VisibilityReason)
 SENSORS = (None, "camera", "xray")
 SENSOR_NONE, SENSOR_CAMERA, SENSOR_XRAY = range(3)
@@ -195,6 +207,21 @@ IN_FIELD_TEXT = (
 )
 
 
+RESIDUAL_LOG_TEXT = (
+    "residual log (with EnvConfig.observe_residual_log), one per planet: the mean over this episode's "
+    "fixes of it of the filter's NIS divided by its degrees of freedom, with a prior of two consistent "
+    "fixes (1: consistent with the filter's noise model), capped at 10, / 10"
+)
+
+
+IMAGE_LOG_TEXT = (
+    "image log (with EnvConfig.observe_image_log), two per planet: (fixes + 1) / (images + 2), the mean "
+    "of the planet's image success rate under a uniform prior, and log1p(images) / log1p(1440) capped at 1, "
+    "over this episode's images of it in view (an image that yields no fix counts; one out of view or behind "
+    "the Sun does not)"
+)
+
+
 SINCE_MEASURED_TEXT = (
     "since measured (with EnvConfig.observe_since_measured), one per target: log1p(physics steps since it "
     "was last measured) / log1p(1440), capped at 1; 1 when not measured this episode"
@@ -220,6 +247,12 @@ class ObservationLayout:
     #: The ``since_measured`` block (T values) last (``EnvConfig.observe_since_measured``; text:
     #: SINCE_MEASURED_TEXT). Written by :class:`planetnav_env.core.batch.BatchCore`, not the compiled builder.
     since_measured: bool = False
+    #: The ``image_log`` block (P x 2 values) after ``since_measured`` (``EnvConfig.observe_image_log``;
+    #: text: IMAGE_LOG_TEXT). Written by :class:`planetnav_env.core.batch.BatchCore`.
+    image_log: bool = False
+    #: The ``residual_log`` block (P values) after ``image_log`` (``EnvConfig.observe_residual_log``; text:
+    #: RESIDUAL_LOG_TEXT). Written by :class:`planetnav_env.core.batch.BatchCore`.
+    residual_log: bool = False
 
     @classmethod
     def for_config(cls, cfg) -> ObservationLayout:
@@ -229,6 +262,8 @@ class ObservationLayout:
             cfg.n_planets, cfg.n_pulsars, None if ops is None else len(ops.deadlines_s),
             bool(getattr(cfg, "observe_in_field", False)),
             bool(getattr(cfg, "observe_since_measured", False)),
+            bool(getattr(cfg, "observe_image_log", False)),
+            bool(getattr(cfg, "observe_residual_log", False)),
         )  # fmt: skip
 
     @property
@@ -267,8 +302,18 @@ class ObservationLayout:
         return self.in_field_start + (self.n_planets if self.in_field else 0)
 
     @property
-    def size(self) -> int:
+    def image_log_start(self) -> int:
+        """First index of the image-log block (== size without one)."""
         return self.since_measured_start + (self.n_targets if self.since_measured else 0)
+
+    @property
+    def residual_log_start(self) -> int:
+        """First index of the residual-log block (== size without one)."""
+        return self.image_log_start + (2 * self.n_planets if self.image_log else 0)
+
+    @property
+    def size(self) -> int:
+        return self.residual_log_start + (self.n_planets if self.residual_log else 0)
 
     @property
     def blocks(self) -> tuple[tuple[str, int, int, tuple[int, ...]], ...]:
@@ -287,7 +332,11 @@ class ObservationLayout:
         if self.in_field:
             out.append(("in_field", self.in_field_start, self.since_measured_start, (self.n_planets,)))
         if self.since_measured:
-            out.append(("since_measured", self.since_measured_start, self.size, (self.n_targets,)))
+            out.append(("since_measured", self.since_measured_start, self.image_log_start, (self.n_targets,)))
+        if self.image_log:
+            out.append(("image_log", self.image_log_start, self.residual_log_start, (self.n_planets, 2)))
+        if self.residual_log:
+            out.append(("residual_log", self.residual_log_start, self.size, (self.n_planets,)))
         return tuple(out)
 
     def to_dict(self, flat: np.ndarray) -> dict[str, np.ndarray]:
@@ -317,7 +366,9 @@ class ObservationLayout:
         rows.append(("22+8T", "elapsed fraction of the episode", "0..1"))
         rows.append(("..+D+2", OPERATIONS_TEXT, f"/ {OPS_DAYS_SCALE:g} d, / {OPS_DV_SCALE:g} m/s, 0/1"))
         rows.append(("..+P", IN_FIELD_TEXT, "0/1"))
-        rows.append(("last T", SINCE_MEASURED_TEXT, "0..1"))
+        rows.append(("..+T", SINCE_MEASURED_TEXT, "0..1"))
+        rows.append(("..+2P", IMAGE_LOG_TEXT, "0..1"))
+        rows.append(("last P", RESIDUAL_LOG_TEXT, "0..1"))
         w0 = max(len(r[0]) for r in rows)
         w1 = max(len(r[1]) for r in rows)
         w2 = max(len(r[2]) for r in rows)

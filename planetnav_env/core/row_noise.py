@@ -10,9 +10,11 @@ from planetnav_env.core.layout import (
 from planetnav_env.numerics.jit import row_kernel
 
 #: Stream ids of the per-step noise (``noise_streams: per_step``): one per sensor; pulsar j uses
-#: ``NOISE_PULSAR0 + j``; ``NOISE_THRUST`` is the thrust execution error of an operations scenario.
+#: ``NOISE_PULSAR0 + j``; ``NOISE_THRUST`` is the thrust execution error of an operations scenario;
+#: ``NOISE_IMAGE`` decides whether an image yields a fix (``EnvConfig.image_success_min``).
 NOISE_STAR, NOISE_RATE, NOISE_CAMERA, NOISE_PULSAR0 = 1, 2, 3, 16
 NOISE_THRUST = 4
+NOISE_IMAGE = 5
 
 
 @row_kernel
@@ -30,3 +32,11 @@ def next_normal(prm, rng, n, sc) -> float:  # pragma: no cover - compiled
     if prm.scalars[0].noise_per_step:
         return crng.standard_normal(sc.sub)
     return crng.standard_normal(rng[n])
+
+
+@row_kernel
+def next_uniform(prm, rng, n, sc) -> float:  # pragma: no cover - compiled
+    """The next uniform on [0, 1) of the noise begun by :func:`noise_begin`."""
+    if prm.scalars[0].noise_per_step:
+        return crng.uniform(sc.sub)
+    return crng.uniform(rng[n])

@@ -13,6 +13,8 @@ import numpy as np
 from planetnav_env.attitude.plant import dcm_body_to_inertial_kernel
 from planetnav_env.core.layout import (
     F_ATT_ERR,
+    F_COB,
+    F_COB_LAST,
     F_INTEGRATED,
     F_NIS,
     F_PIX,
@@ -48,6 +50,7 @@ from planetnav_env.sensors.camera_kernels import (
     CameraFix,
     CameraModel,
     CameraScratch,
+    centroid_bias_kernel,
     measure_row_kernel,
 )
 from planetnav_env.sensors.pulsar import (
@@ -152,7 +155,12 @@ def measure_planet(prm, st, n, idx, sc):  # pragma: no cover - compiled
     camera = CameraModel(c2b=prm.c2b, params=prm.cam)
     ws = CameraScratch(m=sc.m, u=sc.u6)
     out = CameraFix(los=sc.los, los_true=sc.los_true, mm=sc.mm, pix=sc.pix)
-    _, alpha, _ = measure_row_kernel(sc.r1, sc.q1, sc.t1, 0, prm.radii[idx], sc.noise3, camera, ws, out)
+    _, alpha, alpha_true = measure_row_kernel(
+        sc.r1, sc.q1, sc.t1, 0, prm.radii[idx], sc.noise3, camera, ws, out
+    )
+    f[n, F_COB_LAST] = 0.0
+    if ps.cob_max > 0.0:
+        f[n, F_COB_LAST] = _centroid_bias(sc, idx, alpha_true, f[n, F_COB + idx])
     f[n, F_PIX] = sc.pix[0]
     f[n, F_PIX + 1] = sc.pix[1]
     xe = f[n, F_XE : F_XE + 6]
@@ -171,6 +179,25 @@ def measure_planet(prm, st, n, idx, sc):  # pragma: no cover - compiled
     )
     f[n, F_NIS] = nis
     return True, not ok
+
+
+@row_kernel
+def _centroid_bias(sc, idx, alpha_true, scale) -> float:  # pragma: no cover - compiled
+    """Displace the body-frame line of sight ``sc.los`` of planet ``idx`` (heliocentric ``sc.planets[idx]``,
+    seen from ``sc.r1[0]`` at the true attitude ``sc.q1[0]``) by its centre-of-brightness offset
+    (:func:`~planetnav_env.sensors.camera_kernels.centroid_bias_kernel`); uses ``sc.dirv`` and ``sc.rq`` as
+    work space. Returns the offset [rad]."""
+    q = sc.q1[0]
+    dcm_body_to_inertial_kernel(q[0], q[1], q[2], q[3], sc.rq)
+    pl = sc.planets[idx]
+    ps_ = math.sqrt(pl[0] * pl[0] + pl[1] * pl[1] + pl[2] * pl[2])
+    cx, cy, cz = sc.r1[0, 0] - pl[0], sc.r1[0, 1] - pl[1], sc.r1[0, 2] - pl[2]
+    cn = math.sqrt(cx * cx + cy * cy + cz * cz)
+    # The Sun is the heliocentric origin: the planet-to-Sun direction is -planet.
+    cos_phase = -(pl[0] * cx + pl[1] * cy + pl[2] * cz) / (ps_ * cn)
+    for k in range(3):  # planet-to-Sun direction in body axes: R^T (-planet / |planet|)
+        sc.dirv[k] = -(sc.rq[0, k] * pl[0] + sc.rq[1, k] * pl[1] + sc.rq[2, k] * pl[2]) / ps_
+    return centroid_bias_kernel(sc.los, sc.dirv, cos_phase, alpha_true, scale)
 
 
 @row_kernel

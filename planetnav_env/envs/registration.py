@@ -107,6 +107,22 @@ for _name, _posed in _POSED.items():
     }
 
 
+#: The ``-v2`` ids: the ``-v1`` tasks with an event the filter does not model, drawn per episode, so that
+#: reading the state pays (docs/suite.md, "Tasks v2", gives the closed-loop gap behind each). Image
+#: processing fails at a rate per planet drawn uniformly from [0, 1] at reset and never told to the filter or
+#: the agent (stray light, faint beacons); the spacecraft sees each outcome (``info["visibility"]``
+#: ``image_failed``) and observes its own image log. A nominal rule that trusts every image stares at a
+#: planet that gives nothing; a fixed schedule cannot avoid it; the rate must be learned within the episode.
+#: Reward, objective, decision interface and the rest of the physics are the ``-v1`` id's.
+_EVENTS_V2: dict[str, dict[str, Any]] = {
+    "Cruise-Target": {"image_success_min": 0.0, "observe_image_log": True},
+    "RandomCruise-Target": {"image_success_min": 0.0, "observe_image_log": True},
+    "MarsApproach-Tasking": {"image_success_min": 0.0, "observe_image_log": True},
+}
+for _name, _events in _EVENTS_V2.items():
+    ENV_IDS[f"planetnav/{_name}-v2"] = {**ENV_IDS[f"planetnav/{_name}-v1"], **_events}
+
+
 def id_options(env_id: str) -> dict[str, Any]:
     """The environment options that the registered id ``env_id`` stands for (a copy of its spec's
     kwargs), as ``gym.make(env_id)`` passes them; ``"module:id"`` is accepted as ``gym.make`` accepts it.

@@ -39,6 +39,8 @@ def observation_space(cfg: EnvConfig, layout: ObservationLayout) -> spaces.Space
         "elapsed": (0.0, 1.0),
         "in_field": (0.0, 1.0),
         "since_measured": (0.0, 1.0),
+        "image_log": (0.0, 1.0),
+        "residual_log": (0.0, 1.0),
     }
     return spaces.Dict(
         {
@@ -179,7 +181,9 @@ def decode_observation(cfg: EnvConfig, layout: ObservationLayout, observation: A
     velocity_km_s (relative to the central body), log_sigma (6,), q (star tracker), rates_rad_s,
     wheel_fraction, planets (P, 7) and pulsars (Q, 7) as in the layout, target (index or -1), elapsed,
     with ``observe_in_field`` in_field (P,) bool (the planets the camera's visibility rule passes now), and
-    with ``observe_since_measured`` since_measured (T,) (the observation's scaled values)."""
+    with ``observe_since_measured`` since_measured (T,) (the observation's scaled values), and with
+    ``observe_image_log`` image_log (P, 2) (the observation's values: success-rate mean, scaled images), and
+    with ``observe_residual_log`` residual_log (P,) (the observation's values)."""
     if isinstance(observation, dict):
         try:
             flat = layout.from_dict(observation)
@@ -199,6 +203,10 @@ def decode_observation(cfg: EnvConfig, layout: ObservationLayout, observation: A
     extra = {"in_field": b["in_field"] > 0.5} if "in_field" in b else {}
     if "since_measured" in b:
         extra["since_measured"] = b["since_measured"]
+    if "image_log" in b:
+        extra["image_log"] = b["image_log"]
+    if "residual_log" in b:
+        extra["residual_log"] = b["residual_log"]
     return {
         **extra,
         "position_km": b["position"] * pos_scale,

@@ -387,6 +387,32 @@ def measure_row_kernel(
     return _OK, a + s_alpha * z[2], a
 
 
+#: Centre-of-brightness offset of a uniformly bright illuminated disk, per radius and per (1 - cos phase):
+#: the centroid of the half disk plus (or minus) the half ellipse of the terminator lies 4 / (3 pi) R
+#: (1 - cos phase) from the centre of figure, toward the Sun (docs/camera.md, "Centroid bias").
+COB_UNIFORM_DISK = 4.0 / (3.0 * math.pi)
+
+
+@row_kernel
+def centroid_bias_kernel(los, sun_dir, cos_phase, alpha, scale) -> float:  # pragma: no cover - compiled
+    """Displace the measured unit line of sight ``los`` (3,) in place by the centre-of-brightness offset of
+    a planet of true angular diameter ``alpha`` [rad] at phase angle acos(``cos_phase``) (Sun-planet-camera),
+    toward ``sun_dir`` (3,), the unit direction from the planet to the Sun in the frame of ``los``:
+    ``delta = scale * COB_UNIFORM_DISK * alpha / 2 * (1 - cos_phase)`` [rad], along the component of
+    ``sun_dir`` across the line of sight (the sunlit limb's side in the image). ``scale`` 1 is the uniformly
+    bright disk; a centroiding algorithm that models part of it leaves a smaller one. Returns ``delta``."""
+    delta = scale * COB_UNIFORM_DISK * 0.5 * alpha * (1.0 - cos_phase)
+    d = sun_dir[0] * los[0] + sun_dir[1] * los[1] + sun_dir[2] * los[2]
+    px, py, pz = sun_dir[0] - d * los[0], sun_dir[1] - d * los[1], sun_dir[2] - d * los[2]
+    norm = math.sqrt(px * px + py * py + pz * pz)
+    if delta <= 0.0 or norm < 1e-12:  # no offset, or the Sun straight behind or ahead: no direction
+        return 0.0
+    c, s_ = math.cos(delta), math.sin(delta) / norm
+    for k in range(3):
+        los[k] = c * los[k] + s_ * (sun_dir[k] - d * los[k])
+    return delta
+
+
 @njit(cache=True, nogil=True)
 def _measure_kernel(
     r: np.ndarray,

@@ -1,0 +1,196 @@
+"""Events the filter does not model: image-processing failures and the centre-of-brightness centroid bias.
+
+Held to independent truth: the failure rate to the binomial law of the drawn probability; the centroid
+offset formula to a brute-force centroid of the lit part of a uniformly bright sphere's disk; the logs the
+observation carries to counts made from the infos. The v0/v1 ids draw nothing (their golden hashes,
+tests/env/test_golden.py, hold that bit for bit); the options leave the rest of the episode as it was.
+"""
+
+from __future__ import annotations
+
+import math
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import planetnav_env  # noqa: F401  (registers the ids)
+from planetnav_env.config import EnvConfig
+from planetnav_env.core import layout as L
+from planetnav_env.core.decisions import RESIDUAL_CAP
+from planetnav_env.envs.env import PlanetNavEnv
+from planetnav_env.envs.registration import ENV_IDS
+from planetnav_env.errors import ConfigError
+from planetnav_env.sensors.camera_kernels import COB_UNIFORM_DISK, centroid_bias_kernel
+
+V1 = ENV_IDS["planetnav/Cruise-Target-v1"]
+
+
+def _physics_env(**options) -> PlanetNavEnv:
+    return PlanetNavEnv(EnvConfig.from_dict({**V1, **options}).at_physics_step())
+
+
+def test_v2_ids_are_v1_plus_the_event_options():
+    for name in ("Cruise-Target", "RandomCruise-Target", "MarsApproach-Tasking"):
+        v1, v2 = ENV_IDS[f"planetnav/{name}-v1"], ENV_IDS[f"planetnav/{name}-v2"]
+        extra = {k: v for k, v in v2.items() if v1.get(k, object()) != v}
+        assert set(extra) <= {
+            "image_success_min",
+            "observe_image_log",
+            "centroid_bias_max",
+            "observe_residual_log",
+        }
+        assert extra
+
+
+@pytest.mark.parametrize(
+    "options",
+    [
+        {"image_success_min": 0.0},
+        {"centroid_bias_max": 1.0},
+        {"image_success_min": 0.3, "centroid_bias_max": 0.5},
+    ],
+)
+def test_events_are_drawn_after_the_episode(options):
+    """The same seed gives the same scenario, initial error, attitude and noise key with and without an
+    event: its draws come last, so a paired comparison isolates the event."""
+    base, ev = _physics_env(), _physics_env(**options)
+    base.reset(seed=11)
+    ev.reset(seed=11)
+    for col, width in (("X", 6), ("XE", 6), ("Q", 4), ("T0", 1)):
+        a = L.F_OFFSETS[col][0]
+        np.testing.assert_array_equal(base.core.f[0, a : a + width], ev.core.f[0, a : a + width])
+    np.testing.assert_array_equal(base.core.rng, ev.core.rng)
+    drawn = ev.core.true_image_success()[0], ev.core.true_centroid_bias()[0]
+    assert np.all((drawn[0] >= options.get("image_success_min", 1.0)) & (drawn[0] <= 1.0))
+    assert np.all((drawn[1] >= 0.0) & (drawn[1] <= options.get("centroid_bias_max", 0.0)))
+
+
+def test_image_failures_follow_the_drawn_probability_and_skip_the_update():
+    env = _physics_env(image_success_min=0.0, observe_image_log=True, noise_streams="per_step")
+    counts = np.zeros((2, 3))  # images in view, fixes
+    for seed in range(3):
+        env.reset(seed=100 + seed)
+        p = env.core.true_image_success()[0]
+        images = np.zeros(3)
+        fixes = np.zeros(3)
+        for k in range(600):
+            _, _, _, _, info = env.step((k // 60) % 3)
+            t = info["target_index"]
+            if info["visibility"] == "image_failed":
+                images[t] += 1
+                assert not info["measured"] and info["sensor"] is None
+                assert math.isnan(env.core.f[0, L.F_NIS])  # no update: the filter never saw the image
+            elif info["sensor"] == "camera":
+                images[t] += 1
+                fixes[t] += 1
+        # Binomial law of the drawn probability, planet by planet (4.5 sigma: a wrong rate fails).
+        for j in range(3):
+            n, k = images[j], fixes[j]
+            if n >= 30:
+                sd = math.sqrt(n * p[j] * (1 - p[j])) + 1.0
+                assert abs(k - n * p[j]) < 4.5 * sd, (seed, j, n, k, p[j])
+        # The image log is these counts: (fixes + 1) / (images + 2) and log1p(images) / log1p(1440).
+        log = env.decode_observation(env.core.obs[0].astype(np.float32))["image_log"]
+        np.testing.assert_allclose(log[:, 0], (fixes + 1) / (images + 2), rtol=1e-6)
+        np.testing.assert_allclose(log[:, 1], np.minimum(np.log1p(images) / np.log1p(1440), 1), rtol=1e-6)
+        counts += (images, fixes)
+    assert counts[0].sum() > 300 and 0 < counts[1].sum() < counts[0].sum()
+
+
+def test_no_failures_without_the_option():
+    env = _physics_env(observe_image_log=True)
+    env.reset(seed=3)
+    for k in range(200):
+        _, _, _, _, info = env.step((k // 50) % 3)
+        assert info["visibility"] != "image_failed"
+    log = env.decode_observation(env.core.obs[0].astype(np.float32))["image_log"]
+    imaged = log[:, 1] > 0
+    assert imaged.any() and np.all(log[imaged, 0] > 0.9)  # every image gave a fix
+
+
+def _brute_force_centroid_offset(phase: float, n: int = 1201) -> float:
+    """Centroid of the lit part of a uniformly bright unit sphere's disk, along the projected Sun direction
+    (image x axis): a grid over the disk, each point lit when its surface normal faces the Sun."""
+    g = np.linspace(-1.0, 1.0, n)
+    x, y = np.meshgrid(g, g)
+    inside = x * x + y * y < 1.0
+    z = np.sqrt(np.where(inside, 1.0 - x * x - y * y, 0.0))  # toward the camera
+    sun = np.array(
+        [math.sin(phase), 0.0, math.cos(phase)]
+    )  # phase angle between Sun and camera at the planet
+    lit = inside & (x * sun[0] + z * sun[2] > 0.0)
+    return float(x[lit].mean())
+
+
+@pytest.mark.parametrize("phase_deg", [20.0, 60.0, 90.0, 120.0, 150.0])
+def test_centroid_offset_is_the_uniform_disk_centroid(phase_deg):
+    phase = math.radians(phase_deg)
+    expected = _brute_force_centroid_offset(phase)  # in radii
+    assert COB_UNIFORM_DISK * (1.0 - math.cos(phase)) == pytest.approx(expected, abs=3e-3)
+
+
+def test_centroid_bias_kernel_rotates_toward_the_sun_by_delta():
+    rng = np.random.default_rng(0)
+    for _ in range(20):
+        los = rng.normal(size=3)
+        los /= np.linalg.norm(los)
+        sun = rng.normal(size=3)
+        sun /= np.linalg.norm(sun)
+        alpha, cos_phase, scale = 1e-4, float(rng.uniform(-1, 1)), float(rng.uniform(0, 2))
+        out = los.copy()
+        delta = centroid_bias_kernel(out, sun, cos_phase, alpha, scale)
+        assert delta == pytest.approx(scale * COB_UNIFORM_DISK * alpha / 2 * (1 - cos_phase), rel=1e-12)
+        assert np.linalg.norm(out) == pytest.approx(1.0, abs=1e-12)
+        angle = math.atan2(
+            float(np.linalg.norm(np.cross(los, out))), float(out @ los)
+        )  # exact for small angles
+        assert angle == pytest.approx(delta, rel=1e-6, abs=1e-15)
+        # In the plane of the line of sight and the Sun, on the Sun's side.
+        assert abs(np.linalg.det(np.stack([los, sun, out]))) < 1e-12
+        assert out @ sun >= los @ sun
+
+
+def test_centroid_bias_moves_the_estimate_and_the_residual_log_counts_the_fixes():
+    clean = _physics_env(noise_streams="per_step")
+    biased = _physics_env(centroid_bias_max=2.0, observe_residual_log=True, noise_streams="per_step")
+    clean.reset(seed=5)
+    biased.reset(seed=5)
+    total = np.zeros(3)
+    fixes = np.zeros(3)
+    offsets = []
+    for _ in range(300):  # Venus: a crescent from this transfer, so its offset is several arcsec
+        _, _, _, _, info_c = clean.step(0)
+        _, _, _, _, info_b = biased.step(0)
+        if info_b["sensor"] == "camera":
+            fixes[0] += 1
+            total[0] += biased.core.f[0, L.F_NIS] / 3.0
+            offsets.append(biased.core.f[0, L.F_COB_LAST])
+    assert fixes[0] > 200
+    assert np.mean(offsets) > 1e-6 and np.all(np.asarray(offsets) > 0)  # rad: > 0.2 arcsec
+    assert abs(info_b["pos_err_km"] - info_c["pos_err_km"]) > 1.0
+    log = biased.decode_observation(biased.core.obs[0].astype(np.float32))["residual_log"]
+    expected = np.minimum((total + 2) / (fixes + 2), RESIDUAL_CAP) / RESIDUAL_CAP
+    np.testing.assert_allclose(log, expected, rtol=1e-5)
+
+
+@pytest.mark.parametrize(
+    ("options", "name"),
+    [({"image_success_min": 1.5}, "image_success_min"), ({"centroid_bias_max": -0.1}, "centroid_bias_max")],
+)
+def test_event_options_are_checked(options, name):
+    with pytest.raises(ConfigError, match=name):
+        EnvConfig.from_dict({**V1, **options})
+
+
+@pytest.mark.parametrize("env_id", ["planetnav/Cruise-Target-v2", "planetnav/MarsApproach-Tasking-v2"])
+def test_v2_observation_blocks_decode(env_id):
+    env = gym.make(env_id, episode_steps=30)
+    obs, _ = env.reset(seed=0)
+    d = env.unwrapped.decode_observation(obs)
+    cfg = env.unwrapped.config
+    if cfg.observe_image_log:
+        assert d["image_log"].shape == (cfg.n_planets, 2)
+    if cfg.observe_residual_log:
+        assert d["residual_log"].shape == (cfg.n_planets,)
+    assert env.observation_space.contains(obs)
