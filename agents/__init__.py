@@ -17,6 +17,8 @@ random         a uniformly random action each step
 idle           never measures (needs ``idle_action=True``, so ``action_mode="target"`` only)
 periodic       fixed schedule: the planets of a cycle in turn, ``period`` steps each
                (:mod:`planetnav_agents.periodic`)
+schedule       blind schedule: a fixed cycle of targets (planets and pulsars), a dwell each, ignoring the
+               observation (:mod:`planetnav_agents.schedule`; the suite's zero point searches it)
 optimum        operations scenarios: the best open-loop session schedule found at reset on the filter's
                covariance prediction (:mod:`planetnav_agents.optimum`)
 planner        non-myopic rollout planner on copies of the environment, scored by the filter's
@@ -70,6 +72,7 @@ from planetnav_agents.loaders import MISSING_LOADERS_HINT, find_loader, register
 from planetnav_agents.optimum import OptimumAgent
 from planetnav_agents.periodic import PeriodicAgent
 from planetnav_agents.planner import PlannerAgent
+from planetnav_agents.schedule import ScheduleAgent
 from planetnav_agents.simple import IdleAgent, RandomAgent
 from planetnav_env.config import EnvConfig
 
@@ -80,6 +83,7 @@ AGENTS: dict[str, Callable[..., Agent]] = {
     "greedy-pd": greedy_pd,
     "periodic": PeriodicAgent,
     "planner": PlannerAgent,
+    "schedule": ScheduleAgent,
     "random": RandomAgent,
     "idle": IdleAgent,
 }
@@ -244,6 +248,7 @@ __all__ = [
     "PeriodicAgent",
     "PlannerAgent",
     "RandomAgent",
+    "ScheduleAgent",
     "TargetAgent",
     "acts_at_physics_step",
     "make_agent",

@@ -56,6 +56,11 @@ class ParsedObservation:
     pulsars: np.ndarray
     target: int
     elapsed: float
+    #: (P, 2) the image log (``EnvConfig.observe_image_log``): per planet the mean of its image success rate
+    #: (Beta(1, 1) prior updated by this episode's images) and the scaled image count; None without it.
+    image_log: np.ndarray | None = None
+    #: (P,) the residual log (``EnvConfig.observe_residual_log``): mean normalized NIS per planet / 10.
+    residual_log: np.ndarray | None = None
 
     @property
     def planet_distance_km(self) -> np.ndarray:
@@ -101,6 +106,8 @@ def parse_observation(observation: Any, env: gym.Env) -> ParsedObservation:
         pulsars=d["pulsars"],
         target=d["target"],
         elapsed=d["elapsed"],
+        image_log=d.get("image_log"),
+        residual_log=d.get("residual_log"),
     )
 
 

@@ -35,6 +35,22 @@ score is divided by the horizon. An integration under way is always finished.
 one (``r + T v``: velocity information counts): a velocity-aware variant. Every lookahead tried raises the
 day's mean 1σ on both cruises (``research/training_log.md``), so the default stays 0.
 
+``success`` (tasks with image-processing failures, ``EnvConfig.image_success_min``): how the score of a
+planet counts images that yield no fix. ``nominal`` (default): the filter's model, every image succeeds.
+``observed``, the adaptive rule: each planet's score times the mean of its success rate under a uniform
+prior updated by this episode's images (the observation's ``image_log`` block; what the spacecraft knows).
+``oracle``: times the true rate drawn for the episode (privileged: a reference that knows the event's
+realization, reported as an upper bound, never used as the score's best reference).
+
+``bias`` (tasks with a centroid bias, ``EnvConfig.centroid_bias_max``): how the score of a planet counts
+a bias the filter does not model. ``nominal`` (default): none. ``observed``, the adaptive rule: each planet's
+score divided by the mean normalized NIS of its fixes this episode (the observation's ``residual_log``;
+1 for a consistent beacon), so a beacon whose residuals disagree with the filter is down-weighted.
+``expected``: divided by ``1 + (delta / sigma)^2``, with ``delta`` the offset an image of it would have now at
+the prior mean scale ``centroid_bias_max / 2`` (the bias model is known, its size is not; phase angle and
+apparent diameter from the estimate) and ``sigma`` the filter's direction sigma. ``oracle``: the same with
+the planet's true drawn scale (privileged).
+
 ``threshold`` θ (operations scenarios only, ``greedy:threshold=1``): the deadline- and cost-aware session
 rule of :mod:`planetnav_agents.operations` instead (sessions of ``session`` steps, default 2 h; stay at the
 mission attitude otherwise). Without it, greedy is unchanged.
@@ -51,9 +67,17 @@ import numpy as np
 from planetnav_agents.base import ParsedObservation, TargetAgent
 from planetnav_agents.gain import DEFAULT_HORIZON, PD_SLOWDOWN, SlewModel, lost_steps, planet_scores
 from planetnav_agents.operations import DeadlineSessionRule
+from planetnav_env.astro.bodies import body
 from planetnav_env.core import layout as L
+from planetnav_env.core.decisions import RESIDUAL_CAP
 from planetnav_env.core.what_if import coasted_position_trace, predicted_planet_trace, predicted_pulsar_trace
+from planetnav_env.sensors.camera_kernels import COB_UNIFORM_DISK
 from planetnav_env.sensors.pulsar import ambiguity_resolvable_kernel
+
+#: How greedy counts images that yield no fix (the ``success`` option; module docstring).
+SUCCESS_MODELS = ("nominal", "observed", "oracle")
+#: How greedy counts a centroid bias (the ``bias`` option; module docstring).
+BIAS_MODELS = ("nominal", "expected", "observed", "oracle")
 
 
 class GreedyAgent(TargetAgent):
@@ -70,8 +94,32 @@ class GreedyAgent(TargetAgent):
         lookahead_s: float = 0.0,
         threshold: float | None = None,
         session: int | None = None,
+        success: str = "nominal",
+        bias: str = "nominal",
     ) -> None:
         super().__init__(env)
+        if success not in SUCCESS_MODELS:
+            raise ValueError(f"greedy: success must be one of {list(SUCCESS_MODELS)}, got {success!r}")
+        if success == "observed" and not self.config.observe_image_log:
+            raise ValueError(
+                "greedy: success='observed' reads the observation's image_log block, which this environment "
+                "does not have (observe_image_log false)"
+            )
+        if bias not in BIAS_MODELS:
+            raise ValueError(f"greedy: bias must be one of {list(BIAS_MODELS)}, got {bias!r}")
+        if bias == "observed" and not self.config.observe_residual_log:
+            raise ValueError(
+                "greedy: bias='observed' reads the observation's residual_log block, which this environment "
+                "does not have (observe_residual_log false)"
+            )
+        if bias in ("oracle", "expected") and self.config.scenario == "mars-approach":
+            raise ValueError(
+                f"greedy: bias={bias!r} needs a heliocentric scenario (the cruises), not mars-approach"
+            )
+        self.success, self.bias = success, bias
+        if success != "nominal" or bias != "nominal":
+            parts = [f"success={success}"] * (success != "nominal") + [f"bias={bias}"] * (bias != "nominal")
+            self.name = "greedy:" + ",".join(parts)
         # Operations scenarios: the deadline- and cost-aware session rule (planetnav_agents.operations).
         self.sessions = None
         if threshold is not None or session is not None:
@@ -92,6 +140,7 @@ class GreedyAgent(TargetAgent):
         self._params = env.unwrapped.core_params
         self._integration_steps = max(1, math.ceil(cfg.detector.integration_time_s / cfg.step_s - 1e-9))
         self.slew = SlewModel.from_config(cfg, pd_slowdown)
+        self._radii = np.array([body(p).radius for p in cfg.planets])
         self.last_scores: np.ndarray = np.zeros(cfg.n_targets)
 
     def lost_steps(self, angle_rad: np.ndarray) -> np.ndarray:
@@ -140,6 +189,37 @@ class GreedyAgent(TargetAgent):
         )
         return out[0]
 
+    def planet_weights(self, obs: ParsedObservation, info: dict[str, Any]) -> np.ndarray | None:
+        """(P,) the factor on each planet's score from ``success`` and ``bias`` (None: both nominal)."""
+        if self.success == "nominal" and self.bias == "nominal":
+            return None
+        w = np.ones(self.n_planets)
+        if self.success == "observed":
+            w *= np.asarray(obs.image_log[:, 0], dtype=float)
+        elif self.success == "oracle":
+            w *= self.env.unwrapped.core.true_image_success()[0]
+        if self.bias == "observed":
+            w /= np.maximum(np.asarray(obs.residual_log, dtype=float) * RESIDUAL_CAP, 1.0)
+        elif self.bias in ("oracle", "expected"):
+            scale = (
+                self.env.unwrapped.core.true_centroid_bias()[0] if self.bias == "oracle"
+                else np.full(self.n_planets, 0.5 * self.config.centroid_bias_max)
+            )  # fmt: skip
+            w /= 1.0 + (self._offsets(obs, info, scale) / float(self._params.scalars[0]["sig_dir"])) ** 2
+        return w
+
+    def _offsets(self, obs: ParsedObservation, info: dict[str, Any], scale: np.ndarray) -> np.ndarray:
+        """(P,) the centroid offset [rad] an image of each planet would have now at bias scales ``scale``
+        (P,), the phase angle and apparent diameter from the estimate."""
+        x = np.asarray(self.estimate(obs, info), dtype=float)
+        planets = obs.planet_positions(x)  # heliocentric: the cruise scenarios' frame
+        to_sun = -planets / np.linalg.norm(planets, axis=1, keepdims=True)
+        to_sc = x[:3] - planets
+        to_sc /= np.linalg.norm(to_sc, axis=1, keepdims=True)
+        cos_phase = np.sum(to_sun * to_sc, axis=1)
+        alpha = 2.0 * np.arcsin(np.minimum(self._radii / np.linalg.norm(x[:3] - planets, axis=1), 1.0))
+        return scale * COB_UNIFORM_DISK * 0.5 * alpha * (1.0 - cos_phase)
+
     def reset(self, seed: int | None = None) -> None:
         if self.sessions is not None:
             self.sessions.reset()
@@ -155,6 +235,10 @@ class GreedyAgent(TargetAgent):
         # (``horizon`` steps of images) and a pulsar (one phase per integration window) compare.
         scores = np.full(self.n_targets, -np.inf)
         scores[:n_p] = self._planet_scores(obs, info)
+        weights = self.planet_weights(obs, info)
+        if weights is not None:
+            # e.g. expected reduction: a fraction `rate` of the horizon's images give fixes (-inf stays -inf).
+            scores[:n_p] = np.where(np.isfinite(scores[:n_p]), scores[:n_p] * weights, -np.inf)
         if obs.pulsars.shape[0]:
             # An integration already under way is finished: leaving loses it.
             if obs.target >= n_p and 0.0 < obs.pulsars[obs.target - n_p, L.TF_PROGRESS] < 1.0:

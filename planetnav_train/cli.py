@@ -308,6 +308,60 @@ def cmd_sweep_periodic(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_blind_search(args: argparse.Namespace) -> int:
+    """``blind-search``: the best blind policy of each task on the search seeds, then the winner beside the
+    references on the evaluation seeds: the closed-loop gap and the blind-zero scores
+    (:mod:`planetnav_train.suite.blind`)."""
+    from planetnav_env.envs.registration import ENV_IDS
+    from planetnav_train.suite import blind as B
+
+    def evaluate(spec: str, cfg: EnvConfig, episodes: int, seed: int) -> np.ndarray:
+        r = evaluate_agent(spec, cfg, episodes, seed, progress=False)
+        return np.asarray(r.metrics["per_episode_mean_pos_err_km"], dtype=float)
+
+    out: dict[str, Any] = {"search_seed": args.search_seed, "eval_seed": args.seed, "tasks": {}}
+    if args.json and Path(args.json).exists():
+        out = json.loads(Path(args.json).read_text())  # add to an earlier run's tasks
+    for name in args.tasks:
+        env_id = name if name.startswith("planetnav/") else f"planetnav/{name}"
+        if env_id not in ENV_IDS:
+            raise ConfigError(f"blind-search: unknown task {name!r}; the ids are {sorted(ENV_IDS)}")
+        cfg = EnvConfig.from_dict({**ENV_IDS[env_id], **dict(args.option or [])}, noise_streams="per_step")
+        t0 = time.perf_counter()
+        res = B.search_blind(
+            cfg, evaluate, args.search_seed, args.search_episodes,
+            progress=None if args.no_progress else lambda s, j: print(f"  {s:48s} {j:10.2f}", flush=True),
+        )  # fmt: skip
+        rec = B.measure_task(
+            cfg, res, args.references, args.privileged, evaluate, args.seed, args.episodes, args.agents
+        )
+        rec["options"] = dict(args.option or [])
+        rec["wall_s"] = time.perf_counter() - t0
+        g = rec["closed_loop_gap"]
+        print(f"{env_id}: blind {rec['blind_winner']} {rec['J_blind']:.2f} km "
+              f"(search {res.search[res.winner]:.2f}), "
+              f"best {rec['best_reference']} {rec['J_best']:.2f} km; closed-loop gap {100 * g['gap']:.1f} % "
+              f"[{100 * g['gap_lo']:.1f}, {100 * g['gap_hi']:.1f}]")  # fmt: skip
+        for spec, row in rec["agents"].items():
+            print(f"  {row['role']:10s} {spec:48s} {row['mean']:9.2f} [{row['lo']:.2f}, {row['hi']:.2f}] km  "
+                  f"score {row['score']:+.2f} [{row['score_lo']:+.2f}, {row['score_hi']:+.2f}]")  # fmt: skip
+        key = env_id.split("/", 1)[1] + "".join(f" {k}={v}" for k, v in sorted(rec["options"].items()))
+        out["tasks"][key] = rec
+        if args.json:
+            _write_json(args.json, out)
+    return 0
+
+
+def _option_pair(text: str) -> tuple[str, Any]:
+    """``KEY=VALUE`` of ``--option``: the value as YAML reads it (``0.5``, ``true``, ``[a, b]``)."""
+    import yaml
+
+    key, sep, value = text.partition("=")
+    if not sep or not key:
+        raise argparse.ArgumentTypeError(f"--option takes KEY=VALUE, got {text!r}")
+    return key, yaml.safe_load(value)
+
+
 def _positive(flag: str, value: int | None) -> None:
     """:class:`ConfigError` naming ``flag`` and ``value`` unless it is None or >= 1."""
     if value is not None and value < 1:
@@ -539,6 +593,30 @@ def build_parser() -> argparse.ArgumentParser:
     )
     common(w)
     w.set_defaults(func=cmd_sweep_periodic)
+
+    from planetnav_train.suite import blind as _blind
+
+    bs = sub.add_parser(
+        "blind-search",
+        help=f"the best blind policy of each task (search seeds {_blind.BLIND_SEARCH_SEED}..), then the "
+        "closed-loop gap and blind-zero scores on the evaluation seeds",
+    )
+    bs.add_argument("--tasks", nargs="+", required=True, help="task ids, e.g. Cruise-Target-v2")
+    bs.add_argument("--search-seed", type=int, default=_blind.BLIND_SEARCH_SEED)
+    bs.add_argument("--search-episodes", type=int, default=_blind.BLIND_SEARCH_EPISODES)
+    bs.add_argument("--seed", type=int, default=50_000, help="first evaluation seed (the suite's)")
+    bs.add_argument("--episodes", type=int, default=100, help="evaluation episodes")
+    bs.add_argument("--references", nargs="+", default=list(_blind.V2_REFERENCES),
+                    help="non-privileged references (the best is the score's 1)")  # fmt: skip
+    bs.add_argument(
+        "--privileged", nargs="*", default=list(_blind.V2_PRIVILEGED), help="oracles (reported only)"
+    )
+    bs.add_argument("--agents", nargs="*", default=[], help="more agents to score (e.g. a trained model)")
+    bs.add_argument("--option", action="append", type=_option_pair, metavar="KEY=VALUE",
+                    help="an option over the id's (image_success_min=0.5), repeatable")  # fmt: skip
+    bs.add_argument("--json", help="write (or add to) this JSON")
+    bs.add_argument("--no-progress", action="store_true")
+    bs.set_defaults(func=cmd_blind_search)
 
     sp_ = sub.add_parser(
         "spread",

@@ -1,0 +1,211 @@
+"""The best blind policy of a task, and the closed-loop gap and score measured from it.
+
+A blind policy ignores the observation: random actions (in the task's own interface), idle where the task has
+a "camera off" action, and fixed cyclic schedules of targets
+(:class:`planetnav_agents.schedule.ScheduleAgent`:
+planets, and pulsars on the Mars approach). With a linear-Gaussian filter and a geometry that repeats, such a
+schedule is near-optimal (docs/suite.md, "Tasks v2"); what remains between it and the best reference is what
+only a policy that reads the state can win:
+
+* closed-loop gap = ``(J_blind - J_best) / J_blind``, ``J_best`` the best non-privileged reference;
+* blind-zero score = ``(J_blind - J) / (J_blind - J_best)``: 0 is the best blind policy, 1 the best reference.
+
+:func:`search_blind` evaluates every candidate of :func:`blind_candidates` on search seeds apart from the
+evaluation seeds (default 40,000.., 30 episodes), then :func:`measure_task` scores the winner beside the
+references on the task's evaluation seeds (50,000.., 100 episodes, per-step noise streams: every policy
+draws the same sensor noise where it makes the same measurement). Intervals are 95 % percentile bootstraps
+over the seeds, paired (the same resampled seeds for both policies). ``train.py blind-search`` runs it.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from planetnav_env.config import EnvConfig
+from planetnav_env.errors import ConfigError
+
+#: Search seeds: disjoint from training (0..), train.py's evaluation (10,000..), the periodic sweep (20,000..)
+#: and the suite's evaluation seeds (50,000..).
+BLIND_SEARCH_SEED = 40_000
+BLIND_SEARCH_EPISODES = 30
+#: Dwell per target in decisions of the task's own interface (times its ``decision_steps`` physics steps), so
+#: that every schedule is one the task's decision interface can play.
+DWELL_DECISIONS = (1, 2, 3, 4, 6)
+#: Mixed dwells on the Mars approach: decisions on the planet, then on each pulsar.
+MIXED_DWELLS = ((2, 1), (3, 1), (4, 1), (4, 2), (6, 2))
+#: The references of the ``-v2`` target tasks: the nominal rule (greedy on the filter's model) and the
+#: adaptive one (greedy with each planet's observed success rate); the oracle knows the drawn rates.
+V2_REFERENCES = ("greedy", "greedy:success=observed")
+V2_PRIVILEGED = ("greedy:success=oracle",)
+BOOTSTRAP_REPS = 10_000
+BOOTSTRAP_SEED = 0
+
+#: Evaluates agent ``spec`` on ``episodes`` seeds from ``seed``: returns the per-episode objective values.
+Evaluator = Callable[[str, EnvConfig, int, int], np.ndarray]
+
+
+def _cycles(n_targets: int) -> list[tuple[int, ...]]:
+    """Cycles of 1, 2 or 3 distinct targets, one per rotation class (both orientations of three)."""
+    out: list[tuple[int, ...]] = [(t,) for t in range(n_targets)]
+    out += list(itertools.combinations(range(n_targets), 2))
+    for a, b, c in itertools.combinations(range(n_targets), 3):
+        out += [(a, b, c), (a, c, b)]
+    return out
+
+
+def blind_candidates(cfg: EnvConfig) -> list[str]:
+    """Agent specs of the blind family of a target-choice task ``cfg``: ``random`` and every schedule of
+    :func:`_cycles` at the dwells of :data:`DWELL_DECISIONS` (and, with pulsars, :data:`MIXED_DWELLS`).
+    ``idle`` is added where the task has the camera-off action."""
+    if cfg.action_mode != "target" or cfg.operations is not None:
+        raise ConfigError(
+            "the blind search covers the target-choice tasks without operations; got action_mode "
+            f"{cfg.action_mode!r}, operations {cfg.operations is not None}"
+        )
+    k = cfg.decision_steps
+    specs = ["random"] + (["idle"] if cfg.idle_action else [])
+    for cycle in _cycles(cfg.n_targets):
+        targets = "-".join(map(str, cycle))
+        dwells = [(d * k,) for d in DWELL_DECISIONS] if len(cycle) > 1 else [(k,)]
+        if cfg.n_pulsars and len(cycle) > 1 and any(t < cfg.n_planets for t in cycle):
+            dwells += [tuple((a if t < cfg.n_planets else b) * k for t in cycle) for a, b in MIXED_DWELLS]
+        specs += [f"schedule:targets={targets},steps={'-'.join(map(str, d))}" for d in dwells]
+    return list(dict.fromkeys(specs))
+
+
+def _mean_ci(values: np.ndarray, rng: np.random.Generator) -> tuple[float, float, float]:
+    idx = rng.integers(0, values.size, size=(BOOTSTRAP_REPS, values.size))
+    means = values[idx].mean(axis=1)
+    return float(values.mean()), float(np.quantile(means, 0.025)), float(np.quantile(means, 0.975))
+
+
+def paired_ratio_ci(blind: np.ndarray, best: np.ndarray, j: np.ndarray | None = None) -> dict[str, float]:
+    """The closed-loop gap ``(mean(blind) - mean(best)) / mean(blind)`` and, with ``j``, the blind-zero score
+    ``(mean(blind) - mean(j)) / (mean(blind) - mean(best))``, each with a 95 % paired percentile bootstrap
+    interval over the seeds (the arrays are per-seed values on the same seeds)."""
+    blind, best = np.asarray(blind, float), np.asarray(best, float)
+    if blind.shape != best.shape or blind.ndim != 1 or blind.size < 2:
+        raise ConfigError(
+            f"paired values need two equal 1-D arrays of >= 2 seeds, got {blind.shape}, {best.shape}"
+        )
+    rng = np.random.default_rng(BOOTSTRAP_SEED)
+    idx = rng.integers(0, blind.size, size=(BOOTSTRAP_REPS, blind.size))
+    mb, mr = blind[idx].mean(axis=1), best[idx].mean(axis=1)
+    gap = (mb - mr) / mb
+    out = {
+        "gap": float((blind.mean() - best.mean()) / blind.mean()),
+        "gap_lo": float(np.quantile(gap, 0.025)),
+        "gap_hi": float(np.quantile(gap, 0.975)),
+    }
+    if j is not None:
+        j = np.asarray(j, float)
+        mj = j[idx].mean(axis=1)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            score = (mb - mj) / (mb - mr)
+        out.update(
+            score=blind_zero_score(float(j.mean()), float(blind.mean()), float(best.mean())),
+            score_lo=float(np.nanquantile(score, 0.025)),
+            score_hi=float(np.nanquantile(score, 0.975)),
+        )
+    return out
+
+
+def blind_zero_score(j: float, j_blind: float, j_best: float) -> float:
+    """``(J_blind - J) / (J_blind - J_best)``: 0 is the best blind policy, 1 the best non-privileged
+    reference (lower objective is better). Raises :class:`ConfigError` naming the values when they are not
+    finite or the two references coincide."""
+    vals = {"J": j, "J_blind": j_blind, "J_best": j_best}
+    bad = {k: v for k, v in vals.items() if not math.isfinite(float(v))}
+    if bad:
+        raise ConfigError(f"blind-zero score: non-finite objective value(s) {bad}")
+    if j_blind == j_best:
+        raise ConfigError(f"blind-zero score: J_blind equals J_best ({j_blind!r}): the score has no scale")
+    return (float(j_blind) - float(j)) / (float(j_blind) - float(j_best))
+
+
+@dataclass(frozen=True)
+class BlindResult:
+    """The search's winner and every candidate's search figure (mean objective on the search seeds)."""
+
+    winner: str
+    search: dict[str, float]
+    search_seed: int
+    search_episodes: int
+
+
+def search_blind(
+    cfg: EnvConfig,
+    evaluate: Evaluator,
+    seed: int = BLIND_SEARCH_SEED,
+    episodes: int = BLIND_SEARCH_EPISODES,
+    candidates: Sequence[str] | None = None,
+    progress: Callable[[str, float], None] | None = None,
+) -> BlindResult:
+    """Evaluate every blind candidate of ``cfg`` on the search seeds; the lowest mean objective wins."""
+    specs = list(candidates) if candidates is not None else blind_candidates(cfg)
+    figures: dict[str, float] = {}
+    for spec in specs:
+        figures[spec] = float(np.mean(evaluate(spec, cfg, episodes, seed)))
+        if progress is not None:
+            progress(spec, figures[spec])
+    winner = min(figures, key=figures.__getitem__)
+    return BlindResult(winner, figures, seed, episodes)
+
+
+def measure_task(
+    cfg: EnvConfig,
+    blind: BlindResult,
+    references: Sequence[str],
+    privileged: Sequence[str],
+    evaluate: Evaluator,
+    seed: int,
+    episodes: int,
+    extra: Sequence[str] = (),
+) -> dict[str, Any]:
+    """Score the blind winner, the ``references`` (non-privileged: the best is the score's 1), the
+    ``privileged`` ones (oracles: reported, never the 1) and ``extra`` agents on the evaluation seeds; returns
+    the JSON record: each agent's per-seed values, mean and interval, the closed-loop gap with its interval,
+    and each agent's blind-zero score."""
+    rng = np.random.default_rng(BOOTSTRAP_SEED)
+    names = [blind.winner, *references, *privileged, *extra]
+    values = {s: np.asarray(evaluate(s, cfg, episodes, seed), float) for s in dict.fromkeys(names)}
+    best = min(references, key=lambda s: values[s].mean())
+    jb, jr = values[blind.winner], values[best]
+    agents = {}
+    for s, v in values.items():
+        mean, lo, hi = _mean_ci(v, rng)
+        row = {"mean": mean, "lo": lo, "hi": hi, "per_seed": v.tolist()}
+        row.update({k: v2 for k, v2 in paired_ratio_ci(jb, jr, v).items() if k.startswith("score")})
+        row["role"] = (
+            "blind" if s == blind.winner else "privileged" if s in privileged
+            else "reference" if s in references else "agent"
+        )  # fmt: skip
+        agents[s] = row
+    gap = paired_ratio_ci(jb, jr)
+    search_mean = blind.search[blind.winner]
+    return {
+        "blind_winner": blind.winner,
+        "blind_search": {
+            "seed": blind.search_seed,
+            "episodes": blind.search_episodes,
+            "candidates": blind.search,
+            "winner_mean": search_mean,
+        },
+        "eval_seed": seed,
+        "eval_episodes": episodes,
+        "best_reference": best,
+        "J_blind": float(jb.mean()),
+        "J_best": float(jr.mean()),
+        "closed_loop_gap": gap,
+        # The winner's search figure inside its evaluation interval: the search did not overfit its seeds.
+        "winner_search_inside_eval_ci": bool(
+            agents[blind.winner]["lo"] <= search_mean <= agents[blind.winner]["hi"]
+        ),
+        "agents": agents,
+    }

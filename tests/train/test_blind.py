@@ -1,0 +1,136 @@
+"""The blind family, its search, the closed-loop gap and the blind-zero score (planetnav_train.suite.blind),
+and the blind schedule agent."""
+
+from __future__ import annotations
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import planetnav_env  # noqa: F401  (registers the ids)
+from planetnav_agents import make_agent
+from planetnav_env.config import EnvConfig
+from planetnav_env.envs.env import PlanetNavEnv
+from planetnav_env.envs.registration import ENV_IDS
+from planetnav_env.errors import ConfigError
+from planetnav_train.suite import blind as B
+
+
+def _cfg(env_id: str) -> EnvConfig:
+    return EnvConfig.from_dict(ENV_IDS[env_id])
+
+
+def test_candidates_cover_every_cycle_at_the_decision_interface():
+    cfg = _cfg("planetnav/Cruise-Target-v2")
+    specs = B.blind_candidates(cfg)
+    assert specs[0] == "random" and len(specs) == len(set(specs))
+    schedules = [s for s in specs if s.startswith("schedule:")]
+    # 3 stares, 3 pairs and 2 orientations of the triple; every dwell a multiple of the decision.
+    cycles = {s.split(",")[0] for s in schedules}
+    assert len(cycles) == 3 + 3 + 2
+    for s in schedules:
+        dwells = [int(d) for d in s.split("steps=")[1].split("-")]
+        assert all(d % cfg.decision_steps == 0 for d in dwells)
+    mars = B.blind_candidates(_cfg("planetnav/MarsApproach-Tasking-v2"))
+    assert "schedule:targets=0-1-2,steps=8-4-4" in mars  # planet dwell, then each pulsar
+    with pytest.raises(ConfigError, match="target-choice"):
+        B.blind_candidates(_cfg("planetnav/Cruise-Torque-v1"))
+
+
+def test_search_picks_the_lowest_mean_and_measure_reports_the_gap():
+    table = {"random": [9.0, 11.0], "schedule:a": [5.0, 7.0], "schedule:b": [6.0, 6.5]}
+    evals = {"schedule:a": [6.0] * 4, "greedy": [4.0, 5.0, 4.0, 5.0], "adaptive": [3.0] * 4,
+             "oracle": [1.0, 1.0, 1.0, 1.0]}  # fmt: skip
+
+    def search_eval(spec, cfg, episodes, seed):
+        return np.asarray(table[spec])
+
+    def eval_eval(spec, cfg, episodes, seed):
+        return np.asarray(evals[spec])
+
+    res = B.search_blind(None, search_eval, 1, 2, candidates=list(table))
+    assert res.winner == "schedule:a" and res.search["schedule:b"] == pytest.approx(6.25)
+    rec = B.measure_task(None, res, ["greedy", "adaptive"], ["oracle"], eval_eval, 7, 4)
+    assert rec["best_reference"] == "adaptive"  # the oracle is never the score's 1
+    assert rec["closed_loop_gap"]["gap"] == pytest.approx((6.0 - 3.0) / 6.0)
+    assert rec["agents"]["schedule:a"]["score"] == pytest.approx(0.0)
+    assert rec["agents"]["adaptive"]["score"] == pytest.approx(1.0)
+    assert rec["agents"]["greedy"]["score"] == pytest.approx((6.0 - 4.5) / 3.0)
+    assert rec["agents"]["oracle"]["role"] == "privileged" and rec["agents"]["oracle"]["score"] > 1.0
+    assert rec["winner_search_inside_eval_ci"] is True  # search mean 6.0 = eval mean (zero spread)
+
+
+def test_paired_interval_is_a_bootstrap_of_the_seeds():
+    rng = np.random.default_rng(1)
+    blind = 100 + rng.normal(0, 10, 100)
+    best = blind * 0.7 + rng.normal(0, 1, 100)  # paired: shares each seed's difficulty
+    out = B.paired_ratio_ci(blind, best)
+    assert out["gap_lo"] < out["gap"] < out["gap_hi"]
+    assert out["gap"] == pytest.approx(0.3, abs=0.02)
+    assert out["gap_hi"] - out["gap_lo"] < 0.02  # pairing removes the seeds' common spread
+    with pytest.raises(ConfigError, match="paired"):
+        B.paired_ratio_ci(blind, best[:50])
+
+
+def test_blind_zero_score_and_its_errors():
+    assert B.blind_zero_score(5.0, 10.0, 5.0) == 1.0
+    assert B.blind_zero_score(10.0, 10.0, 5.0) == 0.0
+    assert B.blind_zero_score(12.0, 10.0, 5.0) == pytest.approx(-0.4)
+    with pytest.raises(ConfigError, match="no scale"):
+        B.blind_zero_score(1.0, 2.0, 2.0)
+    with pytest.raises(ConfigError, match="non-finite"):
+        B.blind_zero_score(float("nan"), 2.0, 1.0)
+
+
+def test_schedule_agent_ignores_the_observation():
+    env = PlanetNavEnv(_cfg("planetnav/MarsApproach-Tasking-v2").at_physics_step())
+    a = make_agent("schedule:targets=mars-1-2,steps=3-1-2", env)
+    assert a.name == "schedule:targets=0-1-2,steps=3-1-2"
+    obs, info = env.reset(seed=0)
+    a.reset(0)
+    first = [a.act(obs, info) for _ in range(12)]
+    a.reset(1)
+    noise = np.random.default_rng(0)
+    second = [a.act(noise.normal(size=obs.shape), {}) for _ in range(12)]
+    assert first == second == [0, 0, 0, 1, 2, 2] * 2
+
+
+@pytest.mark.parametrize(
+    ("spec", "match"),
+    [
+        ("schedule:targets=0-7,steps=3", "neither an index"),
+        ("schedule:targets=0-1,steps=1-2-3", "gives 3 dwells for 2 targets"),
+        ("schedule:targets=0-1,steps=0", "integer >= 1"),
+        ("schedule:targets=0--1,steps=2", "empty entry"),
+    ],
+)
+def test_schedule_agent_named_errors(spec, match):
+    env = PlanetNavEnv(_cfg("planetnav/Cruise-Target-v1").at_physics_step())
+    with pytest.raises(ValueError, match=match):
+        make_agent(spec, env)
+
+
+def test_greedy_adaptive_rules_need_their_observation_blocks():
+    env = PlanetNavEnv(_cfg("planetnav/Cruise-Target-v1").at_physics_step())
+    with pytest.raises(ValueError, match="image_log"):
+        make_agent("greedy:success=observed", env)
+    with pytest.raises(ValueError, match="residual_log"):
+        make_agent("greedy:bias=observed", env)
+    with pytest.raises(ValueError, match="success must be one of"):
+        make_agent("greedy:success=sometimes", env)
+
+
+def test_greedy_weights_follow_the_image_log_and_the_oracle():
+    env = gym.make("planetnav/Cruise-Target-v2").unwrapped
+    env = PlanetNavEnv(env.config.at_physics_step())
+    adaptive = make_agent("greedy:success=observed", env)
+    oracle = make_agent("greedy:success=oracle", env)
+    obs, info = env.reset(seed=4)
+    for k in range(120):
+        obs, _, _, _, info = env.step(k // 40)
+    parsed = adaptive.env.unwrapped.decode_observation(obs)
+    from planetnav_agents.base import parse_observation
+
+    p = parse_observation(obs, env)
+    np.testing.assert_allclose(adaptive.planet_weights(p, info), parsed["image_log"][:, 0])
+    np.testing.assert_array_equal(oracle.planet_weights(p, info), env.core.true_image_success()[0])
