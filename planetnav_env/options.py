@@ -134,12 +134,16 @@ class Option:
     def _check_sequence(self, path: str, value: Any) -> tuple:
         item = _ITEM[self.kind]
         lo, hi = self.length or (0, None)
-        if (
-            isinstance(value, str if item == "str" else numbers.Number)
-            and lo <= 1
-            and not isinstance(value, bool)
-        ):
-            value = (value,)  # one item where a list is expected (YAML ``planets: mars``)
+        if isinstance(value, (str, numbers.Number)):
+            # One item where a list is expected (``planets="venus"``, YAML ``planets: venus``) is refused
+            # rather than read as a list of one: a string is also a sequence of letters, and a rule that
+            # reads some scalars as lists and not others cannot be guessed. Where a list of one is valid
+            # and the item is of the right type, the error says that is what to write.
+            single, hint = self._scalar(item, value), ""
+            if self.kind != "matrix" and lo <= 1 and single is not None:
+                noun = "name" if item == "str" else "number"
+                hint = f"for a single {noun} write a one-element list: [{single!r}]"
+            raise OptionTypeError(path, self.expected(), value, hint=hint)
         rows = value.tolist() if hasattr(value, "tolist") else value  # a numpy array's items as numbers
         if not isinstance(rows, (list, tuple)):
             raise OptionTypeError(path, self.expected(), value)

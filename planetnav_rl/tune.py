@@ -47,7 +47,7 @@ from typing import Any
 import yaml
 
 from planetnav_env.config import EnvConfig
-from planetnav_env.errors import ConfigError
+from planetnav_env.errors import ConfigError, with_prefix
 from planetnav_rl import require_ray
 from planetnav_train.algorithms import algo_kwargs, policy_class
 from planetnav_train.config import ROOT, TrainConfig, is_rllib_algo, parse_config, read_yaml_mapping
@@ -175,14 +175,12 @@ def load_sweep(path: str | Path) -> SweepConfig:
     try:
         tc = parse_config(sc.base_config)
     except ConfigError as exc:
-        raise ConfigError(f"{path}: base {sc.base}: {exc}") from None
+        raise with_prefix(exc, f"{path}: base {sc.base}") from None
     sample = {k: _representative(*next(iter(v.items()))) for k, v in sc.space.items()}
     try:
         parse_config(apply_params(sc.base_config, sample))
     except ConfigError as exc:
-        raise ConfigError(
-            f"{path}: search space key(s) {sorted(sample)} for algo {tc.algo!r}: {exc}"
-        ) from None
+        raise with_prefix(exc, f"{path}: search space key(s) {sorted(sample)} for algo {tc.algo!r}") from None
     if tc.n_timesteps < sc.iterations:
         raise ConfigError(f"{path}: n_timesteps {tc.n_timesteps} is less than iterations {sc.iterations}")
     return sc

@@ -18,7 +18,7 @@ import yaml
 
 from planetnav_env.config import NOISE_STREAMS, EnvConfig
 from planetnav_env.envs.registration import ENV_IDS
-from planetnav_env.errors import ConfigError
+from planetnav_env.errors import ConfigError, with_prefix
 from planetnav_train.features import check_features
 from planetnav_train.sb3 import ALGORITHMS, algorithm_class
 from planetnav_train.shaping import SHAPINGS
@@ -218,7 +218,7 @@ def load_config(path: str | Path) -> TrainConfig:
     try:
         return parse_config(data, name=path.stem)
     except ConfigError as exc:
-        raise ConfigError(f"{path}: {exc}") from None
+        raise with_prefix(exc, str(path)) from None
 
 
 def _init_parameters(cls: type) -> dict[str, inspect.Parameter]:

@@ -156,7 +156,7 @@ def test_step_bound_is_the_ephemeris_span(scenario: str, planets) -> None:
 
 def test_integral_numbers_and_yaml_lists_are_normalised_but_numbers_keep_their_type() -> None:
     cfg = EnvConfig.from_dict(
-        {"step_s": 60, "episode_steps": 10.0, "planets": "Mars", "star_tracker_bias_arcsec": [1, 2, 3]}
+        {"step_s": 60, "episode_steps": 10.0, "planets": ["Mars"], "star_tracker_bias_arcsec": [1, 2, 3]}
     )
     assert cfg.step_s == 60 and type(cfg.step_s) is int  # to_dict and YAML written from it stay as given
     assert cfg.episode_steps == 10 and type(cfg.episode_steps) is int
