@@ -56,8 +56,8 @@ class ParsedObservation:
     pulsars: np.ndarray
     target: int
     elapsed: float
-    #: (P, 2) the image log (``EnvConfig.observe_image_log``): per planet the mean of its image success rate
-    #: (Beta(1, 1) prior updated by this episode's images) and the scaled image count; None without it.
+    #: (2, P) the image log (``EnvConfig.observe_image_log``): per planet the mean of its image success rate
+    #: (Beta(1, 1) prior updated by this episode's images), then the scaled image counts; None without it.
     image_log: np.ndarray | None = None
     #: (P,) the residual log (``EnvConfig.observe_residual_log``): mean normalized NIS per planet / 10.
     residual_log: np.ndarray | None = None

@@ -195,7 +195,7 @@ class GreedyAgent(TargetAgent):
             return None
         w = np.ones(self.n_planets)
         if self.success == "observed":
-            w *= np.asarray(obs.image_log[:, 0], dtype=float)
+            w *= np.asarray(obs.image_log[0], dtype=float)
         elif self.success == "oracle":
             w *= self.env.unwrapped.core.true_image_success()[0]
         if self.bias == "observed":

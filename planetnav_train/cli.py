@@ -331,6 +331,7 @@ def cmd_blind_search(args: argparse.Namespace) -> int:
         res = B.search_blind(
             cfg, evaluate, args.search_seed, args.search_episodes,
             progress=None if args.no_progress else lambda s, j: print(f"  {s:48s} {j:10.2f}", flush=True),
+            finalists=args.finalists, final_episodes=args.final_episodes,
         )  # fmt: skip
         rec = B.measure_task(
             cfg, res, args.references, args.privileged, evaluate, args.seed, args.episodes, args.agents
@@ -339,7 +340,7 @@ def cmd_blind_search(args: argparse.Namespace) -> int:
         rec["wall_s"] = time.perf_counter() - t0
         g = rec["closed_loop_gap"]
         print(f"{env_id}: blind {rec['blind_winner']} {rec['J_blind']:.2f} km "
-              f"(search {res.search[res.winner]:.2f}), "
+              f"(search {res.winner_mean:.2f}), "
               f"best {rec['best_reference']} {rec['J_best']:.2f} km; closed-loop gap {100 * g['gap']:.1f} % "
               f"[{100 * g['gap_lo']:.1f}, {100 * g['gap_hi']:.1f}]")  # fmt: skip
         for spec, row in rec["agents"].items():
@@ -349,6 +350,51 @@ def cmd_blind_search(args: argparse.Namespace) -> int:
         out["tasks"][key] = rec
         if args.json:
             _write_json(args.json, out)
+    return 0
+
+
+def cmd_regime_map(args: argparse.Namespace) -> int:
+    """``regime-map``: an event's strength swept from 0 (the v1 physics) upward; at each point the best blind
+    schedule of the candidates, the nominal, adaptive and oracle rules and any trained agent, with 95 %
+    intervals; JSON and one figure (:func:`planetnav_train.suite.blind.regime_map`)."""
+    from planetnav_env.envs.registration import ENV_IDS
+    from planetnav_train.suite import blind as B
+
+    env_id = args.task if args.task.startswith("planetnav/") else f"planetnav/{args.task}"
+    if env_id not in ENV_IDS:
+        raise ConfigError(f"regime-map: unknown task {args.task!r}; the ids are {sorted(ENV_IDS)}")
+    events = {"image_success_min": lambda s: 1.0 - s, "centroid_bias_max": lambda s: s}
+    if args.event not in events:
+        raise ConfigError(f"regime-map: --event must be one of {sorted(events)}, got {args.event!r}")
+
+    def cfg_for(strength: float) -> EnvConfig:
+        return EnvConfig.from_dict(
+            {**ENV_IDS[env_id], **dict(args.option or []), args.event: events[args.event](strength)},
+            noise_streams="per_step",
+        )
+
+    def evaluate(spec: str, cfg: EnvConfig, episodes: int, seed: int) -> np.ndarray:
+        r = evaluate_agent(spec, cfg, episodes, seed, progress=False)
+        return np.asarray(r.metrics["per_episode_mean_pos_err_km"], dtype=float)
+
+    t0 = time.perf_counter()
+    data = B.regime_map(
+        cfg_for, args.strengths, args.agents, args.candidates, evaluate, args.search_seed,
+        args.search_episodes, args.seed, args.episodes,
+    )  # fmt: skip
+    data.update(task=env_id, event=args.event, options=dict(args.option or []),
+                wall_s=time.perf_counter() - t0)  # fmt: skip
+    for p in data["points"]:
+        print(f"strength {p['strength']:.2f}: blind {p['blind']}")
+        for spec, row in p["agents"].items():
+            print(f"  {spec:40s} {row['mean']:9.2f} [{row['lo']:.2f}, {row['hi']:.2f}] km")
+    if args.json:
+        _write_json(args.json, data)
+    if args.plot:
+        xlabel = {"image_success_min": "1 - image_success_min (largest failure probability)",
+                  "centroid_bias_max": "centroid_bias_max (largest bias scale)"}[args.event]  # fmt: skip
+        B.plot_regime_map(data, f"{env_id.split('/')[1]}: {args.event}", xlabel, args.plot)
+        print(f"wrote {args.plot}")
     return 0
 
 
@@ -604,6 +650,9 @@ def build_parser() -> argparse.ArgumentParser:
     bs.add_argument("--tasks", nargs="+", required=True, help="task ids, e.g. Cruise-Target-v2")
     bs.add_argument("--search-seed", type=int, default=_blind.BLIND_SEARCH_SEED)
     bs.add_argument("--search-episodes", type=int, default=_blind.BLIND_SEARCH_EPISODES)
+    bs.add_argument("--finalists", type=int, default=_blind.FINALISTS)
+    bs.add_argument("--final-episodes", type=int, default=_blind.FINAL_EPISODES,
+                    help="second-stage seeds for the finalists (0: one stage)")  # fmt: skip
     bs.add_argument("--seed", type=int, default=50_000, help="first evaluation seed (the suite's)")
     bs.add_argument("--episodes", type=int, default=100, help="evaluation episodes")
     bs.add_argument("--references", nargs="+", default=list(_blind.V2_REFERENCES),
@@ -617,6 +666,25 @@ def build_parser() -> argparse.ArgumentParser:
     bs.add_argument("--json", help="write (or add to) this JSON")
     bs.add_argument("--no-progress", action="store_true")
     bs.set_defaults(func=cmd_blind_search)
+
+    rm = sub.add_parser(
+        "regime-map",
+        help="sweep an event's strength: best blind schedule, nominal, adaptive and oracle rules per point",
+    )
+    rm.add_argument("--task", required=True, help="task id, e.g. Cruise-Target-v2")
+    rm.add_argument("--event", default="image_success_min", help="image_success_min or centroid_bias_max")
+    rm.add_argument("--strengths", nargs="+", type=float, default=[0.0, 0.25, 0.5, 0.75, 1.0],
+                    help="0 = the v1 physics; image failures: 1 - image_success_min")  # fmt: skip
+    rm.add_argument("--agents", nargs="+", required=True, help="agents to score at every point")
+    rm.add_argument("--candidates", nargs="+", required=True, help="blind schedules searched at every point")
+    rm.add_argument("--search-seed", type=int, default=_blind.BLIND_SEARCH_SEED)
+    rm.add_argument("--search-episodes", type=int, default=20)
+    rm.add_argument("--seed", type=int, default=50_000)
+    rm.add_argument("--episodes", type=int, default=30)
+    rm.add_argument("--option", action="append", type=_option_pair, metavar="KEY=VALUE")
+    rm.add_argument("--json", help="write the points here")
+    rm.add_argument("--plot", help="write the figure here (PNG)")
+    rm.set_defaults(func=cmd_regime_map)
 
     sp_ = sub.add_parser(
         "spread",

@@ -55,11 +55,14 @@ FEATURES_EXTRACTORS = ("relative_order",)
 
 def _per_target_vectors(lay: L.ObservationLayout, width: int) -> list[int]:
     """Start columns of the blocks of one value per target (T wide) in a flat observation ``width`` wide:
-    the one-hot ``target``, each appended chunk, ``since_measured`` and ``in_field`` where present."""
+    the one-hot ``target``, each appended chunk, ``since_measured``, and the per-planet blocks (``in_field``,
+    the two rows of ``image_log``, ``residual_log``) where present."""
     T = lay.n_targets
     vectors = [lay.target_start] + [lay.size + j * T for j in range((width - lay.size) // T)]
     vectors += [lay.since_measured_start] if lay.since_measured else []
     vectors += [lay.in_field_start] if lay.in_field else []
+    vectors += [lay.image_log_start, lay.image_log_start + T] if lay.image_log else []
+    vectors += [lay.residual_log_start] if lay.residual_log else []
     return vectors
 
 
@@ -78,9 +81,10 @@ def relative_order_index(lay: L.ObservationLayout, tail: int = 0) -> np.ndarray:
         raise ConfigError(
             f"relative_order: {tail} appended columns are not chunks of one value per target ({T})"
         )
-    if lay.in_field and lay.n_pulsars:
+    if (lay.in_field or lay.image_log or lay.residual_log) and lay.n_pulsars:
         raise ConfigError(
-            "relative_order: the in_field block (planets only) has no relative order with pulsars"
+            "relative_order: the in_field, image_log and residual_log blocks (planets only) have no relative "
+            "order with pulsars"
         )
     vectors = _per_target_vectors(lay, size + tail)
     F = L.TARGET_FEATURES
@@ -98,7 +102,8 @@ class RelativeTargetOrder(BaseFeaturesExtractor):
     """SB3 features extractor: the flat observation with its per-target blocks in relative-action order
     (module docstring). Output width = input width; no parameters.
 
-    ``n_planets``, ``n_pulsars``, ``n_deadlines``, ``in_field``, ``since_measured``: the environment's
+    ``n_planets``, ``n_pulsars``, ``n_deadlines``, ``in_field``, ``since_measured``, ``image_log``,
+    ``residual_log``: the environment's
     :class:`~planetnav_env.core.layout.ObservationLayout` (plain values, so a saved policy rebuilds it).
     """
 
@@ -110,10 +115,14 @@ class RelativeTargetOrder(BaseFeaturesExtractor):
         n_deadlines: int | None = None,
         in_field: bool = False,
         since_measured: bool = False,
+        image_log: bool = False,
+        residual_log: bool = False,
     ) -> None:
         width = int(np.prod(observation_space.shape))
         super().__init__(observation_space, features_dim=width)
-        lay = L.ObservationLayout(n_planets, n_pulsars, n_deadlines, in_field, since_measured)
+        lay = L.ObservationLayout(
+            n_planets, n_pulsars, n_deadlines, in_field, since_measured, image_log, residual_log
+        )
         if len(observation_space.shape) != 1 or width < lay.size:
             raise ConfigError(
                 f"relative_order: observation of shape {observation_space.shape} is not the flat layout "
@@ -191,7 +200,7 @@ def _make_scorer(policy: Any, keep_bias: float = 0.0) -> PerTargetScorer:
     fx = policy.features_extractor_kwargs
     lay = L.ObservationLayout(
         fx["n_planets"], fx.get("n_pulsars", 0), fx.get("n_deadlines"), fx.get("in_field", False),
-        fx.get("since_measured", False),
+        fx.get("since_measured", False), fx.get("image_log", False), fx.get("residual_log", False),
     )  # fmt: skip
     if not isinstance(policy.action_space, gym.spaces.Discrete):
         raise ConfigError(
@@ -295,6 +304,9 @@ def extractor_kwargs(name: str, cfg: EnvConfig, relative_actions: bool = False) 
             "n_deadlines": lay.n_deadlines,
             "in_field": lay.in_field,
             "since_measured": lay.since_measured,
+            # Only when present, so the kwargs saved with a model of an older layout stay as they were.
+            **({"image_log": True} if lay.image_log else {}),
+            **({"residual_log": True} if lay.residual_log else {}),
         },
     }
 

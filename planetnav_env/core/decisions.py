@@ -73,13 +73,14 @@ def advance_image_log(
 
 
 def image_log_values(log: np.ndarray) -> np.ndarray:
-    """The ``image_log`` observation (N, P, 2) float32 from the counts (N, 2, P): ``(fixes + 1) / (images +
-    2)`` (the mean of a Beta(1, 1) prior updated by the counts) and ``log1p(images) /
-    log1p(SINCE_SCALE_STEPS)`` capped at 1."""
+    """The ``image_log`` observation (N, 2, P) float32 from the counts (N, 2, P): row 0 ``(fixes + 1) /
+    (images + 2)`` (the mean of a Beta(1, 1) prior updated by the counts), row 1 ``log1p(images) /
+    log1p(SINCE_SCALE_STEPS)`` capped at 1 (one value per planet per row, so each row is a per-target
+    vector like ``since_measured``)."""
     images, fixes = log[:, 0], log[:, 1]
     mean = (fixes + 1.0) / (images + 2.0)
     scaled = np.minimum(log1p(images) / _SINCE_LOG_SCALE, 1.0)
-    return np.stack([mean, scaled], axis=-1).astype(np.float32)
+    return np.stack([mean, scaled], axis=1).astype(np.float32)
 
 
 #: Cap of the residual log's normalized NIS (the observation is its value / the cap).

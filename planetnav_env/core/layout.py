@@ -215,8 +215,9 @@ RESIDUAL_LOG_TEXT = (
 
 
 IMAGE_LOG_TEXT = (
-    "image log (with EnvConfig.observe_image_log), two per planet: (fixes + 1) / (images + 2), the mean "
-    "of the planet's image success rate under a uniform prior, and log1p(images) / log1p(1440) capped at 1, "
+    "image log (with EnvConfig.observe_image_log), two rows of one per planet: (fixes + 1) / (images + 2), "
+    "the mean of the planet's image success rate under a uniform prior, then log1p(images) / log1p(1440) "
+    "capped at 1, "
     "over this episode's images of it in view (an image that yields no fix counts; one out of view or behind "
     "the Sun does not)"
 )
@@ -247,8 +248,9 @@ class ObservationLayout:
     #: The ``since_measured`` block (T values) last (``EnvConfig.observe_since_measured``; text:
     #: SINCE_MEASURED_TEXT). Written by :class:`planetnav_env.core.batch.BatchCore`, not the compiled builder.
     since_measured: bool = False
-    #: The ``image_log`` block (P x 2 values) after ``since_measured`` (``EnvConfig.observe_image_log``;
-    #: text: IMAGE_LOG_TEXT). Written by :class:`planetnav_env.core.batch.BatchCore`.
+    #: The ``image_log`` block (2 x P values: the rate means, then the scaled image counts) after
+    #: ``since_measured`` (``EnvConfig.observe_image_log``; text: IMAGE_LOG_TEXT). Written by
+    #: :class:`planetnav_env.core.batch.BatchCore`.
     image_log: bool = False
     #: The ``residual_log`` block (P values) after ``image_log`` (``EnvConfig.observe_residual_log``; text:
     #: RESIDUAL_LOG_TEXT). Written by :class:`planetnav_env.core.batch.BatchCore`.
@@ -334,7 +336,7 @@ class ObservationLayout:
         if self.since_measured:
             out.append(("since_measured", self.since_measured_start, self.image_log_start, (self.n_targets,)))
         if self.image_log:
-            out.append(("image_log", self.image_log_start, self.residual_log_start, (self.n_planets, 2)))
+            out.append(("image_log", self.image_log_start, self.residual_log_start, (2, self.n_planets)))
         if self.residual_log:
             out.append(("residual_log", self.residual_log_start, self.size, (self.n_planets,)))
         return tuple(out)

@@ -92,8 +92,8 @@ def test_image_failures_follow_the_drawn_probability_and_skip_the_update():
                 assert abs(k - n * p[j]) < 4.5 * sd, (seed, j, n, k, p[j])
         # The image log is these counts: (fixes + 1) / (images + 2) and log1p(images) / log1p(1440).
         log = env.decode_observation(env.core.obs[0].astype(np.float32))["image_log"]
-        np.testing.assert_allclose(log[:, 0], (fixes + 1) / (images + 2), rtol=1e-6)
-        np.testing.assert_allclose(log[:, 1], np.minimum(np.log1p(images) / np.log1p(1440), 1), rtol=1e-6)
+        np.testing.assert_allclose(log[0], (fixes + 1) / (images + 2), rtol=1e-6)
+        np.testing.assert_allclose(log[1], np.minimum(np.log1p(images) / np.log1p(1440), 1), rtol=1e-6)
         counts += (images, fixes)
     assert counts[0].sum() > 300 and 0 < counts[1].sum() < counts[0].sum()
 
@@ -105,8 +105,8 @@ def test_no_failures_without_the_option():
         _, _, _, _, info = env.step((k // 50) % 3)
         assert info["visibility"] != "image_failed"
     log = env.decode_observation(env.core.obs[0].astype(np.float32))["image_log"]
-    imaged = log[:, 1] > 0
-    assert imaged.any() and np.all(log[imaged, 0] > 0.9)  # every image gave a fix
+    imaged = log[1] > 0
+    assert imaged.any() and np.all(log[0, imaged] > 0.9)  # every image gave a fix
 
 
 def _brute_force_centroid_offset(phase: float, n: int = 1201) -> float:
@@ -190,7 +190,7 @@ def test_v2_observation_blocks_decode(env_id):
     d = env.unwrapped.decode_observation(obs)
     cfg = env.unwrapped.config
     if cfg.observe_image_log:
-        assert d["image_log"].shape == (cfg.n_planets, 2)
+        assert d["image_log"].shape == (2, cfg.n_planets)
     if cfg.observe_residual_log:
         assert d["residual_log"].shape == (cfg.n_planets,)
     assert env.observation_space.contains(obs)

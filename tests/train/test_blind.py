@@ -48,8 +48,9 @@ def test_search_picks_the_lowest_mean_and_measure_reports_the_gap():
     def eval_eval(spec, cfg, episodes, seed):
         return np.asarray(evals[spec])
 
-    res = B.search_blind(None, search_eval, 1, 2, candidates=list(table))
+    res = B.search_blind(None, search_eval, 1, 2, candidates=list(table), final_episodes=0)
     assert res.winner == "schedule:a" and res.search["schedule:b"] == pytest.approx(6.25)
+    assert res.winner_mean == 6.0 and not res.final
     rec = B.measure_task(None, res, ["greedy", "adaptive"], ["oracle"], eval_eval, 7, 4)
     assert rec["best_reference"] == "adaptive"  # the oracle is never the score's 1
     assert rec["closed_loop_gap"]["gap"] == pytest.approx((6.0 - 3.0) / 6.0)
@@ -132,5 +133,22 @@ def test_greedy_weights_follow_the_image_log_and_the_oracle():
     from planetnav_agents.base import parse_observation
 
     p = parse_observation(obs, env)
-    np.testing.assert_allclose(adaptive.planet_weights(p, info), parsed["image_log"][:, 0])
+    np.testing.assert_allclose(adaptive.planet_weights(p, info), parsed["image_log"][0])
     np.testing.assert_array_equal(oracle.planet_weights(p, info), env.core.true_image_success()[0])
+
+
+def test_second_stage_picks_among_the_finalists_on_fresh_seeds():
+    first = {"random": 9.0, "schedule:a": 5.0, "schedule:b": 6.0, "schedule:c": 7.0}
+    second = {"schedule:a": 8.0, "schedule:b": 6.5, "schedule:c": 6.9}  # a was flattered by its seeds
+    calls = []
+
+    def evaluate(spec, cfg, episodes, seed):
+        calls.append((spec, episodes, seed))
+        return np.full(episodes, (first if seed == 100 else second)[spec])
+
+    res = B.search_blind(None, evaluate, 100, 30, candidates=list(first), finalists=3, final_episodes=50)
+    assert res.winner == "schedule:b" and res.winner_mean == 6.5
+    assert set(res.final) == {"schedule:a", "schedule:b", "schedule:c"}  # random was not a finalist
+    assert {(s, n, seed) for s, n, seed in calls if seed != 100} == {
+        (s, 50, 130) for s in ("schedule:a", "schedule:b", "schedule:c")
+    }

@@ -61,6 +61,26 @@ def test_block_k_is_the_target_that_action_k_selects(env_id: str) -> None:
     assert seen == set(range(T))  # every target was current at least once
 
 
+def test_image_log_rows_follow_the_relative_order() -> None:
+    """On a task with the image log (RandomCruise-Target-v2) both of its per-planet rows are reordered with
+    the target blocks, so the per-target scorer reads each target's own success rate."""
+    from planetnav_train.policies import per_target_columns
+
+    ext, lay = _extractor("planetnav/RandomCruise-Target-v2")
+    T = lay.n_targets
+    obs = np.arange(lay.size, dtype=np.float32)
+    obs[lay.target_start : lay.elapsed_index] = 0.0
+    obs[lay.target_start + 2] = 1.0  # current target 2
+    out = ext(torch.as_tensor(obs[None]))[0].numpy()
+    for k in range(T):
+        src = relative_to_absolute(k, 2, T)
+        for row in (0, 1):
+            assert out[lay.image_log_start + row * T + k] == obs[lay.image_log_start + row * T + src]
+    own, _ = per_target_columns(lay, lay.size)
+    for k in range(T):
+        assert {lay.image_log_start + k, lay.image_log_start + T + k} <= set(own[k])
+
+
 def test_index_rows_are_permutations_and_row_zero_is_the_identity() -> None:
     lay = L.ObservationLayout(3, 2, None, False, True)
     idx = relative_order_index(lay, tail=5)
