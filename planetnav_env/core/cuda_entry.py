@@ -29,6 +29,8 @@ from planetnav_env.core.kernels import reset_thread, step_thread
 from planetnav_env.core.records import Actions, scratch_rows
 from planetnav_env.numerics.cuda_target import DEFAULT_CC, compile_ptx, require_numba_cuda
 
+__all__ = ["ENTRY_POINTS", "compile_ptx", "entry_argtypes", "entry_ptx", "reset_kernel", "step_kernel"]
+
 cuda = require_numba_cuda()
 
 
