@@ -89,7 +89,7 @@ from planetnav_env.core.operations import (
     thrust_axis_on,
     thrust_noise,
 )
-from planetnav_env.core.records import Actions, RowState, make_scratch
+from planetnav_env.core.records import Actions, RowState, make_scratch, scratch_row
 from planetnav_env.core.row_ephemeris import eval_channel, perturbers_at, planets_at, row_time
 from planetnav_env.core.row_noise import NOISE_IMAGE, next_uniform, noise_begin
 from planetnav_env.core.scoring import score_row
@@ -106,7 +106,7 @@ from planetnav_env.estimation.ekf_kernels import (
     predict_kernel,
     rk4_kernel,
 )
-from planetnav_env.numerics.jit import row_kernel
+from planetnav_env.numerics.jit import ROW_KERNEL_OPTIONS, row_kernel
 from planetnav_env.sensors.camera_kernels import V_ALPHA, V_REASON
 
 
@@ -327,16 +327,22 @@ def reset_row(prm, st, n, sc) -> None:  # pragma: no cover - compiled
     observe_row(prm, f, st.p, i, st.eph, st.obs, n, sc, False)
 
 
+@njit(inline="always", **ROW_KERNEL_OPTIONS)
+def step_active_row(prm, st, act, n, sc) -> None:  # pragma: no cover - compiled
+    """Step and observe row ``n`` if ``act`` marks it active: the body of the CPU's row loop
+    (:func:`_step_rows`) and of the device's thread (:func:`step_thread`). Inlined into both."""
+    if act.active[n]:
+        bodies_ready = step_row(prm, st, n, act.targets[n], act.torques[n], sc)
+        if st.i[n, I_STATUS] == STATUS_OK:
+            observe_row(prm, st.f, st.p, st.i, st.eph, st.obs, n, sc, bodies_ready)
+
+
 @row_kernel
 def _step_rows(prm, st, act, lo, hi, sc) -> None:  # pragma: no cover - compiled
     # The row loop itself is a row kernel: with reference counting, taking the view torques[n] would
     # touch the count of the torques array, shared by every thread, twice per row.
-    i = st.i
     for n in range(lo, hi):
-        if act.active[n]:
-            bodies_ready = step_row(prm, st, n, act.targets[n], act.torques[n], sc)
-            if i[n, I_STATUS] == STATUS_OK:
-                observe_row(prm, st.f, st.p, i, st.eph, st.obs, n, sc, bodies_ready)
+        step_active_row(prm, st, act, n, sc)
 
 
 @njit(cache=True, nogil=True)
@@ -371,3 +377,23 @@ def reset_rows(prm, st, rows) -> None:  # pragma: no cover - compiled
     sc = make_scratch(prm)
     for r in range(rows.shape[0]):
         reset_row(prm, st, rows[r], sc)
+
+
+# --- one row per thread (the device's layout): scratch as per-row slices of (N, ...) arrays ---------------
+# What a CUDA thread runs (planetnav_env.core.cuda_entry wraps each in a kernel of one thread per row); on
+# the CPU the same functions run in a loop over the rows, which tests/env/test_cuda_ptx.py compares with the
+# chunked step above, bit for bit.
+
+
+@row_kernel
+def step_thread(prm, st, act, rows, n) -> None:  # pragma: no cover - compiled
+    """:func:`step_active_row` of row ``n`` with its own scratch, ``rows``' slices ``n``
+    (:func:`~planetnav_env.core.records.scratch_rows`, one row of scratch per state row)."""
+    step_active_row(prm, st, act, n, scratch_row(rows, n))
+
+
+@row_kernel
+def reset_thread(prm, st, reset, rows, j) -> None:  # pragma: no cover - compiled
+    """:func:`reset_row` of row ``reset[j]`` with that row's scratch (``rows``' slices ``reset[j]``)."""
+    n = reset[j]
+    reset_row(prm, st, n, scratch_row(rows, n))

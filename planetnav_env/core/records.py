@@ -1,7 +1,9 @@
 """The records a row kernel receives: :class:`CoreParams` (shared, read-only parameters, its scalars in the
 named record :data:`SCALARS_DTYPE`), :class:`RowState` (the state arrays of the batch, each row's slices
 read and written only by its own row), :class:`Actions` (the decoded actions of a step) and
-:class:`Scratch` (work arrays of one chunk of rows, allocated once per call by :func:`make_scratch`).
+:class:`Scratch` (work arrays of one chunk of rows, allocated once per call by :func:`make_scratch`; on a
+device, where every row is a thread, one row of scratch per state row: :func:`scratch_rows` allocates the
+(N, ...) arrays once and :func:`scratch_row` takes row ``n``'s slices).
 
 Named tuples of arrays: numba passes one as its arrays, so a field read compiles to the same code as a
 separate argument; the kernels take a few records instead of long positional lists."""
@@ -16,6 +18,7 @@ from numba import njit
 from planetnav_env.config import EnvConfig
 from planetnav_env.core import rng as crng
 from planetnav_env.core.layout import TARGET_FEATURES
+from planetnav_env.numerics.jit import ROW_KERNEL_OPTIONS
 from planetnav_env.options import kernel_fields
 from planetnav_env.sensors.camera_kernels import (
     N_VIS_SLOTS,
@@ -216,4 +219,30 @@ def make_scratch(prm: CoreParams) -> Scratch:  # pragma: no cover - compiled
         noise3=np.empty(3), sub=np.empty(crng.STATE_WORDS, np.uint64),
         star_idx=np.empty(n_s, np.int64), star_noise=np.empty((n_s, 3)), star_work=np.empty(FIX_WORK_SHAPE),
         q_fix=np.empty(4),
+    )  # fmt: skip
+
+
+def scratch_rows(prm: CoreParams, rows: int) -> Scratch:
+    """A :class:`Scratch` of ``rows`` rows: each field zeros of shape ``(rows, *shape)``, the shapes and
+    dtypes those of :func:`make_scratch` (the one place they are written). For one thread per row (the
+    device's layout), where a thread cannot allocate: allocated once, row ``n`` read by
+    :func:`scratch_row`."""
+    one = make_scratch(prm)
+    return Scratch(**{name: np.zeros((rows, *a.shape), a.dtype) for name, a in one._asdict().items()})
+
+
+@njit(inline="always", **ROW_KERNEL_OPTIONS)
+def scratch_row(rows: Scratch, n: int) -> Scratch:  # pragma: no cover - compiled
+    """Row ``n`` of :func:`scratch_rows`' record: a :class:`Scratch` of views, no copy (inlined into the
+    caller, so no record of arrays is returned across a call)."""
+    return Scratch(
+        work=rows.work[n], rq=rows.rq[n], a=rows.a[n], frame=rows.frame[n], y=rows.y[n],
+        u_cmd=rows.u_cmd[n], bias=rows.bias[n], zero3=rows.zero3[n], w6=rows.w6[n], v6=rows.v6[n],
+        phi=rows.phi[n], tmp=rows.tmp[n], x_new=rows.x_new[n], uw=rows.uw[n], h=rows.h[n], jac=rows.jac[n],
+        rcov=rows.rcov[n], z=rows.z[n], basis=rows.basis[n], m=rows.m[n], u6=rows.u6[n], vals=rows.vals[n],
+        los=rows.los[n], los_true=rows.los_true[n], mm=rows.mm[n], pix=rows.pix[n], r1=rows.r1[n],
+        q1=rows.q1[n], t1=rows.t1[n], central=rows.central[n], ssb=rows.ssb[n], dirv=rows.dirv[n],
+        roll=rows.roll[n], pert=rows.pert[n], planets=rows.planets[n], r_tile=rows.r_tile[n],
+        q_tile=rows.q_tile[n], feat=rows.feat[n], noise3=rows.noise3[n], star_idx=rows.star_idx[n],
+        star_noise=rows.star_noise[n], star_work=rows.star_work[n], q_fix=rows.q_fix[n], sub=rows.sub[n],
     )  # fmt: skip

@@ -54,9 +54,9 @@ from planetnav_env.sensors.camera_kernels import (
     measure_row_kernel,
 )
 from planetnav_env.sensors.pulsar import (
-    ambiguity_resolvable_kernel,
+    ambiguity_resolvable_row,
     pulsar_visibility_row,
-    resolve_cycle_kernel,
+    resolve_cycle,
 )
 from planetnav_env.sensors.star_tracker import error_angle_kernel, select_stars, star_fix
 
@@ -252,10 +252,10 @@ def time_pulsar(prm, st, n, j, t, sc):  # pragma: no cover - compiled
     for a in range(3):
         for c in range(3):
             var += sc.jac[0, a] * pm[a, c] * sc.jac[0, c]
-    if not ambiguity_resolvable_kernel(math.sqrt(var), ps.ambig_k):
+    if not ambiguity_resolvable_row(math.sqrt(var), ps.ambig_k):
         i[n, I_SKIPPED] += 1  # the whole number of cycles cannot be trusted: skip, count
         return False, False, REASON_AMBIGUOUS
-    sc.z[0] = resolve_cycle_kernel(frac, h)
+    sc.z[0] = resolve_cycle(frac, h)
     sc.h[0] = h
     sc.rcov[0, 0] = sigma * sigma
     nis, ok = update_kernel(xe, pm, sc.z, sc.h, sc.jac, sc.rcov, 1, -1, prm.gate[0], sc.uw)

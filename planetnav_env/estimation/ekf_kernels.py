@@ -25,6 +25,7 @@ from planetnav_env.errors import InvalidParameterError, NonFiniteError, require_
 from planetnav_env.estimation.ekf import EKFBase
 from planetnav_env.estimation.measurements import MeasurementModel
 from planetnav_env.numerics.jit import ROW_KERNEL_OPTIONS, row_kernel
+from planetnav_env.numerics.portable_math import remainder
 
 #: Configuration string -> MeasurementKind as an int (what the kernels take).
 KIND_CODES = {k.label: int(k) for k in MeasurementKind}
@@ -84,7 +85,7 @@ def _accel_grad(r, mu, pert, mus, a, g, grad=True):
     operations either way, so it is bit for bit the same.
     """
     r2 = r[0] * r[0] + r[1] * r[1] + r[2] * r[2]
-    rn = np.sqrt(r2)
+    rn = math.sqrt(r2)
     inv3 = 1.0 / (r2 * rn)
     inv5 = inv3 / r2
     for i in range(3):
@@ -98,11 +99,11 @@ def _accel_grad(r, mu, pert, mus, a, g, grad=True):
         s1 = r[1] - pert[k, 1]
         s2 = r[2] - pert[k, 2]
         s2n = s0 * s0 + s1 * s1 + s2 * s2
-        sn = np.sqrt(s2n)
+        sn = math.sqrt(s2n)
         si3 = 1.0 / (s2n * sn)
         si5 = si3 / s2n
         k2 = pert[k, 0] ** 2 + pert[k, 1] ** 2 + pert[k, 2] ** 2
-        ki3 = 1.0 / (k2 * np.sqrt(k2))
+        ki3 = 1.0 / (k2 * math.sqrt(k2))
         s = (s0, s1, s2)
         for i in range(3):
             a[i] += -mus[k] * s[i] * si3 - mus[k] * pert[k, i] * ki3
@@ -236,7 +237,7 @@ def covariance_predict_kernel(p, phi, q, tmp):
 
 @row_kernel
 def _wrap(a):
-    return np.pi - np.remainder(np.pi - a, 2.0 * np.pi)
+    return math.pi - remainder(math.pi - a, 2.0 * math.pi)
 
 
 @row_kernel
@@ -246,7 +247,7 @@ def planet_model_kernel(r, planet, diameter, kind, sig_dir, sig_size, basis, h, 
     d1 = planet[1] - r[1]
     d2 = planet[2] - r[2]
     rho2 = d0 * d0 + d1 * d1 + d2 * d2
-    rho = np.sqrt(rho2)
+    rho = math.sqrt(rho2)
     m = 3 if (kind == 1 or kind == 3) else 2
     for i in range(m):
         for j in range(6):
@@ -255,16 +256,16 @@ def planet_model_kernel(r, planet, diameter, kind, sig_dir, sig_size, basis, h, 
             rcov[i, j] = 0.0
     if kind <= 1:
         rxy2 = d0 * d0 + d1 * d1
-        rxy = np.sqrt(rxy2)
-        h[0] = np.arcsin(d2 / rho)
-        h[1] = np.arctan2(d1, d0)
+        rxy = math.sqrt(rxy2)
+        h[0] = math.asin(d2 / rho)
+        h[1] = math.atan2(d1, d0)
         jac[0, 0] = d0 * d2 / (rho2 * rxy)
         jac[0, 1] = d1 * d2 / (rho2 * rxy)
         jac[0, 2] = -rxy / rho2
         jac[1, 0] = d1 / rxy2
         jac[1, 1] = -d0 / rxy2
         rcov[0, 0] = sig_dir * sig_dir
-        c = np.cos(h[0])
+        c = math.cos(h[0])
         rcov[1, 1] = sig_dir * sig_dir / (c * c)
     else:
         u0, u1, u2 = d0 / rho, d1 / rho, d2 / rho
@@ -277,7 +278,7 @@ def planet_model_kernel(r, planet, diameter, kind, sig_dir, sig_size, basis, h, 
             jac[i, 2] = -(e2 - eu * u2) / rho
             rcov[i, i] = sig_dir * sig_dir
     if m == 3:
-        h[2] = 2.0 * np.arctan(0.5 * diameter / rho)
+        h[2] = 2.0 * math.atan(0.5 * diameter / rho)
         f = diameter / (rho * (rho2 + 0.25 * diameter * diameter))
         jac[2, 0] = f * d0
         jac[2, 1] = f * d1
@@ -541,7 +542,7 @@ def nees_kernel(x_est, x_true, p, lo, y):  # pragma: no cover - compiled
             if i == j:
                 if not acc > 0.0:
                     return np.nan
-                lo[i, i] = np.sqrt(acc)
+                lo[i, i] = math.sqrt(acc)
             else:
                 lo[i, j] = acc / lo[j, j]
     total = 0.0

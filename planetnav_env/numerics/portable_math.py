@@ -19,6 +19,12 @@ every machine"). Numba itself compiles for the host CPU, but without fast-math i
 fuses floating-point operations.
 
 Shapes broadcast like numpy's; the 3-vectors are the last axis.
+
+The scalar functions at the end (:func:`remainder`, :func:`rint`) are for the compiled row kernels: numpy
+ufuncs on scalars compile for the CPU but not for CUDA (numba-cuda's ufunc table has no ``np.sqrt``,
+``np.remainder`` or ``np.rint``), so the row kernels call ``math.*`` (which numba lowers to the same
+instruction or ``libm`` call as the ufunc: the same bits) or these, which give numba's ufunc results bit
+for bit on the CPU and compile for both targets (:mod:`planetnav_env.numerics.jit`, "Two targets").
 """
 
 from __future__ import annotations
@@ -27,6 +33,8 @@ import math
 
 import numpy as np
 from numba import vectorize
+
+from planetnav_env.numerics.jit import row_kernel
 
 __all__ = [
     "arccos",
@@ -38,6 +46,8 @@ __all__ = [
     "log1p",
     "matvec3",
     "norm3",
+    "remainder",
+    "rint",
     "sin",
     "tan",
     "unit3",
@@ -125,3 +135,33 @@ def arctan2(y, x):  # pragma: no cover - compiled
 def log1p(x):  # pragma: no cover - compiled
     """log(1 + x) from the C library (NaN below -1)."""
     return math.log1p(x) if x >= -1.0 else math.nan
+
+
+# Scalars for the row kernels (both targets): numpy's ufunc semantics, bit for bit, without a ufunc.
+_TWO52 = 4503599627370496.0  # 2**52: from here on every float64 is an integer
+
+
+@row_kernel
+def remainder(x: float, y: float) -> float:  # pragma: no cover - compiled
+    """``np.remainder(x, y)`` of two floats as numba compiles it: ``fmod(x, y)``, plus ``y`` where that is
+    nonzero and its sign differs from ``y``'s (the result takes the divisor's sign); a zero result is
+    ``+0.0``; NaN where ``y`` is zero or ``x`` infinite (or either is NaN). Python's ``%`` gives the same
+    numbers for ``y != 0`` (the same fmod and the same correction) except that its zero takes ``y``'s sign,
+    and it raises on ``y == 0``: both handled before and after it here."""
+    if y == 0.0:
+        return math.nan
+    r = x % y
+    if r == 0.0:
+        return 0.0
+    return r
+
+
+@row_kernel
+def rint(x: float) -> float:  # pragma: no cover - compiled
+    """``np.rint(x)``: the nearest integer, halves to even, the sign kept (``-0.3`` gives ``-0.0``).
+    Below 2**52, adding and subtracting 2**52 rounds in the FPU's default mode, round-half-even, exactly;
+    from 2**52 on (and for infinities and NaN) ``x`` is its own value."""
+    ax = abs(x)
+    if ax < _TWO52:
+        return math.copysign((ax + _TWO52) - _TWO52, x)
+    return x

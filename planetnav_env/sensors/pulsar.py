@@ -438,17 +438,30 @@ def measure_phase(
     return total - np.floor(total)
 
 
+@row_kernel
+def resolve_cycle(phase_frac: float, predicted_phase: float) -> float:  # pragma: no cover - compiled
+    """Total phase ``phase_frac + round(predicted - phase_frac)`` [cycles] (half to even) of one scalar
+    pair: what the row kernels call (both targets); :func:`resolve_cycle_kernel` is its ufunc."""
+    return phase_frac + pm.rint(predicted_phase - phase_frac)
+
+
+@row_kernel
+def ambiguity_resolvable_row(sigma_pred_cycles: float, k_sigma: float) -> bool:  # pragma: no cover
+    """``k_sigma * sigma_pred < 1/2`` cycle of one scalar pair: what the row kernels call (both targets);
+    :func:`ambiguity_resolvable_kernel` is its ufunc."""
+    return k_sigma * sigma_pred_cycles < 0.5
+
+
 @vectorize(["float64(float64, float64)"], cache=True)
 def resolve_cycle_kernel(phase_frac: float, predicted_phase: float) -> float:  # pragma: no cover - compiled
-    """Total phase ``phase_frac + round(predicted - phase_frac)`` [cycles] (half to even), a ufunc: the
-    environment's compiled core calls it on scalars, :func:`resolve_cycle_ambiguity` on arrays."""
-    return phase_frac + np.rint(predicted_phase - phase_frac)
+    """:func:`resolve_cycle` as a ufunc (:func:`resolve_cycle_ambiguity` calls it on arrays)."""
+    return resolve_cycle(phase_frac, predicted_phase)
 
 
 @vectorize(["boolean(float64, float64)"], cache=True)
 def ambiguity_resolvable_kernel(sigma_pred_cycles: float, k_sigma: float) -> bool:  # pragma: no cover
-    """``k_sigma * sigma_pred < 1/2`` cycle (a ufunc; see :func:`ambiguity_resolvable`)."""
-    return k_sigma * sigma_pred_cycles < 0.5
+    """:func:`ambiguity_resolvable_row` as a ufunc (see :func:`ambiguity_resolvable`)."""
+    return ambiguity_resolvable_row(sigma_pred_cycles, k_sigma)
 
 
 def resolve_cycle_ambiguity(phase_frac: np.ndarray, predicted_phase: np.ndarray) -> np.ndarray:

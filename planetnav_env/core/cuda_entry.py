@@ -1,0 +1,75 @@
+"""CUDA entry points of the batch core: one thread per row (numba-cuda, the ``[gpu]`` extra).
+
+No physics is written here. Each kernel is one thread's index arithmetic around a row function of
+:mod:`planetnav_env.core.kernels` (:func:`~planetnav_env.core.kernels.step_thread`,
+:func:`~planetnav_env.core.kernels.reset_thread`), and numba-cuda compiles those, and everything they
+call, as device functions from the same source as the CPU build (an ``@njit`` function called from a
+CUDA kernel is compiled from its Python source for the device). The rules the row kernels follow so that
+they compile for both targets are in :mod:`planetnav_env.numerics.jit`.
+
+The arguments are the CPU's records (:class:`~planetnav_env.core.records.CoreParams`,
+:class:`~planetnav_env.core.records.RowState`, :class:`~planetnav_env.core.records.Actions`) with device
+arrays in place of the numpy ones, and a :class:`~planetnav_env.core.records.Scratch` of one row per
+state row (:func:`~planetnav_env.core.records.scratch_rows`: a thread cannot allocate).
+
+What is built and checked without a GPU: the PTX of each entry point for every registered id
+(``tests/env/test_cuda_ptx.py``, :func:`entry_ptx`), and the thread functions on the CPU, bit for bit
+against the chunked step. The device-resident environment that launches these kernels is not built yet.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numba
+import numpy as np
+
+from planetnav_env.core.batch import BatchCore
+from planetnav_env.core.kernels import reset_thread, step_thread
+from planetnav_env.core.records import Actions, scratch_rows
+from planetnav_env.numerics.cuda_target import DEFAULT_CC, compile_ptx, require_numba_cuda
+
+__all__ = ["ENTRY_POINTS", "compile_ptx", "entry_argtypes", "entry_ptx", "reset_kernel", "step_kernel"]
+
+cuda = require_numba_cuda()
+
+
+def step_kernel(prm, st, act, rows) -> None:  # pragma: no cover - compiled
+    """Thread ``n`` steps and observes row ``n`` (if ``act`` marks it active)."""
+    n = cuda.grid(1)
+    if n < st.f.shape[0]:
+        step_thread(prm, st, act, rows, n)
+
+
+def reset_kernel(prm, st, reset, rows) -> None:  # pragma: no cover - compiled
+    """Thread ``j`` runs the compiled part of the reset of row ``reset[j]`` (its first star fix, rate
+    measurement, errors and observation; what a reset draws on the host is already in the row)."""
+    j = cuda.grid(1)
+    if j < reset.shape[0]:
+        reset_thread(prm, st, reset, rows, j)
+
+
+#: The entry points, by name. There is no separate autoreset kernel: the CPU's autoreset is a reset of
+#: the finished rows (``reset_kernel`` with those rows).
+ENTRY_POINTS: dict[str, Any] = {"step": step_kernel, "reset": reset_kernel}
+
+
+def entry_argtypes(core: BatchCore) -> dict[str, tuple]:
+    """The numba argument types of each entry point for the batch ``core`` (a device array has the same
+    numba array type as the numpy array it mirrors, so these are the device's types too)."""
+    n = core.num_rows
+    act = Actions(targets=np.zeros(n, np.int64), torques=np.zeros((n, 3)), active=np.ones(n, np.bool_))
+    prm = numba.typeof(core.params)
+    st = numba.typeof(core.state)
+    rows = numba.typeof(scratch_rows(core.params, n))
+    return {
+        "step": (prm, st, numba.typeof(act), rows),
+        "reset": (prm, st, numba.typeof(np.zeros(n, np.int64)), rows),
+    }
+
+
+def entry_ptx(core: BatchCore, names: tuple[str, ...] = ("step", "reset"), cc=DEFAULT_CC) -> dict[str, str]:
+    """PTX of the entry points ``names`` for ``core``'s types and compute capability ``cc`` (no GPU needed:
+    :func:`~planetnav_env.numerics.cuda_target.compile_ptx`)."""
+    types = entry_argtypes(core)
+    return {name: compile_ptx(ENTRY_POINTS[name], types[name], cc) for name in names}

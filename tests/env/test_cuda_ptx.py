@@ -1,0 +1,212 @@
+"""The row kernels on two targets: the CPU, and CUDA through numba-cuda (the ``[gpu]`` extra).
+
+What a machine without a GPU can check (the rules are in :mod:`planetnav_env.numerics.jit`):
+
+* the rules, read from the source: no numpy function in a row kernel (numpy constants are fine), no
+  ``raise`` (``test_row_kernels_call_no_numpy_function``);
+* the thread functions a CUDA kernel runs (:func:`~planetnav_env.core.kernels.step_thread`,
+  :func:`~planetnav_env.core.kernels.reset_thread`, one row each, scratch as per-row slices), compiled for
+  the CPU and looped over the rows, equal the chunked step bit for bit on every id;
+* :mod:`planetnav_env.numerics.portable_math`'s scalar ``remainder`` and ``rint`` equal numba's
+  ``np.remainder`` and ``np.rint`` bit for bit;
+* with numba-cuda installed: every entry point (step, reset; autoreset is a reset of the finished rows)
+  compiles to PTX for every registered id, the compute capability supplied (9.0), with no unresolved
+  external function. It does not run the PTX: only a device checks the numbers (the CUDA simulator runs
+  the ``@njit`` functions a kernel calls as CPU code, so it would compare the CPU with itself).
+"""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import numpy as np
+import pytest
+from numba import njit
+
+from planetnav_env.config import EnvConfig
+from planetnav_env.core import kernels as K
+from planetnav_env.core.batch import BatchCore
+from planetnav_env.core.records import Actions, scratch_rows
+from planetnav_env.envs.registration import ENV_IDS
+from planetnav_env.numerics import portable_math as pm
+
+PACKAGE = Path(__file__).resolve().parents[2] / "planetnav_env"
+ROWS = 3
+STEPS = 12
+
+
+# --- the rules, from the source ---
+#: numpy names a row kernel may use: constants and the types of annotations.
+NUMPY_ALLOWED = {"nan", "pi", "inf", "e", "ndarray", "float64", "int64", "uint64", "bool_"}
+
+
+def _row_kernels() -> list[tuple[str, ast.FunctionDef]]:
+    """Every function of the package compiled as a row kernel (``@row_kernel``, or ``@njit(...)`` with
+    ``**ROW_KERNEL_OPTIONS``)."""
+    found = []
+    for path in sorted(PACKAGE.rglob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.FunctionDef) and any(
+                "row_kernel" in ast.unparse(d) or "ROW_KERNEL_OPTIONS" in ast.unparse(d)
+                for d in node.decorator_list
+            ):
+                found.append((f"{path.relative_to(PACKAGE.parent)}:{node.lineno} {node.name}", node))
+    return found
+
+
+def test_row_kernels_call_no_numpy_function() -> None:
+    kernels = _row_kernels()
+    assert len(kernels) > 50  # the scan finds them
+    bad = []
+    for where, fn in kernels:
+        for sub in ast.walk(fn):
+            if (
+                isinstance(sub, ast.Attribute)
+                and isinstance(sub.value, ast.Name)
+                and sub.value.id == "np"
+                and sub.attr not in NUMPY_ALLOWED
+            ):
+                bad.append(f"{where}: np.{sub.attr}")
+            if isinstance(sub, ast.Raise):
+                bad.append(f"{where}: raise")
+    assert not bad, "row kernels must use math.* / portable_math, and no exceptions:\n" + "\n".join(bad)
+
+
+# --- portable scalar math ---
+@njit
+def _ufunc_and_portable(x, y, out):  # pragma: no cover - compiled
+    for k in range(x.size):
+        out[0, k] = np.remainder(x[k], y[k])
+        out[1, k] = pm.remainder(x[k], y[k])
+        out[2, k] = np.rint(x[k])
+        out[3, k] = pm.rint(x[k])
+
+
+def test_portable_remainder_and_rint_equal_numbas_ufuncs_bit_for_bit() -> None:
+    rng = np.random.default_rng(0)
+    special = np.array(
+        [0.0, -0.0, 0.5, -0.5, 1.5, 2.5, -2.5, 1.0, -1.0, np.pi, 2 * np.pi, -2 * np.pi, 2.0**52, 2.0**52 + 1,
+         -(2.0**52) - 1, 2.0**51 + 0.5, 2.0**53, 5e-324, -5e-324, 1e308, np.inf, -np.inf, np.nan]
+    )  # fmt: skip
+    n = 50_000
+    x = np.concatenate([
+        rng.normal(size=n) * 10.0 ** rng.uniform(-8, 20, n), np.repeat(special, special.size),
+        np.round(rng.normal(size=n) * 100) * 0.5, rng.integers(-100, 100, 1000) * (2 * np.pi),
+    ])  # fmt: skip
+    y = np.concatenate([
+        rng.normal(size=n) * 10.0 ** rng.uniform(-8, 20, n), np.tile(special, special.size),
+        rng.choice(special, n), np.full(1000, 2 * np.pi),
+    ])  # fmt: skip
+    out = np.empty((4, x.size))
+    _ufunc_and_portable(x, y, out)
+    bits = out.view(np.uint64)
+    # rint: every bit. remainder: every bit, except that a NaN may carry another sign (numba's ufunc gives
+    # x86's default NaN for y == 0, the portable one math.nan).
+    assert np.array_equal(bits[2], bits[3])
+    both_nan = np.isnan(out[0]) & np.isnan(out[1])
+    assert np.array_equal(np.isnan(out[0]), np.isnan(out[1]))
+    assert np.array_equal(bits[0][~both_nan], bits[1][~both_nan])
+
+
+# --- the thread functions on the CPU ---
+@njit
+def _reset_threads(prm, st, reset, rows):  # pragma: no cover - compiled
+    for j in range(reset.shape[0]):  # what thread j of cuda_entry.reset_kernel runs
+        K.reset_thread(prm, st, reset, rows, j)
+
+
+@njit
+def _step_threads(prm, st, act, rows):  # pragma: no cover - compiled
+    for n in range(st.f.shape[0]):  # what thread n of cuda_entry.step_kernel runs
+        K.step_thread(prm, st, act, rows, n)
+
+
+def _state_bytes(core: BatchCore) -> list[bytes]:
+    return [a.tobytes() for a in (core.f, core.p, core.i, core.rng, core.eph, core.obs)]
+
+
+@pytest.mark.parametrize("env_id", list(ENV_IDS))
+def test_thread_functions_equal_the_chunked_step_bit_for_bit(env_id: str, monkeypatch) -> None:
+    """Row by row with per-row scratch slices (the device's layout) gives the CPU step's numbers."""
+    cfg = EnvConfig.from_dict(ENV_IDS[env_id])
+    chunked, threads = BatchCore(cfg, ROWS), BatchCore(cfg, ROWS)
+    rows = scratch_rows(threads.params, ROWS)
+    all_rows = np.arange(ROWS, dtype=np.int64)
+    chunked.reset_rows(all_rows, [np.random.default_rng(11 + r) for r in range(ROWS)])
+    # The same host-side draws; the compiled part of the reset by reset_thread.
+    with monkeypatch.context() as m:
+        m.setattr(K, "reset_rows", lambda prm, st, reset: _reset_threads(prm, st, reset, rows))
+        threads.reset_rows(all_rows, [np.random.default_rng(11 + r) for r in range(ROWS)])
+    assert _state_bytes(threads) == _state_bytes(chunked)
+    rng = np.random.default_rng(3)
+    n_targets = cfg.n_targets
+    for k in range(STEPS):
+        # Hold each target a few steps (slews, settling, pulsar integration), change it now and then.
+        if k % 4 == 0:
+            targets = rng.integers(-1, n_targets, ROWS).astype(np.int64)
+        torques = rng.uniform(-1.0, 1.0, (ROWS, 3))
+        active = np.ones(ROWS, dtype=np.bool_)
+        active[k % ROWS] = k % 5 != 0  # an inactive row now and then
+        K.step_range_arrays(
+            chunked.params, chunked.f, chunked.p, chunked.i, chunked.rng, chunked.eph, chunked.obs,
+            targets, torques, active, 0, ROWS,
+        )  # fmt: skip
+        act = Actions(targets=targets, torques=torques, active=active)
+        _step_threads(threads.params, threads.state, act, rows)
+        assert _state_bytes(threads) == _state_bytes(chunked), f"step {k}"
+
+
+# --- PTX (numba-cuda) ---
+def _numba_cuda():
+    from planetnav_env.numerics.cuda_target import require_numba_cuda
+
+    try:
+        return require_numba_cuda()
+    except ImportError as exc:
+        pytest.skip(str(exc))
+
+
+@pytest.fixture(scope="module")
+def ptx_by_signature():
+    """The entry points' argument types per id, and the PTX of each distinct (entry, types), compiled once:
+    the ids differ in values (parameters, sizes), and the types, hence the PTX, are shared where equal."""
+    _numba_cuda()
+    from planetnav_env.core import cuda_entry
+
+    types = {
+        env_id: cuda_entry.entry_argtypes(BatchCore(EnvConfig.from_dict(kw), 2))
+        for env_id, kw in ENV_IDS.items()
+    }
+    compiled: dict = {}
+
+    def ptx(env_id: str, entry: str) -> str:
+        key = (entry, types[env_id][entry])
+        if key not in compiled:
+            compiled[key] = cuda_entry.compile_ptx(cuda_entry.ENTRY_POINTS[entry], key[1])
+        return compiled[key]
+
+    return ptx
+
+
+@pytest.mark.parametrize("entry", ["step", "reset"])
+@pytest.mark.parametrize("env_id", list(ENV_IDS))
+def test_entry_point_compiles_to_ptx(env_id: str, entry: str, ptx_by_signature) -> None:
+    ptx = ptx_by_signature(env_id, entry)
+    assert ".target sm_90" in ptx
+    assert ".visible .entry" in ptx and f"{entry}_kernel" in ptx
+    # Everything the kernel calls is in the module (libdevice is linked by NVVM): no runtime (NRT),
+    # exception or host helper left to resolve.
+    assert ".extern" not in ptx
+
+
+def test_compute_capability_is_supplied_only_inside_the_block() -> None:
+    _numba_cuda()
+    from numba.cuda import dispatcher
+
+    from planetnav_env.numerics.cuda_target import supplied_compute_capability
+
+    before = dispatcher.get_current_device
+    with supplied_compute_capability((8, 0)):
+        assert dispatcher.get_current_device().compute_capability == (8, 0)
+    assert dispatcher.get_current_device is before
