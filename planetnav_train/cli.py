@@ -380,7 +380,7 @@ def cmd_regime_map(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     data = B.regime_map(
         cfg_for, args.strengths, args.agents, args.candidates, evaluate, args.search_seed,
-        args.search_episodes, args.seed, args.episodes,
+        args.search_episodes, args.seed, args.episodes, args.finalists, args.final_episodes,
     )  # fmt: skip
     data.update(task=env_id, event=args.event, options=dict(args.option or []),
                 wall_s=time.perf_counter() - t0)  # fmt: skip
@@ -679,6 +679,8 @@ def build_parser() -> argparse.ArgumentParser:
     rm.add_argument("--candidates", nargs="+", required=True, help="blind schedules searched at every point")
     rm.add_argument("--search-seed", type=int, default=_blind.BLIND_SEARCH_SEED)
     rm.add_argument("--search-episodes", type=int, default=20)
+    rm.add_argument("--finalists", type=int, default=3)
+    rm.add_argument("--final-episodes", type=int, default=60, help="second-stage seeds (0: one stage)")
     rm.add_argument("--seed", type=int, default=50_000)
     rm.add_argument("--episodes", type=int, default=30)
     rm.add_argument("--option", action="append", type=_option_pair, metavar="KEY=VALUE")

@@ -49,6 +49,13 @@ MIXED_DWELLS = ((2, 1), (3, 1), (4, 1), (4, 2), (6, 2))
 #: adaptive one (greedy with each planet's observed success rate); the oracle knows the drawn rates.
 V2_REFERENCES = ("greedy", "greedy:success=observed")
 V2_PRIVILEGED = ("greedy:success=oracle",)
+#: Legend labels of the references in the regime map's figure (other agents keep their spec).
+ROLE_LABELS = {
+    "blind": "best blind schedule",
+    "greedy": "greedy (nominal: trusts every image)",
+    "greedy:success=observed": "greedy, observed success rates (adaptive)",
+    "greedy:success=oracle": "greedy, true success rates (oracle, privileged)",
+}
 BOOTSTRAP_REPS = 10_000
 BOOTSTRAP_SEED = 0
 
@@ -146,6 +153,8 @@ class BlindResult:
     search_episodes: int
     final: dict[str, float]
     final_episodes: int
+    #: The winner's per-seed values on the seeds that chose it last.
+    winner_values: tuple[float, ...] = ()
 
     @property
     def winner_mean(self) -> float:
@@ -172,15 +181,18 @@ def search_blind(
         figures[spec] = float(np.mean(evaluate(spec, cfg, episodes, seed)))
         if progress is not None:
             progress(spec, figures[spec])
+    values: dict[str, np.ndarray] = {}
     final: dict[str, float] = {}
     if final_episodes > 0 and len(figures) > 1:
         for spec in sorted(figures, key=figures.__getitem__)[:finalists]:
-            final[spec] = float(np.mean(evaluate(spec, cfg, final_episodes, seed + episodes)))
+            values[spec] = np.asarray(evaluate(spec, cfg, final_episodes, seed + episodes), float)
+            final[spec] = float(values[spec].mean())
             if progress is not None:
                 progress(f"final {spec}", final[spec])
     pool = final or figures
     winner = min(pool, key=pool.__getitem__)
-    return BlindResult(winner, figures, seed, episodes, final, final_episodes if final else 0)
+    kept = tuple(float(v) for v in values.get(winner, ()))
+    return BlindResult(winner, figures, seed, episodes, final, final_episodes if final else 0, kept)
 
 
 def measure_task(
@@ -214,6 +226,17 @@ def measure_task(
         agents[s] = row
     gap = paired_ratio_ci(jb, jr)
     search_mean = blind.winner_mean
+    # Search and evaluation seeds differ: the two means agree when the interval of their difference (an
+    # unpaired bootstrap, each set resampled on its own) holds 0.
+    agree = None
+    if len(blind.winner_values) > 1:
+        sv = np.asarray(blind.winner_values)
+        diffs = (
+            sv[rng.integers(0, sv.size, (BOOTSTRAP_REPS, sv.size))].mean(axis=1)
+            - jb[rng.integers(0, jb.size, (BOOTSTRAP_REPS, jb.size))].mean(axis=1)
+        )
+        lo, hi = float(np.quantile(diffs, 0.025)), float(np.quantile(diffs, 0.975))
+        agree = {"difference": float(sv.mean() - jb.mean()), "lo": lo, "hi": hi, "holds_0": lo <= 0.0 <= hi}
     return {
         "blind_winner": blind.winner,
         "blind_search": {
@@ -234,6 +257,8 @@ def measure_task(
         "winner_search_inside_eval_ci": bool(
             agents[blind.winner]["lo"] <= search_mean <= agents[blind.winner]["hi"]
         ),
+        # Search figure minus evaluation figure of the winner, with its 95 % interval (None: one stage).
+        "winner_search_minus_eval": agree,
         "agents": agents,
     }
 
@@ -248,10 +273,13 @@ def regime_map(
     search_episodes: int,
     seed: int,
     episodes: int,
+    finalists: int = FINALISTS,
+    final_episodes: int = FINAL_EPISODES,
 ) -> dict[str, Any]:
     """The event's strength swept from 0 upward: at each ``strength`` (``cfg_for(strength)`` is the task
-    there) the best blind policy of ``candidates`` found on the search seeds and every agent of ``agents``
-    on the evaluation seeds, each with its mean and 95 % interval. Returns ``{"strengths": [...],
+    there) the best blind policy of ``candidates`` found on the search seeds (two stages, as
+    :func:`search_blind`) and every agent of ``agents`` on the evaluation seeds, each with its mean and 95 %
+    interval. Returns ``{"strengths": [...],
     "points": [{"strength", "blind": spec, "agents": {spec: {mean, lo, hi}}}]}``; the blind winner's row
     is under ``"blind"`` in ``agents``."""
     rng = np.random.default_rng(BOOTSTRAP_SEED)
@@ -259,14 +287,17 @@ def regime_map(
     for s in strengths:
         cfg = cfg_for(float(s))
         res = search_blind(
-            cfg, evaluate, search_seed, search_episodes, candidates=candidates, final_episodes=0
-        )
+            cfg, evaluate, search_seed, search_episodes, candidates=candidates, finalists=finalists,
+            final_episodes=final_episodes,
+        )  # fmt: skip
         rows: dict[str, Any] = {}
         for spec in ("blind", *agents):
             v = np.asarray(evaluate(res.winner if spec == "blind" else spec, cfg, episodes, seed), float)
             mean, lo, hi = _mean_ci(v, rng)
             rows[spec] = {"mean": mean, "lo": lo, "hi": hi}
-        points.append({"strength": float(s), "blind": res.winner, "agents": rows})
+        points.append(
+            {"strength": float(s), "blind": res.winner, "blind_search": res.winner_mean, "agents": rows}
+        )
     return {"strengths": [float(s) for s in strengths], "points": points}
 
 
@@ -287,7 +318,7 @@ def plot_regime_map(data: Mapping[str, Any], title: str, xlabel: str, path: str)
         m = np.array([r["mean"] for r in rows])
         lo = np.array([r["lo"] for r in rows])
         hi = np.array([r["hi"] for r in rows])
-        label = "best blind schedule" if spec == "blind" else spec
+        label = ROLE_LABELS.get(spec, spec)
         ax.plot(xs, m, "o-", color=colours(c), label=label)
         ax.fill_between(xs, lo, hi, color=colours(c), alpha=0.15)
     ax.set_xlabel(xlabel)

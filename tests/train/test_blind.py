@@ -152,3 +152,23 @@ def test_second_stage_picks_among_the_finalists_on_fresh_seeds():
     assert {(s, n, seed) for s, n, seed in calls if seed != 100} == {
         (s, 50, 130) for s in ("schedule:a", "schedule:b", "schedule:c")
     }
+
+
+def test_measure_compares_the_winners_search_and_evaluation_figures():
+    rng = np.random.default_rng(3)
+    second = {"schedule:a": 10 + rng.normal(0, 1, 60), "schedule:b": 12 + rng.normal(0, 1, 60)}
+    evals = {"schedule:a": 10 + rng.normal(0, 1, 80), "greedy": 8 + rng.normal(0, 1, 80)}
+
+    def evaluate(spec, cfg, episodes, seed):
+        if seed == 0:
+            return np.full(episodes, {"schedule:a": 11.0, "schedule:b": 11.5}[spec])
+        return second[spec] if seed == 20 else evals[spec]
+
+    res = B.search_blind(None, evaluate, 0, 20, candidates=["schedule:a", "schedule:b"], final_episodes=60)
+    assert res.winner == "schedule:a" and np.allclose(res.winner_values, second["schedule:a"])
+    rec = B.measure_task(None, res, ["greedy"], [], evaluate, 7, 80)
+    agree = rec["winner_search_minus_eval"]
+    assert agree["lo"] < agree["difference"] < agree["hi"] and agree["holds_0"]  # same law, other seeds
+    evals["schedule:a"] = evals["schedule:a"] + 3.0  # the search flattered it: the interval leaves 0
+    flattered = B.measure_task(None, res, ["greedy"], [], evaluate, 7, 80)
+    assert not flattered["winner_search_minus_eval"]["holds_0"]
