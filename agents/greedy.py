@@ -80,6 +80,18 @@ SUCCESS_MODELS = ("nominal", "observed", "oracle")
 BIAS_MODELS = ("nominal", "expected", "observed", "oracle")
 
 
+def _check_model(option: str, value: str, models: tuple[str, ...], block: str, observed: bool) -> None:
+    """ValueError naming ``option`` when ``value`` is not one of ``models``, or is ``observed`` while the
+    environment's observation has no ``block`` (``observed`` False)."""
+    if value not in models:
+        raise ValueError(f"greedy: {option} must be one of {list(models)}, got {value!r}")
+    if value == "observed" and not observed:
+        raise ValueError(
+            f"greedy: {option}='observed' reads the observation's {block} block, which this environment does "
+            f"not have (observe_{block} false)"
+        )
+
+
 class GreedyAgent(TargetAgent):
     """Largest predicted reduction of ``trace(P_rr)`` over ``horizon`` steps, slew time counted."""
 
@@ -98,20 +110,8 @@ class GreedyAgent(TargetAgent):
         bias: str = "nominal",
     ) -> None:
         super().__init__(env)
-        if success not in SUCCESS_MODELS:
-            raise ValueError(f"greedy: success must be one of {list(SUCCESS_MODELS)}, got {success!r}")
-        if success == "observed" and not self.config.observe_image_log:
-            raise ValueError(
-                "greedy: success='observed' reads the observation's image_log block, which this environment "
-                "does not have (observe_image_log false)"
-            )
-        if bias not in BIAS_MODELS:
-            raise ValueError(f"greedy: bias must be one of {list(BIAS_MODELS)}, got {bias!r}")
-        if bias == "observed" and not self.config.observe_residual_log:
-            raise ValueError(
-                "greedy: bias='observed' reads the observation's residual_log block, which this environment "
-                "does not have (observe_residual_log false)"
-            )
+        _check_model("success", success, SUCCESS_MODELS, "image_log", self.config.observe_image_log)
+        _check_model("bias", bias, BIAS_MODELS, "residual_log", self.config.observe_residual_log)
         if bias in ("oracle", "expected") and self.config.scenario == "mars-approach":
             raise ValueError(
                 f"greedy: bias={bias!r} needs a heliocentric scenario (the cruises), not mars-approach"

@@ -315,10 +315,7 @@ def cmd_blind_search(args: argparse.Namespace) -> int:
     from planetnav_env.envs.registration import ENV_IDS
     from planetnav_train.suite import blind as B
 
-    def evaluate(spec: str, cfg: EnvConfig, episodes: int, seed: int) -> np.ndarray:
-        r = evaluate_agent(spec, cfg, episodes, seed, progress=False)
-        return np.asarray(r.metrics["per_episode_mean_pos_err_km"], dtype=float)
-
+    evaluate = B.evaluate_objective
     out: dict[str, Any] = {"search_seed": args.search_seed, "eval_seed": args.seed, "tasks": {}}
     if args.json and Path(args.json).exists():
         out = json.loads(Path(args.json).read_text())  # add to an earlier run's tasks
@@ -373,10 +370,7 @@ def cmd_regime_map(args: argparse.Namespace) -> int:
             noise_streams="per_step",
         )
 
-    def evaluate(spec: str, cfg: EnvConfig, episodes: int, seed: int) -> np.ndarray:
-        r = evaluate_agent(spec, cfg, episodes, seed, progress=False)
-        return np.asarray(r.metrics["per_episode_mean_pos_err_km"], dtype=float)
-
+    evaluate = B.evaluate_objective
     t0 = time.perf_counter()
     data = B.regime_map(
         cfg_for, args.strengths, args.agents, args.candidates, evaluate, args.search_seed,

@@ -63,6 +63,15 @@ BOOTSTRAP_SEED = 0
 Evaluator = Callable[[str, EnvConfig, int, int], np.ndarray]
 
 
+def evaluate_objective(spec: str, cfg: EnvConfig, episodes: int, seed: int) -> np.ndarray:
+    """The :data:`Evaluator` of the commands: agent ``spec`` on ``episodes`` seeds from ``seed`` by
+    :func:`planetnav_train.evaluate.evaluate_agent`, the per-episode mean true position error [km]."""
+    from planetnav_train.evaluate import evaluate_agent
+
+    r = evaluate_agent(spec, cfg, episodes, seed, progress=False)
+    return np.asarray(r.metrics["per_episode_mean_pos_err_km"], dtype=float)
+
+
 def _cycles(n_targets: int) -> list[tuple[int, ...]]:
     """Cycles of 1, 2 or 3 distinct targets, one per rotation class (both orientations of three)."""
     out: list[tuple[int, ...]] = [(t,) for t in range(n_targets)]

@@ -172,3 +172,31 @@ def test_measure_compares_the_winners_search_and_evaluation_figures():
     evals["schedule:a"] = evals["schedule:a"] + 3.0  # the search flattered it: the interval leaves 0
     flattered = B.measure_task(None, res, ["greedy"], [], evaluate, 7, 80)
     assert not flattered["winner_search_minus_eval"]["holds_0"]
+
+
+def test_blind_search_and_regime_map_commands_end_to_end(tmp_path, capsys):
+    """The two commands on 20-step episodes: the JSON holds the search, the winner, the gap and the roles;
+    the regime map writes its points and a figure."""
+    import json
+
+    from planetnav_train.cli import main
+
+    out = tmp_path / "blind.json"
+    short = ["--option", "episode_steps=20"]
+    assert main(["blind-search", "--tasks", "Cruise-Target-v2", "--search-episodes", "2", "--finalists", "2",
+                 "--final-episodes", "2", "--episodes", "3", "--references", "greedy", "--privileged",
+                 "--no-progress", "--json", str(out), *short]) == 0  # fmt: skip
+    rec = json.loads(out.read_text())["tasks"]["Cruise-Target-v2 episode_steps=20"]
+    assert rec["blind_winner"] in rec["blind_search"]["finalists"]
+    family = B.blind_candidates(_cfg("planetnav/Cruise-Target-v2"))
+    assert len(rec["blind_search"]["candidates"]) == len(family)
+    assert rec["agents"]["greedy"]["role"] == "reference" and len(rec["agents"]["greedy"]["per_seed"]) == 3
+    assert "closed-loop gap" in capsys.readouterr().out
+    png, js = tmp_path / "map.png", tmp_path / "map.json"
+    assert main(["regime-map", "--task", "Cruise-Target-v2", "--strengths", "0", "1", "--agents", "greedy",
+                 "--candidates", "random", "schedule:targets=0-1,steps=10", "--search-episodes", "2",
+                 "--final-episodes", "0", "--episodes", "2", "--json", str(js), "--plot", str(png),
+                 *short]) == 0  # fmt: skip
+    data = json.loads(js.read_text())
+    assert [p["strength"] for p in data["points"]] == [0.0, 1.0] and png.stat().st_size > 10_000
+    assert set(data["points"][0]["agents"]) == {"blind", "greedy"}
