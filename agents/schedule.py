@@ -17,7 +17,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from planetnav_agents.base import Agent, unwrapped_config
+from planetnav_agents.base import ParsedObservation, TargetAgent, parse_observation
 
 
 def _entries(text: str | int | float, what: str) -> list[str]:
@@ -27,15 +27,18 @@ def _entries(text: str | int | float, what: str) -> list[str]:
     return items
 
 
-class ScheduleAgent(Agent):
-    """Targets of ``targets`` in turn, ``steps`` environment steps each (module docstring)."""
+class ScheduleAgent(TargetAgent):
+    """Targets of ``targets`` in turn, ``steps`` environment steps each (module docstring). In ``target`` mode
+    the action is the scheduled index and the observation is never read; in the torque modes the scheduled
+    planet is executed by the agent-side PD law (:class:`~planetnav_agents.base.TargetAgent`), which reads
+    the attitude: the choice stays blind, the pointing does not."""
 
     name = "schedule"
+    requires_idle_action = False
 
     def __init__(self, env: gym.Env, targets: str | int = "0-1", steps: str | int = 10) -> None:
-        cfg = unwrapped_config(env)
-        if cfg.action_mode != "target":
-            raise ValueError(f"schedule: needs action_mode 'target', got {cfg.action_mode!r}")
+        super().__init__(env)
+        cfg = self.config
         names = [n.lower() for n in (*cfg.planets, *cfg.pulsars)]
         idx: list[int] = []
         for item in _entries(targets, "targets"):
@@ -61,7 +64,6 @@ class ScheduleAgent(Agent):
                 "one "
                 "per target"
             )
-        self.env = env
         #: The target of each step of one cycle.
         self.cycle = np.repeat(np.asarray(idx, dtype=np.int64), dwell)
         self.name = f"schedule:targets={'-'.join(map(str, idx))},steps={'-'.join(map(str, dwell))}"
@@ -70,7 +72,15 @@ class ScheduleAgent(Agent):
     def reset(self, seed: int | None = None) -> None:
         self._k = 0
 
-    def act(self, observation: Any, info: dict[str, Any]) -> int:
+    def _next(self) -> int:
         target = int(self.cycle[self._k % self.cycle.size])
         self._k += 1
         return target
+
+    def choose_target(self, obs: ParsedObservation, info: dict[str, Any]) -> int:
+        return self._next()
+
+    def act(self, observation: Any, info: dict[str, Any]) -> Any:
+        if self.config.action_mode == "target":
+            return self._next()  # blind: the observation is not even parsed
+        return self.encode(parse_observation(observation, self.env), info, self._next())
