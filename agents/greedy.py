@@ -71,7 +71,7 @@ from planetnav_env.astro.bodies import body
 from planetnav_env.core import layout as L
 from planetnav_env.core.decisions import RESIDUAL_CAP
 from planetnav_env.core.what_if import coasted_position_trace, predicted_planet_trace, predicted_pulsar_trace
-from planetnav_env.sensors.camera_kernels import COB_UNIFORM_DISK
+from planetnav_env.sensors.camera_kernels import centroid_offset
 from planetnav_env.sensors.pulsar import ambiguity_resolvable_kernel
 
 #: How greedy counts images that yield no fix (the ``success`` option; module docstring).
@@ -218,7 +218,9 @@ class GreedyAgent(TargetAgent):
         to_sc /= np.linalg.norm(to_sc, axis=1, keepdims=True)
         cos_phase = np.sum(to_sun * to_sc, axis=1)
         alpha = 2.0 * np.arcsin(np.minimum(self._radii / np.linalg.norm(x[:3] - planets, axis=1), 1.0))
-        return scale * COB_UNIFORM_DISK * 0.5 * alpha * (1.0 - cos_phase)
+        # The environment's own offset formula, planet by planet (a compiled scalar function).
+        rows = zip(scale, alpha, cos_phase, strict=True)
+        return np.array([centroid_offset(float(b), float(a), float(c)) for b, a, c in rows])
 
     def reset(self, seed: int | None = None) -> None:
         if self.sessions is not None:

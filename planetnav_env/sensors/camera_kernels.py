@@ -394,6 +394,14 @@ COB_UNIFORM_DISK = 4.0 / (3.0 * math.pi)
 
 
 @row_kernel
+def centroid_offset(scale, alpha, cos_phase) -> float:  # pragma: no cover - compiled
+    """The centre-of-brightness offset [rad] of a planet of angular diameter ``alpha`` [rad] at phase angle
+    acos(``cos_phase``): ``scale * COB_UNIFORM_DISK * alpha / 2 * (1 - cos_phase)`` (``scale`` 1: the
+    uniformly bright disk)."""
+    return scale * COB_UNIFORM_DISK * 0.5 * alpha * (1.0 - cos_phase)
+
+
+@row_kernel
 def centroid_bias_kernel(los, sun_dir, cos_phase, alpha, scale) -> float:  # pragma: no cover - compiled
     """Displace the measured unit line of sight ``los`` (3,) in place by the centre-of-brightness offset of
     a planet of true angular diameter ``alpha`` [rad] at phase angle acos(``cos_phase``) (Sun-planet-camera),
@@ -401,7 +409,7 @@ def centroid_bias_kernel(los, sun_dir, cos_phase, alpha, scale) -> float:  # pra
     ``delta = scale * COB_UNIFORM_DISK * alpha / 2 * (1 - cos_phase)`` [rad], along the component of
     ``sun_dir`` across the line of sight (the sunlit limb's side in the image). ``scale`` 1 is the uniformly
     bright disk; a centroiding algorithm that models part of it leaves a smaller one. Returns ``delta``."""
-    delta = scale * COB_UNIFORM_DISK * 0.5 * alpha * (1.0 - cos_phase)
+    delta = centroid_offset(scale, alpha, cos_phase)
     d = sun_dir[0] * los[0] + sun_dir[1] * los[1] + sun_dir[2] * los[2]
     px, py, pz = sun_dir[0] - d * los[0], sun_dir[1] - d * los[1], sun_dir[2] - d * los[2]
     norm = math.sqrt(px * px + py * py + pz * pz)
