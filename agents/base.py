@@ -59,7 +59,7 @@ class ParsedObservation:
     #: (2, P) the image log (``EnvConfig.observe_image_log``): per planet the mean of its image success rate
     #: (Beta(1, 1) prior updated by this episode's images), then the scaled image counts; None without it.
     image_log: np.ndarray | None = None
-    #: (P,) the residual log (``EnvConfig.observe_residual_log``): mean normalized NIS per planet / 10.
+    #: (T,) the residual log (``EnvConfig.observe_residual_log``): mean normalized NIS per target / 10.
     residual_log: np.ndarray | None = None
 
     @property

@@ -51,6 +51,14 @@ the prior mean scale ``centroid_bias_max / 2`` (the bias model is known, its siz
 apparent diameter from the estimate) and ``sigma`` the filter's direction sigma. ``oracle``: the same with
 the planet's true drawn scale (privileged).
 
+``timing`` (tasks with a pulsar timing-model error, ``EnvConfig.pulsar_frequency_error_max``): how the
+score of a pulsar counts a phase drift the filter does not model. ``nominal`` (default): none. ``observed``,
+the adaptive rule: each pulsar's score divided by the mean normalized NIS of its phases this episode (the
+observation's ``residual_log``), as ``bias=observed`` does for planets. ``oracle``: divided by
+``1 + (d / sigma)^2``, with ``d`` the pulsar's true range error now (its drawn drift times the time since the
+episode's start) and ``sigma`` the range sigma a phase of it would have (its noise and the filter's range
+sigma along the pulsar): privileged.
+
 ``threshold`` θ (operations scenarios only, ``greedy:threshold=1``): the deadline- and cost-aware session
 rule of :mod:`planetnav_agents.operations` instead (sessions of ``session`` steps, default 2 h; stay at the
 mission attitude otherwise). Without it, greedy is unchanged.
@@ -78,6 +86,8 @@ from planetnav_env.sensors.pulsar import ambiguity_resolvable_kernel
 SUCCESS_MODELS = ("nominal", "observed", "oracle")
 #: How greedy counts a centroid bias (the ``bias`` option; module docstring).
 BIAS_MODELS = ("nominal", "expected", "observed", "oracle")
+#: How greedy counts a pulsar timing-model error (the ``timing`` option; module docstring).
+TIMING_MODELS = ("nominal", "observed", "oracle")
 
 
 def _check_model(option: str, value: str, models: tuple[str, ...], block: str, observed: bool) -> None:
@@ -108,17 +118,22 @@ class GreedyAgent(TargetAgent):
         session: int | None = None,
         success: str = "nominal",
         bias: str = "nominal",
+        timing: str = "nominal",
     ) -> None:
         super().__init__(env)
         _check_model("success", success, SUCCESS_MODELS, "image_log", self.config.observe_image_log)
         _check_model("bias", bias, BIAS_MODELS, "residual_log", self.config.observe_residual_log)
+        _check_model("timing", timing, TIMING_MODELS, "residual_log", self.config.observe_residual_log)
+        if timing != "nominal" and not self.config.pulsars:
+            raise ValueError(f"greedy: timing={timing!r} scores pulsars, and this environment has none")
         if bias in ("oracle", "expected") and self.config.scenario == "mars-approach":
             raise ValueError(
                 f"greedy: bias={bias!r} needs a heliocentric scenario (the cruises), not mars-approach"
             )
-        self.success, self.bias = success, bias
-        if success != "nominal" or bias != "nominal":
-            parts = [f"success={success}"] * (success != "nominal") + [f"bias={bias}"] * (bias != "nominal")
+        self.success, self.bias, self.timing = success, bias, timing
+        models = {"success": success, "bias": bias, "timing": timing}
+        parts = [f"{k}={v}" for k, v in models.items() if v != "nominal"]
+        if parts:
             self.name = "greedy:" + ",".join(parts)
         # Operations scenarios: the deadline- and cost-aware session rule (planetnav_agents.operations).
         self.sessions = None
@@ -199,7 +214,7 @@ class GreedyAgent(TargetAgent):
         elif self.success == "oracle":
             w *= self.env.unwrapped.core.true_image_success()[0]
         if self.bias == "observed":
-            w /= np.maximum(np.asarray(obs.residual_log, dtype=float) * RESIDUAL_CAP, 1.0)
+            w /= np.maximum(np.asarray(obs.residual_log[: self.n_planets], dtype=float) * RESIDUAL_CAP, 1.0)
         elif self.bias in ("oracle", "expected"):
             scale = (
                 self.env.unwrapped.core.true_centroid_bias()[0] if self.bias == "oracle"
@@ -207,6 +222,23 @@ class GreedyAgent(TargetAgent):
             )  # fmt: skip
             w /= 1.0 + (self._offsets(obs, info, scale) / float(self._params.scalars[0]["sig_dir"])) ** 2
         return w
+
+    def pulsar_weights(self, obs: ParsedObservation, p: np.ndarray) -> np.ndarray | None:
+        """(Q,) the factor on each pulsar's score from ``timing`` (None: nominal); ``p`` the filter's
+        covariance (6, 6) [km, km/s]."""
+        if self.timing == "nominal":
+            return None
+        if self.timing == "observed":
+            nis = np.asarray(obs.residual_log[self.n_planets :], dtype=float) * RESIDUAL_CAP
+            return 1.0 / np.maximum(nis, 1.0)
+        core = self.env.unwrapped.core
+        elapsed_s = float(core.i[0, L.I_K]) * self.config.step_s
+        psr = self._params.psr
+        p_rr = np.asarray(p, dtype=float)[:3, :3]
+        # The range sigma a phase would have: its noise (wavelength x phase sigma) and the filter's own range
+        # uncertainty along the pulsar (a bias well inside what the filter does not know yet is harmless).
+        sigma = np.sqrt((psr[:, 3] * psr[:, 4]) ** 2 + np.einsum("qi,ij,qj->q", psr[:, :3], p_rr, psr[:, :3]))
+        return 1.0 / (1.0 + (core.true_pulsar_drift()[0] * elapsed_s / sigma) ** 2)
 
     def _offsets(self, obs: ParsedObservation, info: dict[str, Any], scale: np.ndarray) -> np.ndarray:
         """(P,) the centroid offset [rad] an image of each planet would have now at bias scales ``scale``
@@ -255,6 +287,9 @@ class GreedyAgent(TargetAgent):
             for j in np.flatnonzero((obs.pulsars[:, L.TF_OBSERVABLE] > 0.5) & resolvable):
                 cycle = self._integration_steps + int(psr_lost[j])
                 scores[n_p + j] = (trace0 - self.pulsar_trace(p, n_dirs[j], int(j))) / cycle
+            pw = self.pulsar_weights(obs, p)
+            if pw is not None:
+                scores[n_p:] = np.where(np.isfinite(scores[n_p:]), scores[n_p:] * pw, -np.inf)
         self.last_scores = scores
         if not np.any(np.isfinite(scores)):
             # Nothing observable: keep the current target (the camera waits pointed where it was).

@@ -282,11 +282,25 @@ class EnvConfig:
         "(apparent radius) * (1 - cos phase angle), the offset of a uniformly bright illuminated disk "
         "(b = 1). 0: none (the v0 and v1 physics; nothing is drawn)",
     )
+    pulsar_frequency_error_max: float = option(
+        0.0,
+        ge=0,
+        le=1e-6,
+        unit="fractional frequency (delta nu / nu)",
+        kernel="psr_df_max",
+        doc="a pulsar timing-model error the filter does not model (timing noise, or a glitch since the "
+        "model was last fitted; the Crab's timing noise is documented to make pulsar filters diverge over "
+        "weeks): at reset each pulsar draws the fractional error delta of the on-board model's spin "
+        "frequency uniformly from [-pulsar_frequency_error_max, pulsar_frequency_error_max], fixed for the "
+        "episode and not observed, and every phase of it is off by delta * (t - episode start) / period "
+        "cycles, a range error of c * delta * (t - start) along its direction (c * 1e-10 is ~10 km after "
+        "94 h). 0: none (the v0 and v1 physics; nothing is drawn)",
+    )
     observe_residual_log: bool = option(
         False,
-        doc="add the ``residual_log`` block to the observation (last, one per planet: the mean normalized "
-        "NIS of this episode's fixes of it, with a prior of two consistent ones, capped at 10, / 10): the "
-        "filter's own consistency check per beacon",
+        doc="add the ``residual_log`` block to the observation (last, one per target, planets then pulsars: "
+        "the mean normalized NIS of this episode's fixes of it, with a prior of two consistent ones, capped "
+        "at 10, / 10): the filter's own consistency check per beacon",
     )
     observe_image_log: bool = option(
         False,

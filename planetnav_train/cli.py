@@ -39,7 +39,7 @@ import json
 import math
 import sys
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -350,6 +350,14 @@ def cmd_blind_search(args: argparse.Namespace) -> int:
     return 0
 
 
+#: The events ``regime-map`` sweeps: the option's value at a strength (0 = the v1 physics), the axis label.
+REGIME_EVENTS: dict[str, tuple[Callable[[float], float], str]] = {
+    "image_success_min": (lambda s: 1.0 - s, "1 - image_success_min (largest failure probability)"),
+    "centroid_bias_max": (lambda s: s, "centroid_bias_max (largest bias scale)"),
+    "pulsar_frequency_error_max": (lambda s: s, "pulsar_frequency_error_max (largest delta nu / nu)"),
+}
+
+
 def cmd_regime_map(args: argparse.Namespace) -> int:
     """``regime-map``: an event's strength swept from 0 (the v1 physics) upward; at each point the best blind
     schedule of the candidates, the nominal, adaptive and oracle rules and any trained agent, with 95 %
@@ -360,13 +368,13 @@ def cmd_regime_map(args: argparse.Namespace) -> int:
     env_id = args.task if args.task.startswith("planetnav/") else f"planetnav/{args.task}"
     if env_id not in ENV_IDS:
         raise ConfigError(f"regime-map: unknown task {args.task!r}; the ids are {sorted(ENV_IDS)}")
-    events = {"image_success_min": lambda s: 1.0 - s, "centroid_bias_max": lambda s: s}
-    if args.event not in events:
-        raise ConfigError(f"regime-map: --event must be one of {sorted(events)}, got {args.event!r}")
+    if args.event not in REGIME_EVENTS:
+        raise ConfigError(f"regime-map: --event must be one of {sorted(REGIME_EVENTS)}, got {args.event!r}")
+    option_of, xlabel = REGIME_EVENTS[args.event]
 
     def cfg_for(strength: float) -> EnvConfig:
         return EnvConfig.from_dict(
-            {**ENV_IDS[env_id], **dict(args.option or []), args.event: events[args.event](strength)},
+            {**ENV_IDS[env_id], **dict(args.option or []), args.event: option_of(strength)},
             noise_streams="per_step",
         )
 
@@ -379,14 +387,12 @@ def cmd_regime_map(args: argparse.Namespace) -> int:
     data.update(task=env_id, event=args.event, options=dict(args.option or []),
                 wall_s=time.perf_counter() - t0)  # fmt: skip
     for p in data["points"]:
-        print(f"strength {p['strength']:.2f}: blind {p['blind']}")
+        print(f"strength {p['strength']:.3g}: blind {p['blind']}")
         for spec, row in p["agents"].items():
             print(f"  {spec:40s} {row['mean']:9.2f} [{row['lo']:.2f}, {row['hi']:.2f}] km")
     if args.json:
         _write_json(args.json, data)
     if args.plot:
-        xlabel = {"image_success_min": "1 - image_success_min (largest failure probability)",
-                  "centroid_bias_max": "centroid_bias_max (largest bias scale)"}[args.event]  # fmt: skip
         B.plot_regime_map(data, f"{env_id.split('/')[1]}: {args.event}", xlabel, args.plot)
         print(f"wrote {args.plot}")
     return 0
@@ -666,7 +672,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="sweep an event's strength: best blind schedule, nominal, adaptive and oracle rules per point",
     )
     rm.add_argument("--task", required=True, help="task id, e.g. Cruise-Target-v2")
-    rm.add_argument("--event", default="image_success_min", help="image_success_min or centroid_bias_max")
+    rm.add_argument("--event", default="image_success_min", help=", ".join(REGIME_EVENTS))
     rm.add_argument("--strengths", nargs="+", type=float, default=[0.0, 0.25, 0.5, 0.75, 1.0],
                     help="0 = the v1 physics; image failures: 1 - image_success_min")  # fmt: skip
     rm.add_argument("--agents", nargs="+", required=True, help="agents to score at every point")

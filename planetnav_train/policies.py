@@ -55,8 +55,8 @@ FEATURES_EXTRACTORS = ("relative_order",)
 
 def _per_target_vectors(lay: L.ObservationLayout, width: int) -> list[int]:
     """Start columns of the blocks of one value per target (T wide) in a flat observation ``width`` wide:
-    the one-hot ``target``, each appended chunk, ``since_measured``, and the per-planet blocks (``in_field``,
-    the two rows of ``image_log``, ``residual_log``) where present."""
+    the one-hot ``target``, each appended chunk, ``since_measured``, ``residual_log`` and the per-planet
+    blocks (``in_field``, the two rows of ``image_log``; T wide only without pulsars) where present."""
     T = lay.n_targets
     vectors = [lay.target_start] + [lay.size + j * T for j in range((width - lay.size) // T)]
     vectors += [lay.since_measured_start] if lay.since_measured else []
@@ -81,10 +81,10 @@ def relative_order_index(lay: L.ObservationLayout, tail: int = 0) -> np.ndarray:
         raise ConfigError(
             f"relative_order: {tail} appended columns are not chunks of one value per target ({T})"
         )
-    if (lay.in_field or lay.image_log or lay.residual_log) and lay.n_pulsars:
+    if (lay.in_field or lay.image_log) and lay.n_pulsars:
         raise ConfigError(
-            "relative_order: the in_field, image_log and residual_log blocks (planets only) have no relative "
-            "order with pulsars"
+            "relative_order: the in_field and image_log blocks (planets only) have no relative order with "
+            "pulsars"
         )
     vectors = _per_target_vectors(lay, size + tail)
     F = L.TARGET_FEATURES

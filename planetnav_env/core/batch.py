@@ -42,6 +42,7 @@ from planetnav_env.core.records import RowState
 from planetnav_env.dynamics.orbit import GravityModel
 from planetnav_env.errors import NonFiniteError, PlanetNavError
 from planetnav_env.scenarios.episodes import Episode, approach_episode, draw_episode
+from planetnav_env.sensors.pulsar import SPEED_OF_LIGHT_KM_S
 
 #: Batches at least this large step in chunks on several threads (smaller ones are faster serially:
 #: handing chunks to threads costs ~20-50 us a step).
@@ -136,8 +137,11 @@ class BatchCore:
         # Images of each planet in view and the fixes they gave this episode (observe_image_log).
         self.image_log = np.zeros((n, 2, cfg.n_planets)) if self.layout.image_log else None
         # Fixes of each planet and the sum of their normalized NIS this episode (observe_residual_log).
-        self.residual_log = np.zeros((n, 2, cfg.n_planets)) if self.layout.residual_log else None
-        self._fix_dof = 3.0 if cfg.measurement_model.endswith("+size") else 2.0
+        self.residual_log = np.zeros((n, 2, cfg.n_targets)) if self.layout.residual_log else None
+        # Degrees of freedom of a fix of each target: a planet image (2 or 3), a pulsar phase (1).
+        self._fix_dof = np.array(
+            [3.0 if cfg.measurement_model.endswith("+size") else 2.0] * cfg.n_planets + [1.0] * cfg.n_pulsars
+        )
         self.episodes: list[RowEpisode | None] = [None] * n
         self._ephemeris = DEEphemeris()
         self._table_cache: tuple[float, np.ndarray] | None = None
@@ -206,6 +210,10 @@ class BatchCore:
             if cfg.centroid_bias_max > 0.0:
                 scale = gen.uniform(0.0, cfg.centroid_bias_max, cfg.n_planets)
                 f[r, L.F_COB : L.F_COB + cfg.n_planets] = scale
+            if cfg.pulsar_frequency_error_max > 0.0:
+                top = cfg.pulsar_frequency_error_max
+                delta = gen.uniform(-top, top, cfg.n_pulsars)
+                f[r, L.F_PSR_DRIFT : L.F_PSR_DRIFT + cfg.n_pulsars] = SPEED_OF_LIGHT_KM_S * delta
         K.reset_rows(self.params, self.state, rows)
         if self.since is not None:
             self.since[rows] = np.inf
@@ -243,8 +251,9 @@ class BatchCore:
         their ``residual_log`` observation block."""
         log = self.residual_log[rows]
         i = self.i[rows]
-        advance_residual_log(log, i[:, L.I_SENSOR] == L.SENSOR_CAMERA, self.f[rows, L.F_NIS] / self._fix_dof,
-                             i[:, L.I_TARGET])  # fmt: skip
+        target = i[:, L.I_TARGET]
+        dof = self._fix_dof[np.clip(target, 0, len(self._fix_dof) - 1)]
+        advance_residual_log(log, i[:, L.I_SENSOR] != L.SENSOR_NONE, self.f[rows, L.F_NIS] / dof, target)
         self.residual_log[rows] = log
         self.obs[rows, self.layout.residual_log_start :] = residual_log_values(log)
 
@@ -264,6 +273,12 @@ class BatchCore:
         if self.config.centroid_bias_max <= 0.0:
             return np.zeros((self.num_rows, n_p))
         return self.f[:, L.F_COB : L.F_COB + n_p].copy()
+
+    def true_pulsar_drift(self) -> np.ndarray:
+        """(N, Q) each row's range drift [km/s] of each pulsar's phases this episode, ``c * delta`` of the
+        timing model's frequency error (0 without the event): privileged, as :meth:`true_image_success`."""
+        n_q = self.config.n_pulsars
+        return self.f[:, L.F_PSR_DRIFT : L.F_PSR_DRIFT + n_q].copy()
 
     def step_decision(
         self,

@@ -92,13 +92,14 @@ def advance_residual_log(
 ) -> None:
     """Add one physics step's fix to the residual log, in place.
 
-    log: (N, 2, P), ``log[:, 0]`` fixes of each planet, ``log[:, 1]`` the sum of their NIS divided by the
-    measurement's degrees of freedom. fixed: (N,) bool, the camera measured its target this step;
-    nis_norm: (N,) that fix's NIS / dof (the filter's, gated fixes included); target_index: (N,) the planet.
+    log: (N, 2, T), ``log[:, 0]`` fixes of each target (planets, then pulsars), ``log[:, 1]`` the sum of
+    their NIS divided by the measurement's degrees of freedom. fixed: (N,) bool, a sensor measured the
+    target this step (an image or a pulsar phase); nis_norm: (N,) that fix's NIS / dof (the filter's, gated
+    fixes included); target_index: (N,) the target.
     """
-    n_planets = log.shape[2]
+    n_targets = log.shape[2]
     target_index = np.asarray(target_index)
-    ok = np.asarray(fixed, dtype=bool) & (target_index >= 0) & (target_index < n_planets)
+    ok = np.asarray(fixed, dtype=bool) & (target_index >= 0) & (target_index < n_targets)
     ok &= np.isfinite(nis_norm)
     rows = np.flatnonzero(ok)
     log[rows, 0, target_index[rows]] += 1.0
@@ -106,7 +107,7 @@ def advance_residual_log(
 
 
 def residual_log_values(log: np.ndarray) -> np.ndarray:
-    """The ``residual_log`` observation (N, P) float32: ``(sum + 2) / (fixes + 2)`` (the mean normalized
+    """The ``residual_log`` observation (N, T) float32: ``(sum + 2) / (fixes + 2)`` (the mean normalized
     NIS with a prior of two consistent fixes), capped at :data:`RESIDUAL_CAP`, divided by it."""
     mean = (log[:, 1] + 2.0) / (log[:, 0] + 2.0)
     return (np.minimum(mean, RESIDUAL_CAP) / RESIDUAL_CAP).astype(np.float32)

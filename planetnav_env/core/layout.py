@@ -61,6 +61,9 @@ _F_FIELDS = (
     # centre-of-brightness offset drawn at reset (sensors.camera_kernels.centroid_bias_kernel)
     ("COB", 7),
     ("COB_LAST", 1),  # the offset of the last image [rad] (0: none)
+    # pulsar timing-model error (EnvConfig.pulsar_frequency_error_max > 0; unused, 0, otherwise): per
+    # pulsar, the range drift c * delta [km/s] of its phases, drawn at reset (every catalogue pulsar fits)
+    ("PSR_DRIFT", 4),
 )
 F_OFFSETS: dict[str, tuple[int, int]] = {}
 _o = 0
@@ -81,6 +84,9 @@ F_DV_STEP, F_DV_LOST, F_OBJECTIVE, F_THRUSTING, F_DL_SIGMA, F_DL_ERR = (
 )
 F_IMG_P = F_OFFSETS["IMG_P"][0]
 F_COB, F_COB_LAST = F_OFFSETS["COB"][0], F_OFFSETS["COB_LAST"][0]
+F_PSR_DRIFT = F_OFFSETS["PSR_DRIFT"][0]
+#: Pulsar slots of PSR_DRIFT.
+MAX_PULSARS = F_OFFSETS["PSR_DRIFT"][1]
 #: Planet slots of IMG_P: every body a camera may target (``astro.bodies.BODIES`` but the Sun).
 MAX_PLANETS = F_OFFSETS["IMG_P"][1]
 #: Deadline slots of the state (``config.MAX_DEADLINES``; the width of DL_SIGMA and DL_ERR).
@@ -208,8 +214,9 @@ IN_FIELD_TEXT = (
 
 
 RESIDUAL_LOG_TEXT = (
-    "residual log (with EnvConfig.observe_residual_log), one per planet: the mean over this episode's "
-    "fixes of it of the filter's NIS divided by its degrees of freedom, with a prior of two consistent "
+    "residual log (with EnvConfig.observe_residual_log), one per target (planets, then pulsars): the mean "
+    "over this episode's fixes of it of the filter's NIS divided by its degrees of freedom (a phase has "
+    "one), with a prior of two consistent "
     "fixes (1: consistent with the filter's noise model), capped at 10, / 10"
 )
 
@@ -252,7 +259,7 @@ class ObservationLayout:
     #: ``since_measured`` (``EnvConfig.observe_image_log``; text: IMAGE_LOG_TEXT). Written by
     #: :class:`planetnav_env.core.batch.BatchCore`.
     image_log: bool = False
-    #: The ``residual_log`` block (P values) after ``image_log`` (``EnvConfig.observe_residual_log``; text:
+    #: The ``residual_log`` block (T values) after ``image_log`` (``EnvConfig.observe_residual_log``; text:
     #: RESIDUAL_LOG_TEXT). Written by :class:`planetnav_env.core.batch.BatchCore`.
     residual_log: bool = False
 
@@ -315,7 +322,7 @@ class ObservationLayout:
 
     @property
     def size(self) -> int:
-        return self.residual_log_start + (self.n_planets if self.residual_log else 0)
+        return self.residual_log_start + (self.n_targets if self.residual_log else 0)
 
     @property
     def blocks(self) -> tuple[tuple[str, int, int, tuple[int, ...]], ...]:
@@ -338,7 +345,7 @@ class ObservationLayout:
         if self.image_log:
             out.append(("image_log", self.image_log_start, self.residual_log_start, (2, self.n_planets)))
         if self.residual_log:
-            out.append(("residual_log", self.residual_log_start, self.size, (self.n_planets,)))
+            out.append(("residual_log", self.residual_log_start, self.size, (self.n_targets,)))
         return tuple(out)
 
     def to_dict(self, flat: np.ndarray) -> dict[str, np.ndarray]:

@@ -18,8 +18,10 @@ from planetnav_env.core.layout import (
     F_INTEGRATED,
     F_NIS,
     F_PIX,
+    F_PSR_DRIFT,
     F_Q,
     F_QE,
+    F_T0,
     F_W,
     F_WM,
     F_X,
@@ -243,6 +245,10 @@ def time_pulsar(prm, st, n, j, t, sc):  # pragma: no cover - compiled
         h += nvec[k] * (xe[k] + sc.ssb[k])
     noise_begin(prm, i, rng, n, NOISE_PULSAR0 + j, sc)
     total = total / lam + sigma * next_normal(prm, rng, n, sc)
+    if ps.psr_df_max > 0.0:
+        # The on-board timing model's frequency error (EnvConfig.pulsar_frequency_error_max): the phase
+        # runs off by nu * delta * (t - start) cycles, i.e. c * delta * (t - start) / lambda.
+        total += f[n, F_PSR_DRIFT + j] * (t - f[n, F_T0]) / lam
     h /= lam
     frac = total - math.floor(total)  # what the detector delivers: the phase within a cycle
     for k in range(6):

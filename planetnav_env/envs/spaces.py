@@ -183,7 +183,7 @@ def decode_observation(cfg: EnvConfig, layout: ObservationLayout, observation: A
     with ``observe_in_field`` in_field (P,) bool (the planets the camera's visibility rule passes now), and
     with ``observe_since_measured`` since_measured (T,) (the observation's scaled values), and with
     ``observe_image_log`` image_log (2, P) (the observation's values: success-rate means, scaled images), and
-    with ``observe_residual_log`` residual_log (P,) (the observation's values)."""
+    with ``observe_residual_log`` residual_log (T,) (the observation's values)."""
     if isinstance(observation, dict):
         try:
             flat = layout.from_dict(observation)

@@ -1,9 +1,12 @@
-"""Events the filter does not model: image-processing failures and the centre-of-brightness centroid bias.
+"""Events the filter does not model: image-processing failures, the centre-of-brightness centroid bias and a
+pulsar timing-model error.
 
 Held to independent truth: the failure rate to the binomial law of the drawn probability; the centroid
 offset formula to a brute-force centroid of the lit part of a uniformly bright sphere's disk; the logs the
-observation carries to counts made from the infos. The v0/v1 ids draw nothing (their golden hashes,
-tests/env/test_golden.py, hold that bit for bit); the options leave the rest of the episode as it was.
+observation carries to counts made from the infos; the timing error's effect on the estimate to the Kalman
+gain times the phase error ``c delta t / lambda``, against an episode without it. The v0/v1 ids draw
+nothing (their golden hashes, tests/env/test_golden.py, hold that bit for bit); the options leave the rest
+of the episode as it was.
 """
 
 from __future__ import annotations
@@ -192,5 +195,69 @@ def test_v2_observation_blocks_decode(env_id):
     if cfg.observe_image_log:
         assert d["image_log"].shape == (2, cfg.n_planets)
     if cfg.observe_residual_log:
-        assert d["residual_log"].shape == (cfg.n_planets,)
+        assert d["residual_log"].shape == (cfg.n_targets,)
     assert env.observation_space.contains(obs)
+
+
+MARS = ENV_IDS["planetnav/MarsApproach-Tasking-v1"]
+
+
+def _mars_env(**options) -> PlanetNavEnv:
+    return PlanetNavEnv(
+        EnvConfig.from_dict({**MARS, "noise_streams": "per_step", **options}).at_physics_step()
+    )
+
+
+def test_pulsar_timing_error_is_drawn_after_the_episode():
+    base, ev = _mars_env(), _mars_env(pulsar_frequency_error_max=1e-10)
+    base.reset(seed=3)
+    ev.reset(seed=3)
+    for col, width in (("X", 6), ("XE", 6), ("Q", 4), ("T0", 1)):
+        a = L.F_OFFSETS[col][0]
+        np.testing.assert_array_equal(base.core.f[0, a : a + width], ev.core.f[0, a : a + width])
+    np.testing.assert_array_equal(base.core.rng, ev.core.rng)
+    drift = ev.core.true_pulsar_drift()[0]
+    assert drift.shape == (2,) and np.all(np.abs(drift) <= 299_792.458 * 1e-10) and np.all(drift != 0)
+    np.testing.assert_array_equal(base.core.true_pulsar_drift()[0], 0.0)
+    assert L.MAX_PULSARS >= len(__import__("planetnav_env.sensors.pulsar", fromlist=["PULSARS"]).PULSARS)
+
+
+def test_pulsar_timing_error_shifts_each_update_by_the_gain_times_the_phase_error():
+    """Timing the Crab (target 1) from the start: both episodes have the same covariance (it does not
+    depend on the measured values) and the same noise, so after the first phase the estimates differ by
+    K * dz with K = P+ H^T / R (the Kalman gain from the updated covariance) and dz = c delta (t - t0) /
+    lambda cycles; the residual log counts the phase with one degree of freedom."""
+    opts = {"observe_residual_log": True}
+    clean, drifting = _mars_env(**opts), _mars_env(pulsar_frequency_error_max=1e-8, **opts)
+    clean.reset(seed=8)
+    drifting.reset(seed=8)
+    prm = drifting.core_params
+    n_dir, lam, sigma = prm.psr[0, :3], prm.psr[0, 3], prm.psr[0, 4]
+    total = fixes = 0.0
+    for _ in range(12):
+        _, _, _, _, info_c = clean.step(1)
+        _, _, _, _, info_d = drifting.step(1)
+        if info_d["sensor"] == "xray":
+            break
+    assert info_d["sensor"] == info_c["sensor"] == "xray"
+    p_plus = drifting.core.p[0]
+    np.testing.assert_allclose(p_plus, clean.core.p[0], rtol=1e-12)
+    elapsed = drifting.core.i[0, L.I_K] * drifting.config.step_s
+    dz = drifting.core.true_pulsar_drift()[0, 0] * elapsed / lam
+    gain = p_plus[:, :3] @ (n_dir / lam) / sigma**2
+    xe = L.F_OFFSETS["XE"][0]
+    shift = drifting.core.f[0, xe : xe + 6] - clean.core.f[0, xe : xe + 6]
+    assert abs(dz * lam) > 0.05  # km: a shift well above round-off
+    np.testing.assert_allclose(shift, gain * dz, rtol=1e-6, atol=1e-9)
+    total, fixes = drifting.core.f[0, L.F_NIS], 1.0
+    log = drifting.decode_observation(drifting.core.obs[0].astype(np.float32))["residual_log"]
+    expected = min((total + 2) / (fixes + 2), RESIDUAL_CAP) / RESIDUAL_CAP
+    assert log.shape == (3,)
+    np.testing.assert_allclose(log, [0.1, expected, 0.1], rtol=1e-5)
+
+
+def test_pulsar_timing_error_option_is_checked():
+    with pytest.raises(ConfigError, match="pulsar_frequency_error_max"):
+        EnvConfig.from_dict({**MARS, "pulsar_frequency_error_max": -1e-10})
+    with pytest.raises(ConfigError, match="pulsar_frequency_error_max"):
+        EnvConfig.from_dict({**MARS, "pulsar_frequency_error_max": 1e-3})

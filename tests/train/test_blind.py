@@ -16,8 +16,8 @@ from planetnav_env.errors import ConfigError
 from planetnav_train.suite import blind as B
 
 
-def _cfg(env_id: str) -> EnvConfig:
-    return EnvConfig.from_dict(ENV_IDS[env_id])
+def _cfg(env_id: str, **options) -> EnvConfig:
+    return EnvConfig.from_dict({**ENV_IDS[env_id], **options})
 
 
 def test_candidates_cover_every_cycle_at_the_decision_interface():
@@ -119,6 +119,40 @@ def test_greedy_adaptive_rules_need_their_observation_blocks():
         make_agent("greedy:bias=observed", env)
     with pytest.raises(ValueError, match="success must be one of"):
         make_agent("greedy:success=sometimes", env)
+
+
+def test_greedy_timing_rules_score_pulsars_by_their_residuals_and_the_true_drift():
+    cruise = PlanetNavEnv(_cfg("planetnav/Cruise-Target-v1", observe_residual_log=True).at_physics_step())
+    with pytest.raises(ValueError, match="has none"):
+        make_agent("greedy:timing=observed", cruise)
+    mars_v1 = PlanetNavEnv(_cfg("planetnav/MarsApproach-Tasking-v1").at_physics_step())
+    with pytest.raises(ValueError, match="residual_log"):
+        make_agent("greedy:timing=observed", mars_v1)
+    env = PlanetNavEnv(
+        _cfg(
+            "planetnav/MarsApproach-Tasking-v1", pulsar_frequency_error_max=1e-9, observe_residual_log=True
+        ).at_physics_step()
+    )
+    adaptive, oracle = make_agent("greedy:timing=observed", env), make_agent("greedy:timing=oracle", env)
+    assert adaptive.name == "greedy:timing=observed"
+    obs, info = env.reset(seed=2)
+    for k in range(40):
+        obs, _, _, _, info = env.step(1 + k // 20)
+    from planetnav_agents.base import parse_observation
+
+    p = parse_observation(obs, env)
+    log = env.decode_observation(obs)["residual_log"]
+    np.testing.assert_allclose(
+        adaptive.pulsar_weights(p, info["filter"]["P"]), 1.0 / np.maximum(log[1:] * 10, 1)
+    )
+    # The documented oracle: 1 / (1 + (d / sigma)^2), d the true range error now, sigma^2 the phase's range
+    # variance plus the filter's along the pulsar.
+    psr, p_rr = env.core_params.psr, np.asarray(info["filter"]["P"])[:3, :3]
+    d = env.core.true_pulsar_drift()[0] * 40 * env.config.step_s
+    var = (psr[:, 3] * psr[:, 4]) ** 2 + np.array([n @ p_rr @ n for n in psr[:, :3]])
+    w = oracle.pulsar_weights(p, info["filter"]["P"])
+    np.testing.assert_allclose(w, 1.0 / (1.0 + d**2 / var), rtol=1e-12)
+    assert np.all((w > 0) & (w < 1))
 
 
 def test_greedy_weights_follow_the_image_log_and_the_oracle():
