@@ -282,6 +282,18 @@ class EnvConfig:
         "(apparent radius) * (1 - cos phase angle), the offset of a uniformly bright illuminated disk "
         "(b = 1). 0: none (the v0 and v1 physics; nothing is drawn)",
     )
+    prior_long_sigma_km: float = option(
+        0.0,
+        ge=0,
+        unit="km",
+        doc="the prior's shape after a navigation history that left one direction poorly known (e.g. the "
+        "range along the line of sight of the beacon it used, or the along-track error of an aged orbit "
+        "determination): at reset a direction is drawn uniformly on the sphere, the position prior's "
+        "1-sigma along it is prior_long_sigma_km (across it stays filter.sigma_pos0), and the initial "
+        "estimate error is drawn from that covariance. The filter starts from it (it is its P0, not an "
+        "unmodelled event), so a rule that reads P sees which way the error lies. 0: the spherical prior of "
+        "filter.sigma_pos0 (the v0 and v1 physics; nothing is drawn); else at least filter.sigma_pos0",
+    )
     pulsar_frequency_error_max: float = option(
         0.0,
         ge=0,
@@ -375,6 +387,11 @@ class EnvConfig:
         if len(set(planets)) != len(planets):
             raise ConfigError(f"planets must not repeat, got {list(planets)}")
         object.__setattr__(self, "planets", planets)
+        if 0.0 < self.prior_long_sigma_km < self.filter.sigma_pos0:
+            raise ConfigError(
+                f"prior_long_sigma_km must be 0 (a spherical prior) or at least filter.sigma_pos0 "
+                f"({self.filter.sigma_pos0} km), got {self.prior_long_sigma_km}"
+            )
         _check_ephemeris_span(self)
         ratio = self.step_s / self.attitude_substep_s
         if abs(ratio - round(ratio)) > 1e-9:

@@ -214,6 +214,8 @@ class BatchCore:
                 top = cfg.pulsar_frequency_error_max
                 delta = gen.uniform(-top, top, cfg.n_pulsars)
                 f[r, L.F_PSR_DRIFT : L.F_PSR_DRIFT + cfg.n_pulsars] = SPEED_OF_LIGHT_KM_S * delta
+            if cfg.prior_long_sigma_km > 0.0:
+                self._elongate_prior(r, gen)
         K.reset_rows(self.params, self.state, rows)
         if self.since is not None:
             self.since[rows] = np.inf
@@ -273,6 +275,19 @@ class BatchCore:
         if self.config.centroid_bias_max <= 0.0:
             return np.zeros((self.num_rows, n_p))
         return self.f[:, L.F_COB : L.F_COB + n_p].copy()
+
+    def _elongate_prior(self, r: int, gen: np.random.Generator) -> None:
+        """Row ``r``'s prior made long along a direction ``u`` drawn uniformly on the sphere
+        (``EnvConfig.prior_long_sigma_km``): ``P_rr = s^2 I + (L^2 - s^2) u u^T`` with ``s`` the spherical
+        sigma, and the initial error already drawn from ``s^2 I`` plus ``sqrt(L^2 - s^2) z u`` (``z``
+        standard normal), whose covariance is that ``P_rr``. Drawn after everything else, so the episode is
+        the one the same seed gives with the spherical prior, plus the long error."""
+        u = gen.standard_normal(3)
+        u /= np.linalg.norm(u)
+        s2 = self._sigma0[0] ** 2
+        extra = self.config.prior_long_sigma_km**2 - s2
+        self.f[r, L.F_XE : L.F_XE + 3] += math.sqrt(extra) * gen.standard_normal() * u
+        self.p[r, :3, :3] += extra * np.outer(u, u)
 
     def true_pulsar_drift(self) -> np.ndarray:
         """(N, Q) each row's range drift [km/s] of each pulsar's phases this episode, ``c * delta`` of the

@@ -3,6 +3,8 @@ target task, by patching the reset; mean true position error [km] per agent on N
 
     python research/tasks_v2/probe_prior_shape.py planetnav/Cruise-Target-v1 12 60000 3000 100 \
         greedy schedule:targets=0-1-2,steps=20
+
+``search`` as the first agent runs the suite's blind search (smaller: 20 + 30 seeds) and scores its winner.
 """
 
 from __future__ import annotations
@@ -40,6 +42,13 @@ def patched(s_long: float, s_short: float):
 def main(env_id, episodes, seed, s_long, s_short, specs):
     K.reset_rows = patched(s_long, s_short)
     cfg = EnvConfig.from_dict({**ENV_IDS[env_id], "noise_streams": "per_step"})
+    if specs[:1] == ["search"]:
+        # The two-stage blind search of the suite (20 seeds from 40,000, the best 3 on 30 more) first.
+        from planetnav_train.suite import blind as B
+
+        res = B.search_blind(cfg, B.evaluate_objective, 40_000, 20, finalists=3, final_episodes=30)
+        print(f"blind search winner {res.winner} ({res.winner_mean:.2f} km on its second-stage seeds)")
+        specs = [res.winner, *specs[1:]]
     for spec in specs:
         t = time.time()
         res = evaluate_agent(spec, cfg, episodes, seed, progress=False)

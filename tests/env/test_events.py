@@ -261,3 +261,44 @@ def test_pulsar_timing_error_option_is_checked():
         EnvConfig.from_dict({**MARS, "pulsar_frequency_error_max": -1e-10})
     with pytest.raises(ConfigError, match="pulsar_frequency_error_max"):
         EnvConfig.from_dict({**MARS, "pulsar_frequency_error_max": 1e-3})
+
+
+def test_elongated_prior_is_drawn_after_the_episode_along_its_long_axis():
+    """The same seed gives the same episode with and without the elongated prior but for the initial
+    estimate's extra error, which lies along the prior's long axis; P_rr has sigmas (s, s, L)."""
+    base = _physics_env(filter={"sigma_pos0": 100.0})
+    ev = _physics_env(filter={"sigma_pos0": 100.0}, prior_long_sigma_km=5000.0)
+    base.reset(seed=21)
+    ev.reset(seed=21)
+    for col, width in (("X", 6), ("Q", 4), ("T0", 1)):
+        a = L.F_OFFSETS[col][0]
+        np.testing.assert_array_equal(base.core.f[0, a : a + width], ev.core.f[0, a : a + width])
+    np.testing.assert_array_equal(base.core.rng, ev.core.rng)
+    xe = L.F_OFFSETS["XE"][0]
+    np.testing.assert_array_equal(base.core.f[0, xe + 3 : xe + 6], ev.core.f[0, xe + 3 : xe + 6])
+    p_rr = ev.core.p[0, :3, :3]
+    values, vectors = np.linalg.eigh(p_rr)
+    np.testing.assert_allclose(np.sqrt(values), [100.0, 100.0, 5000.0], rtol=1e-9)
+    extra = ev.core.f[0, xe : xe + 3] - base.core.f[0, xe : xe + 3]
+    assert np.linalg.norm(np.cross(extra, vectors[:, 2])) < 1e-6 * np.linalg.norm(extra)
+    np.testing.assert_array_equal(ev.core.p[0, 3:, 3:], base.core.p[0, 3:, 3:])
+
+
+def test_elongated_prior_error_is_distributed_as_its_covariance():
+    """NEES of the initial position error against the drawn P_rr over 400 resets: chi-square with 3
+    degrees of freedom (mean 3, variance 6; the bound is 5 standard errors)."""
+    env = _physics_env(filter={"sigma_pos0": 100.0}, prior_long_sigma_km=8000.0)
+    x, xe = L.F_OFFSETS["X"][0], L.F_OFFSETS["XE"][0]
+    nees = []
+    for seed in range(400):
+        env.reset(seed=seed)
+        e = env.core.f[0, xe : xe + 3] - env.core.f[0, x : x + 3]
+        nees.append(e @ np.linalg.solve(env.core.p[0, :3, :3], e))
+    assert abs(np.mean(nees) - 3.0) < 5 * np.sqrt(6.0 / 400)
+
+
+def test_elongated_prior_must_not_be_shorter_than_the_spherical_one():
+    with pytest.raises(ConfigError, match="prior_long_sigma_km"):
+        EnvConfig.from_dict({**V1, "prior_long_sigma_km": 500.0})  # cruise sigma_pos0 is 1000 km
+    with pytest.raises(ConfigError, match="prior_long_sigma_km"):
+        EnvConfig.from_dict({**V1, "prior_long_sigma_km": -1.0})
