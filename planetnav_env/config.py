@@ -202,7 +202,10 @@ class EnvConfig:
         "truth",
         choices=REWARDS,
         doc="``truth`` (-|r_est - r_true| / reward_scale_km, privileged) or ``covariance`` "
-        "(-sqrt(trace P_rr) / reward_scale_km, computable on board)",
+        "(-sqrt(trace P_rr) / reward_scale_km, computable on board). With ``operations`` the reward is the "
+        "objective's increment instead, -(w * delta-v lost this step + the deadline terms reached this step) "
+        "/ reward_scale_km (summing to -J / reward_scale_km), and this option picks the deadline term: the "
+        "true error mapped to the encounter (``truth``) or its 1-sigma the filter predicts (``covariance``)",
     )
     reward_scale_km: float = option(1000.0, gt=0, unit="km", kernel="reward_scale", doc="reward scale")
     torque_penalty: float = option(

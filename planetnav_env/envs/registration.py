@@ -80,12 +80,16 @@ ENV_IDS: dict[str, dict] = {
 }
 
 #: The ``-v1`` ids: the ``-v0`` physics, posed for learners (docs/suite.md, "Tasks v1", gives the ablation
-#: behind each choice). Every ``-v1`` id rewards the filter's own predicted RMS position error,
-#: ``-sqrt(trace P_rr) / reward_scale_km`` per physics step (the spacecraft computes it on board; the true
-#: error it predicts is the objective, and when the filter is consistent ``trace P_rr`` is the expected
+#: behind each choice). Every ``-v1`` id but ThrustArc-TCM rewards the filter's own predicted RMS position
+#: error, ``-sqrt(trace P_rr) / reward_scale_km`` per physics step (the spacecraft computes it on board; the
+#: true error it predicts is the objective, and when the filter is consistent ``trace P_rr`` is the expected
 #: squared error) instead of the privileged true error, and observes the time since each target was last
-#: measured. The target-choice tasks hold each decision over several physics steps (a slew takes ~100 s, a
-#: pulsar integration ~1,000 s) and take relative actions (0 = stay). The physics step (``step_s``), the
+#: measured. ThrustArc-TCM-v1 (an operations scenario) rewards the increments of its objective J,
+#: ``-(w * delta-v lost this step + the deadline terms reached this step) / reward_scale_km``, with
+#: ``reward: covariance`` choosing the deadline term the filter predicts (the 1-sigma mapped to the
+#: encounter, computable on board) over the true mapped error; its rewards sum to ``-J / reward_scale_km``.
+#: The target-choice tasks hold each decision over several physics steps (a slew takes ~100 s, a pulsar
+#: integration ~1,000 s) and take relative actions (0 = stay). The physics step (``step_s``), the
 #: episode's physical length and the objective do not change; the 1-s torque tasks keep their 1-s control
 #: step, which is their point.
 _POSED: dict[str, dict[str, Any]] = {

@@ -189,7 +189,7 @@ def test_kernel_scalars_copied_from_options() -> None:
         "step_s": "f8", "substep_s": "f8", "coarse_s": "f8", "episode_steps": "i8", "reward_scale": "f8",
         "torque_penalty": "f8", "torque_scale": "f8", "divergence": "f8", "ambig_k": "f8", "k_a": "f8",
         "k_w": "f8", "psr_int_s": "f8", "ops_encounter": "f8", "ops_weight": "f8", "img_min": "f8",
-        "cob_max": "f8",
+        "cob_max": "f8", "psr_df_max": "f8",
     }  # fmt: skip
     cfg = EnvConfig(torque_action_scale=0.25)
     values = kernel_values(cfg)
