@@ -297,6 +297,13 @@ class EnvConfig:
         "unmodelled event), so a rule that reads P sees which way the error lies. 0: the spherical prior of "
         "filter.sigma_pos0 (the v0 and v1 physics; nothing is drawn); else at least filter.sigma_pos0",
     )
+    observe_position_correlation: bool = option(
+        False,
+        doc="add the ``position_correlation`` block to the observation (last, three values: the "
+        "correlation coefficients rho_xy, rho_xz, rho_yz of the filter's position covariance; with "
+        "``log_sigma`` they give the whole P_rr, which way the position error lies, as a rule reading "
+        "``info['filter']['P']`` sees it)",
+    )
     pulsar_frequency_error_max: float = option(
         0.0,
         ge=0,

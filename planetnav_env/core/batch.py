@@ -138,6 +138,11 @@ class BatchCore:
         self.image_log = np.zeros((n, 2, cfg.n_planets)) if self.layout.image_log else None
         # Fixes of each planet and the sum of their normalized NIS this episode (observe_residual_log).
         self.residual_log = np.zeros((n, 2, cfg.n_targets)) if self.layout.residual_log else None
+        # The blocks written here after the compiled step (the rest of the observation is the kernel's).
+        lay = self.layout
+        self._python_blocks = any(
+            (lay.since_measured, lay.image_log, lay.residual_log, lay.position_correlation)
+        )
         # Degrees of freedom of a fix of each target: a planet image (2 or 3), a pulsar phase (1).
         self._fix_dof = np.array(
             [3.0 if cfg.measurement_model.endswith("+size") else 2.0] * cfg.n_planets + [1.0] * cfg.n_pulsars
@@ -226,6 +231,8 @@ class BatchCore:
         if self.residual_log is not None:
             self.residual_log[rows] = 0.0
             self._observe_residual_log(rows)
+        if self.layout.position_correlation:
+            self._observe_position_correlation(rows)
 
     def _observe_since(self, rows: np.ndarray) -> None:
         """Count one physics step seen by ``rows`` (indices; a reset's first observation counts, as a step
@@ -258,6 +265,14 @@ class BatchCore:
         advance_residual_log(log, i[:, L.I_SENSOR] != L.SENSOR_NONE, self.f[rows, L.F_NIS] / dof, target)
         self.residual_log[rows] = log
         self.obs[rows, self.layout.residual_log_start :] = residual_log_values(log)
+
+    def _observe_position_correlation(self, rows: np.ndarray) -> None:
+        """Write the ``position_correlation`` block of ``rows``: rho_xy, rho_xz, rho_yz of ``P_rr``."""
+        p = self.p[rows, :3, :3]
+        sigma = np.sqrt(np.einsum("nii->ni", p))
+        rho = p / (sigma[:, :, None] * sigma[:, None, :])
+        values = np.stack([rho[:, 0, 1], rho[:, 0, 2], rho[:, 1, 2]], axis=1)
+        self.obs[rows, self.layout.position_correlation_start :] = np.clip(values, -1.0, 1.0)
 
     def true_image_success(self) -> np.ndarray:
         """(N, P) each row's probability that an image of planet p in view yields a fix this episode (1
@@ -357,7 +372,7 @@ class BatchCore:
                 f"row {r} (of rows {bad.tolist()}) at step {int(self.i[r, L.I_K])}: {what}; "
                 f"q={self.f[r, L.F_Q : L.F_Q + 4]}, omega={self.f[r, L.F_W : L.F_W + 3]}"
             )
-        if self.since is not None or self.image_log is not None or self.residual_log is not None:
+        if self._python_blocks:
             stepped = np.flatnonzero(active)
             if self.since is not None:
                 self._observe_since(stepped)
@@ -365,6 +380,8 @@ class BatchCore:
                 self._observe_image_log(stepped)
             if self.residual_log is not None:
                 self._observe_residual_log(stepped)
+            if self.layout.position_correlation:
+                self._observe_position_correlation(stepped)
 
     # ------------------------------------------------------------------------------------------
     def time_s(self, row: int) -> float:

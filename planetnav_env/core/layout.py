@@ -221,6 +221,13 @@ RESIDUAL_LOG_TEXT = (
 )
 
 
+POSITION_CORRELATION_TEXT = (
+    "position correlation (with EnvConfig.observe_position_correlation): the correlation coefficients "
+    "rho_xy, rho_xz, rho_yz of the filter's position covariance P_rr (with log_sigma's diagonal they give "
+    "the whole P_rr: which way the position error lies)"
+)
+
+
 IMAGE_LOG_TEXT = (
     "image log (with EnvConfig.observe_image_log), two rows of one per planet: (fixes + 1) / (images + 2), "
     "the mean of the planet's image success rate under a uniform prior, then log1p(images) / log1p(1440) "
@@ -262,6 +269,10 @@ class ObservationLayout:
     #: The ``residual_log`` block (T values) after ``image_log`` (``EnvConfig.observe_residual_log``; text:
     #: RESIDUAL_LOG_TEXT). Written by :class:`planetnav_env.core.batch.BatchCore`.
     residual_log: bool = False
+    #: The ``position_correlation`` block (3 values) after ``residual_log``
+    #: (``EnvConfig.observe_position_correlation``; text: POSITION_CORRELATION_TEXT). Written by
+    #: :class:`planetnav_env.core.batch.BatchCore`.
+    position_correlation: bool = False
 
     @classmethod
     def for_config(cls, cfg) -> ObservationLayout:
@@ -273,6 +284,7 @@ class ObservationLayout:
             bool(getattr(cfg, "observe_since_measured", False)),
             bool(getattr(cfg, "observe_image_log", False)),
             bool(getattr(cfg, "observe_residual_log", False)),
+            bool(getattr(cfg, "observe_position_correlation", False)),
         )  # fmt: skip
 
     @property
@@ -321,8 +333,13 @@ class ObservationLayout:
         return self.image_log_start + (2 * self.n_planets if self.image_log else 0)
 
     @property
-    def size(self) -> int:
+    def position_correlation_start(self) -> int:
+        """First index of the position-correlation block (== size without one)."""
         return self.residual_log_start + (self.n_targets if self.residual_log else 0)
+
+    @property
+    def size(self) -> int:
+        return self.position_correlation_start + (3 if self.position_correlation else 0)
 
     @property
     def blocks(self) -> tuple[tuple[str, int, int, tuple[int, ...]], ...]:
@@ -345,7 +362,10 @@ class ObservationLayout:
         if self.image_log:
             out.append(("image_log", self.image_log_start, self.residual_log_start, (2, self.n_planets)))
         if self.residual_log:
-            out.append(("residual_log", self.residual_log_start, self.size, (self.n_targets,)))
+            stop = self.position_correlation_start
+            out.append(("residual_log", self.residual_log_start, stop, (self.n_targets,)))
+        if self.position_correlation:
+            out.append(("position_correlation", self.position_correlation_start, self.size, (3,)))
         return tuple(out)
 
     def to_dict(self, flat: np.ndarray) -> dict[str, np.ndarray]:
@@ -377,7 +397,8 @@ class ObservationLayout:
         rows.append(("..+P", IN_FIELD_TEXT, "0/1"))
         rows.append(("..+T", SINCE_MEASURED_TEXT, "0..1"))
         rows.append(("..+2P", IMAGE_LOG_TEXT, "0..1"))
-        rows.append(("last P", RESIDUAL_LOG_TEXT, "0..1"))
+        rows.append(("..+T", RESIDUAL_LOG_TEXT, "0..1"))
+        rows.append(("last 3", POSITION_CORRELATION_TEXT, "-1..1"))
         w0 = max(len(r[0]) for r in rows)
         w1 = max(len(r[1]) for r in rows)
         w2 = max(len(r[2]) for r in rows)

@@ -41,6 +41,7 @@ def observation_space(cfg: EnvConfig, layout: ObservationLayout) -> spaces.Space
         "since_measured": (0.0, 1.0),
         "image_log": (0.0, 1.0),
         "residual_log": (0.0, 1.0),
+        "position_correlation": (-1.0, 1.0),
     }
     return spaces.Dict(
         {
@@ -183,7 +184,8 @@ def decode_observation(cfg: EnvConfig, layout: ObservationLayout, observation: A
     with ``observe_in_field`` in_field (P,) bool (the planets the camera's visibility rule passes now), and
     with ``observe_since_measured`` since_measured (T,) (the observation's scaled values), and with
     ``observe_image_log`` image_log (2, P) (the observation's values: success-rate means, scaled images), and
-    with ``observe_residual_log`` residual_log (T,) (the observation's values)."""
+    with ``observe_residual_log`` residual_log (T,) (the observation's values), and with
+    ``observe_position_correlation`` position_correlation (3,) (rho_xy, rho_xz, rho_yz of P_rr)."""
     if isinstance(observation, dict):
         try:
             flat = layout.from_dict(observation)
@@ -207,6 +209,8 @@ def decode_observation(cfg: EnvConfig, layout: ObservationLayout, observation: A
         extra["image_log"] = b["image_log"]
     if "residual_log" in b:
         extra["residual_log"] = b["residual_log"]
+    if "position_correlation" in b:
+        extra["position_correlation"] = b["position_correlation"]
     return {
         **extra,
         "position_km": b["position"] * pos_scale,

@@ -302,3 +302,32 @@ def test_elongated_prior_must_not_be_shorter_than_the_spherical_one():
         EnvConfig.from_dict({**V1, "prior_long_sigma_km": 500.0})  # cruise sigma_pos0 is 1000 km
     with pytest.raises(ConfigError, match="prior_long_sigma_km"):
         EnvConfig.from_dict({**V1, "prior_long_sigma_km": -1.0})
+
+
+def test_position_correlation_block_is_the_filters_p_rr():
+    """The block holds rho_xy, rho_xz, rho_yz of the filter's P_rr at reset and after each step, so that with
+    log_sigma's diagonal the observation carries the elongated prior's direction; the vector env's rows
+    agree with single envs."""
+    options = {"filter": {"sigma_pos0": 100.0}, "prior_long_sigma_km": 5000.0}
+    env = _physics_env(observe_position_correlation=True, observation="dict", **options)
+
+    def rho(p):
+        s = np.sqrt(np.diag(p[:3, :3]))
+        return np.array([p[0, 1] / (s[0] * s[1]), p[0, 2] / (s[0] * s[2]), p[1, 2] / (s[1] * s[2])])
+
+    obs, info = env.reset(seed=9)
+    assert np.max(np.abs(obs["position_correlation"])) > 0.3  # the long axis is not a coordinate axis
+    np.testing.assert_allclose(obs["position_correlation"], rho(info["filter"]["P"]), atol=1e-6)
+    for k in range(40):
+        obs, _, _, _, info = env.step(k // 20)
+        np.testing.assert_allclose(obs["position_correlation"], rho(info["filter"]["P"]), atol=1e-6)
+    assert env.observation_space.contains(obs)
+    cfg = EnvConfig.from_dict({**V1, "observe_position_correlation": True, **options}).at_physics_step()
+    from planetnav_env.envs.vector_env import PlanetNavVectorEnv
+
+    venv = PlanetNavVectorEnv(2, cfg)
+    vobs, _ = venv.reset(seed=30)
+    for r in range(2):
+        single = PlanetNavEnv(cfg)
+        sobs, _ = single.reset(seed=30 + r)
+        np.testing.assert_array_equal(vobs[r], sobs)
