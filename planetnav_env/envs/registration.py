@@ -112,7 +112,7 @@ for _name, _posed in _POSED.items():
 
 
 #: The ``-v2`` ids: the ``-v1`` tasks with an event the filter does not model, drawn per episode, so that
-#: reading the state pays (docs/suite.md, "Tasks v2", gives the closed-loop gap behind each). Image
+#: reading the state pays (docs/tasks_v2.md gives the closed-loop gap behind each). Image
 #: processing fails at a rate per planet drawn uniformly from [0, 1] at reset and never told to the filter or
 #: the agent (stray light, faint beacons); the spacecraft sees each outcome (``info["visibility"]``
 #: ``image_failed``) and observes its own image log. A nominal rule that trusts every image stares at a
@@ -120,7 +120,15 @@ for _name, _posed in _POSED.items():
 #: Reward, objective, decision interface and the rest of the physics are the ``-v1`` id's.
 _EVENTS_V2: dict[str, dict[str, Any]] = {
     "Cruise-Target": {"image_success_min": 0.0, "observe_image_log": True},
-    "RandomCruise-Target": {"image_success_min": 0.0, "observe_image_log": True},
+    # The random cruise adds a prior shaped by a navigation history (docs/tasks_v2.md, "The prior's shape"):
+    # 5,000 km along a direction drawn per episode, 50 km across; the observation carries its correlations.
+    "RandomCruise-Target": {
+        "image_success_min": 0.0,
+        "observe_image_log": True,
+        "filter": {"sigma_pos0": 50.0},
+        "prior_long_sigma_km": 5000.0,
+        "observe_position_correlation": True,
+    },
     "MarsApproach-Tasking": {"image_success_min": 0.0, "observe_image_log": True},
 }
 for _name, _events in _EVENTS_V2.items():

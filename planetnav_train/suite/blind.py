@@ -52,9 +52,11 @@ V2_PRIVILEGED = ("greedy:success=oracle",)
 #: Legend labels of the references in the regime map's figure (other agents keep their spec).
 ROLE_LABELS = {
     "blind": "best blind schedule",
-    "greedy": "greedy (nominal: trusts every image)",
+    "greedy": "greedy (nominal: the filter's model)",
     "greedy:success=observed": "greedy, observed success rates (adaptive)",
     "greedy:success=oracle": "greedy, true success rates (oracle, privileged)",
+    "greedy:timing=observed": "greedy, pulsars weighted by their NIS (adaptive)",
+    "greedy:timing=oracle": "greedy, pulsars weighted by their true drift (oracle, privileged)",
 }
 BOOTSTRAP_REPS = 10_000
 BOOTSTRAP_SEED = 0

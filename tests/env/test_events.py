@@ -42,6 +42,9 @@ def test_v2_ids_are_v1_plus_the_event_options():
             "observe_image_log",
             "centroid_bias_max",
             "observe_residual_log",
+            "filter",
+            "prior_long_sigma_km",
+            "observe_position_correlation",
         }
         assert extra
 
