@@ -11,7 +11,9 @@ $(STAMP): pyproject.toml
 	$(BIN)/python -m pip install -q --upgrade pip
 	# CPU build first: an unpinned torch would pull several GB of CUDA packages.
 	$(BIN)/python -m pip install -q torch==2.13.0
-	$(BIN)/python -m pip install -q -e ".[dev]"
+	# setuptools warns on every editable install of a package mapped to another folder (planetnav_agents
+	# lives in agents/), about folders named like the package in the working directory: this tree has none.
+	PYTHONWARNINGS="ignore:Editable installation" $(BIN)/python -m pip install -q -e ".[dev]"
 	touch $(STAMP)
 
 # Second environment with the [ray] extra (RLlib + Tune). RLlib pins gymnasium (1.2.2 for ray 2.60), so
@@ -26,7 +28,7 @@ $(RAY_STAMP): pyproject.toml
 	$(PY) -m venv $(RAY_VENV)
 	$(RAY_BIN)/python -m pip install -q --upgrade pip
 	$(RAY_BIN)/python -m pip install -q torch==2.13.0
-	$(RAY_BIN)/python -m pip install -q -e ".[dev,ray,clients]"
+	PYTHONWARNINGS="ignore:Editable installation" $(RAY_BIN)/python -m pip install -q -e ".[dev,ray,clients]"
 	touch $(RAY_STAMP)
 
 run: $(STAMP)
