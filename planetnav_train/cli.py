@@ -71,6 +71,7 @@ from planetnav_train.evaluate import (
     results_json,
     sweep_periodic,
 )
+from planetnav_train.provenance import provenance
 from planetnav_train.report import print_table, write_report
 from planetnav_train.shipped import is_shipped_spec, shipped_model, task_of
 from planetnav_train.stats import paired_difference
@@ -150,7 +151,8 @@ def cmd_train(args: argparse.Namespace) -> int:
         f"wall time: training {stats['seconds']:.0f} s + evaluation {stats['eval_seconds']:.0f} s = "
         f"{(stats['seconds'] + stats['eval_seconds']) / 60:.1f} min"
     )
-    report = write_report(run_dir, results, env_cfg, f"Run `{tc.name}`", stats, tc)
+    report = write_report(run_dir, results, env_cfg, f"Run `{tc.name}`", stats, tc,
+                          wall_s=stats["seconds"] + stats["eval_seconds"])  # fmt: skip
     print(f"report: {report}")
     return 0
 
@@ -166,10 +168,12 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     env_cfg, ev = _eval_env_config(args, [args.agent])
     episodes = args.episodes or ev.episodes
     seed = ev.seed if args.seed is None else args.seed
+    t0 = time.perf_counter()
     result = evaluate_agent(args.agent, env_cfg, episodes, seed, progress=not args.no_progress)
+    wall_s = time.perf_counter() - t0
     print_table([result])
     if args.json:
-        _write_json(args.json, results_json([result]))
+        _write_json(args.json, {**results_json([result]), "provenance": provenance(wall_s=wall_s)})
     return 0
 
 
@@ -181,12 +185,15 @@ def cmd_compare(args: argparse.Namespace) -> int:
     episodes = args.episodes or ev.episodes
     seed = ev.seed if args.seed is None else args.seed
     reference = args.reference or ev.reference
+    t0 = time.perf_counter()
     results = compare_agents(agents, env_cfg, episodes, seed, not args.no_progress, reference)
+    wall_s = time.perf_counter() - t0
     print_table(results)
     if args.json:
-        _write_json(args.json, results_json(results))
+        _write_json(args.json, {**results_json(results), "provenance": provenance(wall_s=wall_s)})
     if args.report:
-        print(f"report: {write_report(Path(args.report), results, env_cfg, 'Agent comparison')}")
+        report = write_report(Path(args.report), results, env_cfg, "Agent comparison", wall_s=wall_s)
+        print(f"report: {report}")
     return 0
 
 
@@ -256,6 +263,7 @@ def cmd_agreement(args: argparse.Namespace) -> int:
     env_cfg, ev = _eval_env_config(args, [args.student])
     episodes = args.episodes or 5
     seed = ev.seed if args.seed is None else args.seed
+    t0 = time.perf_counter()
     try:
         got = agreement(args.student, env_cfg, args.teacher, episodes, seed)
     except ValueError as exc:
@@ -270,7 +278,8 @@ def cmd_agreement(args: argparse.Namespace) -> int:
         if not math.isfinite(residual):
             got["mean_abs_residual"] = None  # target mode: no residual torque (JSON has no NaN)
         _write_json(args.json, {"student": args.student, "teacher": args.teacher, "episodes": episodes,
-                                "seed": seed, **got})  # fmt: skip
+                                "seed": seed, **got,
+                                "provenance": provenance(wall_s=time.perf_counter() - t0)})  # fmt: skip
     return 0
 
 
@@ -301,10 +310,12 @@ def cmd_sweep_periodic(args: argparse.Namespace) -> int:
         title=f"periodic schedules: {episodes} seeds ({seed}..{seed + episodes - 1}), paired with the best",
     )
     best = results[0]
+    wall_s = time.perf_counter() - t0
     print(f"best: {best.name} (mean err {best.metrics['mean_pos_err_km']:.1f} km); "
-          f"{len(results)} settings in {time.perf_counter() - t0:.0f} s")  # fmt: skip
+          f"{len(results)} settings in {wall_s:.0f} s")  # fmt: skip
     if args.json:
-        _write_json(args.json, {**results_json(results), "best": best.name})
+        _write_json(args.json, {**results_json(results), "best": best.name,
+                                "provenance": provenance(wall_s=wall_s)})  # fmt: skip
     return 0
 
 
@@ -335,6 +346,7 @@ def cmd_blind_search(args: argparse.Namespace) -> int:
         )
         rec["options"] = dict(args.option or [])
         rec["wall_s"] = time.perf_counter() - t0
+        rec["provenance"] = provenance(wall_s=rec["wall_s"])
         g = rec["closed_loop_gap"]
         print(f"{env_id}: blind {rec['blind_winner']} {rec['J_blind']:.2f} km "
               f"(search {res.winner_mean:.2f}), "
@@ -384,8 +396,9 @@ def cmd_regime_map(args: argparse.Namespace) -> int:
         cfg_for, args.strengths, args.agents, args.candidates, evaluate, args.search_seed,
         args.search_episodes, args.seed, args.episodes, args.finalists, args.final_episodes,
     )  # fmt: skip
-    data.update(task=env_id, event=args.event, options=dict(args.option or []),
-                wall_s=time.perf_counter() - t0)  # fmt: skip
+    wall_s = time.perf_counter() - t0
+    data.update(task=env_id, event=args.event, options=dict(args.option or []), wall_s=wall_s,
+                provenance=provenance(wall_s=wall_s))  # fmt: skip
     for p in data["points"]:
         print(f"strength {p['strength']:.3g}: blind {p['blind']}")
         for spec, row in p["agents"].items():

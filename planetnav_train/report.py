@@ -15,6 +15,7 @@ import numpy as np
 from planetnav_env.config import EnvConfig
 from planetnav_train.config import TrainConfig
 from planetnav_train.evaluate import EvalResult, results_json
+from planetnav_train.provenance import provenance
 from planetnav_train.stats import MeanCI
 
 
@@ -225,13 +226,16 @@ def write_report(
     title: str,
     train_stats: dict[str, Any] | None = None,
     tc: TrainConfig | None = None,
+    wall_s: float | None = None,
 ) -> Path:
-    """``report.md`` + plots + ``eval.json`` in ``out_dir``."""
+    """``report.md`` + plots + ``eval.json`` in ``out_dir``; ``eval.json`` carries the
+    :func:`~planetnav_train.provenance.provenance` of this process with ``wall_s`` (the caller's wall
+    seconds of the run, training included where it trained)."""
     out_dir.mkdir(parents=True, exist_ok=True)
     plots = write_plots(results, out_dir, env_cfg.step_s)
     training_plot = write_training_plot(train_stats["episodes"], out_dir) if train_stats else None
     with open(out_dir / "eval.json", "w") as fh:
-        json.dump(results_json(results), fh, indent=2)
+        json.dump({**results_json(results), "provenance": provenance(wall_s=wall_s)}, fh, indent=2)
     ran = [r for r in results if r.ran]
     m0 = ran[0].metrics if ran else {"episodes": 0, "seed": 0}
     lines = [

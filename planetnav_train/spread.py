@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import json
 import math
+import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -61,6 +62,7 @@ def run_spread(
     prediction intervals; also written to ``out/spread.json``."""
     from planetnav_train.config import load_config
     from planetnav_train.evaluate import evaluate_agent, evaluation_env
+    from planetnav_train.provenance import provenance
     from planetnav_train.training import train
 
     if len(set(seeds)) < 2 or any(s < 0 for s in seeds):
@@ -68,6 +70,7 @@ def run_spread(
     base = load_config(config)
     env_cfg = evaluation_env(base.env_config(), base.eval.episode_steps, base.eval.noise_streams)
     n_episodes = episodes or base.eval.episodes
+    t0 = time.perf_counter()
     runs = []
     for seed in seeds:
         tc = load_config(config)
@@ -88,6 +91,8 @@ def run_spread(
         "eval_episodes": n_episodes,
         "runs": runs,
         "intervals": {m: prediction_interval([r[m] for r in runs]).__dict__ for m in MODES},
+        # this invocation's: runs trained by an earlier one (their model kept) were evaluated here only
+        "provenance": provenance(wall_s=time.perf_counter() - t0),
     }
     out.mkdir(parents=True, exist_ok=True)
     (out / "spread.json").write_text(json.dumps(result, indent=2))

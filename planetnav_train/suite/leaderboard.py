@@ -11,6 +11,7 @@ from typing import Any
 
 import numpy as np
 
+from planetnav_train.provenance import provenance
 from planetnav_train.spread import prediction_interval
 from planetnav_train.suite.cells import Settings, coverage_lines
 from planetnav_train.suite.challenges import challenge_lines, task_status
@@ -269,14 +270,15 @@ def finish(
     reps: int | None = None,
 ) -> dict[str, Any]:
     """Aggregate every record under ``settings.out``, write ``OUT/suite.json``, the invocation's runs to
-    ``json_path`` (same form) and the leaderboard markdown (default ``OUT/benchmark.md``)."""
+    ``json_path`` (same form) and the leaderboard markdown (default ``OUT/benchmark.md``). Both JSON carry
+    the ``provenance`` of this aggregation (each run keeps its own, of the process that ran it)."""
     records = result["records"]
     references = dict(result["references"])
     for p in sorted((settings.out / "references").glob("*.json")):  # tasks run by earlier invocations
         ref = json.loads(p.read_text())
         references.setdefault(ref["task"], ref)
     agg = aggregate(records, reps) if records else {}
-    data = suite_json(records, references, agg)
+    data = {**suite_json(records, references, agg), "provenance": provenance()}
     write_json_atomic(settings.out / "suite.json", data)
     if json_path:
         write_json_atomic(Path(json_path), {**data, "runs": list(result["ran"])})

@@ -238,6 +238,7 @@ def ship_baselines(
                 "official": bool(r.get("official", False)),
                 "source_cell": cell.key,
                 "command": r.get("command"),
+                "provenance": r.get("provenance"),  # the run's that trained it (None: not recorded)
                 "form": form,
                 "file": file,
                 "bytes": (dest / file).stat().st_size,

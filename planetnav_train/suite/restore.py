@@ -8,11 +8,13 @@ re-run the whole table. :func:`restore` writes back what the published JSON keep
 - one record per run (``OUT/runs/<cell>.json``): every figure the page aggregates (objective and its
   interval, scores in both evaluation modes, learning curve, wall seconds, command), without the per-seed
   values and the training config, which the published copy leaves out; such a record carries
-  ``"restored_from"``;
+  ``"restored_from"``, and the ``provenance`` of the run as published: ``null`` for a run published
+  without one (the machine that restores it did not produce it);
 - each task's references (``OUT/references/<task>.json``);
 - the per-agent reference cache (``OUT/references/agents/``), where the JSON has each agent's per-seed
   values and wall seconds (JSON published before it kept them has not): then a re-run cell does not
-  evaluate its task's references again, and the page's wall time counts them.
+  evaluate its task's references again, and the page's wall time counts them; each cached agent keeps
+  its published ``provenance``, ``null`` where it has none.
 
 ``train.py suite-publish`` over the restored folder re-aggregates to the published page; re-running a cell
 (``train.py suite ... --out OUT``) replaces its restored record, and a new publish takes it in. Files that
@@ -88,7 +90,8 @@ def restore(published: str | Path, out: str | Path) -> Restored:
         if missing:
             raise ConfigError(f"{path}: run {i} has no {missing}")
         cell = Cell(get_task(run["task"]).id, run["algorithm"], run["track"], int(run["seed"]))
-        record = {**run, "restored_from": str(path)}
+        # Never this machine's provenance: the published one, or null for a run published without it.
+        record = {"provenance": None, **run, "restored_from": str(path)}
         _write_new(record_path(settings.out, cell), record, done.records, done.kept)
     for name, refs in data["references"].items():
         task = get_task(name)
@@ -99,7 +102,7 @@ def restore(published: str | Path, out: str | Path) -> Restored:
             if not official or "per_episode" not in agent or "wall_seconds" not in agent:
                 done.uncached.append(f"{task.id}/{spec}")
                 continue
-            cached = {"agent": spec, **agent}
+            cached = {"agent": spec, "provenance": None, **agent}
             _write_new(agent_cache_path(task, spec, settings), cached, done.agents, done.kept)
     return done
 

@@ -21,6 +21,7 @@ import numpy as np
 from planetnav_env.errors import ConfigError
 from planetnav_train import extensions
 from planetnav_train.config import TrainConfig, is_rllib_algo
+from planetnav_train.provenance import provenance
 from planetnav_train.stats import mean_ci
 from planetnav_train.suite.cells import Cell, Settings, cell_config, load_assists, rerun_command
 from planetnav_train.suite.tasks import OBJECTIVES, SUITE_VERSION, Objective, Task, get_algo, get_task
@@ -57,11 +58,11 @@ def agent_cache_path(task: Task, spec: str, settings: Settings) -> Path:
 
 def reference_agent(task: Task, spec: str, settings: Settings) -> dict[str, Any]:
     """Agent ``spec``'s objective on ``task``'s evaluation seeds (mean, 95 % t-interval, per-episode
-    values, wall seconds), cached in ``OUT/references/agents/`` per agent (the planner and the 3,000-step
-    tasks take minutes per agent). The references and the zero point are properties of the physical task:
-    every agent acts at the physics step (:meth:`EnvConfig.at_physics_step`: one decision per physics
-    step, absolute targets), ``random`` included; :data:`INTERFACE_RANDOM` is the random policy in the
-    task's own interface."""
+    values, wall seconds, provenance), cached in ``OUT/references/agents/`` per agent (the planner and the
+    3,000-step tasks take minutes per agent). The references and the zero point are properties of the
+    physical task: every agent acts at the physics step (:meth:`EnvConfig.at_physics_step`: one decision
+    per physics step, absolute targets), ``random`` included; :data:`INTERFACE_RANDOM` is the random
+    policy in the task's own interface."""
     from planetnav_train.evaluate import evaluate_agent
 
     path = agent_cache_path(task, spec, settings)
@@ -75,8 +76,9 @@ def reference_agent(task: Task, spec: str, settings: Settings) -> dict[str, Any]
     episodes = settings.eval_episodes or task.eval_episodes
     t0 = time.perf_counter()
     result = evaluate_agent(spec, env_cfg, episodes, task.eval_seed, progress=settings.progress)
+    wall_s = time.perf_counter() - t0
     summary = {"agent": spec, **_agent_summary(OBJECTIVES[task.objective], result.metrics),
-               "wall_seconds": time.perf_counter() - t0}  # fmt: skip
+               "wall_seconds": wall_s, "provenance": provenance(wall_s=wall_s)}  # fmt: skip
     write_json_atomic(path, summary)
     return summary
 
@@ -107,13 +109,15 @@ def task_references(task: Task, settings: Settings) -> dict[str, Any]:
     """The task's reference values on its evaluation seeds: ``random``, the zero-point candidates and every
     best-reference candidate with 95 % t-intervals (:func:`reference_agent`, cached per agent); the zero
     point (the better of the zero candidates) and the best candidate (the lowest objective), chosen from
-    the data. Written to ``OUT/references/<task>.json``."""
+    the data. Each agent keeps the provenance of its evaluation (None for one cached before records
+    carried it). Written to ``OUT/references/<task>.json``."""
     env_cfg = task.eval_config(settings.episode_steps)
     agents = {}
     zeros = zero_candidates(task, env_cfg.at_physics_step())
     for spec in dict.fromkeys((task.random, *zeros, *task.references, INTERFACE_RANDOM)):
         summary = reference_agent(task, spec, settings)
         agents[spec] = {k: summary[k] for k in ("objective", "ci95", "per_episode", "wall_seconds")}
+        agents[spec]["provenance"] = summary.get("provenance")
     best = min(task.references, key=lambda s: agents[s]["objective"])
     zero = min(zeros, key=lambda s: agents[s]["objective"])
     refs = {
@@ -174,21 +178,24 @@ def _mode_spec(model_path: Path | str, mode: str) -> str:
     return f"{model_path}@sampled" if mode == "sampled" else str(model_path)
 
 
-def curve_references(task: Task, settings: Settings, references: Mapping[str, Any]) -> dict[str, float]:
+def curve_references(task: Task, settings: Settings, references: Mapping[str, Any]) -> dict[str, Any]:
     """The zero point's and the best reference's objective on the curve seeds (the same agents as
-    ``references`` chose on the evaluation seeds), cached in ``OUT/references/curves/``."""
+    ``references`` chose on the evaluation seeds) with their provenance, cached in
+    ``OUT/references/curves/``."""
     from planetnav_train.evaluate import evaluate_agent
 
     path = settings.out / "references" / "curves" / f"{task.id}.json"
     if path.is_file():
         return json.loads(path.read_text())
     objective = OBJECTIVES[task.objective]
-    out = {}
+    t0 = time.perf_counter()
+    out: dict[str, Any] = {}
     for key in ("zero", "best"):
         spec = references[key]
         cfg = task.eval_config(settings.episode_steps).at_physics_step()  # as reference_agent's
         m = evaluate_agent(spec, cfg, CURVE_EPISODES, CURVE_SEED, progress=False).metrics
         out[f"J_{key}"] = float(np.mean(objective.values(m)))
+    out["provenance"] = provenance(wall_s=time.perf_counter() - t0)
     write_json_atomic(path, out)
     return out
 
@@ -240,7 +247,9 @@ def learning_curve_callback(
 
 
 def run_cell(cell: Cell, settings: Settings, references: Mapping[str, Any]) -> dict[str, Any]:
-    """Train, evaluate and score one cell; its run record (docs/suite.md lists the fields)."""
+    """Train, evaluate and score one cell; its run record (docs/suite.md lists the fields), with the
+    :func:`~planetnav_train.provenance.provenance` of the process that ran it (on a grid runner's worker,
+    that worker's) and the cell's wall seconds."""
     from planetnav_train.evaluate import evaluate_agent
     from planetnav_train.suite.scoring import normalized_score
 
@@ -284,6 +293,7 @@ def run_cell(cell: Cell, settings: Settings, references: Mapping[str, Any]) -> d
     mode = algo.eval_mode if algo.eval_mode in evals else "argmax"
     head = evals[mode]
     curve = callbacks[0].points if callbacks else []
+    wall_s = time.perf_counter() - t0
     return {
         "suite_version": SUITE_VERSION,
         "task": task.id,
@@ -306,7 +316,7 @@ def run_cell(cell: Cell, settings: Settings, references: Mapping[str, Any]) -> d
         # Physics steps: SB3's training reports them (env_steps); RLlib's counts decisions (timesteps).
         "env_steps": int(stats.get("env_steps", stats.get("timesteps", 0) * per_decision)),
         "train_seconds": train_s,
-        "wall_seconds": time.perf_counter() - t0,
+        "wall_seconds": wall_s,
         "eval_episodes": episodes,
         "eval_seed": task.eval_seed,
         "episode_steps": settings.episode_steps,
@@ -315,6 +325,7 @@ def run_cell(cell: Cell, settings: Settings, references: Mapping[str, Any]) -> d
         "official": settings.official,
         "config": tc.to_dict(),
         "command": rerun_command(cell, settings),
+        "provenance": provenance(wall_s=wall_s),
     }
 
 
