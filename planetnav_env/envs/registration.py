@@ -134,6 +134,19 @@ _EVENTS_V2: dict[str, dict[str, Any]] = {
 for _name, _events in _EVENTS_V2.items():
     ENV_IDS[f"planetnav/{_name}-v2"] = {**ENV_IDS[f"planetnav/{_name}-v1"], **_events}
 
+#: ``-v2`` ids that fix how a ``-v1`` task was posed, with no event (docs/tasks_v2.md, "Posing fixes"):
+#: Cruise-Torque's action is the torque at 5 % of the wheel limit (a pointing torque held a 60-s step is
+#: ~0.5 % of the limit, so at v1's scale a policy had to resolve its output to ~1e-3; the suite's clone of
+#: the reference scores 0.96 at this scale and never measures at v1's); ThrustArc-TCM decides once per
+#: 2-h session (12 steps of 600 s), so a discount of 0.995 per decision spans ~17 days and every knowledge
+#: deadline (7, 16 and 19.5 days from the start) lies within reach of the decision that pays for it.
+_POSING_V2: dict[str, dict[str, Any]] = {
+    "Cruise-Torque": {"torque_action_scale": 0.05},
+    "ThrustArc-TCM": {"decision_steps": 12},
+}
+for _name, _posing in _POSING_V2.items():
+    ENV_IDS[f"planetnav/{_name}-v2"] = {**ENV_IDS[f"planetnav/{_name}-v1"], **_posing}
+
 
 def id_options(env_id: str) -> dict[str, Any]:
     """The environment options that the registered id ``env_id`` stands for (a copy of its spec's

@@ -33,6 +33,16 @@ def _physics_env(**options) -> PlanetNavEnv:
     return PlanetNavEnv(EnvConfig.from_dict({**V1, **options}).at_physics_step())
 
 
+def test_posing_v2_ids_change_only_the_posing():
+    torque, arc = ENV_IDS["planetnav/Cruise-Torque-v1"], ENV_IDS["planetnav/ThrustArc-TCM-v1"]
+    assert ENV_IDS["planetnav/Cruise-Torque-v2"] == {**torque, "torque_action_scale": 0.05}
+    assert ENV_IDS["planetnav/ThrustArc-TCM-v2"] == {**arc, "decision_steps": 12}
+    env = gym.make("planetnav/ThrustArc-TCM-v2")
+    env.reset(seed=0)
+    _, _, _, _, info = env.step(3)  # one decision: keep thrusting for a 2-h session
+    assert info["time_s"] - env.unwrapped.core.f[0, L.F_T0] == pytest.approx(12 * 600.0)
+
+
 def test_v2_ids_are_v1_plus_the_event_options():
     for name in ("Cruise-Target", "RandomCruise-Target", "MarsApproach-Tasking"):
         v1, v2 = ENV_IDS[f"planetnav/{name}-v1"], ENV_IDS[f"planetnav/{name}-v2"]
