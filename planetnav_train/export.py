@@ -12,7 +12,7 @@ and shape, the dropped ones included), and its deterministic actions must equal 
 :data:`CHECK_ROWS` observations sampled from the observation space (a recurrent policy: over
 :data:`CHECK_STEPS` steps carrying its state, with episode starts).
 
-Sizes (``bytes``): see ``tests/train/test_export.py`` and docs/suite.md "Shipped baselines".
+Sizes (``bytes``): see ``tests/train/test_export.py`` and research/suite/history.md "Model sizes".
 """
 
 from __future__ import annotations

@@ -4,7 +4,7 @@ A blind policy ignores the observation: random actions (in the task's own interf
 a "camera off" action, and fixed cyclic schedules of targets
 (:class:`planetnav_agents.schedule.ScheduleAgent`:
 planets, and pulsars on the Mars approach). With a linear-Gaussian filter and a geometry that repeats, such a
-schedule is near-optimal (docs/suite.md, "Tasks v2"); what remains between it and the best reference is what
+schedule is near-optimal (docs/tasks_v2.md); what remains between it and the best reference is what
 only a policy that reads the state can win:
 
 * closed-loop gap = ``(J_blind - J_best) / J_blind``, ``J_best`` the best non-privileged reference;

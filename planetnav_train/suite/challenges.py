@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 #: Below this best IQM (over every algorithm of a track) a task is a challenge.
 CHALLENGE_BELOW = 0.5
-#: The target of the target-choice tasks' best raw algorithm (docs/suite.md, "Tasks v1").
+#: The target of the target-choice tasks' best raw algorithm (docs/suite.md, "Challenges").
 TARGET_SCORE = 0.9
 #: What can limit a learner, each with the diagnostic run that tells it apart.
 LIMITS: dict[str, str] = {
@@ -55,7 +55,7 @@ DIAGNOSES: dict[str, Diagnosis] = {
             "seeds (seed 0), and twice the budget (+11.2), no entropy bonus (+11.0), a higher learning rate "
             "(+12.6), a discount of 0.99 or four times the updates (+15.2) leave it there or behind, at a "
             "policy that switches targets 40-80 times per episode, against "
-            "the seeded policy's ~20 (docs/suite.md, \"Why RandomCruise stops short of 0.9\").",
+            "the seeded policy's ~20 (docs/suite.md, \"Challenges\").",
             "python train.py train --config configs/diagnostics/random_cruise_v1_seeded.yaml",
         ),
         Diagnosis(

@@ -162,7 +162,7 @@ _THRUST_ARC_REFS = (
 )
 #: The task list: the ``-v1`` ids (the ``-v0`` physics posed for learners; docs/suite.md "Tasks v1").
 #: ``budget``: the on-policy algorithms' training budget in physics steps; an algorithm's
-#: ``budget_fraction`` scales it (docs/suite.md "Budgets" derives both from learning curves and speed).
+#: ``budget_fraction`` scales it (docs/suite.md "Budgets"; research/suite/history.md derives both).
 TASKS: tuple[Task, ...] = (
     Task("planetnav/Cruise-Target-v1", "discrete", 3_000_000, _TARGET_REFS),
     Task("planetnav/RandomCruise-Target-v1", "discrete", 3_000_000, _TARGET_REFS),
@@ -267,7 +267,7 @@ _ON_POLICY = {"n_steps": 64, "batch_size": 1024, "n_epochs": 5, "gamma": 0.95, "
 #: (off-policy, continuous); RLlib's PPO on one task (another library's PPO on the same env).
 #: RecurrentPPO runs on the Mars approach only: every v1 observation carries its history block
 #: (``since_measured``), and the LSTM's 1,700 physics steps/s would cost the 8-hour table two hours on
-#: all four discrete tasks (docs/suite.md, "Wall time"); the approach, with its 1,000-s pulsar
+#: all four discrete tasks (research/suite/history.md, "Wall time"); the approach, with its 1,000-s pulsar
 #: integrations between planet images, is where memory has the most to add.
 #: ``eval_mode``: which action the protocol scores (both are recorded): ``sampled`` for the stochastic
 #: policy-gradient policies (their argmax can collapse to one action: research/training_log.md),
