@@ -298,7 +298,8 @@ class BatchCore:
         standard normal), whose covariance is that ``P_rr``. Drawn after everything else, so the episode is
         the one the same seed gives with the spherical prior, plus the long error."""
         u = gen.standard_normal(3)
-        u /= np.linalg.norm(u)
+        # Scalar arithmetic, not np.linalg.norm (a BLAS dot): the same bits on every CPU.
+        u /= math.sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2])
         s2 = self._sigma0[0] ** 2
         extra = self.config.prior_long_sigma_km**2 - s2
         self.f[r, L.F_XE : L.F_XE + 3] += math.sqrt(extra) * gen.standard_normal() * u

@@ -60,7 +60,7 @@ def test_evaluate_json_schema(tmp_path: Path, smoke_run: Path) -> None:
     )  # fmt: skip
     assert rc == 0
     data = json.loads(out.read_text())
-    assert list(data) == ["agents", "skipped"] and list(data["agents"]) == ["greedy"]
+    assert list(data) == ["agents", "skipped", "provenance"] and list(data["agents"]) == ["greedy"]
     metrics = data["agents"]["greedy"]
     assert METRIC_KEYS <= set(metrics)
     assert metrics["episodes"] == 2 and 0.0 <= metrics["measured_fraction"] <= 1.0
