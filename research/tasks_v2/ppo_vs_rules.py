@@ -30,7 +30,9 @@ def main(compare_path: str, blind_path: str, task: str) -> None:
         k: np.asarray(v["per_episode_mean_pos_err_km"]) for k, v in agents.items() if k.startswith("ppo:")
     }
     sampled = [v for k, v in runs.items() if k.endswith(":stochastic")]
-    rows = {**runs, f"PPO sampled, mean of {len(sampled)} seeds": np.mean(sampled, axis=0)}
+    mode = "sampled" if sampled else "argmax"
+    pooled = sampled or list(runs.values())  # a file of argmax runs only: average those
+    rows = {**runs, f"PPO {mode}, mean of {len(pooled)} seeds": np.mean(pooled, axis=0)}
     print(f"{task}: blind {rec['blind_winner']} {blind.mean():.1f} km, best {rec['best_reference']} "
           f"{best.mean():.1f} km, nominal greedy {nominal.mean():.1f} km")
     for name, v in rows.items():
