@@ -26,13 +26,15 @@ def main(compare_path: str, blind_path: str, task: str) -> None:
     blind = np.asarray(rec["agents"][rec["blind_winner"]]["per_seed"])
     best = np.asarray(rec["agents"][rec["best_reference"]]["per_seed"])
     nominal = np.asarray(rec["agents"]["greedy"]["per_seed"])
+    learned = ("ppo:", "dqn:", "sac:", "recurrent_ppo:")  # trained runs, as compare names them
     runs = {
-        k: np.asarray(v["per_episode_mean_pos_err_km"]) for k, v in agents.items() if k.startswith("ppo:")
+        k: np.asarray(v["per_episode_mean_pos_err_km"]) for k, v in agents.items() if k.startswith(learned)
     }
     sampled = [v for k, v in runs.items() if k.endswith(":stochastic")]
     mode = "sampled" if sampled else "argmax"
     pooled = sampled or list(runs.values())  # a file of argmax runs only: average those
-    rows = {**runs, f"PPO {mode}, mean of {len(pooled)} seeds": np.mean(pooled, axis=0)}
+    algo = next(iter(runs)).split(":")[0].upper()
+    rows = {**runs, f"{algo} {mode}, mean of {len(pooled)} seeds": np.mean(pooled, axis=0)}
     print(f"{task}: blind {rec['blind_winner']} {blind.mean():.1f} km, best {rec['best_reference']} "
           f"{best.mean():.1f} km, nominal greedy {nominal.mean():.1f} km")
     for name, v in rows.items():
