@@ -102,6 +102,13 @@ def _check_model(option: str, value: str, models: tuple[str, ...], block: str, o
         )
 
 
+def _mean_nis_at_least_one(residual_log: np.ndarray) -> np.ndarray:
+    """Per target, ``max(mean normalized NIS, 1)`` from the observation's residual log (the mean divided by
+    RESIDUAL_CAP): what the adaptive rules divide a beacon's score by (1 for a beacon consistent with the
+    filter)."""
+    return np.maximum(np.asarray(residual_log, dtype=float) * RESIDUAL_CAP, 1.0)
+
+
 class GreedyAgent(TargetAgent):
     """Largest predicted reduction of ``trace(P_rr)`` over ``horizon`` steps, slew time counted."""
 
@@ -214,7 +221,7 @@ class GreedyAgent(TargetAgent):
         elif self.success == "oracle":
             w *= self.env.unwrapped.core.true_image_success()[0]
         if self.bias == "observed":
-            w /= np.maximum(np.asarray(obs.residual_log[: self.n_planets], dtype=float) * RESIDUAL_CAP, 1.0)
+            w /= _mean_nis_at_least_one(obs.residual_log[: self.n_planets])
         elif self.bias in ("oracle", "expected"):
             scale = (
                 self.env.unwrapped.core.true_centroid_bias()[0] if self.bias == "oracle"
@@ -229,8 +236,7 @@ class GreedyAgent(TargetAgent):
         if self.timing == "nominal":
             return None
         if self.timing == "observed":
-            nis = np.asarray(obs.residual_log[self.n_planets :], dtype=float) * RESIDUAL_CAP
-            return 1.0 / np.maximum(nis, 1.0)
+            return 1.0 / _mean_nis_at_least_one(obs.residual_log[self.n_planets :])
         core = self.env.unwrapped.core
         elapsed_s = float(core.i[0, L.I_K]) * self.config.step_s
         psr = self._params.psr

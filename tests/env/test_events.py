@@ -25,12 +25,23 @@ from planetnav_env.envs.env import PlanetNavEnv
 from planetnav_env.envs.registration import ENV_IDS
 from planetnav_env.errors import ConfigError
 from planetnav_env.sensors.camera_kernels import COB_UNIFORM_DISK, centroid_bias_kernel
+from planetnav_env.sensors.pulsar import PULSARS, SPEED_OF_LIGHT_KM_S
 
 V1 = ENV_IDS["planetnav/Cruise-Target-v1"]
 
 
 def _physics_env(**options) -> PlanetNavEnv:
     return PlanetNavEnv(EnvConfig.from_dict({**V1, **options}).at_physics_step())
+
+
+def _assert_same_episode(base: PlanetNavEnv, ev: PlanetNavEnv, columns=("X", "XE", "Q", "T0")) -> None:
+    """The two envs' rows hold the same state ``columns`` and the same noise key: an option drawn after
+    everything else left the rest of the episode as the same seed gives it without the option."""
+    widths = {"X": 6, "XE": 6, "Q": 4, "T0": 1}
+    for col in columns:
+        a = L.F_OFFSETS[col][0]
+        np.testing.assert_array_equal(base.core.f[0, a : a + widths[col]], ev.core.f[0, a : a + widths[col]])
+    np.testing.assert_array_equal(base.core.rng, ev.core.rng)
 
 
 def test_posing_v2_ids_change_only_the_posing():
@@ -73,10 +84,7 @@ def test_events_are_drawn_after_the_episode(options):
     base, ev = _physics_env(), _physics_env(**options)
     base.reset(seed=11)
     ev.reset(seed=11)
-    for col, width in (("X", 6), ("XE", 6), ("Q", 4), ("T0", 1)):
-        a = L.F_OFFSETS[col][0]
-        np.testing.assert_array_equal(base.core.f[0, a : a + width], ev.core.f[0, a : a + width])
-    np.testing.assert_array_equal(base.core.rng, ev.core.rng)
+    _assert_same_episode(base, ev)
     drawn = ev.core.true_image_success()[0], ev.core.true_centroid_bias()[0]
     assert np.all((drawn[0] >= options.get("image_success_min", 1.0)) & (drawn[0] <= 1.0))
     assert np.all((drawn[1] >= 0.0) & (drawn[1] <= options.get("centroid_bias_max", 0.0)))
@@ -225,14 +233,11 @@ def test_pulsar_timing_error_is_drawn_after_the_episode():
     base, ev = _mars_env(), _mars_env(pulsar_frequency_error_max=1e-10)
     base.reset(seed=3)
     ev.reset(seed=3)
-    for col, width in (("X", 6), ("XE", 6), ("Q", 4), ("T0", 1)):
-        a = L.F_OFFSETS[col][0]
-        np.testing.assert_array_equal(base.core.f[0, a : a + width], ev.core.f[0, a : a + width])
-    np.testing.assert_array_equal(base.core.rng, ev.core.rng)
+    _assert_same_episode(base, ev)
     drift = ev.core.true_pulsar_drift()[0]
-    assert drift.shape == (2,) and np.all(np.abs(drift) <= 299_792.458 * 1e-10) and np.all(drift != 0)
+    assert drift.shape == (2,) and np.all(np.abs(drift) <= SPEED_OF_LIGHT_KM_S * 1e-10) and np.all(drift != 0)
     np.testing.assert_array_equal(base.core.true_pulsar_drift()[0], 0.0)
-    assert L.MAX_PULSARS >= len(__import__("planetnav_env.sensors.pulsar", fromlist=["PULSARS"]).PULSARS)
+    assert L.MAX_PULSARS >= len(PULSARS)
 
 
 def test_pulsar_timing_error_shifts_each_update_by_the_gain_times_the_phase_error():
@@ -283,10 +288,7 @@ def test_elongated_prior_is_drawn_after_the_episode_along_its_long_axis():
     ev = _physics_env(filter={"sigma_pos0": 100.0}, prior_long_sigma_km=5000.0)
     base.reset(seed=21)
     ev.reset(seed=21)
-    for col, width in (("X", 6), ("Q", 4), ("T0", 1)):
-        a = L.F_OFFSETS[col][0]
-        np.testing.assert_array_equal(base.core.f[0, a : a + width], ev.core.f[0, a : a + width])
-    np.testing.assert_array_equal(base.core.rng, ev.core.rng)
+    _assert_same_episode(base, ev, ("X", "Q", "T0"))  # XE differs: the long axis's error
     xe = L.F_OFFSETS["XE"][0]
     np.testing.assert_array_equal(base.core.f[0, xe + 3 : xe + 6], ev.core.f[0, xe + 3 : xe + 6])
     p_rr = ev.core.p[0, :3, :3]
