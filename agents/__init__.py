@@ -15,6 +15,7 @@ greedy-pd      greedy + PD, the wheel-torque tasks' reference: greedy over a 180
                :func:`planetnav_agents.greedy.greedy_pd`)
 random         a uniformly random action each step
 idle           never measures (needs ``idle_action=True``, so ``action_mode="target"`` only)
+zero           zero wheel torque every step (``action_mode="torque"`` only): the camera drifts with the body
 periodic       fixed schedule: the planets of a cycle in turn, ``period`` steps each
                (:mod:`planetnav_agents.periodic`)
 schedule       blind schedule: a fixed cycle of targets (planets and pulsars), a dwell each, ignoring the
@@ -73,7 +74,7 @@ from planetnav_agents.optimum import OptimumAgent
 from planetnav_agents.periodic import PeriodicAgent
 from planetnav_agents.planner import PlannerAgent
 from planetnav_agents.schedule import ScheduleAgent
-from planetnav_agents.simple import IdleAgent, RandomAgent
+from planetnav_agents.simple import IdleAgent, RandomAgent, ZeroTorqueAgent
 from planetnav_env.config import EnvConfig
 
 AGENTS: dict[str, Callable[..., Agent]] = {
@@ -86,6 +87,7 @@ AGENTS: dict[str, Callable[..., Agent]] = {
     "schedule": ScheduleAgent,
     "random": RandomAgent,
     "idle": IdleAgent,
+    "zero": ZeroTorqueAgent,
 }
 
 #: Agents that act only in an operations scenario (``config.operations``, e.g. ThrustArc-TCM): routed by
@@ -184,6 +186,11 @@ def not_applicable(name_or_path: str, config: EnvConfig) -> str | None:
     name, _ = parse_spec(name_or_path)
     if name in OPERATIONS_AGENTS and config.operations is None:
         return f"{name} needs an operations scenario (config.operations), e.g. planetnav/ThrustArc-TCM-v0"
+    if name == "zero" and config.action_mode != "torque":
+        return (
+            "zero commands wheel torques: it needs action_mode 'torque' "
+            f"(this environment: {config.action_mode!r})"
+        )
     if name in NEEDS_IDLE_ACTION and config.action_mode != "target":
         return (
             f"{name} needs the discrete 'camera off' action, which only action_mode 'target' has "
@@ -250,6 +257,7 @@ __all__ = [
     "RandomAgent",
     "ScheduleAgent",
     "TargetAgent",
+    "ZeroTorqueAgent",
     "acts_at_physics_step",
     "make_agent",
     "not_applicable",

@@ -2,8 +2,11 @@
 
 Spec syntax (``make_agent`` / ``train.py --agents``): ``schedule:targets=0-1-2,steps=8-4-4``. ``targets``
 lists target indices (planets, then pulsars: ``config.planets + config.pulsars``) or names in visiting order,
-separated by ``-``; ``steps`` is one dwell in environment steps for every entry, or one per entry. Step ``k``
-of the episode (counted from :meth:`reset`) points at the entry whose dwell covers ``k mod sum(steps)``.
+separated by ``-``, or ``off``: the "camera off" action (environments with ``idle_action=True``; on the
+operations scenarios a schedule of sessions, ``targets=0-off-1-off,steps=12-420``); ``steps`` is one dwell
+in environment steps for every entry, or one per entry; ``phase`` (steps, default 0) skips that much of the
+cycle at the start. Step ``k`` of the episode (counted from :meth:`reset`) points at the entry whose dwell
+covers ``(k + phase) mod sum(steps)``.
 
 It ignores the observation entirely (unlike ``periodic``, whose ``skip_invisible`` reads the visibility
 flags): it is the family the suite's score takes its zero from, the best policy that cannot read the state
@@ -36,7 +39,9 @@ class ScheduleAgent(TargetAgent):
     name = "schedule"
     requires_idle_action = False
 
-    def __init__(self, env: gym.Env, targets: str | int = "0-1", steps: str | int = 10) -> None:
+    def __init__(
+        self, env: gym.Env, targets: str | int = "0-1", steps: str | int = 10, phase: int = 0
+    ) -> None:
         super().__init__(env)
         cfg = self.config
         names = [n.lower() for n in (*cfg.planets, *cfg.pulsars)]
@@ -47,9 +52,17 @@ class ScheduleAgent(TargetAgent):
                 idx.append(int(low))
             elif low in names:
                 idx.append(names.index(low))
+            elif low == "off":
+                if not cfg.idle_action:
+                    raise ValueError(
+                        "schedule: target 'off' needs the 'camera off' action, an environment built with "
+                        "idle_action=True"
+                    )
+                idx.append(cfg.n_targets)  # the last discrete action
             else:
                 raise ValueError(
-                    f"schedule: target {item!r} is neither an index 0..{len(names) - 1} nor one of {names}"
+                    f"schedule: target {item!r} is neither an index 0..{len(names) - 1}, one of {names}, "
+                    "nor off"
                 )
         dwell = []
         for item in _entries(steps, "steps"):
@@ -66,11 +79,17 @@ class ScheduleAgent(TargetAgent):
             )
         #: The target of each step of one cycle.
         self.cycle = np.repeat(np.asarray(idx, dtype=np.int64), dwell)
-        self.name = f"schedule:targets={'-'.join(map(str, idx))},steps={'-'.join(map(str, dwell))}"
-        self._k = 0
+        if not isinstance(phase, int) or isinstance(phase, bool) or phase < 0:
+            raise ValueError(f"schedule: phase {phase!r} must be an integer >= 0 (steps)")
+        shown = ["off" if i == cfg.n_targets else str(i) for i in idx]
+        self.name = f"schedule:targets={'-'.join(shown)},steps={'-'.join(map(str, dwell))}"
+        if phase:
+            self.name += f",phase={phase}"
+        self.phase = phase
+        self._k = phase
 
     def reset(self, seed: int | None = None) -> None:
-        self._k = 0
+        self._k = self.phase
 
     def _next(self) -> int:
         target = int(self.cycle[self._k % self.cycle.size])

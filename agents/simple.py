@@ -1,4 +1,5 @@
-"""Floor agents: ``random`` (a uniformly random action each step) and ``idle`` (never measures)."""
+"""Floor agents: ``random`` (a uniformly random action each step), ``idle`` (never measures) and ``zero``
+(zero wheel torque: the camera drifts with the body)."""
 
 from __future__ import annotations
 
@@ -6,6 +7,7 @@ import copy
 from typing import Any
 
 import gymnasium as gym
+import numpy as np
 
 from planetnav_agents.base import Agent, unwrapped_config
 
@@ -49,3 +51,26 @@ class IdleAgent(Agent):
 
     def act(self, observation: Any, info: dict[str, Any]) -> Any:
         return self._action
+
+
+class ZeroTorqueAgent(Agent):
+    """Zero wheel torque every step (``action_mode="torque"``): the camera keeps the attitude it starts in,
+    drifting with the body's rates, and measures whatever planet comes into its field. With ``random``
+    it is the blind family of the torque tasks (:mod:`planetnav_train.suite.blind`): torques chosen
+    without reading the state.
+    """
+
+    name = "zero"
+    requires_idle_action = False
+
+    def __init__(self, env: gym.Env) -> None:
+        cfg = unwrapped_config(env)
+        if cfg.action_mode != "torque":
+            raise ValueError(
+                "the zero agent commands wheel torques: it needs action_mode 'torque', got "
+                f"{cfg.action_mode!r}"
+            )
+        self._action = np.zeros(env.action_space.shape, dtype=env.action_space.dtype)
+
+    def act(self, observation: Any, info: dict[str, Any]) -> Any:
+        return self._action.copy()

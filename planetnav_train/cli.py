@@ -99,9 +99,46 @@ def _eval_env_config(args: argparse.Namespace, specs: Sequence[str]) -> tuple[En
     return evaluation_env(tc.env_config(), steps, noise), tc.eval
 
 
+def _train_on_device(args: argparse.Namespace) -> int:
+    """``train --device cuda``: the device PPO (baselines/ppo_device.py) on the config's ``env_id`` with its
+    seed and ``n_timesteps`` (decisions), the environment, rollout and update on the GPU; a clear error
+    where there is no GPU or numba-cuda."""
+    from planetnav_env.device.vector_env import cuda_unavailable_reason
+
+    if not args.device.startswith("cuda"):
+        raise ConfigError(f"--device must be cpu, cuda or cuda:K, got {args.device!r}")
+    why = cuda_unavailable_reason()
+    if why is not None:
+        raise ConfigError(
+            f'--device {args.device}: {why}; install with pip install -e ".[gpu]" on a GPU machine'
+        )
+    if args.resume or args.address:
+        raise ConfigError("--device cuda takes neither --resume nor --address")
+    tc = load_config(args.config or DEFAULT_CONFIG)
+    if not tc.env_id:
+        raise ConfigError("--device cuda trains a registered id: the config needs env_id")
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("ppo_device", ROOT / "baselines" / "ppo_device.py")
+    ppo = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(ppo)
+    seed = args.seed if args.seed is not None else tc.seed
+    argv = ["--device", args.device, "--env-id", tc.env_id, "--seed", str(seed),
+            "--total-timesteps", str(args.timesteps or tc.n_timesteps)]  # fmt: skip
+    if args.no_eval:
+        argv += ["--eval-episodes", "0"]
+    if args.run_dir:
+        Path(args.run_dir).mkdir(parents=True, exist_ok=True)
+        argv += ["--save-model", str(Path(args.run_dir) / "ppo_device.pt")]
+    ppo.main(argv)
+    return 0
+
+
 def cmd_train(args: argparse.Namespace) -> int:
     """``train``: train a configuration (SB3 or RLlib), then evaluate it with the rule-based agents and write
     the report (unless ``--no-eval``)."""
+    if getattr(args, "device", "cpu") != "cpu":
+        return _train_on_device(args)
     if args.resume:
         # The run's own config.yaml, as it was written when it started: nothing else may change.
         given = [
@@ -341,9 +378,10 @@ def cmd_blind_search(args: argparse.Namespace) -> int:
             progress=None if args.no_progress else lambda s, j: print(f"  {s:48s} {j:10.2f}", flush=True),
             finalists=args.finalists, final_episodes=args.final_episodes,
         )  # fmt: skip
-        rec = B.measure_task(
-            cfg, res, args.references, args.privileged, evaluate, args.seed, args.episodes, args.agents
-        )
+        refs, privileged = B.default_references(cfg)
+        refs = tuple(args.references) if args.references is not None else refs
+        privileged = tuple(args.privileged) if args.privileged is not None else privileged
+        rec = B.measure_task(cfg, res, refs, privileged, evaluate, args.seed, args.episodes, args.agents)
         rec["options"] = dict(args.option or [])
         rec["wall_s"] = time.perf_counter() - t0
         rec["provenance"] = provenance(wall_s=rec["wall_s"])
@@ -573,6 +611,12 @@ def build_parser() -> argparse.ArgumentParser:
         "config.yaml, to its configured steps, then evaluate",
     )
     t.add_argument("--address", help="RLlib only: join the Ray cluster at HOST:PORT (default: a local Ray)")
+    t.add_argument(
+        "--device",
+        default="cpu",
+        help="cuda (or cuda:K): train with baselines/ppo_device.py on the GPU, the config's env_id, seed "
+        "and n_timesteps (needs the [gpu] extra and a GPU); cpu (default): the config's trainer",
+    )
     t.set_defaults(func=cmd_train)
 
     def cmd_tune(args: argparse.Namespace) -> int:
@@ -668,11 +712,11 @@ def build_parser() -> argparse.ArgumentParser:
                     help="second-stage seeds for the finalists (0: one stage)")  # fmt: skip
     bs.add_argument("--seed", type=int, default=50_000, help="first evaluation seed (the suite's)")
     bs.add_argument("--episodes", type=int, default=100, help="evaluation episodes")
-    bs.add_argument("--references", nargs="+", default=list(_blind.V2_REFERENCES),
-                    help="non-privileged references (the best is the score's 1)")  # fmt: skip
-    bs.add_argument(
-        "--privileged", nargs="*", default=list(_blind.V2_PRIVILEGED), help="oracles (reported only)"
-    )
+    bs.add_argument("--references", nargs="+",
+                    help="non-privileged references (the best is the score's 1); default: the task's "
+                    "(nominal and adaptive greedy where an event is drawn, the suite's references on the "
+                    "torque and operations tasks)")  # fmt: skip
+    bs.add_argument("--privileged", nargs="*", help="oracles (reported only); default: the event's oracle")
     bs.add_argument("--agents", nargs="*", default=[], help="more agents to score (e.g. a trained model)")
     bs.add_argument("--option", action="append", type=_option_pair, metavar="KEY=VALUE",
                     help="an option over the id's (image_success_min=0.5), repeatable")  # fmt: skip

@@ -45,6 +45,14 @@ FINAL_EPISODES = 100
 DWELL_DECISIONS = (1, 2, 3, 4, 6)
 #: Mixed dwells on the Mars approach: decisions on the planet, then on each pulsar.
 MIXED_DWELLS = ((2, 1), (3, 1), (4, 1), (4, 2), (6, 2))
+#: Session schedules on the operations scenarios (the thrust arc: the camera off is thrust on): each
+#: target imaged for ``SESSION_DECISIONS`` decisions, then the camera off for ``SESSION_GAPS`` decisions, in
+#: turn. At ThrustArc-TCM-v2's 2-h decisions: 2- or 4-h sessions, 1, 3 or 6 days apart (the rules' tuned
+#: sessions: 2 h every 3 days).
+SESSION_DECISIONS = (1, 2)
+SESSION_GAPS = (11, 35, 71)
+#: When the first session starts, as a share of one session's block (on + off): like the rules' phase.
+SESSION_STARTS = (0.0, 0.25, 0.5, 0.75)
 #: The references of the ``-v2`` target tasks: the nominal rule (greedy on the filter's model) and the
 #: adaptive one (greedy with each planet's observed success rate); the oracle knows the drawn rates.
 V2_REFERENCES = ("greedy", "greedy:success=observed")
@@ -58,6 +66,9 @@ ROLE_LABELS = {
     "greedy:timing=observed": "greedy, pulsars weighted by their NIS (adaptive)",
     "greedy:timing=oracle": "greedy, pulsars weighted by their true drift (oracle, privileged)",
 }
+#: The timing error's adaptive rule and oracle (the pulsars weighted by their phases' NIS, or by the drift).
+TIMING_REFERENCES = ("greedy", "greedy:timing=observed")
+TIMING_PRIVILEGED = ("greedy:timing=oracle",)
 BOOTSTRAP_REPS = 10_000
 BOOTSTRAP_SEED = 0
 
@@ -67,11 +78,13 @@ Evaluator = Callable[[str, EnvConfig, int, int], np.ndarray]
 
 def evaluate_objective(spec: str, cfg: EnvConfig, episodes: int, seed: int) -> np.ndarray:
     """The :data:`Evaluator` of the commands: agent ``spec`` on ``episodes`` seeds from ``seed`` by
-    :func:`planetnav_train.evaluate.evaluate_agent`, the per-episode mean true position error [km]."""
+    :func:`planetnav_train.evaluate.evaluate_agent`, each episode's objective [km]: the mean true position
+    error, or on an operations scenario its J (knowledge at the deadlines plus w x delta-v lost)."""
     from planetnav_train.evaluate import evaluate_agent
 
     r = evaluate_agent(spec, cfg, episodes, seed, progress=False)
-    return np.asarray(r.metrics["per_episode_mean_pos_err_km"], dtype=float)
+    key = "per_episode_objective" if cfg.operations is not None else "per_episode_mean_pos_err_km"
+    return np.asarray(r.metrics[key], dtype=float)
 
 
 def _cycles(n_targets: int) -> list[tuple[int, ...]]:
@@ -84,16 +97,37 @@ def _cycles(n_targets: int) -> list[tuple[int, ...]]:
 
 
 def blind_candidates(cfg: EnvConfig) -> list[str]:
-    """Agent specs of the blind family of a target-choice task ``cfg``: ``random`` and every schedule of
-    :func:`_cycles` at the dwells of :data:`DWELL_DECISIONS` (and, with pulsars, :data:`MIXED_DWELLS`).
-    ``idle`` is added where the task has the camera-off action."""
-    if cfg.action_mode != "target" or cfg.operations is not None:
+    """Agent specs of the blind family of task ``cfg``.
+
+    - Target choice: ``random`` and every schedule of :func:`_cycles` at the dwells of
+      :data:`DWELL_DECISIONS` (and, with pulsars, :data:`MIXED_DWELLS`); ``idle`` where the task has the
+      camera-off action; on an operations scenario also the session schedules of
+      :data:`SESSION_DECISIONS` x :data:`SESSION_GAPS` (each target a session, the camera off between).
+    - Wheel torques (``action_mode="torque"``): ``random`` and ``zero``. A schedule executed by the PD law
+      is not blind there: the law reads the attitude, and pointing is the decision these tasks pose.
+    """
+    if cfg.action_mode == "torque":
+        return ["random", "zero"]
+    if cfg.action_mode != "target":
         raise ConfigError(
-            "the blind search covers the target-choice tasks without operations; got action_mode "
-            f"{cfg.action_mode!r}, operations {cfg.operations is not None}"
+            "the blind search covers the target-choice and wheel-torque tasks; got action_mode "
+            f"{cfg.action_mode!r}"
         )
     k = cfg.decision_steps
     specs = ["random"] + (["idle"] if cfg.idle_action else [])
+    if cfg.operations is not None:
+        for cycle in _cycles(cfg.n_targets):
+            targets = "-".join(f"{t}-off" for t in cycle)
+            for on, off in itertools.product(SESSION_DECISIONS, SESSION_GAPS):
+                steps = "-".join(f"{on * k}-{off * k}" for _ in cycle)
+                for start in SESSION_STARTS:
+                    # The first session after ``first`` decisions: skip the cycle up to that point of its
+                    # last gap.
+                    first = round(start * (on + off))
+                    phase = (len(cycle) * (on + off) - first) % (len(cycle) * (on + off)) * k
+                    specs.append(
+                        f"schedule:targets={targets},steps={steps}" + (f",phase={phase}" if phase else "")
+                    )
     for cycle in _cycles(cfg.n_targets):
         targets = "-".join(map(str, cycle))
         dwells = [(d * k,) for d in DWELL_DECISIONS] if len(cycle) > 1 else [(k,)]
@@ -101,6 +135,23 @@ def blind_candidates(cfg: EnvConfig) -> list[str]:
             dwells += [tuple((a if t < cfg.n_planets else b) * k for t in cycle) for a, b in MIXED_DWELLS]
         specs += [f"schedule:targets={targets},steps={'-'.join(map(str, d))}" for d in dwells]
     return list(dict.fromkeys(specs))
+
+
+def default_references(cfg: EnvConfig) -> tuple[tuple[str, ...], tuple[str, ...]]:
+    """The non-privileged references (the best is the score's 1) and the oracles of task ``cfg``: the
+    suite's references on the operations and torque tasks; nominal and adaptive greedy (and the oracle)
+    where an event is drawn; nominal greedy otherwise."""
+    from planetnav_train.suite.tasks import THRUST_ARC_REFS, TORQUE_REFS
+
+    if cfg.operations is not None:
+        return THRUST_ARC_REFS, ()
+    if cfg.action_mode == "torque":
+        return TORQUE_REFS, ()
+    if cfg.image_success_min < 1.0:
+        return V2_REFERENCES, V2_PRIVILEGED
+    if cfg.pulsar_frequency_error_max > 0.0:
+        return TIMING_REFERENCES, TIMING_PRIVILEGED
+    return ("greedy",), ()
 
 
 def _mean_ci(values: np.ndarray, rng: np.random.Generator) -> tuple[float, float, float]:
@@ -242,10 +293,9 @@ def measure_task(
     agree = None
     if len(blind.winner_values) > 1:
         sv = np.asarray(blind.winner_values)
-        diffs = (
-            sv[rng.integers(0, sv.size, (BOOTSTRAP_REPS, sv.size))].mean(axis=1)
-            - jb[rng.integers(0, jb.size, (BOOTSTRAP_REPS, jb.size))].mean(axis=1)
-        )
+        diffs = sv[rng.integers(0, sv.size, (BOOTSTRAP_REPS, sv.size))].mean(axis=1) - jb[
+            rng.integers(0, jb.size, (BOOTSTRAP_REPS, jb.size))
+        ].mean(axis=1)
         lo, hi = float(np.quantile(diffs, 0.025)), float(np.quantile(diffs, 0.975))
         agree = {"difference": float(sv.mean() - jb.mean()), "lo": lo, "hi": hi, "holds_0": lo <= 0.0 <= hi}
     return {

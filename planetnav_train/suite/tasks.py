@@ -147,14 +147,14 @@ class Task:
 _TARGET_REFS = ("greedy", "periodic", "planner")
 #: Mars approach: one planet (periodic's cycles are over planets, so it has no schedule to run there).
 _APPROACH_REFS = ("greedy", "planner", "baseline")
-_TORQUE_REFS = ("greedy", "periodic", "planner", "baseline")
+TORQUE_REFS = ("greedy", "periodic", "planner", "baseline")
 #: Wheel torques at 1 s: greedy's choice executed by the PD law (research/training_log.md).
 _TORQUE_1S_REFS = ("greedy-pd",)
 #: The thrust arc (research/operations_log.md §7): the tuned periodic schedule (2-h sessions every 3 d
 #: from day 0.75), the tuned deadline-anchored periodic rule (§7.5: blocks ending at each TCM), the tuned
 #: deadline-aware greedy and the open-loop optimum (§3.5); the lower J on the task's seeds is the best.
 #: Another candidate is one more entry here (only it is then evaluated).
-_THRUST_ARC_REFS = (
+THRUST_ARC_REFS = (
     "periodic:period=432,session=12,phase=108,cycle=0-1-2",
     "periodic:lead=0,session=24-42-12,start=6,dwell=3,cycle=0-1-2",
     "greedy:threshold=4",
@@ -167,11 +167,11 @@ TASKS: tuple[Task, ...] = (
     Task("planetnav/Cruise-Target-v1", "discrete", 3_000_000, _TARGET_REFS),
     Task("planetnav/RandomCruise-Target-v1", "discrete", 3_000_000, _TARGET_REFS),
     Task("planetnav/MarsApproach-Tasking-v1", "discrete", 3_000_000, _APPROACH_REFS),
-    Task("planetnav/Cruise-Torque-v1", "continuous", 1_000_000, _TORQUE_REFS),
-    Task("planetnav/Cruise-TargetTorque-v1", "continuous", 1_000_000, _TORQUE_REFS),
+    Task("planetnav/Cruise-Torque-v1", "continuous", 1_000_000, TORQUE_REFS),
+    Task("planetnav/Cruise-TargetTorque-v1", "continuous", 1_000_000, TORQUE_REFS),
     Task("planetnav/Cruise-TorqueControl-v1", "continuous", 1_000_000, _TORQUE_1S_REFS),
     Task("planetnav/Cruise-Hybrid-v1", "continuous", 1_000_000, _TORQUE_1S_REFS),
-    Task("planetnav/ThrustArc-TCM-v1", "discrete", 3_000_000, _THRUST_ARC_REFS, objective="operations_J_km"),
+    Task("planetnav/ThrustArc-TCM-v1", "discrete", 3_000_000, THRUST_ARC_REFS, objective="operations_J_km"),
 )
 TASKS_BY_ID: dict[str, Task] = {t.id: t for t in TASKS}
 

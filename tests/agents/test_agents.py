@@ -101,7 +101,8 @@ def test_baseline_stares_and_greedy_alternates() -> None:
 
 @pytest.mark.parametrize("name", sorted(AGENTS))
 def test_interface_valid_actions(name: str) -> None:
-    env = PlanetNavEnv(episode_steps=5, idle_action=(name == "idle"))
+    mode = "torque" if name == "zero" else "target"  # zero torque exists in the torque mode only
+    env = PlanetNavEnv(episode_steps=5, idle_action=(name == "idle"), action_mode=mode)
     agent = make_agent(name, env)
     assert isinstance(agent, Agent) and isinstance(agent.name, str)
     assert agent.requires_idle_action == (name == "idle")

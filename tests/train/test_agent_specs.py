@@ -82,7 +82,8 @@ def test_every_agent_spec_in_every_action_mode() -> None:
         for name in sorted(AGENTS):
             reason = not_applicable(name, cfg)
             if reason is not None:
-                assert name == "idle" and mode != "target" and "action_mode 'target'" in reason
+                needs = {"idle": "target", "zero": "torque"}
+                assert name in needs and mode != needs[name] and f"action_mode '{needs[name]}'" in reason
                 continue
             env = PlanetNavEnv(cfg, idle_action=requires_idle_action(name))
             agent = make_agent(name if name != "planner" else "planner:horizon=2,replan=1", env)

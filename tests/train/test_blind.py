@@ -33,8 +33,53 @@ def test_candidates_cover_every_cycle_at_the_decision_interface():
         assert all(d % cfg.decision_steps == 0 for d in dwells)
     mars = B.blind_candidates(_cfg("planetnav/MarsApproach-Tasking-v2"))
     assert "schedule:targets=0-1-2,steps=8-4-4" in mars  # planet dwell, then each pulsar
-    with pytest.raises(ConfigError, match="target-choice"):
-        B.blind_candidates(_cfg("planetnav/Cruise-Torque-v1"))
+    # Wheel torques: only torques chosen without the state (a schedule through the PD law reads the attitude).
+    assert B.blind_candidates(_cfg("planetnav/Cruise-Torque-v2")) == ["random", "zero"]
+    with pytest.raises(ConfigError, match="target-choice and wheel-torque"):
+        B.blind_candidates(_cfg("planetnav/Cruise-Hybrid-v1"))
+
+
+def test_operations_candidates_are_sessions_with_the_camera_off_between():
+    cfg = _cfg("planetnav/ThrustArc-TCM-v2")
+    specs = B.blind_candidates(cfg)
+    assert specs[:2] == ["random", "idle"] and len(specs) == len(set(specs))
+    sessions = [s for s in specs if "off" in s]
+    per_cycle = len(B.SESSION_DECISIONS) * len(B.SESSION_GAPS) * len(B.SESSION_STARTS)
+    assert len(sessions) == 8 * per_cycle
+    # The rules' tuned sessions (2 h every 3 days over the three planets) are in the family, at every start.
+    rule = "schedule:targets=0-off-1-off-2-off,steps=12-420-12-420-12-420"
+    assert rule in sessions and f"{rule},phase=1188" in sessions
+    env = PlanetNavEnv(cfg.at_physics_step())
+    a = make_agent(f"{rule},phase=1188", env)
+    a.reset(0)
+    acts = [a.act(None, {}) for _ in range(3 * 432 + 120)]
+    # phase 1188 of a 1,296-step cycle: the first session (planet 0) starts after 108 steps (a quarter block).
+    off = cfg.n_targets
+    assert acts[:108] == [off] * 108 and acts[108:120] == [0] * 12 and acts[120:540] == [off] * 420
+    assert acts[540:552] == [1] * 12
+
+
+def test_default_references_per_task():
+    assert B.default_references(_cfg("planetnav/Cruise-Target-v2")) == (B.V2_REFERENCES, B.V2_PRIVILEGED)
+    refs, priv = B.default_references(_cfg("planetnav/ThrustArc-TCM-v2"))
+    assert "optimum" in refs and priv == ()
+    assert B.default_references(_cfg("planetnav/Cruise-Torque-v2"))[0] == (
+        "greedy", "periodic", "planner", "baseline"
+    )  # fmt: skip
+    timing = _cfg("planetnav/MarsApproach-Tasking-v1", pulsar_frequency_error_max=1e-10)
+    assert B.default_references(timing) == (B.TIMING_REFERENCES, B.TIMING_PRIVILEGED)
+    assert B.default_references(_cfg("planetnav/Cruise-Target-v1")) == (("greedy",), ())
+
+
+def test_evaluate_objective_reads_the_operations_J():
+    cfg = _cfg("planetnav/ThrustArc-TCM-v2", episode_steps=72)
+    j = B.evaluate_objective("idle", cfg, 2, 0)
+    from planetnav_train.evaluate import evaluate_agent
+
+    m = evaluate_agent("idle", cfg, 2, 0, progress=False).metrics
+    assert m["objective_kind"] == "operations J"
+    np.testing.assert_array_equal(j, m["per_episode_objective"])
+    assert not np.allclose(j, m["per_episode_mean_pos_err_km"])
 
 
 def test_search_picks_the_lowest_mean_and_measure_reports_the_gap():
@@ -103,6 +148,8 @@ def test_schedule_agent_ignores_the_observation():
         ("schedule:targets=0-1,steps=1-2-3", "gives 3 dwells for 2 targets"),
         ("schedule:targets=0-1,steps=0", "integer >= 1"),
         ("schedule:targets=0--1,steps=2", "empty entry"),
+        ("schedule:targets=0-off,steps=2", "idle_action=True"),
+        ("schedule:targets=0-1,steps=2,phase=-3", "phase -3 must be an integer >= 0"),
     ],
 )
 def test_schedule_agent_named_errors(spec, match):
@@ -234,3 +281,17 @@ def test_blind_search_and_regime_map_commands_end_to_end(tmp_path, capsys):
     data = json.loads(js.read_text())
     assert [p["strength"] for p in data["points"]] == [0.0, 1.0] and png.stat().st_size > 10_000
     assert set(data["points"][0]["agents"]) == {"blind", "greedy"}
+
+
+def test_zero_agent_holds_the_wheels():
+    env = PlanetNavEnv(_cfg("planetnav/Cruise-Torque-v2").at_physics_step())
+    a = make_agent("zero", env)
+    obs, info = env.reset(seed=0)
+    act = a.act(obs, info)
+    assert act.shape == env.action_space.shape and not act.any()
+    from planetnav_agents import not_applicable
+
+    target = _cfg("planetnav/Cruise-Target-v1")
+    assert "action_mode 'torque'" in not_applicable("zero", target)
+    with pytest.raises(ValueError, match="needs action_mode 'torque', got 'target'"):
+        make_agent("zero", PlanetNavEnv(target.at_physics_step()))
