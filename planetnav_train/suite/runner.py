@@ -164,11 +164,12 @@ def train_cell(
     return train(tc, run_dir, progress=progress, resume=resume, callbacks=callbacks)
 
 
-#: Held-out seeds of the learning curves: a few, disjoint from every other range (training 0.., train.py's
-#: evaluation 10,000.., the periodic sweep 20,000.., the suite's evaluation 50,000..).
-CURVE_SEED = 60_000
-CURVE_EPISODES = 5
-#: Points of a learning curve (the budget's tenths, the last at the end of training).
+#: Episodes of each learning-curve point: the first of the task's evaluation seeds (the same noise
+#: streams), so that a point is scored against the published references' values on the very seeds it was
+#: played on; 20 at least, so that a point's noise is a fraction of the score's scale.
+CURVE_EPISODES = 20
+#: Points of a learning curve (the budget's tenths); the last, at the end of training, is the final
+#: evaluation itself (every evaluation seed), so the curve ends on the figure the table reports.
 CURVE_POINTS = 10
 EVAL_MODES = ("argmax", "sampled")
 
@@ -178,41 +179,38 @@ def _mode_spec(model_path: Path | str, mode: str) -> str:
     return f"{model_path}@sampled" if mode == "sampled" else str(model_path)
 
 
-def curve_references(task: Task, settings: Settings, references: Mapping[str, Any]) -> dict[str, Any]:
-    """The zero point's and the best reference's objective on the curve seeds (the same agents as
-    ``references`` chose on the evaluation seeds) with their provenance, cached in
-    ``OUT/references/curves/``."""
-    from planetnav_train.evaluate import evaluate_agent
-
-    path = settings.out / "references" / "curves" / f"{task.id}.json"
-    if path.is_file():
-        return json.loads(path.read_text())
-    objective = OBJECTIVES[task.objective]
-    t0 = time.perf_counter()
-    out: dict[str, Any] = {}
-    for key in ("zero", "best"):
-        spec = references[key]
-        cfg = task.eval_config(settings.episode_steps).at_physics_step()  # as reference_agent's
-        m = evaluate_agent(spec, cfg, CURVE_EPISODES, CURVE_SEED, progress=False).metrics
-        out[f"J_{key}"] = float(np.mean(objective.values(m)))
-    out["provenance"] = provenance(wall_s=time.perf_counter() - t0)
-    write_json_atomic(path, out)
-    return out
+def curve_references(references: Mapping[str, Any]) -> dict[str, Any]:
+    """The zero point's and the best reference's objective on the curve's episodes: the means of the
+    published references' per-episode values (``references``, :func:`task_references`) over the first
+    :data:`CURVE_EPISODES` evaluation seeds (all of them when there are fewer)."""
+    agents = references["agents"]
+    n = min(CURVE_EPISODES, len(agents[references["zero"]]["per_episode"]))
+    return {
+        "episodes": n,
+        "J_zero": float(np.mean(agents[references["zero"]]["per_episode"][:n])),
+        "J_best": float(np.mean(agents[references["best"]]["per_episode"][:n])),
+    }
 
 
 def learning_curve_callback(
-    task: Task, settings: Settings, references: Mapping[str, Any], run_dir: Path, decisions: int, mode: str,
+    task: Task,
+    settings: Settings,
+    references: Mapping[str, Any],
+    run_dir: Path,
+    decisions: int,
+    mode: str,
     per_decision: int,
 ) -> Any:
-    """An SB3 callback that scores the policy at :data:`CURVE_POINTS` points of training on the curve seeds
-    (normalized against :func:`curve_references`) in the protocol's ``mode``; ``.points`` holds
-    ``[physics steps, score]`` pairs."""
+    """An SB3 callback that scores the policy at :data:`CURVE_POINTS` points during training on the first
+    evaluation seeds (normalized against :func:`curve_references`) in the protocol's ``mode``; ``.points``
+    holds ``[physics steps, score]`` pairs. The point at the end of training is the final evaluation's,
+    which :func:`run_cell` appends."""
     from stable_baselines3.common.callbacks import BaseCallback
 
     from planetnav_train.evaluate import evaluate_agent
     from planetnav_train.suite.scoring import normalized_score
 
-    refs = curve_references(task, settings, references)
+    refs = curve_references(references)
     objective = OBJECTIVES[task.objective]
     every = max(1, decisions // CURVE_POINTS)
 
@@ -226,22 +224,18 @@ def learning_curve_callback(
             path = run_dir / "curve_model.zip"  # beside the run's config.yaml, which the loader reads
             self.model.save(path)
             m = evaluate_agent(_mode_spec(path, mode), task.eval_config(settings.episode_steps),
-                               CURVE_EPISODES, CURVE_SEED, progress=False,
+                               refs["episodes"], task.eval_seed, progress=False,
                                exact_actions=settings.exact_actions).metrics  # fmt: skip
             j = float(np.mean(objective.values(m)))
             steps = int(self.model.num_timesteps) * per_decision
             self.points.append([steps, normalized_score(j, refs["J_zero"], refs["J_best"])])
 
         def _on_step(self) -> bool:
-            if self.model.num_timesteps >= self._next:
+            # The end of training is the final evaluation's point, not scored here.
+            if self.model.num_timesteps >= self._next and self._next < decisions:
                 self._next += every
                 self.score()
             return True
-
-        def _on_training_end(self) -> None:
-            steps = int(self.model.num_timesteps) * per_decision
-            if not self.points or self.points[-1][0] != steps:
-                self.score()
 
     return LearningCurve()
 
@@ -292,7 +286,9 @@ def run_cell(cell: Cell, settings: Settings, references: Mapping[str, Any]) -> d
         }
     mode = algo.eval_mode if algo.eval_mode in evals else "argmax"
     head = evals[mode]
-    curve = callbacks[0].points if callbacks else []
+    env_steps = int(stats.get("env_steps", stats.get("timesteps", 0) * per_decision))
+    # The curve ends on the final evaluation (every evaluation seed, the protocol's mode).
+    curve = [*callbacks[0].points, [env_steps, head["normalized_score"]]] if callbacks else []
     wall_s = time.perf_counter() - t0
     return {
         "suite_version": SUITE_VERSION,
@@ -311,10 +307,11 @@ def run_cell(cell: Cell, settings: Settings, references: Mapping[str, Any]) -> d
         "score_vs_random": head["score_vs_random"],
         "evaluations": evals,
         "learning_curve": curve,
-        "curve_seeds": [CURVE_SEED, CURVE_SEED + CURVE_EPISODES],
+        # Seeds of the points before the last ([first, end)); the last point is the final evaluation's.
+        "curve_seeds": [task.eval_seed, task.eval_seed + curve_references(references)["episodes"]],
         "reference": {k: references[k] for k in ("random", "zero", "best", "J_random", "J_zero", "J_best")},
         # Physics steps: SB3's training reports them (env_steps); RLlib's counts decisions (timesteps).
-        "env_steps": int(stats.get("env_steps", stats.get("timesteps", 0) * per_decision)),
+        "env_steps": env_steps,
         "train_seconds": train_s,
         "wall_seconds": wall_s,
         "eval_episodes": episodes,

@@ -249,7 +249,9 @@ def test_raw_and_assisted_configs(tmp_path) -> None:
         rc, _ = suite.cell_config(suite.Cell("RandomCruise-Target-v1", "ppo", track, 3), settings)
         assert rc.env == {"reward_scale_km": 100_000.0} and rc.env_config().reward_scale_km == 100_000.0
         assert rc.hyperparams["policy_kwargs"] == {
-            "features_extractor": "relative_order", "action_head": "per_target", "contrast": True,
+            "features_extractor": "relative_order",
+            "action_head": "per_target",
+            "contrast": True,
         }
     assert raw.env_config().reward_scale_km == 1000.0 and mars.env == {}
     rc_dqn, _ = suite.cell_config(suite.Cell("RandomCruise-Target-v1", "dqn", "raw", 3), settings)
@@ -276,7 +278,8 @@ def test_exact_actions_reaches_the_evaluation_the_record_and_the_command(tmp_pat
         runner, "train_cell", lambda tc, run_dir, progress, resume, callbacks=(): (run_dir / "model.zip", {})
     )
     refs = {"random": "random", "zero": "random", "best": "greedy", "J_random": 300.0, "J_zero": 300.0,
-            "J_best": 100.0}  # fmt: skip
+            "J_best": 100.0, "agents": {"random": {"per_episode": [300.0] * 2},
+                                        "greedy": {"per_episode": [100.0] * 2}}}  # fmt: skip
     cell = suite.Cell("Cruise-Torque-v1", "sac", "raw", 0)
     for exact in (True, False):
         settings = suite.Settings(out=tmp_path, eval_episodes=2, exact_actions=exact)
@@ -324,6 +327,16 @@ def test_resume_skips_finished_runs(tmp_path, monkeypatch) -> None:
     assert len(again["skipped"]) == 2 and len(again["records"]) == 3
 
 
+def test_curve_references_average_the_published_values_on_the_curve_seeds() -> None:
+    refs = {"zero": "random", "best": "greedy", "agents": {
+        "random": {"per_episode": list(range(100, 130))}, "greedy": {"per_episode": [10.0] * 29 + [70.0]},
+    }}  # fmt: skip
+    out = runner.curve_references(refs)
+    assert out == {"episodes": runner.CURVE_EPISODES, "J_zero": 109.5, "J_best": 10.0}
+    short = {**refs, "agents": {k: {"per_episode": v["per_episode"][:3]} for k, v in refs["agents"].items()}}
+    assert runner.curve_references(short) == {"episodes": 3, "J_zero": 101.0, "J_best": 10.0}
+
+
 def test_suite_smoke_end_to_end(tmp_path, monkeypatch) -> None:
     """CI: train a few hundred steps, evaluate on 2 seeds of 20 steps, score, aggregate, write the JSON and
     the markdown; then re-parse the recorded command of a cell; then publish (the JSON copied, the README
@@ -356,6 +369,11 @@ def test_suite_smoke_end_to_end(tmp_path, monkeypatch) -> None:
         assert r["objective"] == r["evaluations"]["sampled"]["objective"]
         assert len(r["learning_curve"]) >= 10 and r["learning_curve"][-1][0] == r["env_steps"]
         assert all(np.isfinite(score) for _, score in r["learning_curve"])
+        # The curve ends on the final (its last point inside the final's 95 % interval, mapped to the score),
+        # and its points were played on the evaluation seeds the references' values are averaged over.
+        lo, hi = sorted(normalized_score(j, ref["J_zero"], ref["J_best"]) for j in r["objective_ci95"])
+        assert r["learning_curve"][-1][1] == r["normalized_score"] and lo <= r["normalized_score"] <= hi
+        assert r["curve_seeds"] == [task.eval_seed, task.eval_seed + 2]  # all of the smoke run's 2 seeds
     agg = published["aggregate"]["raw"]["overall"]["ppo"]
     assert agg["low"] <= agg["iqm"] <= agg["high"]
     # IQM learning curves with their bands, per task and over tasks, and their plot.
