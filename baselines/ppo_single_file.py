@@ -48,8 +48,11 @@ from planetnav_train.suite.blind import evaluate_objective, paired_ratio_ci
 BLIND_JSON = Path(__file__).resolve().parents[1] / "docs" / "tasks_v2_blind.json"
 
 
-def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
-    p = argparse.ArgumentParser(description="Single-file PPO on planetnav's native vector env.")
+def make_parser(
+    description: str = "Single-file PPO on planetnav's native vector env.",
+) -> argparse.ArgumentParser:
+    """The arguments (baselines/ppo_device.py adds its own to these)."""
+    p = argparse.ArgumentParser(description=description)
     a = p.add_argument
     a("--env-id", default="planetnav/Cruise-Target-v2", help="a target-choice id (Discrete actions)")
     a("--seed", type=int, default=0, help="torch's seed; env row i is reset with seed + i")
@@ -72,11 +75,19 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     a("--eval-episodes", type=int, default=100, help="evaluation seeds 50,000.. (0: no evaluation)")
     a("--blind-json", default=str(BLIND_JSON), help="the blind search's per-seed reference values")
     a("--save-model", default=None, help="write the agent's state_dict here (torch.save)")
-    args = p.parse_args(argv)
+    return p
+
+
+def finish_args(args: argparse.Namespace) -> argparse.Namespace:
+    """The sizes derived from the arguments."""
     args.batch_size = args.num_envs * args.num_steps
     args.minibatch_size = max(1, args.batch_size // args.num_minibatches)
     args.num_iterations = max(1, math.ceil(args.total_timesteps / args.batch_size))
     return args
+
+
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    return finish_args(make_parser().parse_args(argv))
 
 
 def layer_init(layer: nn.Linear, std: float = math.sqrt(2), bias_const: float = 0.0) -> nn.Linear:
@@ -114,6 +125,66 @@ class Agent(nn.Module):
 def env_options(args: argparse.Namespace) -> dict:
     """The env options this run overrides on top of the id's."""
     return {"episode_steps": args.episode_steps} if args.episode_steps else {}
+
+
+def gae(rewards, values, dones, next_value, next_done, gamma: float, lam: float):
+    """Generalized advantage estimation over a (T, N) rollout (tensors on any device): ``dones[t]`` marks
+    the rows whose episode ended before step ``t``'s observation; returns (advantages, returns)."""
+    advantages = torch.zeros_like(rewards)
+    lastgaelam = 0
+    for t in reversed(range(rewards.shape[0])):
+        if t == rewards.shape[0] - 1:
+            nextnonterminal, nextvalues = 1.0 - next_done, next_value
+        else:
+            nextnonterminal, nextvalues = 1.0 - dones[t + 1], values[t + 1]
+        delta = rewards[t] + gamma * nextvalues * nextnonterminal - values[t]
+        lastgaelam = delta + gamma * lam * nextnonterminal * lastgaelam
+        advantages[t] = lastgaelam
+    return advantages, advantages + values
+
+
+def ppo_update(agent, optimizer, args, b_obs, b_actions, b_logprobs, b_advantages, b_returns, permutation):
+    """The clipped PPO update over one flattened batch: ``update_epochs`` epochs of minibatches of the
+    indices ``permutation()`` returns each epoch. Returns the last minibatch's losses and the mean clip
+    fraction as tensors (no host read inside the loop)."""
+    clipfracs = []
+    for _epoch in range(args.update_epochs):
+        b_inds = permutation()
+        for lo in range(0, args.batch_size, args.minibatch_size):
+            mb = b_inds[lo : lo + args.minibatch_size]
+            _, newlogprob, entropy, newvalue = agent.get_action_and_value(b_obs[mb], b_actions[mb])
+            logratio = newlogprob - b_logprobs[mb]
+            ratio = logratio.exp()
+            with torch.no_grad():
+                approx_kl = ((ratio - 1) - logratio).mean()
+                clipfracs.append(((ratio - 1.0).abs() > args.clip_coef).float().mean())
+            mb_adv = b_advantages[mb]
+            mb_adv = (mb_adv - mb_adv.mean()) / (mb_adv.std() + 1e-8)
+            pg_loss = torch.max(
+                -mb_adv * ratio, -mb_adv * torch.clamp(ratio, 1 - args.clip_coef, 1 + args.clip_coef)
+            ).mean()
+            v_loss = ((newvalue.flatten() - b_returns[mb]) ** 2).mean()  # SB3's MSE (CleanRL halves it)
+            entropy_loss = entropy.mean()
+            loss = pg_loss - args.ent_coef * entropy_loss + v_loss * args.vf_coef
+
+            optimizer.zero_grad()
+            loss.backward()
+            nn.utils.clip_grad_norm_(agent.parameters(), args.max_grad_norm)
+            optimizer.step()
+        if args.target_kl is not None and approx_kl > args.target_kl:
+            break
+    return {"pg_loss": pg_loss, "v_loss": v_loss, "entropy": entropy_loss, "approx_kl": approx_kl,
+            "clipfrac": torch.stack(clipfracs).mean()}  # fmt: skip
+
+
+def shuffler(rng: np.random.Generator, inds: np.ndarray):
+    """A ``permutation()`` for :func:`ppo_update` that shuffles ``inds`` in place with ``rng`` each call."""
+
+    def permutation() -> np.ndarray:
+        rng.shuffle(inds)
+        return inds
+
+    return permutation
 
 
 def train(args: argparse.Namespace) -> Agent:
@@ -163,54 +234,17 @@ def train(args: argparse.Namespace) -> Agent:
             ep_return[done] = 0.0
             next_obs, next_done = torch.as_tensor(o), torch.as_tensor(done, dtype=torch.float32)
 
-        # Generalized advantage estimation
         with torch.no_grad():
-            next_value = agent.get_value(next_obs).reshape(1, -1)
-            advantages = torch.zeros_like(rewards)
-            lastgaelam = 0
-            for t in reversed(range(T)):
-                if t == T - 1:
-                    nextnonterminal, nextvalues = 1.0 - next_done, next_value
-                else:
-                    nextnonterminal, nextvalues = 1.0 - dones[t + 1], values[t + 1]
-                delta = rewards[t] + args.gamma * nextvalues * nextnonterminal - values[t]
-                lastgaelam = delta + args.gamma * args.gae_lambda * nextnonterminal * lastgaelam
-                advantages[t] = lastgaelam
-            returns = advantages + values
-
-        # Flatten the batch
+            advantages, returns = gae(rewards, values, dones, agent.get_value(next_obs).reshape(1, -1),
+                                      next_done, args.gamma, args.gae_lambda)  # fmt: skip
         b_obs = obs.reshape((-1, obs_dim))
-        b_logprobs, b_actions = logprobs.reshape(-1), actions.reshape(-1)
-        b_advantages, b_returns, b_values = advantages.reshape(-1), returns.reshape(-1), values.reshape(-1)
-
-        # Optimize the policy and value network
-        b_inds = np.arange(args.batch_size)
-        clipfracs = []
-        for _epoch in range(args.update_epochs):
-            rng.shuffle(b_inds)
-            for lo in range(0, args.batch_size, args.minibatch_size):
-                mb = b_inds[lo : lo + args.minibatch_size]
-                _, newlogprob, entropy, newvalue = agent.get_action_and_value(b_obs[mb], b_actions[mb])
-                logratio = newlogprob - b_logprobs[mb]
-                ratio = logratio.exp()
-                with torch.no_grad():
-                    approx_kl = ((ratio - 1) - logratio).mean()
-                    clipfracs.append(((ratio - 1.0).abs() > args.clip_coef).float().mean().item())
-                mb_adv = b_advantages[mb]
-                mb_adv = (mb_adv - mb_adv.mean()) / (mb_adv.std() + 1e-8)
-                pg_loss = torch.max(
-                    -mb_adv * ratio, -mb_adv * torch.clamp(ratio, 1 - args.clip_coef, 1 + args.clip_coef)
-                ).mean()
-                v_loss = ((newvalue.flatten() - b_returns[mb]) ** 2).mean()  # SB3's MSE (CleanRL halves it)
-                entropy_loss = entropy.mean()
-                loss = pg_loss - args.ent_coef * entropy_loss + v_loss * args.vf_coef
-
-                optimizer.zero_grad()
-                loss.backward()
-                nn.utils.clip_grad_norm_(agent.parameters(), args.max_grad_norm)
-                optimizer.step()
-            if args.target_kl is not None and approx_kl > args.target_kl:
-                break
+        b_values = values.reshape(-1)
+        b_returns = returns.reshape(-1)
+        permutation = shuffler(rng, np.arange(args.batch_size))
+        st = ppo_update(agent, optimizer, args, b_obs, actions.reshape(-1), logprobs.reshape(-1),
+                        advantages.reshape(-1), b_returns, permutation)  # fmt: skip
+        pg_loss, v_loss, entropy_loss, approx_kl = st["pg_loss"], st["v_loss"], st["entropy"], st["approx_kl"]
+        clipfracs = [st["clipfrac"].item()]
 
         y_pred, y_true = b_values.numpy(), b_returns.numpy()
         var_y = np.var(y_true)
@@ -287,7 +321,11 @@ def main(argv: list[str] | None = None) -> dict:
     if args.save_model:
         torch.save(agent.state_dict(), args.save_model)
         print(f"saved {args.save_model}")
-    out: dict = {"agent": agent}
+    return evaluate_and_score(agent, args, {"agent": agent})
+
+
+def evaluate_and_score(agent: Agent, args: argparse.Namespace, out: dict) -> dict:
+    """The suite's evaluation of ``agent`` (on the CPU) and its blind-zero score, added to ``out``."""
     if args.eval_episodes <= 0:
         return out
 

@@ -195,32 +195,8 @@ class BatchCore:
         (the row's Gymnasium ``np_random``): scenario, initial filter error, attitude, then the row's
         compiled random stream. The same generator state gives the same row, whatever the batch."""
         rows = np.asarray(rows, dtype=np.int64).reshape(-1)
-        f, cfg = self.f, self.config
         for r, gen in zip(rows, generators, strict=True):
-            ep = self._draw(gen)
-            self.episodes[r] = RowEpisode(ep.epoch, ep.central, tuple(ep.perturbers))
-            self.eph[r] = self._table(ep.epoch)
-            f[r] = 0.0
-            f[r, L.F_T0] = ep.epoch
-            x = np.asarray(ep.x0, dtype=float)
-            f[r, L.F_X : L.F_X + 6] = x
-            f[r, L.F_XE : L.F_XE + 6] = x + gen.standard_normal(6) * self._sigma0
-            self.p[r] = self._p0
-            f[r, L.F_Q : L.F_Q + 4] = qt.normalize(gen.normal(size=4))
-            self.rng[r] = crng.seed_state(gen)
-            if cfg.image_success_min < 1.0:
-                # Drawn last, so the rest of the episode is the one the same seed gives without failures.
-                p_fix = gen.uniform(cfg.image_success_min, 1.0, cfg.n_planets)
-                f[r, L.F_IMG_P : L.F_IMG_P + cfg.n_planets] = p_fix
-            if cfg.centroid_bias_max > 0.0:
-                scale = gen.uniform(0.0, cfg.centroid_bias_max, cfg.n_planets)
-                f[r, L.F_COB : L.F_COB + cfg.n_planets] = scale
-            if cfg.pulsar_frequency_error_max > 0.0:
-                top = cfg.pulsar_frequency_error_max
-                delta = gen.uniform(-top, top, cfg.n_pulsars)
-                f[r, L.F_PSR_DRIFT : L.F_PSR_DRIFT + cfg.n_pulsars] = SPEED_OF_LIGHT_KM_S * delta
-            if cfg.prior_long_sigma_km > 0.0:
-                self._elongate_prior(r, gen)
+            self.episodes[r] = self.draw_row(gen, self.f[r], self.p[r], self.rng[r], self.eph[r])
         K.reset_rows(self.params, self.state, rows)
         if self.since is not None:
             self.since[rows] = np.inf
@@ -233,6 +209,42 @@ class BatchCore:
             self._observe_residual_log(rows)
         if self.layout.position_correlation:
             self._observe_position_correlation(rows)
+
+    def draw_row(
+        self, gen: np.random.Generator, f: np.ndarray, p: np.ndarray, rng: np.ndarray, eph: np.ndarray
+    ) -> RowEpisode:
+        """What a reset draws on the host for one row, from ``gen``, written into that row's arrays: ``f``
+        (NF,) the float state (zeroed, then the epoch [s], true state [km, km/s], filter estimate,
+        attitude and the episode's events), ``p`` (6, 6) the initial covariance [km^2, km^2/s^2], ``rng``
+        (STATE_WORDS,) uint64 the compiled noise stream, ``eph`` the ephemeris table. :meth:`reset_rows`
+        passes views of the batch's rows; the device env's episode bank
+        (:mod:`planetnav_env.device.bank`) views of its own. The compiled part of the reset
+        (``kernels.reset_row``) then runs on the row."""
+        cfg = self.config
+        ep = self._draw(gen)
+        eph[...] = self._table(ep.epoch)
+        f[:] = 0.0
+        f[L.F_T0] = ep.epoch
+        x = np.asarray(ep.x0, dtype=float)
+        f[L.F_X : L.F_X + 6] = x
+        f[L.F_XE : L.F_XE + 6] = x + gen.standard_normal(6) * self._sigma0
+        p[...] = self._p0
+        f[L.F_Q : L.F_Q + 4] = qt.normalize(gen.normal(size=4))
+        rng[:] = crng.seed_state(gen)
+        if cfg.image_success_min < 1.0:
+            # Drawn last, so the rest of the episode is the one the same seed gives without failures.
+            p_fix = gen.uniform(cfg.image_success_min, 1.0, cfg.n_planets)
+            f[L.F_IMG_P : L.F_IMG_P + cfg.n_planets] = p_fix
+        if cfg.centroid_bias_max > 0.0:
+            scale = gen.uniform(0.0, cfg.centroid_bias_max, cfg.n_planets)
+            f[L.F_COB : L.F_COB + cfg.n_planets] = scale
+        if cfg.pulsar_frequency_error_max > 0.0:
+            top = cfg.pulsar_frequency_error_max
+            delta = gen.uniform(-top, top, cfg.n_pulsars)
+            f[L.F_PSR_DRIFT : L.F_PSR_DRIFT + cfg.n_pulsars] = SPEED_OF_LIGHT_KM_S * delta
+        if cfg.prior_long_sigma_km > 0.0:
+            self._elongate_prior(gen, f, p)
+        return RowEpisode(ep.epoch, ep.central, tuple(ep.perturbers))
 
     def _observe_since(self, rows: np.ndarray) -> None:
         """Count one physics step seen by ``rows`` (indices; a reset's first observation counts, as a step
@@ -291,19 +303,20 @@ class BatchCore:
             return np.zeros((self.num_rows, n_p))
         return self.f[:, L.F_COB : L.F_COB + n_p].copy()
 
-    def _elongate_prior(self, r: int, gen: np.random.Generator) -> None:
-        """Row ``r``'s prior made long along a direction ``u`` drawn uniformly on the sphere
-        (``EnvConfig.prior_long_sigma_km``): ``P_rr = s^2 I + (L^2 - s^2) u u^T`` with ``s`` the spherical
-        sigma, and the initial error already drawn from ``s^2 I`` plus ``sqrt(L^2 - s^2) z u`` (``z``
-        standard normal), whose covariance is that ``P_rr``. Drawn after everything else, so the episode is
-        the one the same seed gives with the spherical prior, plus the long error."""
+    def _elongate_prior(self, gen: np.random.Generator, f: np.ndarray, p: np.ndarray) -> None:
+        """The prior of a row (its float state ``f`` and covariance ``p``) made long along a direction
+        ``u`` drawn uniformly on the sphere (``EnvConfig.prior_long_sigma_km``): ``P_rr = s^2 I +
+        (L^2 - s^2) u u^T`` with ``s`` the spherical sigma, and the initial error already drawn from
+        ``s^2 I`` plus ``sqrt(L^2 - s^2) z u`` (``z`` standard normal), whose covariance is that ``P_rr``.
+        Drawn after everything else, so the episode is the one the same seed gives with the spherical
+        prior, plus the long error."""
         u = gen.standard_normal(3)
         # Scalar arithmetic, not np.linalg.norm (a BLAS dot): the same bits on every CPU.
         u /= math.sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2])
         s2 = self._sigma0[0] ** 2
         extra = self.config.prior_long_sigma_km**2 - s2
-        self.f[r, L.F_XE : L.F_XE + 3] += math.sqrt(extra) * gen.standard_normal() * u
-        self.p[r, :3, :3] += extra * np.outer(u, u)
+        f[L.F_XE : L.F_XE + 3] += math.sqrt(extra) * gen.standard_normal() * u
+        p[:3, :3] += extra * np.outer(u, u)
 
     def true_pulsar_drift(self) -> np.ndarray:
         """(N, Q) each row's range drift [km/s] of each pulsar's phases this episode, ``c * delta`` of the

@@ -14,7 +14,8 @@ state row (:func:`~planetnav_env.core.records.scratch_rows`: a thread cannot all
 
 What is built and checked without a GPU: the PTX of each entry point for every registered id
 (``tests/env/test_cuda_ptx.py``, :func:`entry_ptx`), and the thread functions on the CPU, bit for bit
-against the chunked step. The device-resident environment that launches these kernels is not built yet.
+against the chunked step. The device-resident environment that launches these kernels, and its autoreset
+kernel, are in :mod:`planetnav_env.device`.
 """
 
 from __future__ import annotations
@@ -49,8 +50,9 @@ def reset_kernel(prm, st, reset, rows) -> None:  # pragma: no cover - compiled
         reset_thread(prm, st, reset, rows, j)
 
 
-#: The entry points, by name. There is no separate autoreset kernel: the CPU's autoreset is a reset of
-#: the finished rows (``reset_kernel`` with those rows).
+#: The entry points, by name. The CPU's autoreset is a reset of the finished rows (``reset_kernel`` with
+#: those rows); the device env's, which first copies a row of its episode bank in, is
+#: :func:`planetnav_env.device.cuda_kernels.autoreset_kernel`.
 ENTRY_POINTS: dict[str, Any] = {"step": step_kernel, "reset": reset_kernel}
 
 

@@ -1,0 +1,180 @@
+"""Single-file PPO that stays on the device: rollout, GAE and minibatches as torch tensors on the GPU.
+
+    python baselines/ppo_device.py --device cuda --env-id planetnav/Cruise-Target-v2 --num-envs 16384
+    python baselines/ppo_device.py --device cpu  ...   # the same loop on the CPU's native vector env
+
+In the style of PureJaxRL: the environment (:class:`~planetnav_env.device.vector_env.DeviceVectorEnv` on
+CUDA: state, autoreset and observations on the GPU), the policy and the rollout buffers live on one device,
+and nothing is copied to the host per step (one host read per update, for the log line). The agent, GAE,
+the clipped update and the evaluation are baselines/ppo_single_file.py's (imported: one formula in one
+place); this file adds the device loop and its environments:
+
+* ``--device cuda``: the device env, ``same_step`` autoreset, resets from its episode bank
+  (``--bank-size``, default 4 N: every row's first four episodes are the CPU env's, then they repeat);
+* ``--device cpu``: the native vector env (``gym.make_vec``) behind a small adapter that hands out torch
+  CPU tensors (what CI runs); ``--env host`` the device env's host mode instead (its CPU build).
+
+The evaluation is the suite's (sampled actions on seeds 50,000.., on the CPU's native vector env), so its
+scores compare with the single-file PPO's and the suite's. A timestep is one decision of one env.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+import torch
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import ppo_single_file as single
+
+import planetnav_env  # noqa: F401  (registers the planetnav/* ids)
+from planetnav_env.device.vector_env import DeviceVectorEnv, cuda_unavailable_reason
+from planetnav_env.envs.vector_env import PlanetNavVectorEnv
+
+
+def parse_args(argv: list[str] | None = None):
+    p = single.make_parser("Single-file PPO on the device (planetnav's device vector env).")
+    p.set_defaults(num_envs=4096, num_steps=32)
+    p.add_argument("--device", default="cuda", help="cuda, cuda:K or cpu")
+    p.add_argument("--env", choices=("native", "host"), default="native",
+                   help="--device cpu: the native vector env, or the device env's host mode")  # fmt: skip
+    p.add_argument("--bank-size", type=int, default=None, help="device env: episodes pre-drawn (default 4 N)")
+    return single.finish_args(p.parse_args(argv))
+
+
+class NativeTorchEnv:
+    """The native vector env (``same_step`` autoreset) with the device env's torch interface, on the CPU:
+    ``reset(seed)`` -> (obs, info), ``step(actions)`` -> (obs, reward, terminated, truncated, info) with
+    ``info["final_obs"]`` an (N, D) tensor (the finished rows' last observations)."""
+
+    def __init__(self, args) -> None:
+        self.env = gym.make_vec(args.env_id, num_envs=args.num_envs, autoreset_mode="same_step",
+                                **single.env_options(args))  # fmt: skip
+        assert isinstance(self.env, PlanetNavVectorEnv), type(self.env).__name__
+        self.single_action_space = self.env.single_action_space
+        self.single_observation_space = self.env.single_observation_space
+        self.final_obs = torch.zeros((args.num_envs, *self.single_observation_space.shape))
+
+    def reset(self, seed: int):
+        o, info = self.env.reset(seed=seed)
+        return torch.as_tensor(o), info
+
+    def step(self, actions: torch.Tensor):
+        o, reward, terminated, truncated, info = self.env.step(actions.numpy())
+        done = terminated | truncated
+        if done.any():
+            self.final_obs[torch.as_tensor(done)] = torch.as_tensor(np.stack(info["final_obs"][done]))
+        info = {"final_obs": self.final_obs}
+        return (torch.as_tensor(o), torch.as_tensor(reward), torch.as_tensor(terminated),
+                torch.as_tensor(truncated), info)  # fmt: skip
+
+    def close(self) -> None:
+        self.env.close()
+
+
+def make_env(args):
+    """The environment of ``args.device`` (module docstring)."""
+    if args.device.startswith("cuda"):
+        why = cuda_unavailable_reason()
+        if why is not None:
+            raise SystemExit(f"--device {args.device}: {why}. Install with pip install -e \".[gpu]\" on a "
+                             "machine with a GPU, or run with --device cpu")  # fmt: skip
+    if args.device == "cpu" and args.env == "native":
+        return NativeTorchEnv(args)
+    bank = args.bank_size or 4 * args.num_envs
+    return DeviceVectorEnv(args.env_id, args.num_envs, device=args.device, bank_size=bank,
+                           autoreset_mode="same_step", **single.env_options(args))  # fmt: skip
+
+
+def train(args) -> tuple[single.Agent, list[dict]]:
+    dev = torch.device(args.device)
+    envs = make_env(args)
+    assert isinstance(envs.single_action_space, gym.spaces.Discrete), "this PPO takes Discrete actions"
+    obs_dim = int(np.prod(envs.single_observation_space.shape))
+    agent = single.Agent(obs_dim, int(envs.single_action_space.n)).to(dev)
+    optimizer = torch.optim.Adam(agent.parameters(), lr=args.learning_rate, eps=1e-5)
+    gen = torch.Generator(device=dev).manual_seed(args.seed)  # minibatch shuffling
+
+    # Rollout storage, on the device
+    T, N = args.num_steps, args.num_envs
+    obs = torch.zeros((T, N, obs_dim), device=dev)
+    actions = torch.zeros((T, N), dtype=torch.long, device=dev)
+    logprobs, rewards, dones, values = (torch.zeros((T, N), device=dev) for _ in range(4))
+    ep_return = torch.zeros(N, device=dev)
+    finished_sum, finished_n = torch.zeros((), device=dev), torch.zeros((), device=dev)
+
+    history: list[dict] = []
+    global_step, start = 0, time.time()
+    next_obs = envs.reset(seed=args.seed)[0]
+    next_done = torch.zeros(N, device=dev)
+    for iteration in range(1, args.num_iterations + 1):
+        if args.anneal_lr:
+            optimizer.param_groups[0]["lr"] = (
+                1.0 - (iteration - 1.0) / args.num_iterations
+            ) * args.learning_rate
+        for step in range(T):
+            global_step += N
+            obs[step], dones[step] = next_obs, next_done
+            with torch.no_grad():
+                action, logprob, _, value = agent.get_action_and_value(next_obs)
+            values[step], actions[step], logprobs[step] = value.flatten(), action, logprob
+            o, reward, terminated, truncated, info = envs.step(action)
+            reward = reward.to(torch.float32)
+            ep_return += reward
+            # same_step autoreset; a time limit is not a terminal state: bootstrap from the last observation
+            # (the value of every row's final_obs, kept where cut: no host read of the mask).
+            cut = truncated & ~terminated
+            with torch.no_grad():
+                boot = agent.get_value(info["final_obs"]).flatten()
+            rewards[step] = reward + args.gamma * torch.where(cut, boot, 0.0)
+            done = terminated | truncated
+            finished_sum += torch.where(done, ep_return, 0.0).sum()
+            finished_n += done.sum()
+            ep_return = torch.where(done, 0.0, ep_return)
+            next_obs, next_done = o, done.to(torch.float32)
+
+        with torch.no_grad():
+            advantages, returns = single.gae(rewards, values, dones, agent.get_value(next_obs).reshape(1, -1),
+                                             next_done, args.gamma, args.gae_lambda)  # fmt: skip
+        st = single.ppo_update(
+            agent, optimizer, args, obs.reshape((-1, obs_dim)), actions.reshape(-1), logprobs.reshape(-1),
+            advantages.reshape(-1), returns.reshape(-1),
+            lambda: torch.randperm(args.batch_size, device=dev, generator=gen),
+        )  # fmt: skip
+        var_y = returns.var()
+        st["explained_var"] = 1 - (returns - values).var() / var_y
+        st["episode_return"] = finished_sum / finished_n.clamp(min=1)
+        row = {k: float(v.detach()) for k, v in st.items()}  # the one host read of the update
+        row.update(iteration=iteration, decisions=global_step, sps=global_step / (time.time() - start))
+        history.append(row)
+        finished_sum.zero_(), finished_n.zero_()
+        print(f"iter {iteration:4d}/{args.num_iterations}  decisions {global_step:9d}  episode return "
+              f"{row['episode_return']:9.2f}  pg {row['pg_loss']:+.4f}  v {row['v_loss']:.4f}  entropy "
+              f"{row['entropy']:.3f}  kl {row['approx_kl']:.4f}  clipfrac {row['clipfrac']:.3f}  "
+              f"SPS {int(row['sps'])}", flush=True)  # fmt: skip
+    envs.close()
+    return agent, history
+
+
+def main(argv: list[str] | None = None) -> dict:
+    args = parse_args(argv)
+    torch.set_num_threads(args.torch_threads)
+    torch.manual_seed(args.seed)
+    t0 = time.time()
+    agent, history = train(args)
+    seconds = time.time() - t0
+    print(f"trained {args.num_iterations} updates ({args.num_iterations * args.batch_size} decisions) "
+          f"in {seconds:.0f} s on {args.device}")  # fmt: skip
+    if args.save_model:
+        torch.save(agent.state_dict(), args.save_model)
+        print(f"saved {args.save_model}")
+    out = {"agent": agent.cpu(), "history": history, "train_seconds": seconds}
+    return single.evaluate_and_score(agent, args, out)
+
+
+if __name__ == "__main__":
+    main()

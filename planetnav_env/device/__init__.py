@@ -1,0 +1,16 @@
+"""The batch core on a GPU: an episode bank drawn on the host, and a vector env whose state stays on the
+device (torch tensors, stepped by the CUDA entry points of :mod:`planetnav_env.core.cuda_entry`).
+
+* :mod:`planetnav_env.device.bank`: :class:`~planetnav_env.device.bank.EpisodeBank`, the host-side part of
+  ``M`` resets drawn in advance by :meth:`BatchCore.draw_row <planetnav_env.core.batch.BatchCore.draw_row>`
+  (the CPU reset's own code), laid out like the state's rows;
+* :mod:`planetnav_env.device.rows`: the autoreset thread function (copy a bank row into a state row, then
+  the compiled reset), and the row loops that run the thread functions on the CPU;
+* :mod:`planetnav_env.device.blocks`: the observation blocks the CPU computes in Python after the compiled
+  step (``since_measured``, ``image_log``, ``residual_log``, ``position_correlation``), as masked torch
+  operations;
+* :mod:`planetnav_env.device.vector_env`: :class:`~planetnav_env.device.vector_env.DeviceVectorEnv`.
+
+Nothing here imports torch or numba-cuda at import time of the package: the modules that need them import
+them themselves (torch comes with the ``[train]`` and ``[gpu]`` extras, numba-cuda with ``[gpu]``).
+"""

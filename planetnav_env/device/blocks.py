@@ -1,0 +1,169 @@
+"""The observation blocks the CPU writes in Python after the compiled step, as masked torch operations.
+
+:class:`~planetnav_env.core.batch.BatchCore` fills four optional blocks of the observation outside the
+compiled step, with the numpy functions of :mod:`planetnav_env.core.decisions` on the rows it stepped
+(``since_measured``, ``image_log``, ``residual_log``) and ``_observe_position_correlation``. The device
+env keeps its state on the GPU, so it does the same arithmetic on torch tensors, written without index
+lists: every function takes a bool (N,) ``mask`` of the rows to update and leaves the other rows' values
+as they were (``torch.where``), so nothing waits on the host (a boolean index would read the count of
+rows back to the host every step).
+
+The arithmetic is the numpy functions', operation for operation (an increment of a count, ``x + 0.0``
+for the rows a count does not reach, leaves it as it was: counts and NIS sums are non-negative), so on the
+CPU these give the CPU env's numbers bit for bit; ``tests/env/test_device_env.py`` holds them to
+:mod:`~planetnav_env.core.decisions` and to the CPU vector env. ``log1p`` is passed in: the C library's
+(:func:`planetnav_env.numerics.portable_math.log1p`) on the CPU, ``torch.log1p`` on the device, which may
+differ from it in the last bit before the float32 rounding of the observation.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import torch
+
+from planetnav_env.core import layout as L
+from planetnav_env.core.decisions import _SINCE_LOG_SCALE, RESIDUAL_CAP
+
+Log1p = Callable[[torch.Tensor], torch.Tensor]
+
+
+def _onehot(hit: torch.Tensor, target: torch.Tensor, width: int) -> torch.Tensor:
+    """(N, width) bool: column ``target[n]`` of the rows where ``hit`` (and the target in range)."""
+    ok = hit & (target >= 0) & (target < width)
+    cols = torch.arange(width, device=target.device)
+    return ok[:, None] & (cols[None, :] == target[:, None])
+
+
+def _write(obs: torch.Tensor, lo: int, hi: int | None, values: torch.Tensor, mask: torch.Tensor) -> None:
+    """``obs[mask, lo:hi] = values[mask]`` without an index list."""
+    block = obs[:, lo:hi]
+    block.copy_(torch.where(mask[:, None], values.to(obs.dtype), block))
+
+
+def advance_since(
+    since: torch.Tensor, measured: torch.Tensor, target: torch.Tensor, mask: torch.Tensor
+) -> None:
+    """:func:`~planetnav_env.core.decisions.advance_since_measured` of the ``mask`` rows, in place: one
+    more physics step [steps] since each target was measured, 0 for the one measured now."""
+    hit = _onehot(measured, target, since.shape[1])
+    new = torch.where(hit, torch.zeros_like(since), since + 1.0)
+    since.copy_(torch.where(mask[:, None], new, since))
+
+
+def since_values(since: torch.Tensor, log1p: Log1p) -> torch.Tensor:
+    """:func:`~planetnav_env.core.decisions.since_measured_values`: (N, T) float32."""
+    finite = torch.isfinite(since)
+    scaled = log1p(torch.where(finite, since, torch.zeros_like(since))) / _SINCE_LOG_SCALE
+    return torch.where(finite, torch.clamp(scaled, max=1.0), torch.ones_like(since)).to(torch.float32)
+
+
+def advance_image_log(
+    log: torch.Tensor, fixed: torch.Tensor, failed: torch.Tensor, target: torch.Tensor, mask: torch.Tensor
+) -> None:
+    """:func:`~planetnav_env.core.decisions.advance_image_log` of the ``mask`` rows, in place (counts)."""
+    n_p = log.shape[2]
+    fix = _onehot(fixed & mask, target, n_p).to(log.dtype)
+    fail = _onehot(failed & mask, target, n_p).to(log.dtype)
+    log[:, 0] += fix
+    log[:, 0] += fail
+    log[:, 1] += fix
+
+
+def image_log_values(log: torch.Tensor, log1p: Log1p) -> torch.Tensor:
+    """:func:`~planetnav_env.core.decisions.image_log_values`: (N, 2, P) float32."""
+    images, fixes = log[:, 0], log[:, 1]
+    mean = (fixes + 1.0) / (images + 2.0)
+    scaled = torch.clamp(log1p(images) / _SINCE_LOG_SCALE, max=1.0)
+    return torch.stack([mean, scaled], dim=1).to(torch.float32)
+
+
+def advance_residual_log(
+    log: torch.Tensor, fixed: torch.Tensor, nis_norm: torch.Tensor, target: torch.Tensor, mask: torch.Tensor
+) -> None:
+    """:func:`~planetnav_env.core.decisions.advance_residual_log` of the ``mask`` rows, in place."""
+    hit = _onehot(fixed & mask & torch.isfinite(nis_norm), target, log.shape[2])
+    log[:, 0] += hit.to(log.dtype)
+    log[:, 1] += torch.where(hit, nis_norm[:, None], torch.zeros_like(log[:, 1]))
+
+
+def residual_log_values(log: torch.Tensor) -> torch.Tensor:
+    """:func:`~planetnav_env.core.decisions.residual_log_values`: (N, T) float32."""
+    mean = (log[:, 1] + 2.0) / (log[:, 0] + 2.0)
+    return (torch.clamp(mean, max=RESIDUAL_CAP) / RESIDUAL_CAP).to(torch.float32)
+
+
+def position_correlation_values(p: torch.Tensor) -> torch.Tensor:
+    """``BatchCore._observe_position_correlation``'s values: (N, 3) rho_xy, rho_xz, rho_yz of ``P_rr``."""
+    prr = p[:, :3, :3]
+    sigma = torch.sqrt(torch.diagonal(prr, dim1=1, dim2=2))
+    rho = prr / (sigma[:, :, None] * sigma[:, None, :])
+    values = torch.stack([rho[:, 0, 1], rho[:, 0, 2], rho[:, 1, 2]], dim=1)
+    return torch.clamp(values, -1.0, 1.0)
+
+
+class ObservationBlocks:
+    """The Python-side blocks of one configuration's observation on ``N`` rows of torch state: their
+    counters (``since`` (N, T) [steps], ``image_log`` (N, 2, P), ``residual_log`` (N, 2, T)) and the two
+    calls the env makes, :meth:`after_step` (the ``mask`` rows took a physics step) and :meth:`after_reset`
+    (the ``mask`` rows were reset)."""
+
+    def __init__(self, core, num_rows: int, device: torch.device, log1p: Log1p) -> None:
+        cfg, lay = core.config, core.layout
+        self.layout, self.log1p = lay, log1p
+        n, f64 = num_rows, torch.float64
+        self.since = (
+            torch.full((n, cfg.n_targets), torch.inf, dtype=f64, device=device)
+            if lay.since_measured
+            else None
+        )
+        self.image_log = (
+            torch.zeros((n, 2, cfg.n_planets), dtype=f64, device=device) if lay.image_log else None
+        )
+        self.residual_log = (
+            torch.zeros((n, 2, cfg.n_targets), dtype=f64, device=device) if lay.residual_log else None
+        )
+        self.position_correlation = bool(lay.position_correlation)
+        self.fix_dof = torch.as_tensor(core._fix_dof, dtype=f64, device=device)
+        self.any = any(
+            (self.since is not None, self.image_log is not None, self.residual_log is not None,
+             self.position_correlation)
+        )  # fmt: skip
+
+    def after_reset(self, f, p, i, obs, mask: torch.Tensor) -> None:
+        """The blocks of freshly reset rows: counters cleared, then one step's count (BatchCore's order)."""
+        if self.since is not None:
+            self.since.copy_(torch.where(mask[:, None], torch.full_like(self.since, torch.inf), self.since))
+        if self.image_log is not None:
+            self.image_log.copy_(
+                torch.where(mask[:, None, None], torch.zeros_like(self.image_log), self.image_log)
+            )
+        if self.residual_log is not None:
+            self.residual_log.copy_(
+                torch.where(mask[:, None, None], torch.zeros_like(self.residual_log), self.residual_log)
+            )
+        self.after_step(f, p, i, obs, mask)
+
+    def after_step(self, f, p, i, obs, mask: torch.Tensor) -> None:
+        """Count the last physics step of the ``mask`` rows and write their blocks into ``obs`` (N, D)
+        float64 (the state's observation), as ``BatchCore.step`` does for the rows it stepped."""
+        lay = self.layout
+        target = i[:, L.I_TARGET]
+        if self.since is not None:
+            advance_since(self.since, i[:, L.I_MEASURED] != 0, target, mask)
+            _write(
+                obs, lay.since_measured_start, lay.image_log_start, since_values(self.since, self.log1p), mask
+            )
+        if self.image_log is not None:
+            fixed = i[:, L.I_SENSOR] == L.SENSOR_CAMERA
+            failed = i[:, L.I_REASON] == L.REASON_IMAGE_FAILED
+            advance_image_log(self.image_log, fixed, failed, target, mask)
+            values = image_log_values(self.image_log, self.log1p).reshape(obs.shape[0], -1)
+            _write(obs, lay.image_log_start, lay.residual_log_start, values, mask)
+        if self.residual_log is not None:
+            dof = self.fix_dof[torch.clamp(target, 0, self.fix_dof.shape[0] - 1)]
+            advance_residual_log(self.residual_log, i[:, L.I_SENSOR] != L.SENSOR_NONE, f[:, L.F_NIS] / dof,
+                                 target, mask)  # fmt: skip
+            _write(obs, lay.residual_log_start, None, residual_log_values(self.residual_log), mask)
+        if self.position_correlation:
+            _write(obs, lay.position_correlation_start, None, position_correlation_values(p), mask)

@@ -1,0 +1,52 @@
+"""The device env's CUDA kernels (numba-cuda, the ``[gpu]`` extra): the step and reset entry points of
+:mod:`planetnav_env.core.cuda_entry`, and the autoreset kernel, one thread per row around
+:func:`planetnav_env.device.rows.autoreset_thread`. No physics here either.
+
+:func:`autoreset_ptx` compiles the autoreset kernel to PTX without a GPU (the compute capability supplied,
+:mod:`planetnav_env.numerics.cuda_target`), as ``tests/env/test_device_env.py`` does for every id.
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+from planetnav_env.core.batch import BatchCore
+from planetnav_env.core.cuda_entry import entry_argtypes
+from planetnav_env.core.records import scratch_rows
+from planetnav_env.device.bank import BankRows
+from planetnav_env.device.rows import autoreset_thread
+from planetnav_env.numerics.cuda_target import DEFAULT_CC, compile_ptx, require_numba_cuda
+
+cuda = require_numba_cuda()
+
+
+def autoreset_kernel(prm, st, bank, slots, mask, rows) -> None:  # pragma: no cover - compiled
+    """Thread ``n``: if ``mask[n]``, row ``n`` starts bank episode ``slots[n]`` (copy, then the compiled
+    reset)."""
+    n = cuda.grid(1)
+    if n < st.f.shape[0]:
+        autoreset_thread(prm, st, bank, slots, mask, rows, n)
+
+
+def autoreset_argtypes(core: BatchCore) -> tuple:
+    """The numba argument types of :func:`autoreset_kernel` for ``core``'s configuration (a bank has the
+    state arrays' dtypes and dimensions, so its record's types are those of the state's fields)."""
+    n = core.num_rows
+    bank = BankRows(f=core.f, p=core.p, rng=core.rng, eph=core.eph)
+    return (
+        numba.typeof(core.params),
+        numba.typeof(core.state),
+        numba.typeof(bank),
+        numba.typeof(np.zeros(n, np.int64)),
+        numba.typeof(np.zeros(n, np.bool_)),
+        numba.typeof(scratch_rows(core.params, n)),
+    )
+
+
+def autoreset_ptx(core: BatchCore, cc: tuple[int, int] = DEFAULT_CC) -> str:
+    """PTX of :func:`autoreset_kernel` for ``core``'s types at compute capability ``cc`` (no GPU needed)."""
+    return compile_ptx(autoreset_kernel, autoreset_argtypes(core), cc)
+
+
+__all__ = ["autoreset_argtypes", "autoreset_kernel", "autoreset_ptx", "entry_argtypes"]

@@ -1,0 +1,408 @@
+"""DeviceVectorEnv: N environment rows whose state stays on a GPU, stepped by the core's CUDA kernels.
+
+    env = DeviceVectorEnv("planetnav/Cruise-Target-v1", num_envs=2**16, device="cuda")
+    obs, info = env.reset(seed=0)                 # obs: (N, D) float32 torch tensor on the device
+    obs, reward, terminated, truncated, info = env.step(actions)   # actions: a device tensor
+
+Its own class, not ``gym.make_vec(id, num_envs=N, device="cuda")``: Gymnasium's ``VectorEnv`` contract is
+numpy arrays (its wrappers, ``batch_space`` samples and checkers read them on the host), and this env
+returns torch tensors on the device and takes them, as gymnax, Isaac Lab and PufferLib's device envs do.
+It keeps the rest of the vector env's interface: ``num_envs``, ``single_observation_space``,
+``single_action_space``, ``reset(seed=...)``, ``step(actions)`` returning ``(obs, reward, terminated,
+truncated, info)``, ``autoreset_mode`` ``"next_step"`` (Gymnasium's default) or ``"same_step"`` (the
+finished rows' last observations in ``info["final_obs"]``).
+
+Where things run. On the device: the physics step and the compiled part of the reset
+(:mod:`planetnav_env.core.cuda_entry`, :mod:`planetnav_env.device.cuda_kernels`, one thread per row), the
+autoreset (a bank row copied in, then the compiled reset, for the rows a mask marks), the decision's
+physics steps (``decision_steps``) with their reward sum, the Python-side observation blocks
+(:mod:`planetnav_env.device.blocks`), the action decoding and the float32 observation. On the host, once
+per ``reset(seed=...)``: the episode bank (:mod:`planetnav_env.device.bank`). Nothing is copied between
+host and device in a step, and nothing waits on the device: the state, the buffers and the bank are
+torch tensors, and numba-cuda reads them without a copy (``numba.cuda.as_cuda_array``, the
+``__cuda_array_interface__``).
+
+What differs from the CPU vector env (``gym.make_vec``):
+
+* resets come from the bank of ``bank_size`` pre-drawn episodes: row ``n``'s ``e``-th episode is bank row
+  ``(e N + n) mod bank_size`` (:func:`~planetnav_env.device.bank.bank_slot`). With ``bank_size = E N`` the
+  first ``E`` episodes of every row are the CPU vector env's (same seed), then they repeat; with a bank
+  smaller than ``N`` rows share their first episodes. The bank is drawn once per ``reset(seed=...)``;
+  refilling it while the rows step is not built;
+* actions are not validated (a check would read a flag back to the host every step): a target action
+  outside the action space is taken modulo the targets, Box actions are clipped to [-1, 1] as on the CPU,
+  NaN is not caught;
+* a row whose attitude or camera geometry becomes invalid is not raised as ``NonFiniteError`` at the step:
+  :meth:`DeviceVectorEnv.check_status` reads the status codes (a host read) when called;
+* ``info`` holds tensors of a few numeric keys (:meth:`DeviceVectorEnv.info_tensors`), not the CPU env's
+  full info;
+* only ``observation="box"`` configurations.
+
+What stays equal: the configuration, spaces, physics and observation; on the CPU (``device="cpu"``, the
+host mode: numpy state viewed by torch CPU tensors, the thread functions run row by row on the CPU) the
+rows equal the CPU vector env's bit for bit, autoresets included, while every row is within its bank's
+first episodes (``tests/env/test_device_env.py``). On a GPU the numbers are expected to differ from the
+CPU's in the last bits where NVVM fuses a multiply and an add or where libdevice's functions differ from
+glibc's (docs/architecture.md, "Two targets"); only a device can measure by how much.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+import torch
+
+from planetnav_env.config import EnvConfig
+from planetnav_env.core import layout as L
+from planetnav_env.core.batch import BatchCore
+from planetnav_env.core.records import Actions, CoreParams, RowState, make_scratch, scratch_rows
+from planetnav_env.device import rows as R
+from planetnav_env.device.bank import BankRows, EpisodeBank, bank_slot
+from planetnav_env.device.blocks import ObservationBlocks
+from planetnav_env.envs.env import resolve_config
+from planetnav_env.envs.spaces import action_space, observation_space
+from planetnav_env.errors import InvalidParameterError
+from planetnav_env.numerics import portable_math as pm
+
+#: ``autoreset_mode`` choices.
+AUTORESET_MODES = ("next_step", "same_step")
+#: Threads per block of the kernels (the step is register-heavy; tune on a device).
+THREADS_PER_BLOCK = 128
+
+
+def cuda_unavailable_reason() -> str | None:
+    """Why this process cannot run the device env on CUDA (None: it can): numba-cuda missing, torch without
+    CUDA, or no device visible."""
+    try:
+        from planetnav_env.numerics.cuda_target import require_numba_cuda
+
+        cuda = require_numba_cuda()
+    except ImportError as exc:
+        return f"numba-cuda is not installed ({exc})"
+    if not torch.cuda.is_available():
+        return f"torch {torch.__version__} sees no CUDA device (a CPU-only torch build, or no GPU/driver)"
+    if not cuda.is_available():
+        return "numba-cuda finds no CUDA driver or device"
+    return None
+
+
+class _Host:
+    """Host mode: numpy arrays viewed by torch CPU tensors; the thread functions looped on the CPU."""
+
+    kind = "cpu"
+
+    def __init__(self) -> None:
+        self.device = torch.device("cpu")
+
+    def zeros(self, shape: tuple, dtype: np.dtype) -> tuple[torch.Tensor, np.ndarray]:
+        a = np.zeros(shape, dtype)
+        return torch.from_numpy(a.view(np.int64) if a.dtype == np.uint64 else a), a
+
+    def upload(self, a: np.ndarray) -> tuple[torch.Tensor, np.ndarray]:
+        a = np.ascontiguousarray(a)
+        return torch.from_numpy(a.view(np.int64) if a.dtype == np.uint64 else a), a
+
+    def view(self, t: torch.Tensor) -> np.ndarray:
+        return t.numpy()
+
+    def params(self, prm: CoreParams) -> CoreParams:
+        return prm
+
+    def scratch(self, prm: CoreParams, n: int) -> Any:
+        return scratch_rows(prm, n)
+
+    def log1p(self, t: torch.Tensor) -> torch.Tensor:
+        return torch.from_numpy(pm.log1p(t.numpy()))
+
+    def step(self, prm, st, act, scratch) -> None:
+        R.step_rows(prm, st, act, scratch)
+
+    def autoreset(self, prm, st, bank, slots, mask, scratch) -> None:
+        R.autoreset_rows(prm, st, bank, slots, mask, scratch)
+
+
+class _Cuda:
+    """CUDA mode: torch tensors on the device, read by numba-cuda without a copy; the kernels launched
+    one thread per row."""
+
+    kind = "cuda"
+
+    def __init__(self, device: str, threads_per_block: int) -> None:
+        why = cuda_unavailable_reason()
+        if why is not None:
+            raise RuntimeError(
+                f"DeviceVectorEnv(device={device!r}) needs a CUDA GPU, numba-cuda and a CUDA build of torch: "
+                f'{why}. Install with pip install -e ".[gpu]" on a machine with a GPU, or use device="cpu"'
+            )
+        from numba import cuda
+
+        from planetnav_env.core import cuda_entry
+        from planetnav_env.device import cuda_kernels
+
+        self.cuda = cuda
+        self.device = torch.device(device)
+        self.tpb = int(threads_per_block)
+        self._step = cuda.jit(cuda_entry.step_kernel)
+        self._autoreset = cuda.jit(cuda_kernels.autoreset_kernel)
+
+    def zeros(self, shape: tuple, dtype: np.dtype) -> tuple[torch.Tensor, Any]:
+        tdtype = torch.int64 if np.dtype(dtype) == np.uint64 else torch.from_numpy(np.zeros(0, dtype)).dtype
+        t = torch.zeros(shape, dtype=tdtype, device=self.device)
+        return t, self._as(t, dtype)
+
+    def upload(self, a: np.ndarray) -> tuple[torch.Tensor, Any]:
+        host = torch.from_numpy(np.ascontiguousarray(a.view(np.int64) if a.dtype == np.uint64 else a))
+        t = host.to(self.device)
+        return t, self._as(t, a.dtype)
+
+    def _as(self, t: torch.Tensor, dtype: np.dtype) -> Any:
+        view = self.cuda.as_cuda_array(t)
+        return view.view(np.uint64) if np.dtype(dtype) == np.uint64 else view
+
+    def view(self, t: torch.Tensor) -> Any:
+        return self.cuda.as_cuda_array(t)
+
+    def params(self, prm: CoreParams) -> CoreParams:
+        def to_device(x: Any) -> Any:
+            if isinstance(x, np.ndarray):
+                return self.cuda.to_device(x)
+            if isinstance(x, tuple) and hasattr(x, "_fields"):
+                return type(x)(*(to_device(v) for v in x))
+            return x
+
+        return to_device(prm)
+
+    def scratch(self, prm: CoreParams, n: int) -> Any:
+        one = make_scratch(prm)
+        return type(one)(
+            **{k: self.cuda.device_array((n, *a.shape), a.dtype) for k, a in one._asdict().items()}
+        )
+
+    def log1p(self, t: torch.Tensor) -> torch.Tensor:
+        return torch.log1p(t)
+
+    def _grid(self, n: int) -> tuple[int, int]:
+        return (n + self.tpb - 1) // self.tpb, self.tpb
+
+    def step(self, prm, st, act, scratch) -> None:
+        self._step[self._grid(st.f.shape[0])](prm, st, act, scratch)
+
+    def autoreset(self, prm, st, bank, slots, mask, scratch) -> None:
+        self._autoreset[self._grid(st.f.shape[0])](prm, st, bank, slots, mask, scratch)
+
+
+class DeviceVectorEnv:
+    """``num_envs`` rows on ``device`` ("cuda", "cuda:k", or "cpu": the host mode), see the module
+    docstring. ``config``: a registered id, an ``EnvConfig`` or a mapping of options; ``overrides`` as
+    ``gym.make_vec`` takes them. ``bank_size``: episodes pre-drawn per ``reset`` (default ``2 N``)."""
+
+    def __init__(
+        self,
+        config: EnvConfig | Mapping | str | None = None,
+        num_envs: int = 1,
+        device: str = "cuda",
+        bank_size: int | None = None,
+        autoreset_mode: str = "next_step",
+        threads_per_block: int = THREADS_PER_BLOCK,
+        **overrides: Any,
+    ) -> None:
+        if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
+            raise InvalidParameterError(f"num_envs must be a positive integer, got {num_envs!r}")
+        if autoreset_mode not in AUTORESET_MODES:
+            raise InvalidParameterError(
+                f"autoreset_mode must be one of {list(AUTORESET_MODES)}, got {autoreset_mode!r}"
+            )
+        cfg = resolve_config(config, overrides)
+        if cfg.observation != "box":
+            raise InvalidParameterError(
+                f"the device env returns box observations only, got observation={cfg.observation!r}"
+            )
+        self.config, self.autoreset_mode = cfg, autoreset_mode
+        self.num_envs = n = int(num_envs)
+        self.bank_size = int(bank_size) if bank_size is not None else 2 * n
+        if self.bank_size < 1:
+            raise InvalidParameterError(f"bank_size must be a positive integer, got {bank_size!r}")
+        dev = str(device)
+        self.backend = _Host() if dev == "cpu" else _Cuda(dev, threads_per_block)
+        self.device = self.backend.device
+        # One row of the core: its parameters, layout and drawing code (the bank's), not its state.
+        self.core = core = BatchCore(cfg, 1)
+        self.layout = core.layout
+        self.single_action_space = action_space(cfg)
+        self.single_observation_space = observation_space(cfg, self.layout)
+        be = self.backend
+        self._prm = be.params(core.params)
+        self._scratch = be.scratch(core.params, n)
+        (self.f, f), (self.p, p), (self.i, i) = (
+            be.zeros((n, *a.shape[1:]), a.dtype) for a in (core.f, core.p, core.i)
+        )
+        (self._rng, rng), (self.eph, eph), (self._obs64, obs) = (
+            be.zeros((n, *a.shape[1:]), a.dtype) for a in (core.rng, core.eph, core.obs)
+        )
+        self._state = RowState(f=f, p=p, i=i, rng=rng, eph=eph, obs=obs)
+        self.blocks = ObservationBlocks(core, n, self.device, be.log1p)
+        dev_ = self.device
+        self.obs = torch.zeros((n, self.layout.size), dtype=torch.float32, device=dev_)
+        self.final_obs = torch.zeros_like(self.obs) if autoreset_mode == "same_step" else None
+        self._targets, targets = be.zeros((n,), np.int64)
+        self._torques, torques = be.zeros((n, 3), np.float64)
+        self._active, active = be.zeros((n,), np.bool_)
+        self._act = Actions(targets=targets, torques=torques, active=active)
+        self._slots, self._slots_view = be.zeros((n,), np.int64)
+        self._mask, self._mask_view = be.zeros((n,), np.bool_)
+        self._rows = torch.arange(n, device=dev_)
+        self.episode_count = torch.zeros(n, dtype=torch.int64, device=dev_)
+        self._needs_reset = torch.zeros(n, dtype=torch.bool, device=dev_)
+        self._all = torch.ones(n, dtype=torch.bool, device=dev_)
+        self.bank: EpisodeBank | None = None
+        self._bank: BankRows | None = None
+
+    # ------------------------------------------------------------------------------------------
+    def bytes_per_row(self) -> int:
+        """Device bytes of one row: state, scratch and buffers (the bank not included)."""
+        state = sum(t.nbytes for t in (self.f, self.p, self.i, self._rng, self.eph, self._obs64, self.obs))
+        scratch = sum(int(np.prod(a.shape)) * np.dtype(a.dtype).itemsize for a in self._scratch)
+        return (state + scratch) // self.num_envs
+
+    def reset(self, *, seed: int | list[int | None] | None = None, options: dict | None = None):
+        """Draw the bank (seeded as the CPU vector env seeds its rows: ``seed + n``) and start every row
+        on its first bank episode. Returns ``(obs, info)``."""
+        if options:
+            raise InvalidParameterError(f"DeviceVectorEnv.reset takes no options, got {sorted(options)}")
+        n, be = self.num_envs, self.backend
+        self.bank = EpisodeBank.for_vector_env(self.core, n, self.bank_size, seed)
+        uploaded = [be.upload(a) for a in self.bank.rows]
+        self._bank_tensors = [t for t, _ in uploaded]  # keeps the device copies alive
+        self._bank = BankRows(*(v for _, v in uploaded))
+        self.episode_count.zero_()
+        self._autoreset(self._all)
+        self._needs_reset.zero_()
+        self.obs.copy_(self._obs64)
+        return self.obs, self.info_tensors()
+
+    def _autoreset(self, mask: torch.Tensor) -> None:
+        """Rows ``mask`` start their next bank episode (on the device, whatever the mask)."""
+        self._slots.copy_(bank_slot(self.episode_count, self._rows, self.num_envs, self.bank_size))
+        self._mask.copy_(mask)
+        self.backend.autoreset(
+            self._prm, self._state, self._bank, self._slots_view, self._mask_view, self._scratch
+        )
+        self.episode_count += mask
+        if self.blocks.any:
+            self.blocks.after_reset(self.f, self.p, self.i, self._obs64, mask)
+
+    def _decode(self, actions: torch.Tensor) -> None:
+        """Actions (a tensor on the env's device) into the target and torque buffers (the rules of
+        :func:`~planetnav_env.envs.spaces.decode_target_actions` and ``decode_box_actions``, unchecked)."""
+        cfg, n = self.config, self.num_envs
+        a = torch.as_tensor(actions, device=self.device)
+        if cfg.action_mode == "target":
+            idx = a.reshape(n).to(torch.int64)
+            if cfg.target_actions == "relative":
+                # decisions.relative_targets: 0 keeps the current target, k moves k places.
+                self._targets.copy_((torch.clamp(self.i[:, L.I_TARGET], min=0) + idx) % cfg.n_targets)
+            else:
+                self._targets.copy_(torch.where(idx == cfg.n_targets, -1, idx))
+            return
+        a = torch.clamp(a.reshape(n, -1).to(torch.float64), -1.0, 1.0)
+        p_ = cfg.n_planets
+        if cfg.action_mode == "torque":
+            self._targets.fill_(-1)
+            self._torques.copy_(a)
+        elif cfg.action_mode == "hybrid":  # spaces.decode_hybrid
+            option = torch.argmax(a[:, : p_ + 1], dim=1)
+            direct = option == p_
+            self._targets.copy_(torch.where(direct, -1, option))
+            self._torques.copy_(torch.where(direct[:, None], a[:, p_ + 1 :], 0.0))
+        else:  # target+torque
+            self._targets.copy_(torch.argmax(a[:, :p_], dim=1))
+            self._torques.copy_(a[:, p_:])
+
+    def _physics_step(self, active: torch.Tensor) -> None:
+        self._active.copy_(active)
+        self.backend.step(self._prm, self._state, self._act, self._scratch)
+        if self.blocks.any:
+            self.blocks.after_step(self.f, self.p, self.i, self._obs64, active)
+
+    def _advance(self, active: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+        """One decision of the ``active`` rows (``BatchCore.step_decision``'s rule, every physics step run:
+        a row that ends inside the hold stops there); (reward, terminated, truncated)."""
+        f, i = self.f, self.i
+        k = self.config.decision_steps
+        if k == 1:
+            self._physics_step(active)
+        else:
+            running = active.clone()
+            total = torch.zeros(self.num_envs, dtype=torch.float64, device=self.device)
+            for _ in range(k):
+                self._physics_step(running)
+                total += torch.where(running, f[:, L.F_REWARD], 0.0)
+                running &= (i[:, L.I_TERMINATED] == 0) & (i[:, L.I_TRUNCATED] == 0)
+            f[:, L.F_REWARD] = torch.where(active, total, f[:, L.F_REWARD])
+        reward = torch.where(active, f[:, L.F_REWARD], 0.0)
+        terminated = (i[:, L.I_TERMINATED] != 0) & active
+        truncated = (i[:, L.I_TRUNCATED] != 0) & active
+        return reward, terminated, truncated
+
+    def step(self, actions: torch.Tensor):
+        """One decision of every row with ``actions`` ((N,) target actions or (N, A) Box actions, a tensor
+        on the env's device); autoreset per ``autoreset_mode``. Returns ``(obs, reward, terminated,
+        truncated, info)``: ``obs`` (N, D) float32 (the env's buffer, overwritten by the next step),
+        ``reward`` (N,) float64, ``terminated`` / ``truncated`` (N,) bool, all on the device."""
+        if self._bank is None:
+            raise RuntimeError("call reset() before step()")
+        self._decode(actions)
+        if self.autoreset_mode == "next_step":
+            needs = self._needs_reset
+            self._autoreset(needs)
+            active = ~needs
+        else:
+            active = self._all
+        reward, terminated, truncated = self._advance(active)
+        done = terminated | truncated
+        info = self.info_tensors()
+        if self.autoreset_mode == "same_step":
+            self.final_obs.copy_(self._obs64)
+            info["final_obs"] = self.final_obs
+            info["_final_obs"] = done
+            self._autoreset(done)
+        else:
+            self._needs_reset = done
+        self.obs.copy_(self._obs64)
+        return self.obs, reward, terminated, truncated, info
+
+    # ------------------------------------------------------------------------------------------
+    def info_tensors(self) -> dict[str, torch.Tensor]:
+        """Numeric info of every row as new tensors on the device: ``pos_err_km`` [km], ``pos_sigma_km``
+        [km], ``nees``, ``measured`` (bool), ``target_index`` (-1: none), ``episode`` (episodes started)."""
+        f, i = self.f, self.i
+        return {
+            "pos_err_km": f[:, L.F_POS_ERR].clone(),
+            "pos_sigma_km": f[:, L.F_POS_SIGMA].clone(),
+            "nees": f[:, L.F_NEES].clone(),
+            "measured": i[:, L.I_MEASURED] != 0,
+            "target_index": i[:, L.I_TARGET].clone(),
+            "episode": self.episode_count.clone(),
+        }
+
+    def check_status(self) -> None:
+        """Raise :class:`~planetnav_env.errors.NonFiniteError` if a row's status code is not OK (reads the
+        codes back to the host: call it now and then, not every step)."""
+        from planetnav_env.errors import NonFiniteError
+
+        status = self.i[:, L.I_STATUS].cpu().numpy()
+        if status.any():
+            bad = np.flatnonzero(status)
+            raise NonFiniteError(f"rows {bad.tolist()[:20]} have status codes {status[bad][:20].tolist()}")
+
+    def state_arrays(self) -> dict[str, np.ndarray]:
+        """Copies of the state on the host (f, p, i, rng, eph, obs as the CPU core holds them): for checks."""
+        rng = self._rng.cpu().numpy().view(np.uint64)
+        return {"f": self.f.cpu().numpy().copy(), "p": self.p.cpu().numpy().copy(),
+                "i": self.i.cpu().numpy().copy(), "rng": rng.copy(), "eph": self.eph.cpu().numpy().copy(),
+                "obs": self._obs64.cpu().numpy().copy()}  # fmt: skip
+
+    def close(self) -> None:
+        return None

@@ -1,0 +1,267 @@
+"""The device env's host side, without a GPU (planetnav_env/device/).
+
+* the episode bank: its rows, after the compiled part of the reset (``kernels.reset_thread`` row by row,
+  the device's layout), equal the CPU env's reset bit for bit, first and later episodes, on ids with and
+  without per-episode events;
+* :class:`~planetnav_env.device.vector_env.DeviceVectorEnv` in host mode (numpy state viewed by torch CPU
+  tensors, the thread functions run on the CPU): its observations, rewards, terminations and truncations
+  equal the CPU vector env's (``gym.make_vec``) bit for bit over many steps with autoresets, in both
+  autoreset modes, and its buffers have the layout the device uses;
+* the torch observation blocks equal :mod:`planetnav_env.core.decisions`' numpy functions;
+* asked for CUDA without one, the env says what is missing;
+* with numba-cuda installed, the autoreset kernel compiles to PTX for every registered id (the step and
+  reset entry points: tests/env/test_cuda_ptx.py).
+
+What only a device checks: the numbers of the kernels on the GPU, the launch itself and the speed
+(benchmarks/bench_gpu.py).
+"""
+
+from __future__ import annotations
+
+import gymnasium as gym
+import numpy as np
+import pytest
+import torch
+from gymnasium.utils import seeding
+from numba import njit
+
+import planetnav_env  # noqa: F401
+from planetnav_env.config import EnvConfig
+from planetnav_env.core import kernels as K
+from planetnav_env.core.batch import BatchCore
+from planetnav_env.core.decisions import (
+    advance_image_log,
+    advance_residual_log,
+    advance_since_measured,
+    image_log_values,
+    residual_log_values,
+    since_measured_values,
+)
+from planetnav_env.core.records import scratch_rows
+from planetnav_env.device import blocks as DB
+from planetnav_env.device.bank import EpisodeBank, bank_slot
+from planetnav_env.device.vector_env import DeviceVectorEnv, cuda_unavailable_reason
+from planetnav_env.envs.registration import ENV_IDS, id_options
+from planetnav_env.numerics import portable_math as pm
+
+ROWS = 3
+
+pytestmark = pytest.mark.filterwarnings("ignore:.*is out of date.*")
+
+
+@njit
+def _reset_threads(prm, st, reset, rows):  # pragma: no cover - compiled
+    for j in range(reset.shape[0]):  # what thread j of cuda_entry.reset_kernel runs
+        K.reset_thread(prm, st, reset, rows, j)
+
+
+def _compiled_obs(core: BatchCore) -> slice:
+    """The observation's columns the compiled reset writes (the Python-side blocks come after them)."""
+    lay = core.layout
+    python_blocks = lay.since_measured or lay.image_log or lay.residual_log or lay.position_correlation
+    return slice(0, lay.since_measured_start if python_blocks else lay.size)
+
+
+BANK_IDS = [
+    "planetnav/Cruise-Target-v1",
+    "planetnav/RandomCruise-Target-v2",  # per-episode events, a drawn epoch (a table per episode)
+    "planetnav/MarsApproach-Tasking-v1",
+    "planetnav/ThrustArc-TCM-v2",  # operations
+]
+
+
+@pytest.mark.parametrize("env_id", BANK_IDS)
+def test_bank_rows_after_the_compiled_reset_equal_the_cpu_reset(env_id: str) -> None:
+    cfg = EnvConfig.from_dict(id_options(env_id))
+    n, episodes = ROWS, 2
+    bank = EpisodeBank(BatchCore(cfg, 1), n, episodes * n, [7 + r for r in range(n)])
+    cpu = BatchCore(cfg, n)
+    gens = [seeding.np_random(7 + r)[0] for r in range(n)]
+    dev = BatchCore(cfg, n)
+    rows = scratch_rows(dev.params, n)
+    all_rows = np.arange(n, dtype=np.int64)
+    cols = _compiled_obs(cpu)
+    for e in range(episodes):  # the second reset continues each row's generator, as an autoreset does
+        cpu.reset_rows(all_rows, gens)
+        k = bank_slot(e, all_rows, n, bank.size)
+        for name in ("f", "p", "rng", "eph"):
+            getattr(dev, name)[:] = getattr(bank.rows, name)[k]
+        _reset_threads(dev.params, dev.state, all_rows, rows)
+        for name in ("f", "p", "i", "rng", "eph"):
+            assert getattr(dev, name).tobytes() == getattr(cpu, name).tobytes(), (e, name)
+        assert dev.obs[:, cols].tobytes() == cpu.obs[:, cols].tobytes(), e
+        assert [bank.episodes[s] for s in k] == [cpu.episodes[r] for r in range(n)]
+
+
+def test_bank_slots_cycle_past_the_bank() -> None:
+    assert bank_slot(np.array([0, 1, 2, 3]), np.array([1, 1, 1, 1]), 4, 8).tolist() == [1, 5, 1, 5]
+    rows, eps = torch.arange(4), torch.tensor([0, 0, 1, 1])
+    assert bank_slot(eps, rows, 4, 3).tolist() == [0, 1, 0, 1]  # a bank smaller than N: rows share
+
+
+# --- the host mode against the CPU vector env ---
+PARITY = [
+    # id, overrides, autoreset mode, steps
+    ("planetnav/Cruise-Target-v1", {"episode_steps": 60}, "next_step", 40),  # 10 physics steps a decision
+    ("planetnav/Cruise-Target-v1", {"episode_steps": 60}, "same_step", 40),
+    ("planetnav/RandomCruise-Target-v2", {"episode_steps": 40}, "next_step", 20),  # events, image log
+    ("planetnav/MarsApproach-Tasking-v1", {"episode_steps": 40}, "next_step", 30),
+    ("planetnav/Cruise-TorqueControl-v1", {"episode_steps": 25}, "next_step", 100),  # 1-s torque control
+    ("planetnav/Cruise-Hybrid-v1", {"episode_steps": 25}, "same_step", 60),
+    (
+        "planetnav/Cruise-TargetTorque-v1",
+        {"episode_steps": 25, "observe_residual_log": True},
+        "next_step",
+        60,
+    ),
+    ("planetnav/ThrustArc-TCM-v2", {"episode_steps": 48}, "next_step", 12),  # operations, 12-step decisions
+]
+
+
+def _actions(space: gym.Space, n: int, rng: np.random.Generator, k: int) -> np.ndarray:
+    if isinstance(space, gym.spaces.Discrete):
+        return rng.integers(0, space.n, n) if k % 3 == 0 else np.zeros(n, np.int64)
+    return rng.uniform(-1.2, 1.2, (n, *space.shape)).astype(np.float32)
+
+
+@pytest.mark.parametrize(("env_id", "overrides", "mode", "steps"), PARITY)
+def test_host_mode_equals_the_cpu_vector_env_bit_for_bit(env_id, overrides, mode, steps) -> None:
+    n = ROWS
+    ref = gym.make_vec(env_id, num_envs=n, autoreset_mode=mode, **overrides)
+    # A bank deep enough for every row's episodes in the run: the CPU env's episodes, in order.
+    dev = DeviceVectorEnv(
+        env_id, n, device="cpu", bank_size=n * (steps + 2), autoreset_mode=mode, **overrides
+    )
+    assert dev.config == ref.unwrapped.config
+    assert dev.single_observation_space == ref.single_observation_space
+    assert dev.single_action_space == ref.single_action_space
+    o_ref, _ = ref.reset(seed=3)
+    o_dev, _ = dev.reset(seed=3)
+    assert o_dev.dtype == torch.float32 and o_dev.shape == (n, dev.layout.size)
+    assert o_dev.numpy().tobytes() == o_ref.tobytes()
+    rng = np.random.default_rng(1)
+    ended = 0
+    for k in range(steps):
+        a = _actions(ref.single_action_space, n, rng, k)
+        o_r, r_r, term_r, trunc_r, info_r = ref.step(a)
+        o_d, r_d, term_d, trunc_d, info_d = dev.step(torch.as_tensor(a))
+        assert o_d.numpy().tobytes() == o_r.tobytes(), f"obs, step {k}"
+        assert r_d.dtype == torch.float64 and r_d.numpy().tobytes() == r_r.tobytes(), f"reward, step {k}"
+        assert np.array_equal(term_d.numpy(), term_r) and np.array_equal(trunc_d.numpy(), trunc_r), k
+        if mode == "same_step" and (term_r | trunc_r).any():
+            done = term_r | trunc_r
+            last = np.stack(info_r["final_obs"][done])
+            assert info_d["final_obs"].numpy()[done].tobytes() == last.tobytes()
+        assert np.array_equal(info_d["pos_err_km"].numpy(), info_r["pos_err_km"])
+        ended += int((term_r | trunc_r).sum())
+    assert ended >= n  # every row autoreset at least once (on average)
+    core = ref.unwrapped.core
+    state = dev.state_arrays()
+    for name in ("f", "p", "i", "rng", "eph", "obs"):
+        assert state[name].tobytes() == getattr(core, name).tobytes(), name
+    dev.check_status()
+
+
+def test_host_buffers_are_views_of_one_memory() -> None:
+    """The torch tensors the env hands out and the arrays the kernels write are one memory (no copy)."""
+    dev = DeviceVectorEnv("planetnav/Cruise-Target-v1", 2, device="cpu")
+    dev.reset(seed=0)
+    assert dev.f.data_ptr() == dev._state.f.ctypes.data
+    assert dev._rng.dtype == torch.int64 and dev._state.rng.dtype == np.uint64
+    assert dev._rng.data_ptr() == dev._state.rng.ctypes.data
+    assert dev.bytes_per_row() > 2000
+    assert dev.episode_count.tolist() == [1, 1]
+
+
+def test_the_bank_wraps_and_episodes_repeat() -> None:
+    """Past ``bank_size / N`` episodes a row replays its bank episodes (the documented difference)."""
+    dev = DeviceVectorEnv("planetnav/Cruise-TorqueControl-v1", 2, device="cpu", bank_size=2, episode_steps=3)
+    o0, _ = dev.reset(seed=4)
+    first = o0.clone()
+    zero = torch.zeros((2, 3))
+    for _ in range(3):  # ends at the third step; next_step: the fourth starts the next episode
+        dev.step(zero)
+    o, *_ = dev.step(zero)
+    assert dev.episode_count.tolist() == [2, 2]
+    assert torch.equal(o, first)
+
+
+# --- the torch blocks against the numpy ones ---
+def test_torch_blocks_equal_the_numpy_blocks() -> None:
+    rng = np.random.default_rng(0)
+    n, t, p_ = 64, 5, 3
+    since = np.where(rng.random((n, t)) < 0.3, np.inf, rng.integers(0, 3000, (n, t)).astype(float))
+    measured, target = rng.random(n) < 0.6, rng.integers(-1, t + 1, n)
+    mask = rng.random(n) < 0.7
+    ts = torch.from_numpy(since.copy())
+    DB.advance_since(ts, torch.from_numpy(measured), torch.from_numpy(target), torch.from_numpy(mask))
+    ref = since.copy()
+    sub = ref[mask]
+    advance_since_measured(sub, measured[mask], target[mask])
+    ref[mask] = sub
+    assert ts.numpy().tobytes() == ref.tobytes()
+    host = DB.since_values(ts, lambda x: torch.from_numpy(pm.log1p(x.numpy())))
+    assert host.numpy().tobytes() == since_measured_values(ref).tobytes()
+    # The device's log1p (torch's): within one float32 step of the C library's.
+    assert torch.allclose(DB.since_values(ts, torch.log1p), host, rtol=2e-7, atol=0)
+
+    log = rng.integers(0, 9, (n, 2, p_)).astype(float)
+    fixed, failed = rng.random(n) < 0.4, rng.random(n) < 0.3
+    tl = torch.from_numpy(log.copy())
+    DB.advance_image_log(tl, *(torch.from_numpy(x) for x in (fixed, failed, target, mask)))
+    ref = log.copy()
+    sub = ref[mask]
+    advance_image_log(sub, fixed[mask], failed[mask], target[mask])
+    ref[mask] = sub
+    assert tl.numpy().tobytes() == ref.tobytes()
+    values = DB.image_log_values(tl, lambda x: torch.from_numpy(pm.log1p(x.numpy())))
+    assert values.numpy().tobytes() == image_log_values(ref).tobytes()
+
+    rlog = rng.uniform(0, 20, (n, 2, t))
+    nis = np.where(rng.random(n) < 0.1, np.nan, rng.uniform(0, 5, n))
+    tr = torch.from_numpy(rlog.copy())
+    DB.advance_residual_log(tr, *(torch.from_numpy(x) for x in (fixed, nis, target, mask)))
+    ref = rlog.copy()
+    sub = ref[mask]
+    advance_residual_log(sub, fixed[mask], nis[mask], target[mask])
+    ref[mask] = sub
+    assert tr.numpy().tobytes() == ref.tobytes()
+    assert DB.residual_log_values(tr).numpy().tobytes() == residual_log_values(ref).tobytes()
+
+
+# --- CUDA: the error without a device, the PTX of the autoreset ---
+def test_asking_for_cuda_without_it_names_what_is_missing() -> None:
+    why = cuda_unavailable_reason()
+    if why is None:
+        pytest.skip("a CUDA device is available here")
+    with pytest.raises(RuntimeError, match=r"needs a CUDA GPU.*pip install"):
+        DeviceVectorEnv("planetnav/Cruise-Target-v1", 4, device="cuda")
+
+
+@pytest.fixture(scope="module")
+def autoreset_ptx():
+    from planetnav_env.numerics.cuda_target import require_numba_cuda
+
+    try:
+        require_numba_cuda()
+    except ImportError as exc:
+        pytest.skip(str(exc))
+    from planetnav_env.device import cuda_kernels
+
+    compiled: dict = {}
+
+    def ptx(env_id: str) -> str:
+        types = cuda_kernels.autoreset_argtypes(BatchCore(EnvConfig.from_dict(ENV_IDS[env_id]), 2))
+        if types not in compiled:  # the ids share their types: one compilation
+            compiled[types] = cuda_kernels.compile_ptx(cuda_kernels.autoreset_kernel, types)
+        return compiled[types]
+
+    return ptx
+
+
+@pytest.mark.parametrize("env_id", list(ENV_IDS))
+def test_autoreset_kernel_compiles_to_ptx(env_id: str, autoreset_ptx) -> None:
+    ptx = autoreset_ptx(env_id)
+    assert ".target sm_90" in ptx
+    assert ".visible .entry" in ptx and "autoreset_kernel" in ptx
+    assert ".extern" not in ptx

@@ -1,0 +1,70 @@
+"""baselines/ppo_device.py on the CPU (CI has no GPU): the device loop trains on the native vector env and
+on the device env's host mode for a few updates, with finite losses, a policy that moved, and the suite's
+evaluation computed; it shares the single-file PPO's formulas instead of copying them; asked for CUDA
+without one, it says what is missing."""
+
+from __future__ import annotations
+
+import ast
+import importlib.util
+import math
+from pathlib import Path
+
+import pytest
+import torch
+
+ROOT = Path(__file__).resolve().parents[2]
+SCRIPT = ROOT / "baselines" / "ppo_device.py"
+TINY = ["--device", "cpu", "--num-envs", "8", "--num-steps", "8", "--total-timesteps", "192",
+        "--episode-steps", "40", "--seed", "0", "--torch-threads", "1"]  # fmt: skip
+
+pytestmark = pytest.mark.filterwarnings("ignore:.*is out of date.*")
+
+
+def _module():
+    spec = importlib.util.spec_from_file_location("ppo_device", SCRIPT)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def _initial_agent(mod, out: dict):
+    torch.manual_seed(0)  # main seeds torch before building the agent: the same initial weights
+    first = next(iter(out["agent"].parameters()))
+    return mod.single.Agent(first.shape[1], int(out["agent"].actor[-1].out_features))
+
+
+@pytest.mark.parametrize("env", ["native", "host"])
+def test_trains_a_few_updates_on_the_cpu(env: str) -> None:
+    mod = _module()
+    evals = ["--eval-episodes", "2"] if env == "native" else ["--eval-episodes", "0"]
+    out = mod.main([*TINY, "--env", env, *evals])
+    hist = out["history"]
+    assert len(hist) == 3 and hist[-1]["decisions"] == 192
+    for row in hist:
+        for k in ("pg_loss", "v_loss", "entropy", "approx_kl", "clipfrac"):
+            assert math.isfinite(row[k]), (k, row)
+    init = _initial_agent(mod, out)
+    moved = [not torch.equal(a, b) for a, b in zip(init.parameters(), out["agent"].parameters(), strict=True)]
+    assert any(moved)
+    if env == "native":
+        assert out["J"].shape == (2,) and (out["J"] > 0).all()
+        assert math.isfinite(out["score"])
+
+
+def test_shares_the_single_file_formulas_and_stays_short() -> None:
+    text = SCRIPT.read_text()
+    assert len(text.splitlines()) <= 400
+    calls = {n.attr for n in ast.walk(ast.parse(text)) if isinstance(n, ast.Attribute)}
+    assert {"gae", "ppo_update", "Agent", "evaluate_and_score"} <= calls
+    assert "lastgaelam" not in text and "clip_grad_norm_" not in text  # no second copy of GAE / the update
+
+
+def test_cuda_without_a_device_is_a_clear_error() -> None:
+    from planetnav_env.device.vector_env import cuda_unavailable_reason
+
+    if cuda_unavailable_reason() is None:
+        pytest.skip("a CUDA device is available here")
+    mod = _module()
+    with pytest.raises(SystemExit, match=r"--device cuda: .*pip install"):
+        mod.main([*TINY[2:], "--device", "cuda"])
