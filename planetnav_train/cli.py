@@ -117,11 +117,9 @@ def _train_on_device(args: argparse.Namespace) -> int:
     tc = load_config(args.config or DEFAULT_CONFIG)
     if not tc.env_id:
         raise ConfigError("--device cuda trains a registered id: the config needs env_id")
-    import importlib.util
+    import runpy
 
-    spec = importlib.util.spec_from_file_location("ppo_device", ROOT / "baselines" / "ppo_device.py")
-    ppo = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(ppo)
+    ppo = runpy.run_path(str(ROOT / "baselines" / "ppo_device.py"))  # a script of the repository
     seed = args.seed if args.seed is not None else tc.seed
     argv = ["--device", args.device, "--env-id", tc.env_id, "--seed", str(seed),
             "--total-timesteps", str(args.timesteps or tc.n_timesteps)]  # fmt: skip
@@ -130,7 +128,7 @@ def _train_on_device(args: argparse.Namespace) -> int:
     if args.run_dir:
         Path(args.run_dir).mkdir(parents=True, exist_ok=True)
         argv += ["--save-model", str(Path(args.run_dir) / "ppo_device.pt")]
-    ppo.main(argv)
+    ppo["main"](argv)
     return 0
 
 

@@ -55,7 +55,7 @@ DIAGNOSES: dict[str, Diagnosis] = {
             "seeds (seed 0), and twice the budget (+11.2), no entropy bonus (+11.0), a higher learning rate "
             "(+12.6), a discount of 0.99 or four times the updates (+15.2) leave it there or behind, at a "
             "policy that switches targets 40-80 times per episode, against "
-            "the seeded policy's ~20 (docs/suite.md, \"Challenges\").",
+            'the seeded policy\'s ~20 (docs/suite.md, "Challenges").',
             "python train.py train --config configs/diagnostics/random_cruise_v1_seeded.yaml",
         ),
         Diagnosis(

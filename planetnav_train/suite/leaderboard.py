@@ -16,7 +16,7 @@ from planetnav_train.spread import prediction_interval
 from planetnav_train.suite.cells import Settings, coverage_lines
 from planetnav_train.suite.challenges import challenge_lines, task_status
 from planetnav_train.suite.runner import INTERFACE_RANDOM, write_json_atomic
-from planetnav_train.suite.scoring import aggregate
+from planetnav_train.suite.scoring import aggregate, entry_name, is_ranked
 from planetnav_train.suite.tasks import SUITE_VERSION, TASKS
 from planetnav_train.suite.walltime import WallTime, reference_seconds, table_wall_time, wall_time_lines
 
@@ -42,19 +42,30 @@ def _fmt_interval(v: Mapping[str, float]) -> str:
 SCORE_LEGEND = (
     "Normalized score = (J_zero − J) / (J_zero − J_best): 0 is the better of random and idle, 1 the best "
     "non-learned reference, both acting at the physics step; IQM over runs with stratified-bootstrap 95 % "
-    "intervals (rliable)."
+    "intervals (rliable). Only algorithms that ran on every task of a set are ranked together; `-tuned` "
+    "marks per-task settings (the algorithm's standard set otherwise); `(short budget)` marks fewer "
+    "physics steps than the task's budget: shown, never ranked."
 )
 
 
 def aggregate_rows(track_agg: Mapping[str, Any]) -> list[str]:
-    """Markdown table of one track's aggregate (:func:`aggregate`): per algorithm, the tasks it ran on, its
-    runs per task and its IQM over tasks with the 95 % interval, best first."""
-    overall = track_agg["overall"]
-    lines = ["| algorithm | tasks | runs per task | IQM [95 % CI] |", "|---|---|---|---|"]
-    for x in sorted(overall, key=lambda k: (-overall[k]["iqm"], k)):
-        lines.append(
-            f"| {x} | {len(track_agg['tasks'][x])} | {track_agg['runs'][x]} | {_fmt_interval(overall[x])} |"
-        )
+    """Markdown table of one track's aggregates (:func:`aggregate`): one block of rows per task set, named,
+    ranking only the algorithms that ran on every task of it (best first), with their runs per task and
+    IQM over those tasks with the 95 % interval. An aggregate written before task sets existed falls back
+    to each algorithm's own tasks, one set per row."""
+    sets = track_agg.get("task_sets")
+    if sets is None:
+        sets = [
+            {"tasks": track_agg["tasks"][a], "algorithms": {a: v}, "runs": {a: track_agg["runs"][a]}}
+            for a, v in track_agg["overall"].items()
+        ]
+    lines = ["| task set | rank | algorithm | runs per task | IQM [95 % CI] |", "|---|---|---|---|---|"]
+    for row in sets:
+        algos = row["algorithms"]
+        name = f"{len(row['tasks'])}: " + ", ".join(row["tasks"])
+        for rank, x in enumerate(sorted(algos, key=lambda k: (-algos[k]["iqm"], k)), start=1):
+            lines.append(f"| {name if rank == 1 else ''} | {rank} | {x} | {row['runs'][x]} | "
+                         f"{_fmt_interval(algos[x])} |")  # fmt: skip
     return lines
 
 
@@ -62,7 +73,7 @@ def _new_run_interval(runs: Sequence[Mapping[str, Any]], task: str, algo: str, t
     """The 95 % prediction interval of a new training run's objective from the seeds of one cell group
     (planetnav_train.spread); "-" with fewer than two finite runs."""
     key = (task, algo, track)
-    values = [r["objective"] for r in runs if (r["task"], r["algorithm"], r.get("track", "raw")) == key]
+    values = [r["objective"] for r in runs if (r["task"], entry_name(r), r.get("track", "raw")) == key]
     try:
         pi = prediction_interval(values)
     except ValueError:
@@ -87,7 +98,9 @@ def best_per_task_rows(
         "|---|---|---|---|---|---|---|",
     ]
     for task in sorted(track_agg["per_task"]):
-        per = track_agg["per_task"][task]
+        per = {k: v for k, v in track_agg["per_task"][task].items() if is_ranked(k)}
+        if not per:
+            continue  # only short-budget entries: nothing to rank
         best = min(per, key=lambda k: (-per[k]["iqm"], k))
         ref = references.get(task)
         ref_text = f"{ref['best']} ({ref['J_best']:.1f} km)" if ref else "-"
@@ -98,8 +111,14 @@ def best_per_task_rows(
 
 
 def best_scores(track_agg: Mapping[str, Any]) -> dict[str, float]:
-    """Per task, the highest IQM normalized score of any algorithm in one track's aggregate."""
-    return {t: max(v["iqm"] for v in per.values()) for t, per in track_agg["per_task"].items()}
+    """Per task, the highest IQM normalized score of any ranked entry (full budget) in one track's
+    aggregate."""
+    out = {}
+    for task, per in track_agg["per_task"].items():
+        ranked = [v["iqm"] for k, v in per.items() if is_ranked(k)]
+        if ranked:
+            out[task] = max(ranked)
+    return out
 
 
 def _interface_random(ref: Mapping[str, Any] | None) -> str:
@@ -228,23 +247,29 @@ def write_leaderboard(
         lines += ["", "### Best algorithm per task", "", *best_per_task_rows(a, references, records, track)]
         lines += ["", "### Challenges", "", *challenge_lines(best_scores(a))]
         if a["improvement"]:
-            lines += ["", "| P(X > Y) | probability [95 % CI] |", "|---|---|"]
+            lines += [
+                "",
+                "| P(X > Y) on the tasks in common | tasks | probability [95 % CI] |",
+                "|---|---|---|",
+            ]
             for row in a["improvement"]:
+                tasks = ", ".join(row.get("tasks", [])) or "-"
                 lines.append(
-                    f"| P({row['x']} > {row['y']}) | {row['probability']:.2f} "
+                    f"| P({row['x']} > {row['y']}) | {tasks} | {row['probability']:.2f} "
                     f"[{row['low']:.2f}, {row['high']:.2f}] |"
                 )
         if plots:
-            for p in scoring.write_plots(
-                a["overall"], a["profiles"], a["improvement"], plot_dir, prefix=f"{track}_"
-            ):
+            sets = a.get("task_sets") or [
+                {"tasks": a["tasks"][x], "algorithms": {x: v}} for x, v in a["overall"].items()
+            ]
+            for p in scoring.write_plots(sets, a["profiles"], a["improvement"], plot_dir, prefix=f"{track}_"):
                 lines += ["", f"![{p.stem}]({plot_dir.name}/{p.name})"]
             curve = scoring.write_curve_plot(a.get("curves", {}), plot_dir / f"{track}_curves.png")
             if curve is not None:
-                title = "### Learning curves (IQM over seeds, 95 % stratified-bootstrap band, 5 curve seeds)"
+                title = "### Learning curves (IQM over seeds, 95 % stratified-bootstrap band)"
                 lines += ["", title, "", f"![{curve.stem}]({plot_dir.name}/{curve.name})"]
         if a.get("curves"):
-            head = "### Sample efficiency and flattening (from the learning curves, 5 curve seeds)"
+            head = "### Sample efficiency and flattening (from the learning curves)"
             lines += ["", head, "", *curve_rows(a["curves"])]
         lines.append("")
     lines += ["## Runs", "", "The headline is the protocol's evaluation mode; the other mode's objective "

@@ -60,7 +60,8 @@ def rerun_cell(key: str, published: str | Path, root: Path = ROOT) -> dict[str, 
         "rerun": new["objective"],
         "half_width": (hi - lo) / 2,
         # A record restored from the published JSON has no per-seed values to compare: None.
-        "per_episode_equal": None if rec.get("per_episode") is None
+        "per_episode_equal": None
+        if rec.get("per_episode") is None
         else new.get("per_episode") == rec.get("per_episode"),
         "inside": lo <= new["objective"] <= hi,
     }

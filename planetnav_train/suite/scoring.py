@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 
 from planetnav_env.errors import ConfigError
-from planetnav_train.suite.tasks import TRACKS
+from planetnav_train.suite.tasks import ALGOS, TASKS_BY_ID, TRACKS
 
 #: Bootstrap resamples of the published aggregates (rliable's own default for intervals is 50,000; 10,000
 #: keeps the 95 % endpoints to ~0.01 of a score on matrices of this size and takes seconds).
@@ -185,32 +185,60 @@ def improvement_probabilities(
     return out
 
 
+def algorithm_colours(names: Iterable[str]) -> dict[str, Any]:
+    """One colour per algorithm, the same in every panel and every figure: the suite's algorithms in the
+    order of :data:`~planetnav_train.suite.tasks.ALGOS`, then any other by name (tab10)."""
+    import matplotlib
+
+    cmap = matplotlib.colormaps["tab10"]
+    wanted = set(names)
+    order = [a for a in ALGOS if a in wanted] + sorted(wanted - set(ALGOS))
+    return {
+        name: cmap((list(ALGOS).index(name) if name in ALGOS else len(ALGOS) + order.index(name)) % 10)
+        for name in wanted
+    }
+
+
 def write_plots(
-    intervals: Mapping[str, Mapping[str, float]],
+    sets: Sequence[Mapping[str, Any]],
     profiles: Mapping[str, Mapping[str, list[float]]],
     improvements: Sequence[Mapping[str, Any]],
     out_dir: Path,
     prefix: str = "",
 ) -> list[Path]:
-    """PNG plots: ``{prefix}iqm.png`` (IQM with intervals per algorithm), ``{prefix}profiles.png``
-    (performance profiles) and, when there are pairs, ``{prefix}improvement.png``. Returns the paths."""
+    """PNG plots: ``{prefix}iqm.png`` (one panel per task set of :func:`task_set_rows`: the IQM with its
+    interval of each algorithm that ran on all of it), ``{prefix}profiles.png`` (performance profiles) and,
+    when there are pairs, ``{prefix}improvement.png``. One colour per algorithm throughout. Returns the
+    paths."""
     import matplotlib
 
     matplotlib.use("Agg")
+    import textwrap
+
     import matplotlib.pyplot as plt
 
     out_dir.mkdir(parents=True, exist_ok=True)
     paths = []
-    names = sorted(intervals, key=lambda k: intervals[k]["iqm"])
-    fig, ax = plt.subplots(figsize=(5.5, 0.45 * len(names) + 1.2))
-    for i, k in enumerate(names):
-        v = intervals[k]
-        ax.plot([v["low"], v["high"]], [i, i], lw=6, alpha=0.5, solid_capstyle="butt")
-        ax.plot([v["iqm"]], [i], "k|", ms=14)
-    ax.set_yticks(range(len(names)), names)
-    ax.axvline(0.0, color="grey", lw=0.8, ls=":")
-    ax.axvline(1.0, color="grey", lw=0.8, ls="--")
-    ax.set_xlabel("normalized score: IQM, 95 % stratified-bootstrap interval (0 random, 1 best rule)")
+    colours = algorithm_colours([a for row in sets for a in row["algorithms"]] + list(profiles))
+    height = sum(0.4 * len(row["algorithms"]) + 0.9 for row in sets) + 0.6
+    fig, axes = plt.subplots(
+        len(sets), 1, figsize=(6.4, height), squeeze=False, sharex=True,
+        gridspec_kw={"height_ratios": [len(row["algorithms"]) + 1 for row in sets]},
+    )  # fmt: skip
+    for ax, row in zip(axes[:, 0], sets, strict=True):
+        algos = row["algorithms"]
+        names = sorted(algos, key=lambda k: algos[k]["iqm"])
+        for i, k in enumerate(names):
+            v = algos[k]
+            ax.plot([v["low"], v["high"]], [i, i], lw=6, alpha=0.6, solid_capstyle="butt", color=colours[k])
+            ax.plot([v["iqm"]], [i], "k|", ms=14)
+        ax.set_yticks(range(len(names)), names)
+        ax.set_ylim(-0.7, len(names) - 0.3)
+        ax.axvline(0.0, color="grey", lw=0.8, ls=":")
+        ax.axvline(1.0, color="grey", lw=0.8, ls="--")
+        title = f"{len(row['tasks'])} task(s): " + ", ".join(row["tasks"])
+        ax.set_title(textwrap.fill(title, 90), fontsize=8)
+    axes[-1, 0].set_xlabel("normalized score: IQM and 95 % interval\n(0 the zero point, 1 the best rule)")
     fig.tight_layout()
     paths.append(out_dir / f"{prefix}iqm.png")
     fig.savefig(paths[-1], dpi=110)
@@ -219,8 +247,8 @@ def write_plots(
     fig, ax = plt.subplots(figsize=(6, 4))
     for k in sorted(profiles):
         p = profiles[k]
-        ax.plot(p["tau"], p["fraction"], label=k)
-        ax.fill_between(p["tau"], p["low"], p["high"], alpha=0.15)
+        ax.plot(p["tau"], p["fraction"], label=k, color=colours[k])
+        ax.fill_between(p["tau"], p["low"], p["high"], alpha=0.15, color=colours[k])
     ax.axvline(1.0, color="grey", lw=0.8, ls="--")
     ax.set_xlabel("normalized score τ")
     ax.set_ylabel("fraction of runs with score > τ")
@@ -233,9 +261,12 @@ def write_plots(
     if improvements:
         fig, ax = plt.subplots(figsize=(5.5, 0.45 * len(improvements) + 1.2))
         for i, row in enumerate(improvements):
-            ax.plot([row["low"], row["high"]], [i, i], lw=6, alpha=0.5, solid_capstyle="butt")
+            ax.plot(
+                [row["low"], row["high"]], [i, i], lw=6, alpha=0.5, solid_capstyle="butt", color="tab:grey"
+            )
             ax.plot([row["probability"]], [i], "k|", ms=14)
-        ax.set_yticks(range(len(improvements)), [f"P({r['x']} > {r['y']})" for r in improvements])
+        labels = [f"P({r['x']} > {r['y']}), {len(r.get('tasks', []))} task(s)" for r in improvements]
+        ax.set_yticks(range(len(improvements)), labels)
         ax.axvline(0.5, color="grey", lw=0.8, ls=":")
         ax.set_xlim(0, 1)
         ax.set_xlabel("probability of improvement, 95 % interval")
@@ -249,12 +280,40 @@ def write_plots(
 Scores = dict[str, dict[str, dict[int, float]]]
 
 
+#: The suffix of an entry that trained for fewer physics steps than its task's budget: shown, never ranked.
+SHORT_BUDGET = " (short budget)"
+
+
+def entry_name(record: Mapping[str, Any]) -> str:
+    """The table's name for a run record: its algorithm; ``-tuned`` where the suite's settings of that
+    algorithm on the task are its own (:attr:`Algo.task_hyperparams`, :attr:`Algo.task_reward_scale_km`),
+    not the algorithm's standard set; and :data:`SHORT_BUDGET` where it trained for fewer physics steps than
+    the task's budget (at the record's budget scale), so that it is kept out of every ranking."""
+    algo, task = str(record["algorithm"]), str(record["task"])
+    name = algo
+    settings = ALGOS.get(algo)
+    if settings is not None and (task in settings.task_hyperparams or task in settings.task_reward_scale_km):
+        name += "-tuned"
+    spec = TASKS_BY_ID.get(task)
+    steps = record.get("env_steps")
+    if spec is not None and steps is not None:
+        budget = spec.budget * float(record.get("budget_scale") or 1.0)
+        if float(steps) < 0.99 * budget:
+            name += SHORT_BUDGET
+    return name
+
+
+def is_ranked(entry: str) -> bool:
+    """Whether an entry (:func:`entry_name`) may be ranked: every one trained at its task's full budget."""
+    return not entry.endswith(SHORT_BUDGET)
+
+
 def scores_by_seed(records: Iterable[Mapping[str, Any]], track: str) -> Scores:
-    """``{algorithm: {task: {seed: normalized score}}}`` of ``track``'s records."""
+    """``{entry: {task: {seed: normalized score}}}`` of ``track``'s records, by :func:`entry_name`."""
     by: Scores = {}
     for r in records:
         if r["track"] == track:
-            seeds = by.setdefault(r["algorithm"], {}).setdefault(r["task"], {})
+            seeds = by.setdefault(entry_name(r), {}).setdefault(r["task"], {})
             seeds[int(r["seed"])] = r["normalized_score"]
     return by
 
@@ -275,6 +334,45 @@ def score_matrices(
     return out
 
 
+def _matrix_on(tasks: Mapping[str, Mapping[int, float]], names: Sequence[str]) -> np.ndarray:
+    """The ``(runs, tasks)`` score matrix of one algorithm on the tasks ``names``, runs by seed order, cut to
+    the seeds every one of those tasks has."""
+    n = min(len(tasks[t]) for t in names)
+    return np.array([[tasks[t][s] for s in sorted(tasks[t])[:n]] for t in names], dtype=float).T
+
+
+def task_sets(records: Iterable[Mapping[str, Any]], track: str) -> list[tuple[str, ...]]:
+    """The task sets an aggregate may rank algorithms over: each algorithm's own tasks and the tasks every
+    two algorithms have in common (non-empty), largest first."""
+    by = scores_by_seed(records, track)
+    own = [frozenset(t) for a, t in by.items() if is_ranked(a)]
+    sets = set(own) | {a & b for a in own for b in own if a & b}
+    return [tuple(sorted(s)) for s in sorted(sets, key=lambda s: (-len(s), sorted(s)))]
+
+
+def task_set_rows(
+    records: Iterable[Mapping[str, Any]], track: str, reps: int = BOOTSTRAP_REPS
+) -> list[dict[str, Any]]:
+    """One aggregate per task set of :func:`task_sets`, ranking only the algorithms that ran on every task
+    of it: ``{"tasks", "algorithms": {algorithm: {"iqm", "low", "high"}}, "runs": {algorithm: n}}``, each
+    algorithm's IQM over those tasks alone (rliable over the ``(runs, tasks)`` matrix)."""
+    records = list(records)
+    by = scores_by_seed(records, track)
+    rows = []
+    for names in task_sets(records, track):
+        mats = {
+            a: _matrix_on(tasks, names)
+            for a, tasks in sorted(by.items())
+            if is_ranked(a) and set(names) <= set(tasks)
+        }
+        rows.append({
+            "tasks": list(names),
+            "algorithms": iqm_intervals(mats, reps),
+            "runs": {a: int(m.shape[0]) for a, m in mats.items()},
+        })  # fmt: skip
+    return rows
+
+
 def learning_curves(
     records: Iterable[Mapping[str, Any]], track: str, reps: int = 2_000
 ) -> dict[str, dict[str, dict[str, list[float]]]]:
@@ -285,7 +383,7 @@ def learning_curves(
     by: dict[str, dict[str, list[list[list[float]]]]] = {}
     for r in records:
         if r["track"] == track and r.get("learning_curve"):
-            by.setdefault(r["task"], {}).setdefault(r["algorithm"], []).append(r["learning_curve"])
+            by.setdefault(r["task"], {}).setdefault(entry_name(r), []).append(r["learning_curve"])
     out: dict[str, dict[str, dict[str, list[float]]]] = {}
     pooled: dict[str, list[np.ndarray]] = {}
     for task, algos in sorted(by.items()):
@@ -328,15 +426,21 @@ def write_curve_plot(
     import matplotlib.pyplot as plt
 
     names = [t for t in curves if t != "all"] + (["all"] if "all" in curves else [])
-    fig, axes = plt.subplots(1, len(names), figsize=(4.2 * len(names), 3.2), squeeze=False)
-    for ax, task in zip(axes[0], names, strict=True):
+    colours = algorithm_colours(a for t in names for a in curves[t])
+    # A grid of at most three panels a row: readable at page width (a single strip is not).
+    cols = min(3, len(names))
+    rows = -(-len(names) // cols)
+    fig, axes = plt.subplots(rows, cols, figsize=(4.2 * cols, 3.3 * rows), squeeze=False)
+    for ax in axes.flat[len(names) :]:
+        ax.remove()  # no empty panels
+    for ax, task in zip(axes.flat, names, strict=False):
         for algo, c in curves[task].items():
             x = np.asarray(c["steps"], dtype=float) / (1.0 if task == "all" else 1e6)
-            ax.plot(x, c["iqm"], label=algo)
-            ax.fill_between(x, c["low"], c["high"], alpha=0.25)
+            ax.plot(x, c["iqm"], label=algo, color=colours[algo])
+            ax.fill_between(x, c["low"], c["high"], alpha=0.25, color=colours[algo])
         ax.axhline(1.0, color="grey", lw=0.8, ls=":")
         ax.axhline(0.0, color="grey", lw=0.8)
-        ax.set_title("all tasks" if task == "all" else task, fontsize=9)
+        ax.set_title("each algorithm over its own tasks" if task == "all" else task, fontsize=9)
         ax.set_xlabel("fraction of the budget" if task == "all" else "physics steps (millions)")
         ax.set_ylabel("normalized score (IQM, 95 % band)")
         ax.legend(fontsize=8)
@@ -348,9 +452,10 @@ def write_curve_plot(
 
 
 def aggregate(records: Sequence[Mapping[str, Any]], reps: int | None = None) -> dict[str, Any]:
-    """Per track: per-task and overall IQM with stratified-bootstrap 95 % intervals per algorithm,
-    performance profiles, and the probability of improvement between every two algorithms that ran on the
-    same tasks (this module)."""
+    """Per track: per-task IQM with stratified-bootstrap 95 % intervals per algorithm, the aggregates over
+    task sets (:func:`task_set_rows`: only algorithms that ran on every task of a set are ranked together),
+    each algorithm's IQM over its own tasks (``overall``), performance profiles, and the probability of
+    improvement between every two algorithms on the tasks they have in common (this module)."""
     reps = reps or BOOTSTRAP_REPS
     out: dict[str, Any] = {}
     for track in TRACKS:
@@ -365,18 +470,27 @@ def aggregate(records: Sequence[Mapping[str, Any]], reps: int | None = None) -> 
                 per_task.setdefault(task, {}).update(iqm_intervals({algo: column}, reps))
         overall = iqm_intervals({a: m for a, (_, m) in mats.items()}, reps)
         profiles = performance_profiles({a: m for a, (_, m) in mats.items()}, reps=min(reps, 2_000))
-        pairs = {
-            (x, y): (mats[x][1], mats[y][1])
-            for x in sorted(mats)
-            for y in sorted(mats)
-            if x < y and mats[x][0] == mats[y][0] and mats[x][1].shape == mats[y][1].shape
-        }
+        # Every two algorithms on the tasks they have in common (each cut to the runs both have there).
+        by = scores_by_seed(records, track)
+        pairs = {}
+        for x in sorted(by):
+            for y in sorted(by):
+                common = sorted(set(by[x]) & set(by[y]))
+                if x < y and common and is_ranked(x) and is_ranked(y):
+                    mx, my = _matrix_on(by[x], common), _matrix_on(by[y], common)
+                    runs = min(mx.shape[0], my.shape[0])
+                    pairs[(x, y)] = (mx[:runs], my[:runs])
         improvements = improvement_probabilities(pairs, reps=min(reps, 2_000))
+        for row, (x, y) in zip(improvements, pairs, strict=True):
+            row["tasks"] = sorted(set(by[x]) & set(by[y]))
         out[track] = {
             "tasks": {a: names for a, (names, _) in mats.items()},
             "runs": {a: int(m.shape[0]) for a, (_, m) in mats.items()},
             "per_task": per_task,
+            # Each algorithm over its own tasks (not comparable across algorithms with other task sets).
             "overall": overall,
+            # The ranked aggregates: per task set, the algorithms that ran on all of it.
+            "task_sets": task_set_rows(records, track, reps),
             "profiles": profiles,
             "improvement": improvements,
             "curves": learning_curves(records, track, reps=min(reps, 2_000)),

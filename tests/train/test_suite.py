@@ -413,7 +413,7 @@ def test_suite_smoke_end_to_end(tmp_path, monkeypatch) -> None:
     assert compact == publish.compact_suite_json(published) and len(compact["runs"]) == 2
     assert "per_episode" not in compact["runs"][0] and compact["runs"][0]["learning_curve"]
     summary = suite.summary_markdown(published)
-    assert "| ppo | 1 | 2 |" in summary and "| Cruise-Target-v1 | ppo |" in summary
+    assert "| 1: Cruise-Target-v1 | 1 | ppo | 2 |" in summary and "| Cruise-Target-v1 | ppo |" in summary
     assert readme.read_text() == (
         f"# r\n\n{publish.README_START}\n{summary.rstrip()}\n{publish.README_END}\n\n## next\n"
     )
@@ -437,3 +437,59 @@ def test_suite_smoke_end_to_end(tmp_path, monkeypatch) -> None:
     again = json.loads((restored / "suite.json").read_text())
     assert again["aggregate"] == published["aggregate"] and again["references"] == published["references"]
     assert [r["objective"] for r in again["runs"]] == [r["objective"] for r in published["runs"]]
+
+
+def test_aggregates_rank_only_algorithms_that_ran_on_the_whole_task_set() -> None:
+    """PPO on three tasks, DQN on two of them (where it is better): no row ranks them over different sets;
+    the set they share ranks both, and P(improvement) is taken on those tasks."""
+    pytest.importorskip("rliable")
+    from planetnav_train.suite import scoring
+    from planetnav_train.suite.leaderboard import aggregate_rows
+
+    def rec(algo: str, task: str, seed: int, score: float) -> dict:
+        return {"track": "raw", "algorithm": algo, "task": task, "seed": seed, "normalized_score": score}
+
+    records = [
+        rec("ppo", t, s, base + 0.01 * s)
+        for t, base in (("A", 0.2), ("B", 0.3), ("C", 2.0))
+        for s in range(5)
+    ]
+    records += [rec("dqn", t, s, 0.8 + 0.01 * s) for t in ("A", "B") for s in range(5)]
+    assert scoring.task_sets(records, "raw") == [("A", "B", "C"), ("A", "B")]
+    rows = scoring.task_set_rows(records, "raw", reps=200)
+    assert set(rows[0]["algorithms"]) == {"ppo"} and set(rows[1]["algorithms"]) == {"dqn", "ppo"}
+    # On its own tasks PPO's IQM is lifted by C; on the shared two DQN ranks first.
+    assert rows[1]["algorithms"]["dqn"]["iqm"] > rows[1]["algorithms"]["ppo"]["iqm"]
+    assert rows[1]["algorithms"]["ppo"]["iqm"] == pytest.approx(
+        np.mean([0.2 + 0.01 * s for s in range(1, 4)] + [0.3 + 0.01 * s for s in range(1, 4)]), abs=0.02
+    )
+    agg = scoring.aggregate(records, reps=200)["raw"]
+    (pair,) = agg["improvement"]
+    assert (pair["x"], pair["y"], pair["tasks"]) == ("dqn", "ppo", ["A", "B"]) and pair["probability"] == 1.0
+    table = "\n".join(aggregate_rows(agg))
+    assert "| 3: A, B, C | 1 | ppo | 5 |" in table
+    assert "| 2: A, B | 1 | dqn | 5 |" in table and "|  | 2 | ppo | 5 |" in table
+
+
+def test_entries_name_tuned_settings_and_short_budgets() -> None:
+    """PPO's per-task settings appear as ppo-tuned; a cell below its task's budget is marked and never
+    ranked (here DQN at a third of Cruise-Target-v1's 3M physics steps)."""
+    pytest.importorskip("rliable")
+    from planetnav_train.suite.scoring import entry_name, task_set_rows
+
+    def rec(algo: str, task: str, seed: int, score: float, steps: int) -> dict:
+        return {"track": "raw", "algorithm": algo, "task": task, "seed": seed, "normalized_score": score,
+                "env_steps": steps, "budget_scale": 1.0}  # fmt: skip
+
+    full = suite.get_task("Cruise-Target-v1").budget
+    assert entry_name(rec("ppo", "Cruise-Target-v1", 0, 0.5, full)) == "ppo"
+    assert entry_name(rec("ppo", "RandomCruise-Target-v1", 0, 0.5, full)) == "ppo-tuned"
+    assert entry_name(rec("dqn", "Cruise-Target-v1", 0, 0.9, full // 3)) == "dqn (short budget)"
+    assert entry_name({**rec("dqn", "Cruise-Target-v1", 0, 0.9, full // 3), "budget_scale": 1 / 3}) == "dqn"
+    records = [rec("ppo", "Cruise-Target-v1", s, 0.5, full) for s in range(3)]
+    records += [rec("dqn", "Cruise-Target-v1", s, 0.9, full // 3) for s in range(3)]
+    (row,) = task_set_rows(records, "raw", reps=100)
+    assert set(row["algorithms"]) == {"ppo"}  # the better-scoring short cell is not ranked
+    agg = suite.aggregate(records, reps=100)["raw"]
+    assert set(agg["per_task"]["Cruise-Target-v1"]) == {"ppo", "dqn (short budget)"}  # but it is shown
+    assert agg["improvement"] == []
