@@ -24,7 +24,15 @@ from planetnav_train.config import TrainConfig, is_rllib_algo
 from planetnav_train.provenance import provenance
 from planetnav_train.stats import mean_ci
 from planetnav_train.suite.cells import Cell, Settings, cell_config, load_assists, rerun_command
-from planetnav_train.suite.tasks import OBJECTIVES, SUITE_VERSION, Objective, Task, get_algo, get_task
+from planetnav_train.suite.tasks import (
+    INTERFACE_RANDOM,
+    OBJECTIVES,
+    SUITE_VERSION,
+    Objective,
+    Task,
+    get_algo,
+    get_task,
+)
 
 # ---------------------------------------------------------------------------------------------------------
 # References
@@ -44,11 +52,6 @@ def _agent_summary(objective: Objective, metrics: Mapping[str, Any]) -> dict[str
     values = objective.values(metrics)
     ci = mean_ci(values)
     return {"objective": ci.mean, "ci95": [ci.low, ci.high], "per_episode": values.tolist()}
-
-
-#: The reference key of the random policy in the task's own interface (a ``-v1`` id's held decisions and
-#: relative actions): reported beside the score, not its zero point.
-INTERFACE_RANDOM = "random@interface"
 
 
 def agent_cache_path(task: Task, spec: str, settings: Settings) -> Path:

@@ -144,6 +144,10 @@ class Task:
         return {**dataclasses.asdict(self), "id": self.id, "version": self.version}
 
 
+#: The reference key of the random policy in the task's own interface (a ``-v1`` id's held decisions and
+#: relative actions): reported beside the score on v1, and the zero point of a v2 task whose best blind
+#: policy it is (the blind family's ``random`` acts in the task's interface).
+INTERFACE_RANDOM = "random@interface"
 _TARGET_REFS = ("greedy", "periodic", "planner")
 #: Mars approach: one planet (periodic's cycles are over planets, so it has no schedule to run there).
 _APPROACH_REFS = ("greedy", "planner", "baseline")
@@ -173,7 +177,21 @@ TASKS: tuple[Task, ...] = (
     Task("planetnav/Cruise-Hybrid-v1", "continuous", 1_000_000, _TORQUE_1S_REFS),
     Task("planetnav/ThrustArc-TCM-v1", "discrete", 3_000_000, THRUST_ARC_REFS, objective="operations_J_km"),
 )
-TASKS_BY_ID: dict[str, Task] = {t.id: t for t in TASKS}
+#: The ``-v2`` tasks (docs/tasks_v2.md), runnable cell by cell (``train.py suite --tasks Cruise-Target-v2``)
+#: and not yet in the published grid (:data:`TASKS`). Each task's zero point is the winner of its published
+#: blind search (docs/tasks_v2_blind.json, ``train.py blind-search``; ``random`` there acts in the task's
+#: interface), its references the search's non-privileged ones: on the event tasks nominal and adaptive
+#: greedy (the oracle is privileged, never the 1), on the posing fixes the v1 task's.
+_V2_EVENT_REFS = ("greedy", "greedy:success=observed")
+TASKS_V2: tuple[Task, ...] = (
+    Task("planetnav/Cruise-Target-v2", "discrete", 3_000_000, _V2_EVENT_REFS,
+         zero=("schedule:targets=0-1-2,steps=20",)),
+    Task("planetnav/RandomCruise-Target-v2", "discrete", 3_000_000, _V2_EVENT_REFS, zero=(INTERFACE_RANDOM,)),
+    Task("planetnav/MarsApproach-Tasking-v2", "discrete", 3_000_000, _V2_EVENT_REFS,
+         zero=("schedule:targets=0-2-1,steps=16-4-4",)),
+    Task("planetnav/Cruise-Torque-v2", "continuous", 1_000_000, TORQUE_REFS, zero=(INTERFACE_RANDOM,)),
+)  # fmt: skip
+TASKS_BY_ID: dict[str, Task] = {t.id: t for t in (*TASKS, *TASKS_V2)}
 
 
 def get_task(name: str) -> Task:

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import shlex
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -493,3 +494,29 @@ def test_entries_name_tuned_settings_and_short_budgets() -> None:
     agg = suite.aggregate(records, reps=100)["raw"]
     assert set(agg["per_task"]["Cruise-Target-v1"]) == {"ppo", "dqn (short budget)"}  # but it is shown
     assert agg["improvement"] == []
+
+
+BLIND_JSON = Path(__file__).resolve().parents[2] / "docs" / "tasks_v2_blind.json"
+
+
+def test_v2_tasks_take_their_zero_and_references_from_the_published_blind_search() -> None:
+    published = json.loads(BLIND_JSON.read_text())["tasks"]
+    for task in suite.TASKS_V2:
+        rec = published[task.id]
+        winner = rec["blind_winner"]
+        assert task.zero == ((runner.INTERFACE_RANDOM,) if winner == "random" else (winner,)), task.id
+        refs = {s for s, row in rec["agents"].items() if row["role"] == "reference"}
+        assert set(task.references) == refs and rec["best_reference"] in task.references
+        assert suite.get_task(task.id) is task and task not in suite.TASKS  # runnable, not yet published
+
+
+@pytest.mark.parametrize("task_id", ["Cruise-Target-v2", "RandomCruise-Target-v2"])
+def test_v2_zero_point_evaluated_by_the_suite_equals_the_blind_search(tmp_path, task_id) -> None:
+    """The suite's reference machinery and the blind search play the zero point on the same seeds, noise
+    streams and interface: the same per-episode values, bit for bit (first 2 seeds)."""
+    task = suite.get_task(task_id)
+    rec = json.loads(BLIND_JSON.read_text())["tasks"][task_id]
+    settings = suite.Settings(out=tmp_path, eval_episodes=2)
+    (zero,) = task.zero
+    got = runner.reference_agent(task, zero, settings)["per_episode"]
+    assert got == rec["agents"][rec["blind_winner"]]["per_seed"][:2]
