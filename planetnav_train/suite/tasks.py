@@ -190,6 +190,8 @@ TASKS_V2: tuple[Task, ...] = (
     Task("planetnav/MarsApproach-Tasking-v2", "discrete", 3_000_000, _V2_EVENT_REFS,
          zero=("schedule:targets=0-2-1,steps=16-4-4",)),
     Task("planetnav/Cruise-Torque-v2", "continuous", 1_000_000, TORQUE_REFS, zero=(INTERFACE_RANDOM,)),
+    Task("planetnav/ThrustArc-TCM-v2", "discrete", 3_000_000, THRUST_ARC_REFS, objective="operations_J_km",
+         zero=("schedule:targets=0-off-1-off-2-off,steps=12-420-12-420-12-420,phase=1188",)),
 )  # fmt: skip
 TASKS_BY_ID: dict[str, Task] = {t.id: t for t in (*TASKS, *TASKS_V2)}
 
