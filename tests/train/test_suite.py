@@ -114,8 +114,10 @@ def test_profiles_and_probability_of_improvement_match_numpy() -> None:
 def test_tasks_are_registered_ids_with_100_seeds() -> None:
     # Every registered v1 id is a task (a new id joins the suite as one entry), with its own objective.
     assert {t.env_id for t in suite.TASKS} == {i for i in ENV_IDS if i.endswith("-v1")}
-    assert len(suite.TASKS_BY_ID) == len(suite.TASKS)
-    for t in suite.TASKS:
+    # Every v2 id is a runnable task too (not yet in the published grid).
+    assert {t.env_id for t in suite.TASKS_V2} == {i for i in ENV_IDS if i.endswith("-v2")}
+    assert len(suite.TASKS_BY_ID) == len(suite.TASKS) + len(suite.TASKS_V2)
+    for t in (*suite.TASKS, *suite.TASKS_V2):
         assert len(t.eval_seeds) == 100 and t.noise_streams == "per_step"
         assert t.eval_config().noise_streams == "per_step"
         assert t.id.endswith(f"-v{t.version}")
