@@ -311,7 +311,10 @@ def run_cell(cell: Cell, settings: Settings, references: Mapping[str, Any]) -> d
         "evaluations": evals,
         "learning_curve": curve,
         # Seeds of the points before the last ([first, end)); the last point is the final evaluation's.
-        "curve_seeds": [task.eval_seed, task.eval_seed + curve_references(references)["episodes"]],
+        # None without a curve (RLlib cells).
+        "curve_seeds": [task.eval_seed, task.eval_seed + curve_references(references)["episodes"]]
+        if callbacks
+        else None,
         "reference": {k: references[k] for k in ("random", "zero", "best", "J_random", "J_zero", "J_best")},
         # Physics steps: SB3's training reports them (env_steps); RLlib's counts decisions (timesteps).
         "env_steps": env_steps,
