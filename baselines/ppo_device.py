@@ -112,10 +112,7 @@ def train(args) -> tuple[single.Agent, list[dict]]:
     next_obs = envs.reset(seed=args.seed)[0]
     next_done = torch.zeros(N, device=dev)
     for iteration in range(1, args.num_iterations + 1):
-        if args.anneal_lr:
-            optimizer.param_groups[0]["lr"] = (
-                1.0 - (iteration - 1.0) / args.num_iterations
-            ) * args.learning_rate
+        single.anneal_lr(optimizer, args, iteration)
         for step in range(T):
             global_step += N
             obs[step], dones[step] = next_obs, next_done

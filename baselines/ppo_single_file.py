@@ -177,6 +177,13 @@ def ppo_update(agent, optimizer, args, b_obs, b_actions, b_logprobs, b_advantage
             "clipfrac": torch.stack(clipfracs).mean()}  # fmt: skip
 
 
+def anneal_lr(optimizer, args, iteration: int) -> None:
+    """Linear learning-rate decay from ``args.learning_rate`` at iteration 1 toward 0 (CleanRL's)."""
+    if args.anneal_lr:
+        frac = 1.0 - (iteration - 1.0) / args.num_iterations
+        optimizer.param_groups[0]["lr"] = frac * args.learning_rate
+
+
 def shuffler(rng: np.random.Generator, inds: np.ndarray):
     """A ``permutation()`` for :func:`ppo_update` that shuffles ``inds`` in place with ``rng`` each call."""
 
@@ -207,9 +214,7 @@ def train(args: argparse.Namespace) -> Agent:
     next_done = torch.zeros(N)
     ep_return, finished = np.zeros(N), []
     for iteration in range(1, args.num_iterations + 1):
-        if args.anneal_lr:
-            frac = 1.0 - (iteration - 1.0) / args.num_iterations
-            optimizer.param_groups[0]["lr"] = frac * args.learning_rate
+        anneal_lr(optimizer, args, iteration)
 
         for step in range(T):
             global_step += N

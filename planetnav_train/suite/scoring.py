@@ -464,14 +464,14 @@ def aggregate(records: Sequence[Mapping[str, Any]], reps: int | None = None) -> 
             continue
         # Per task every seed counts; only the aggregate over tasks needs the common count (rliable).
         per_task: dict[str, Any] = {}
-        for algo, tasks in scores_by_seed(records, track).items():
+        by = scores_by_seed(records, track)
+        for algo, tasks in by.items():
             for task, seeds in tasks.items():
                 column = np.array([seeds[s] for s in sorted(seeds)], dtype=float)[:, None]
                 per_task.setdefault(task, {}).update(iqm_intervals({algo: column}, reps))
         overall = iqm_intervals({a: m for a, (_, m) in mats.items()}, reps)
         profiles = performance_profiles({a: m for a, (_, m) in mats.items()}, reps=min(reps, 2_000))
         # Every two algorithms on the tasks they have in common (each cut to the runs both have there).
-        by = scores_by_seed(records, track)
         pairs = {}
         for x in sorted(by):
             for y in sorted(by):

@@ -70,6 +70,15 @@ BANK_IDS = [
 ]
 
 
+def _masked_reference(advance, log: np.ndarray, mask: np.ndarray, *columns: np.ndarray) -> np.ndarray:
+    """What the CPU does to the ``mask`` rows of a copy of ``log``: the numpy ``advance`` on those rows."""
+    ref = log.copy()
+    sub = ref[mask]
+    advance(sub, *(c[mask] for c in columns))
+    ref[mask] = sub
+    return ref
+
+
 @pytest.mark.parametrize("env_id", BANK_IDS)
 def test_bank_rows_after_the_compiled_reset_equal_the_cpu_reset(env_id: str) -> None:
     cfg = EnvConfig.from_dict(id_options(env_id))
@@ -209,10 +218,7 @@ def test_torch_blocks_equal_the_numpy_blocks() -> None:
     fixed, failed = rng.random(n) < 0.4, rng.random(n) < 0.3
     tl = torch.from_numpy(log.copy())
     DB.advance_image_log(tl, *(torch.from_numpy(x) for x in (fixed, failed, target, mask)))
-    ref = log.copy()
-    sub = ref[mask]
-    advance_image_log(sub, fixed[mask], failed[mask], target[mask])
-    ref[mask] = sub
+    ref = _masked_reference(advance_image_log, log, mask, fixed, failed, target)
     assert tl.numpy().tobytes() == ref.tobytes()
     values = DB.image_log_values(tl, lambda x: torch.from_numpy(pm.log1p(x.numpy())))
     assert values.numpy().tobytes() == image_log_values(ref).tobytes()
@@ -221,10 +227,7 @@ def test_torch_blocks_equal_the_numpy_blocks() -> None:
     nis = np.where(rng.random(n) < 0.1, np.nan, rng.uniform(0, 5, n))
     tr = torch.from_numpy(rlog.copy())
     DB.advance_residual_log(tr, *(torch.from_numpy(x) for x in (fixed, nis, target, mask)))
-    ref = rlog.copy()
-    sub = ref[mask]
-    advance_residual_log(sub, fixed[mask], nis[mask], target[mask])
-    ref[mask] = sub
+    ref = _masked_reference(advance_residual_log, rlog, mask, fixed, nis, target)
     assert tr.numpy().tobytes() == ref.tobytes()
     assert DB.residual_log_values(tr).numpy().tobytes() == residual_log_values(ref).tobytes()
 
