@@ -27,7 +27,6 @@ from planetnav_train.suite.cells import Cell, Settings, cell_config, load_assist
 from planetnav_train.suite.tasks import (
     INTERFACE_RANDOM,
     OBJECTIVES,
-    SUITE_VERSION,
     Objective,
     Task,
     get_algo,
@@ -44,7 +43,7 @@ def _agent_key(task: Task, spec: str, settings: Settings) -> str:
     objective, the seeds, the episode length, the noise streams, the protocol), not the task's budget or
     its other candidates, so adding a candidate evaluates that one agent only."""
     what = [task.env_id, task.objective, spec, task.eval_seed, settings.eval_episodes or task.eval_episodes,
-            settings.episode_steps, task.noise_streams, SUITE_VERSION]  # fmt: skip
+            settings.episode_steps, task.noise_streams, task.suite_version]  # fmt: skip
     return hashlib.sha256(json.dumps(what).encode()).hexdigest()[:12]
 
 
@@ -294,7 +293,7 @@ def run_cell(cell: Cell, settings: Settings, references: Mapping[str, Any]) -> d
     curve = [*callbacks[0].points, [env_steps, head["normalized_score"]]] if callbacks else []
     wall_s = time.perf_counter() - t0
     return {
-        "suite_version": SUITE_VERSION,
+        "suite_version": task.suite_version,
         "task": task.id,
         "task_version": task.version,
         "algorithm": cell.algo,

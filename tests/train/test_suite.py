@@ -4,6 +4,7 @@ rliable aggregation against direct numpy computations, the action mask, resume, 
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import shlex
 from pathlib import Path
@@ -15,7 +16,7 @@ from planetnav_env.envs.registration import ENV_IDS
 from planetnav_env.errors import ConfigError
 from planetnav_train import suite
 from planetnav_train.suite import runner
-from planetnav_train.suite.scoring import normalized_score
+from planetnav_train.suite.scoring import entry_name, is_ranked, normalized_score
 
 #: A fixed (runs, tasks) score matrix: 5 seeds x 3 tasks.
 SCORES = np.array(
@@ -522,3 +523,28 @@ def test_v2_zero_point_evaluated_by_the_suite_equals_the_blind_search(tmp_path, 
     (zero,) = task.zero
     got = runner.reference_agent(task, zero, settings)["per_episode"]
     assert got == rec["agents"][rec["blind_winner"]]["per_seed"][:2]
+
+
+def test_v2_cells_train_for_the_task_budget_with_the_task_discount(tmp_path) -> None:
+    """Suite version 2: every algorithm gets the task's physics-step budget (SAC, whose full budget does not
+    fit the table, trains a stated fraction and is marked short), and a task that states its discount
+    gives it to every algorithm; the v1 cells keep their budgets and discounts."""
+    settings = suite.Settings(out=tmp_path)
+    thrust = suite.get_task("ThrustArc-TCM-v2")
+    assert thrust.suite_version == 2 and suite.get_task("ThrustArc-TCM-v1").suite_version == 1
+    per_decision = thrust.env_config().decision_steps
+    for algo in ("ppo", "dqn"):
+        cfg, _ = suite.cell_config(suite.Cell(thrust.id, algo, "raw", 0), settings)
+        assert cfg.n_timesteps * per_decision == thrust.budget, algo
+        assert cfg.hyperparams["gamma"] == thrust.discount == 0.995, algo
+    v1_dqn, _ = suite.cell_config(suite.Cell("ThrustArc-TCM-v1", "dqn", "raw", 0), settings)
+    assert v1_dqn.hyperparams["gamma"] == 0.95
+    assert v1_dqn.n_timesteps == round(3_000_000 * suite.get_algo("dqn").budget_fraction)
+    torque = suite.get_task("Cruise-Torque-v2")
+    sac, _ = suite.cell_config(suite.Cell(torque.id, "sac", "raw", 0), settings)
+    assert sac.n_timesteps * torque.env_config().decision_steps == round(torque.budget * 0.1)
+    steps = sac.n_timesteps * torque.env_config().decision_steps
+    short = {"algorithm": "sac", "task": torque.id, "env_steps": steps, "budget_scale": 1.0}
+    assert not is_ranked(entry_name(short))
+    with pytest.raises(ConfigError, match=r"discount 1\.0 must lie in"):
+        dataclasses.replace(thrust, discount=1.0)
