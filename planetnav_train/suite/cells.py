@@ -21,11 +21,13 @@ from planetnav_train.config import TrainConfig, is_rllib_algo, parse_config
 from planetnav_train.suite.tasks import (
     ALGOS,
     DEFAULT_ASSISTS,
-    TASKS,
+    SUITE_VERSION,
+    SUITES,
     TRACKS,
     Algo,
     get_algo,
     get_task,
+    records_version,
 )
 
 # ---------------------------------------------------------------------------------------------------------
@@ -136,24 +138,29 @@ PUBLISHED_SEEDS: tuple[int, ...] = (0, 1, 2, 3, 4)
 ASSISTED_ALGOS: tuple[str, ...] = ("ppo",)
 
 
-def published_grid() -> list[Cell]:
-    """Every cell of the published table: raw, each task x the algorithms that run on it
-    (:meth:`Algo.in_table`: its action kind's, RecurrentPPO on the Mars approach and RLlib's PPO on
-    Cruise-Target-v1 only); assisted, each task x :data:`ASSISTED_ALGOS`; five seeds each."""
+def published_grid(version: int = SUITE_VERSION) -> list[Cell]:
+    """Every cell of suite ``version``'s table: raw, each task x the algorithms that run on it
+    (:meth:`Algo.in_table`: its action kind's; in version 1 also RecurrentPPO on the Mars approach and
+    RLlib's PPO on Cruise-Target-v1); version 1 also had the assisted track, each task x
+    :data:`ASSISTED_ALGOS` (its assists were built for the v1 observations; version 2 ranks the raw
+    track only); five seeds each."""
+    if version not in SUITES:
+        raise ConfigError(f"unknown suite version {version!r}; the versions are {sorted(SUITES)}")
     cells = []
-    for t in TASKS:
+    for t in SUITES[version]:
         raw = [a.name for a in ALGOS.values() if a.in_table(t)]
         cells += make_cells([t.id], raw, PUBLISHED_SEEDS, "raw")
-        cells += make_cells([t.id], ASSISTED_ALGOS, PUBLISHED_SEEDS, "assisted")
+        if version == 1:
+            cells += make_cells([t.id], ASSISTED_ALGOS, PUBLISHED_SEEDS, "assisted")
     return cells
 
 
 def coverage(records: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
-    """How much of :func:`published_grid` the official ``records`` cover: per task and track the cells
-    finished and expected, and the totals (``done``, ``expected``)."""
+    """How much of the published grid of the records' suite version the official ``records`` cover: per
+    task and track the cells finished and expected, and the totals (``done``, ``expected``)."""
     done = {(r["task"], r["algorithm"], r["track"], int(r["seed"])) for r in records if r.get("official")}
     per: dict[str, dict[str, list[int]]] = {}
-    for c in published_grid():
+    for c in published_grid(records_version(records)):
         row = per.setdefault(c.task, {}).setdefault(c.track, [0, 0])
         row[0] += (c.task, c.algo, c.track, c.seed) in done
         row[1] += 1
@@ -175,9 +182,15 @@ def coverage_lines(records: Sequence[Mapping[str, Any]], table: bool = True) -> 
         )
     if not table:
         return [head, ""]
-    lines = [head, "", "| task | raw cells | assisted cells |", "|---|---|---|"]
-    for task, tracks in cov["per_task"].items():
-        lines.append(f"| {task} | " + " | ".join(f"{tracks[k][0]} / {tracks[k][1]}" for k in TRACKS) + " |")
+    tracks = [k for k in TRACKS if any(k in t for t in cov["per_task"].values())]  # the grid's tracks
+    lines = [
+        head,
+        "",
+        "| task | " + " | ".join(f"{k} cells" for k in tracks) + " |",
+        "|---" * (len(tracks) + 1) + "|",
+    ]
+    for task, done in cov["per_task"].items():
+        lines.append(f"| {task} | " + " | ".join(f"{done[k][0]} / {done[k][1]}" for k in tracks) + " |")
     return [*lines, ""]
 
 

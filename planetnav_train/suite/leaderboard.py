@@ -17,17 +17,19 @@ from planetnav_train.suite.cells import Settings, coverage_lines
 from planetnav_train.suite.challenges import challenge_lines, task_status
 from planetnav_train.suite.runner import INTERFACE_RANDOM, write_json_atomic
 from planetnav_train.suite.scoring import aggregate, entry_name, is_ranked
-from planetnav_train.suite.tasks import SUITE_VERSION, TASKS
+from planetnav_train.suite.tasks import SUITES, records_version
 from planetnav_train.suite.walltime import WallTime, reference_seconds, table_wall_time, wall_time_lines
 
 
 def suite_json(
     records: Sequence[Mapping[str, Any]], references: Mapping[str, Any], agg: Mapping[str, Any]
 ) -> dict[str, Any]:
-    """The published JSON: the protocol, the tasks, the references used, every run, and the aggregates."""
+    """The published JSON: the suite version and its tasks, the references used, every run, and the
+    aggregates."""
+    version = records_version(records)
     return {
-        "suite_version": SUITE_VERSION,
-        "tasks": [t.to_dict() for t in TASKS],
+        "suite_version": version,
+        "tasks": [t.to_dict() for t in SUITES[version]],
         "references": dict(references),
         "runs": list(records),
         "aggregate": dict(agg),
@@ -39,13 +41,23 @@ def _fmt_interval(v: Mapping[str, float]) -> str:
 
 
 #: What the normalized score and its aggregate mean, said once for the page and the README summary.
-SCORE_LEGEND = (
-    "Normalized score = (J_zero − J) / (J_zero − J_best): 0 is the better of random and idle, 1 the best "
-    "non-learned reference, both acting at the physics step; IQM over runs with stratified-bootstrap 95 % "
-    "intervals (rliable). Only algorithms that ran on every task of a set are ranked together; `-tuned` "
-    "marks per-task settings (the algorithm's standard set otherwise); `(short budget)` marks fewer "
-    "physics steps than the task's budget: shown, never ranked."
-)
+#: What the score's 0 is, per suite version.
+_ZERO_POINT = {
+    1: "0 is the better of random and idle, 1 the best non-learned reference, both acting at the physics "
+    "step",
+    2: "0 is the task's best blind policy (the winner of its published search over policies that ignore "
+    "the observation: docs/tasks_v2_blind.json), 1 the best non-learned, non-privileged reference",
+}
+
+
+def score_legend(version: int) -> str:
+    """The score's definition for suite ``version``'s table (its zero point differs between versions)."""
+    return (
+        f"Normalized score = (J_zero − J) / (J_zero − J_best): {_ZERO_POINT[version]}; IQM over runs with "
+        "stratified-bootstrap 95 % intervals (rliable). Only algorithms that ran on every task of a set are "
+        "ranked together; `-tuned` marks per-task settings (the algorithm's standard set otherwise); "
+        "`(short budget)` marks fewer physics steps than the task's budget: shown, never ranked."
+    )
 
 
 def aggregate_rows(track_agg: Mapping[str, Any]) -> list[str]:
@@ -173,7 +185,7 @@ def summary_markdown(data: Mapping[str, Any]) -> str:
         return "No run recorded yet.\n"
     tasks = sorted({r["task"] for r in runs})
     lines = [f"Suite version {data.get('suite_version')}: {len(runs)} runs on {len(tasks)} task(s). "
-             + SCORE_LEGEND, ""]  # fmt: skip
+             + score_legend(int(data.get("suite_version") or 1)), ""]  # fmt: skip
     unofficial = sum(not r.get("official", False) for r in runs)
     if unofficial:
         lines += [f"**Not a leaderboard**: {unofficial} of {len(runs)} runs used smoke settings.", ""]
@@ -210,7 +222,7 @@ def write_leaderboard(
             "machinery only.",
             "",
         ]
-    lines += [SCORE_LEGEND, ""]
+    lines += [score_legend(records_version(records)), ""]
     lines += ["## Coverage", "", *coverage_lines(records)]
     if wall is not None:
         lines += ["## Wall time of the table", "", "Worker-seconds of the published table on this run's "

@@ -41,7 +41,7 @@ from planetnav_train.shipped import (
 from planetnav_train.suite.cells import Cell
 from planetnav_train.suite.leaderboard import summary_markdown
 from planetnav_train.suite.runner import load_records, write_json_atomic
-from planetnav_train.suite.tasks import SUITE_VERSION, get_task
+from planetnav_train.suite.tasks import get_task, records_version
 
 #: The README's summary block lies between these two lines (the text between them is replaced).
 README_START = "<!-- suite-summary:start -->"
@@ -249,7 +249,8 @@ def ship_baselines(
                 entry["source_sha256"] = file_sha256(model)
             manifest["baselines"][task] = entry
             entries.append(entry)
-    manifest["suite_version"] = SUITE_VERSION
+    if chosen:  # each entry keeps its own version; the manifest's is that of the latest shipped
+        manifest["suite_version"] = records_version([r for _, r, *_ in chosen])
     manifest["baselines"] = dict(sorted(manifest["baselines"].items()))
     write_json_atomic(dest / MANIFEST_NAME, manifest)
     return entries

@@ -39,7 +39,7 @@ from planetnav_train.suite.runner import (
     reference_settings,
     write_json_atomic,
 )
-from planetnav_train.suite.tasks import SUITE_VERSION, get_task
+from planetnav_train.suite.tasks import SUITES, get_task
 
 #: The fields every published run must have for the page to aggregate it.
 RUN_FIELDS = ("task", "algorithm", "track", "seed", "objective", "normalized_score", "official")
@@ -79,17 +79,20 @@ def restore(published: str | Path, out: str | Path) -> Restored:
         raise ConfigError(f"{path} is not a suite JSON: {err}") from None
     if not isinstance(data, dict) or "runs" not in data or "references" not in data:
         raise ConfigError(f"{path} is not a suite JSON: it has no 'runs' and 'references'")
-    if data.get("suite_version") != SUITE_VERSION:
-        raise ConfigError(
-            f"{path} holds suite version {data.get('suite_version')!r}; this suite is version {SUITE_VERSION}"
-        )
+    version = data.get("suite_version")
+    if version not in SUITES:
+        raise ConfigError(f"{path} holds suite version {version!r}; the versions are {sorted(SUITES)}")
     settings = Settings(out=Path(out))
     done = Restored()
     for i, run in enumerate(data["runs"]):
         missing = [k for k in RUN_FIELDS if k not in run]
         if missing:
             raise ConfigError(f"{path}: run {i} has no {missing}")
-        cell = Cell(get_task(run["task"]).id, run["algorithm"], run["track"], int(run["seed"]))
+        task = get_task(run["task"])
+        if task.suite_version != version:
+            raise ConfigError(f"{path}: run {i} is on {task.id}, a task of suite version "
+                              f"{task.suite_version}, in a table of version {version}")  # fmt: skip
+        cell = Cell(task.id, run["algorithm"], run["track"], int(run["seed"]))
         # Never this machine's provenance: the published one, or null for a run published without it.
         record = {"provenance": None, **run, "restored_from": str(path)}
         _write_new(record_path(settings.out, cell), record, done.records, done.kept)

@@ -25,7 +25,9 @@ from planetnav_env.envs.registration import ENV_IDS
 from planetnav_env.errors import ConfigError
 from planetnav_train.config import ROOT
 
-SUITE_VERSION = 1
+#: The suite version of the published table (:data:`TASKS`); :data:`SUITES` holds every version's tasks, so a
+#: table of an earlier version stays restorable and publishable as what it was.
+SUITE_VERSION = 2
 #: First held-out evaluation seed of every task: disjoint from training (0..), train.py's evaluation
 #: (10_000..) and the periodic sweep (20_000..), so no setting was tuned on these seeds.
 SUITE_EVAL_SEED = 50_000
@@ -175,10 +177,10 @@ THRUST_ARC_REFS = (
     "greedy:threshold=4",
     "optimum",
 )
-#: The task list: the ``-v1`` ids (the ``-v0`` physics posed for learners; docs/suite.md "Tasks v1").
-#: ``budget``: the on-policy algorithms' training budget in physics steps; an algorithm's
-#: ``budget_fraction`` scales it (docs/suite.md "Budgets"; research/suite/history.md derives both).
-TASKS: tuple[Task, ...] = (
+#: Suite version 1's tasks: the ``-v1`` ids (the ``-v0`` physics posed for learners; docs/suite.md "Tasks
+#: v1"). ``budget``: the on-policy algorithms' training budget in physics steps; an algorithm's
+#: ``budget_fraction`` scaled it in version 1 (research/suite/history.md derives both).
+TASKS_V1: tuple[Task, ...] = (
     Task("planetnav/Cruise-Target-v1", "discrete", 3_000_000, _TARGET_REFS),
     Task("planetnav/RandomCruise-Target-v1", "discrete", 3_000_000, _TARGET_REFS),
     Task("planetnav/MarsApproach-Tasking-v1", "discrete", 3_000_000, _APPROACH_REFS),
@@ -188,10 +190,9 @@ TASKS: tuple[Task, ...] = (
     Task("planetnav/Cruise-Hybrid-v1", "continuous", 1_000_000, _TORQUE_1S_REFS),
     Task("planetnav/ThrustArc-TCM-v1", "discrete", 3_000_000, THRUST_ARC_REFS, objective="operations_J_km"),
 )
-#: The ``-v2`` tasks (docs/tasks_v2.md), runnable cell by cell (``train.py suite --tasks Cruise-Target-v2``)
-#: and not yet in the published grid (:data:`TASKS`). Each task's zero point is the winner of its published
-#: blind search (docs/tasks_v2_blind.json, ``train.py blind-search``; ``random`` there acts in the task's
-#: interface), its references the search's non-privileged ones: on the event tasks nominal and adaptive
+#: Suite version 2's tasks: the ``-v2`` ids (docs/tasks_v2.md). Each task's zero point is the winner of its
+#: published blind search (docs/tasks_v2_blind.json, ``train.py blind-search``; ``random`` there acts in the
+#: task's interface), its references the search's non-privileged ones: on the event tasks nominal and adaptive
 #: greedy (the oracle is privileged, never the 1), on the posing fixes the v1 task's.
 _V2_EVENT_REFS = ("greedy", "greedy:success=observed")
 TASKS_V2: tuple[Task, ...] = (
@@ -206,7 +207,21 @@ TASKS_V2: tuple[Task, ...] = (
     Task("planetnav/ThrustArc-TCM-v2", "discrete", 3_000_000, THRUST_ARC_REFS, objective="operations_J_km",
          zero=("schedule:targets=0-off-1-off-2-off,steps=12-420-12-420-12-420,phase=1188",), discount=0.995),
 )  # fmt: skip
-TASKS_BY_ID: dict[str, Task] = {t.id: t for t in (*TASKS, *TASKS_V2)}
+#: Every suite version's tasks.
+SUITES: dict[int, tuple[Task, ...]] = {1: TASKS_V1, 2: TASKS_V2}
+#: The published table's tasks: those of :data:`SUITE_VERSION`.
+TASKS: tuple[Task, ...] = SUITES[SUITE_VERSION]
+TASKS_BY_ID: dict[str, Task] = {t.id: t for tasks in SUITES.values() for t in tasks}
+
+
+def records_version(records: Sequence[Mapping[str, Any]]) -> int:
+    """The suite version of ``records`` (run records with a ``task``): that of their tasks, which must be
+    one; :data:`SUITE_VERSION` for none. :class:`ConfigError` naming the versions when they mix (a table
+    ranks one version's tasks)."""
+    versions = sorted({get_task(str(r["task"])).suite_version for r in records})
+    if len(versions) > 1:
+        raise ConfigError(f"the records mix suite versions {versions}: publish each version's table apart")
+    return versions[0] if versions else SUITE_VERSION
 
 
 def get_task(name: str) -> Task:

@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 
 from planetnav_train.suite.cells import Cell, published_grid
-from planetnav_train.suite.tasks import get_algo, get_task
+from planetnav_train.suite.tasks import get_algo, get_task, records_version
 
 #: The table runs on one worker per core of the 2-core reference machine (docs/suite.md).
 WORKERS = 2
@@ -77,7 +77,7 @@ def table_wall_time(records: Sequence[Mapping[str, Any]], references_s: Mapping[
         (r["task"], r["algorithm"], r["track"], int(r["seed"])): float(r["wall_seconds"])
         for r in records if r.get("official")
     }  # fmt: skip
-    grid = published_grid()
+    grid = published_grid(records_version(records))
     tasks = {c.task for c in grid}
     key = {c: (c.task, c.algo, c.track, c.seed) for c in grid}
     finished = [c for c in grid if key[c] in done]

@@ -216,7 +216,7 @@ def _published(tmp_path: Path) -> Path:
 
     def run(seed: int) -> dict:
         return {"task": TASK, "algorithm": "ppo", "track": "raw", "seed": seed, "normalized_score": 0.5,
-                "objective": 150.0, "official": True, "suite_version": suite.SUITE_VERSION, "task_version": 1,
+                "objective": 150.0, "official": True, "suite_version": task.suite_version, "task_version": 1,
                 "command": f"python train.py suite --tasks {TASK}"}  # fmt: skip
 
     agent = {"objective": 150.0, "ci95": [140.0, 160.0], "per_episode": [150.0] * 3, "wall_seconds": 12.5}
@@ -226,7 +226,7 @@ def _published(tmp_path: Path) -> Path:
             "agents": {"random": {**agent, "objective": 220.0}, "greedy": {**agent, "provenance": ORIGINAL}},
             "random": "random", "zero": "random", "best": "greedy",
             "J_random": 220.0, "J_zero": 220.0, "J_best": 150.0}  # fmt: skip
-    data = {"suite_version": suite.SUITE_VERSION, "tasks": [], "references": {TASK: refs},
+    data = {"suite_version": task.suite_version, "tasks": [], "references": {TASK: refs},
             "runs": [{**run(0), "provenance": ORIGINAL}, run(1)], "aggregate": {}}  # fmt: skip
     path = tmp_path / "benchmark.json"
     path.write_text(json.dumps(publish.compact_suite_json(data)))

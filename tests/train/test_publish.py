@@ -39,8 +39,9 @@ def test_replace_block_keeps_the_rest_and_names_bad_markers() -> None:
 def _record(task: str, algo: str, seed: int, score: float, track: str = "raw", official: bool = True):
     # objective falls as the score rises (J_random 1000 km, J_best 200 km)
     return {"task": task, "algorithm": algo, "track": track, "seed": seed, "normalized_score": score,
-            "objective": 1000.0 - 800.0 * score, "official": official, "suite_version": suite.SUITE_VERSION,
-            "task_version": 0, "command": f"python train.py suite --tasks {task}"}  # fmt: skip
+            "objective": 1000.0 - 800.0 * score, "official": official,
+            "suite_version": suite.get_task(task).suite_version, "task_version": 0,
+            "command": f"python train.py suite --tasks {task}"}  # fmt: skip
 
 
 def _iqm(values: list[float]) -> float:
@@ -302,7 +303,7 @@ def test_the_repositorys_baselines_load_or_say_they_are_unshipped() -> None:
     manifest = shipped.load_manifest()
     # Baselines of the current tasks, or of an earlier suite version's (still registered) ids.
     assert {f"planetnav/{t}" for t in manifest["baselines"]} <= set(ENV_IDS)
-    for task in suite.TASKS:
+    for task in suite.TASKS_BY_ID.values():
         env = PlanetNavEnv(task.env_config(episode_steps=5))
         if task.id in manifest["baselines"]:
             entry = manifest["baselines"][task.id]
@@ -320,15 +321,16 @@ def test_coverage_counts_official_cells_of_the_published_grid() -> None:
     the finished official cells against the grid (every task x its kind's algorithms x 5 seeds,
     RecurrentPPO on the Mars approach and RLlib's PPO on Cruise-Target-v1 only; assisted: PPO); smoke runs
     and cells outside the grid do not count."""
-    grid = suite.published_grid()
-    kinds = {t.id: t.action_kind for t in suite.TASKS}
+    grid = suite.published_grid(1)
+    kinds = {t.id: t.action_kind for t in suite.TASKS_V1}
     assert len(grid) == len(set(grid))
     raw = [c for c in grid if c.track == "raw"]
     assert {c.algo for c in raw if kinds[c.task] == "continuous"} == {"ppo", "sac"}
     assert {c.algo for c in raw if c.task == "Cruise-Target-v1"} == {"ppo", "dqn", "rllib_ppo"}
     assert {c.algo for c in raw if c.task == "MarsApproach-Tasking-v1"} == {"ppo", "dqn", "recurrent_ppo"}
     assert {c.task for c in raw if c.algo == "recurrent_ppo"} == {"MarsApproach-Tasking-v1"}
-    assert {(c.task, c.algo) for c in grid if c.track == "assisted"} == {(t.id, "ppo") for t in suite.TASKS}
+    assisted = {(c.task, c.algo) for c in grid if c.track == "assisted"}
+    assert assisted == {(t.id, "ppo") for t in suite.TASKS_V1}
     recs = [_record(c.task, c.algo, c.seed, 0.5, track=c.track) for c in grid if c.task == "Cruise-Target-v1"]
     recs += [
         _record("Cruise-Target-v1", "ppo", 9, 0.5),
@@ -347,6 +349,19 @@ def test_coverage_counts_official_cells_of_the_published_grid() -> None:
         suite.coverage_lines(full, table=False)[0]
         == f"Complete: all {len(grid)} cells of the published table."
     )
+    # Version 2: the raw track only, every algorithm of the task's kind (RecurrentPPO and RLlib's PPO ran on
+    # v1 tasks only); a table of v2 records is covered against it, and records never mix versions.
+    grid2 = suite.published_grid(2)
+    assert {c.track for c in grid2} == {"raw"} and {c.task for c in grid2} == {t.id for t in suite.TASKS_V2}
+    assert {c.algo for c in grid2 if c.task == "Cruise-Torque-v2"} == {"ppo", "sac"}
+    assert {c.algo for c in grid2 if c.task == "ThrustArc-TCM-v2"} == {"ppo", "dqn"}
+    v2 = [_record(c.task, c.algo, c.seed, 0.5) for c in grid2 if c.task == "ThrustArc-TCM-v2"]
+    assert (suite.coverage(v2)["done"], suite.coverage(v2)["expected"]) == (10, len(grid2))
+    assert "| ThrustArc-TCM-v2 | 10 / 10 |" in "\n".join(suite.coverage_lines(v2))
+    with pytest.raises(ConfigError, match=r"the records mix suite versions \[1, 2\]"):
+        suite.coverage([*v2, *full])
+    with pytest.raises(ConfigError, match="unknown suite version 3"):
+        suite.published_grid(3)
 
 
 def test_per_task_iqm_uses_every_seed_when_tasks_have_unequal_seeds() -> None:

@@ -113,12 +113,15 @@ def test_profiles_and_probability_of_improvement_match_numpy() -> None:
 
 
 def test_tasks_are_registered_ids_with_100_seeds() -> None:
-    # Every registered v1 id is a task (a new id joins the suite as one entry), with its own objective.
-    assert {t.env_id for t in suite.TASKS} == {i for i in ENV_IDS if i.endswith("-v1")}
-    # Every v2 id is a runnable task too (not yet in the published grid).
+    # Every registered v1 id is a task of suite version 1, every v2 id one of version 2, the published
+    # table's (a new id joins the suite as one entry), each with its own objective.
+    assert {t.env_id for t in suite.TASKS_V1} == {i for i in ENV_IDS if i.endswith("-v1")}
     assert {t.env_id for t in suite.TASKS_V2} == {i for i in ENV_IDS if i.endswith("-v2")}
-    assert len(suite.TASKS_BY_ID) == len(suite.TASKS) + len(suite.TASKS_V2)
-    for t in (*suite.TASKS, *suite.TASKS_V2):
+    assert suite.SUITE_VERSION == 2 and suite.TASKS == suite.TASKS_V2
+    assert {t.suite_version for t in suite.TASKS_V1} == {1}
+    assert {t.suite_version for t in suite.TASKS_V2} == {2}
+    assert len(suite.TASKS_BY_ID) == len(suite.TASKS_V1) + len(suite.TASKS_V2)
+    for t in (*suite.TASKS_V1, *suite.TASKS_V2):
         assert len(t.eval_seeds) == 100 and t.noise_streams == "per_step"
         assert t.eval_config().noise_streams == "per_step"
         assert t.id.endswith(f"-v{t.version}")
@@ -141,7 +144,7 @@ def test_references_are_loadable_agents_on_their_task() -> None:
     from planetnav_agents import make_agent, not_applicable, parse_spec
     from planetnav_env.envs.env import PlanetNavEnv
 
-    for t in suite.TASKS:
+    for t in (*suite.TASKS_V1, *suite.TASKS_V2):
         # Full length: optimum's sessions must fit the episode. At the physics step, where the suite's
         # references act (runner.reference_agent).
         env_cfg = t.eval_config().at_physics_step()
@@ -510,7 +513,7 @@ def test_v2_tasks_take_their_zero_and_references_from_the_published_blind_search
         assert task.zero == ((runner.INTERFACE_RANDOM,) if winner == "random" else (winner,)), task.id
         refs = {s for s, row in rec["agents"].items() if row["role"] == "reference"}
         assert set(task.references) == refs and rec["best_reference"] in task.references
-        assert suite.get_task(task.id) is task and task not in suite.TASKS  # runnable, not yet published
+        assert suite.get_task(task.id) is task and task in suite.TASKS  # the published table's
 
 
 @pytest.mark.parametrize("task_id", ["Cruise-Target-v2", "RandomCruise-Target-v2"])

@@ -22,8 +22,9 @@ TASK = "Cruise-Target-v1"
 
 def _run(seed: int, score: float) -> dict:
     return {"task": TASK, "algorithm": "ppo", "track": "raw", "seed": seed, "normalized_score": score,
-            "objective": 200.0 - 100.0 * score, "official": True, "suite_version": suite.SUITE_VERSION,
-            "task_version": 1, "per_episode": [1.0, 2.0], "config": {"algo": "ppo"},
+            "objective": 200.0 - 100.0 * score, "official": True,
+            "suite_version": suite.get_task(TASK).suite_version, "task_version": 1,
+            "per_episode": [1.0, 2.0], "config": {"algo": "ppo"},
             "command": f"python train.py suite --tasks {TASK}"}  # fmt: skip
 
 
@@ -42,8 +43,9 @@ def _references(**over) -> dict:
 
 def _published(tmp_path: Path, **refs_over) -> Path:
     runs = [_run(0, 0.8), _run(1, 0.9)]
-    full = {"suite_version": suite.SUITE_VERSION, "tasks": [], "references": {TASK: _references(**refs_over)},
-            "runs": runs, "aggregate": aggregate(runs, 200)}  # fmt: skip
+    full = {"suite_version": suite.get_task(TASK).suite_version, "tasks": [],
+            "references": {TASK: _references(**refs_over)}, "runs": runs,
+            "aggregate": aggregate(runs, 200)}  # fmt: skip
     path = tmp_path / "benchmark.json"
     path.write_text(json.dumps(publish.compact_suite_json(full)))
     return path
@@ -104,6 +106,7 @@ def test_references_of_other_settings_or_without_values_are_not_cached(tmp_path)
         (lambda d: d.update(suite_version=0), "suite version 0"),
         (lambda d: d["runs"][0].pop("objective"), r"run 0 has no \['objective'\]"),
         (lambda d: d["runs"][1].update(task="Nowhere-v1"), "unknown task 'Nowhere-v1'"),
+        (lambda d: d["runs"][1].update(task="Cruise-Target-v2"), "suite version 2, in a table of version 1"),
         (lambda d: d.pop("references"), "no 'runs' and 'references'"),
     ],
 )

@@ -22,7 +22,7 @@ def test_projection_from_the_same_cell_then_per_physics_step():
     wall = table_wall_time(records, {"Cruise-Target-v1": 50.0})
     rate = 150.0 / get_task("Cruise-Target-v1").budget
     other_discrete = [
-        c for c in published_grid()
+        c for c in published_grid(1)
         if (c.algo, c.track) == ("ppo", "raw") and c.task != "Cruise-Target-v1"
         and get_task(c.task).action_kind == "discrete"
     ]  # fmt: skip
@@ -50,7 +50,7 @@ def test_smoke_records_and_tasks_outside_the_table_do_not_count():
     wall = table_wall_time(records, {"Cruise-Target-v0": 999.0})
     assert wall.measured_cells == 0 and wall.projected_cells == 0
     assert wall.reference_s == 0.0 and wall.reference_tasks == 0
-    assert len(wall.unprojected) == len({(c.task, c.algo, c.track) for c in published_grid()})
+    assert len(wall.unprojected) == len({(c.task, c.algo, c.track) for c in published_grid(1)})
 
 
 def test_whole_table_measured():
