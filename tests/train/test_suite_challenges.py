@@ -1,6 +1,8 @@
 """Challenge labels (planetnav_train.suite.challenges): the thresholds, and that a challenge is labelled
 with its diagnosed limit, or as not diagnosed, never given a limit nobody measured."""
 
+from pathlib import Path
+
 import pytest
 
 from planetnav_train.suite.challenges import (
@@ -42,6 +44,9 @@ def test_diagnoses_are_of_known_tasks_and_limits():
     for task, d in DIAGNOSES.items():
         assert task == d.task and task in TASKS_BY_ID
         assert d.command.startswith("python ") and d.finding
+        if "--config" in d.command:  # the diagnostic run's configuration ships with the repository
+            config = d.command.split("--config", 1)[1].split()[0]
+            assert (Path(__file__).resolve().parents[2] / config).is_file(), (task, config)
 
 
 def _curve(steps, iqm, half):
