@@ -347,7 +347,17 @@ def task_sets(records: Iterable[Mapping[str, Any]], track: str) -> list[tuple[st
     by = scores_by_seed(records, track)
     own = [frozenset(t) for a, t in by.items() if is_ranked(a)]
     sets = set(own) | {a & b for a in own for b in own if a & b}
+    headline = frozenset(headline_tasks({t for tasks in by.values() for t in tasks}))
+    if headline and any(headline <= t for t in own):
+        sets.add(headline)
     return [tuple(sorted(s)) for s in sorted(sets, key=lambda s: (-len(s), sorted(s)))]
+
+
+def headline_tasks(tasks: Iterable[str]) -> tuple[str, ...]:
+    """The headline task set of the suite version of ``tasks`` (``Task.headline``: a closed-loop gap of
+    25 % or more), whether or not ``tasks`` hold all of it; empty for version 1, which has none."""
+    versions = {TASKS_BY_ID[t].suite_version for t in tasks if t in TASKS_BY_ID}
+    return tuple(sorted(t.id for t in TASKS_BY_ID.values() if t.headline and t.suite_version in versions))
 
 
 def task_set_rows(
@@ -367,6 +377,7 @@ def task_set_rows(
         }
         rows.append({
             "tasks": list(names),
+            "headline": set(names) == set(headline_tasks(names)),
             "algorithms": iqm_intervals(mats, reps),
             "runs": {a: int(m.shape[0]) for a, m in mats.items()},
         })  # fmt: skip

@@ -551,3 +551,29 @@ def test_v2_cells_train_for_the_task_budget_with_the_task_discount(tmp_path) -> 
     assert not is_ranked(entry_name(short))
     with pytest.raises(ConfigError, match=r"discount 1\.0 must lie in"):
         dataclasses.replace(thrust, discount=1.0)
+
+
+def test_the_headline_task_set_is_the_v2_tasks_with_a_closed_loop_gap_of_25_percent() -> None:
+    """``Task.headline`` holds exactly where the published blind search measured a closed-loop gap of 25 %
+    or more; the aggregate ranks the entries that ran on all of the headline set in a row of its own."""
+    from planetnav_train.suite import scoring
+
+    published = json.loads(BLIND_JSON.read_text())["tasks"]
+    for task in suite.TASKS_V2:
+        assert task.headline == (published[task.id]["closed_loop_gap"]["gap"] >= 0.25), task.id
+    assert not any(t.headline for t in suite.TASKS_V1)
+    headline = scoring.headline_tasks([t.id for t in suite.TASKS_V2])
+    assert headline == ("Cruise-Torque-v2", "RandomCruise-Target-v2")
+
+    def rec(task: str, algo: str, seed: int, score: float) -> dict:
+        steps = suite.get_task(task).budget
+        return {"task": task, "algorithm": algo, "track": "raw", "seed": seed, "normalized_score": score,
+                "env_steps": steps, "budget_scale": 1.0}  # fmt: skip
+
+    recs = [rec(t, "ppo", s, 0.5) for s in range(3) for t in (*headline, "Cruise-Target-v2")]
+    recs += [rec("RandomCruise-Target-v2", "dqn", s, 0.2) for s in range(3)]
+    rows = {tuple(r["tasks"]): r for r in scoring.task_set_rows(recs, "raw", reps=50)}
+    assert rows[headline]["headline"] and set(rows[headline]["algorithms"]) == {"ppo"}
+    assert not rows[("RandomCruise-Target-v2",)]["headline"]
+    # Without every headline task among an entry's tasks there is no headline row.
+    assert all(not r["headline"] for r in scoring.task_set_rows(recs[-3:], "raw", reps=50))
