@@ -23,6 +23,8 @@ LIMITS: dict[str, str] = {
     "observability": "a policy on the observation cannot express the reference's decisions",
     "action resolution": "a demonstration-seeded run reaches the reference only with a finer action scale: "
     "at the task's scale the policy's outputs cannot resolve the commands it needs",
+    "architecture": "the same learner from a random start with another network or setting, entered as a "
+    "-tuned entry, reaches what the standard set does not",
 }
 
 
@@ -117,6 +119,17 @@ DIAGNOSES: dict[str, Diagnosis] = {
             "best blind schedule 224.8); PPO from a random start at the suite's settings, 5 seeds: +0.35 "
             "[-0.31, +0.72] sampled.",
             "python train.py train --config configs/diagnostics/cruise_target_v2_clone.yaml --no-eval",
+        ),
+        Diagnosis(
+            "RandomCruise-Target-v2",
+            "architecture",
+            "PPO from a random start with version 1's tuned settings for the random cruise (one MLP that "
+            "scores every target from its own observation columns and their contrast across the targets, "
+            "minibatches of 256, the reward in units of 100,000 km), 3M physics steps, 5 seeds, scores "
+            "+0.76 [+0.56, +0.97] sampled and +0.71 argmax (203.2 and 206.6 km; adaptive greedy 184.8, "
+            "the best blind policy 261.0); the standard set's flat MLP stays near the blind zero.",
+            "python train.py train --config configs/v2/random_cruise_target_v2_ppo.yaml --seed 0 "
+            "--run-dir runs/random_cruise_target_v2_ppo_s0 --no-eval",
         ),
         Diagnosis(
             "MarsApproach-Tasking-v2",

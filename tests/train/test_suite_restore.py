@@ -138,10 +138,15 @@ def test_the_command_restores_and_a_restored_record_reruns_without_per_seed_valu
     assert "per-episode equal: not published" in line
 
 
-def test_the_repositorys_published_json_restores(tmp_path) -> None:
-    """docs/benchmark.json restores whole: one record per published run, every task's references and
-    every reference agent's cache (so a re-run cell evaluates no reference again)."""
-    src = Path(__file__).resolve().parents[2] / "docs" / "benchmark.json"
+PUBLISHED = ("benchmark.json", "benchmark_v1.json")  # version 2's table, and version 1's archived
+
+
+@pytest.mark.parametrize("name", PUBLISHED)
+def test_the_repositorys_published_json_restores(tmp_path, name) -> None:
+    """docs/benchmark.json (and version 1's archived table) restores whole: one record per published run,
+    every task's references and every reference agent's cache (so a re-run cell evaluates no reference
+    again)."""
+    src = Path(__file__).resolve().parents[2] / "docs" / name
     data = json.loads(src.read_text())
     done = restore(src, tmp_path / "suite")
     assert len(done.records) == len(data["runs"]) and len(done.references) == len(data["references"])
@@ -154,13 +159,15 @@ def test_the_repositorys_published_json_restores(tmp_path) -> None:
     assert cells(runner.load_records(tmp_path / "suite")) == cells(data["runs"])
 
 
-def test_the_published_curves_end_inside_their_finals() -> None:
+@pytest.mark.parametrize("name", PUBLISHED)
+def test_the_published_curves_end_inside_their_finals(name) -> None:
     """Every learning curve of the published JSON scored on the final's protocol (its points on the task's
     first evaluation seeds, normalized with the published references' values there) ends on the final
     evaluation, inside the final's 95 % interval mapped to the score. Version 1's table predates that
     protocol (its points were scored on 5 seeds 60,000.. and normalized there, docs/suite.md "Seeds"), so
     its curves are exempt; from version 2 on, every curve must follow it."""
-    data = json.loads((Path(__file__).resolve().parents[2] / "docs" / "benchmark.json").read_text())
+    data = json.loads((Path(__file__).resolve().parents[2] / "docs" / name).read_text())
+    assert data["suite_version"] == (1 if name.endswith("_v1.json") else suite.SUITE_VERSION)
     checked = 0
     for r in data["runs"]:
         if not r.get("learning_curve"):
