@@ -141,16 +141,17 @@ ASSISTED_ALGOS: tuple[str, ...] = ("ppo",)
 def published_grid(version: int = SUITE_VERSION) -> list[Cell]:
     """Every cell of suite ``version``'s table: raw, each task x the algorithms that run on it
     (:meth:`Algo.in_table`: its action kind's; in version 1 also RecurrentPPO on the Mars approach and
-    RLlib's PPO on Cruise-Target-v1); version 1 also had the assisted track, each task x
-    :data:`ASSISTED_ALGOS` (its assists were built for the v1 observations; version 2 ranks the raw
-    track only); five seeds each."""
+    RLlib's PPO on Cruise-Target-v1); assisted, each task the assisted track's configuration names
+    (:func:`load_assists`: the v1 tasks, whose observations its assists were built for) x
+    :data:`ASSISTED_ALGOS`; five seeds each."""
     if version not in SUITES:
         raise ConfigError(f"unknown suite version {version!r}; the versions are {sorted(SUITES)}")
+    assisted = load_assists()["tasks"]
     cells = []
     for t in SUITES[version]:
         raw = [a.name for a in ALGOS.values() if a.in_table(t)]
         cells += make_cells([t.id], raw, PUBLISHED_SEEDS, "raw")
-        if version == 1:
+        if t.id in assisted:
             cells += make_cells([t.id], ASSISTED_ALGOS, PUBLISHED_SEEDS, "assisted")
     return cells
 

@@ -40,8 +40,7 @@ def _fmt_interval(v: Mapping[str, float]) -> str:
     return f"{v['iqm']:.2f} [{v['low']:.2f}, {v['high']:.2f}]"
 
 
-#: What the normalized score and its aggregate mean, said once for the page and the README summary.
-#: What the score's 0 is, per suite version.
+#: What the score's 0 is, per suite version (:func:`score_legend`).
 _ZERO_POINT = {
     1: "0 is the better of random and idle, 1 the best non-learned reference, both acting at the physics "
     "step",
@@ -51,7 +50,8 @@ _ZERO_POINT = {
 
 
 def score_legend(version: int) -> str:
-    """The score's definition for suite ``version``'s table (its zero point differs between versions)."""
+    """What the normalized score and its aggregate mean, said once for the page and the README summary of
+    suite ``version``'s table (its zero point differs between versions)."""
     return (
         f"Normalized score = (J_zero − J) / (J_zero − J_best): {_ZERO_POINT[version]}; IQM over runs with "
         "stratified-bootstrap 95 % intervals (rliable). Only algorithms that ran on every task of a set are "
