@@ -10,7 +10,9 @@ the clipped update and the evaluation are baselines/ppo_single_file.py's (import
 place); this file adds the device loop and its environments:
 
 * ``--device cuda``: the device env, ``same_step`` autoreset, resets from its episode bank
-  (``--bank-size``, default 4 N: every row's first four episodes are the CPU env's, then they repeat);
+  (``--bank-size``, default 2 N) refilled on a host thread while the rows step (``--refill``, drawn by
+  ``--bank-workers`` processes); the last line says how many episodes were substitutes (a row got there
+  before the refill: the env's ``bank_stats``);
 * ``--device cpu``: the native vector env (``gym.make_vec``) behind a small adapter that hands out torch
   CPU tensors (what CI runs); ``--env host`` the device env's host mode instead (its CPU build).
 
@@ -32,6 +34,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import ppo_single_file as single
 
 import planetnav_env  # noqa: F401  (registers the planetnav/* ids)
+from planetnav_env.device.refill import REFILL_MODES
 from planetnav_env.device.vector_env import DeviceVectorEnv, cuda_unavailable_reason
 from planetnav_env.envs.vector_env import PlanetNavVectorEnv
 
@@ -42,7 +45,9 @@ def parse_args(argv: list[str] | None = None):
     p.add_argument("--device", default="cuda", help="cuda, cuda:K or cpu")
     p.add_argument("--env", choices=("native", "host"), default="native",
                    help="--device cpu: the native vector env, or the device env's host mode")  # fmt: skip
-    p.add_argument("--bank-size", type=int, default=None, help="device env: episodes pre-drawn (default 4 N)")
+    p.add_argument("--bank-size", type=int, default=None, help="device env: bank slots (default 2 N)")
+    p.add_argument("--refill", choices=REFILL_MODES, default="thread", help="device env: the bank's refill")
+    p.add_argument("--bank-workers", type=int, default=1, help="device env: processes drawing the bank")
     return single.finish_args(p.parse_args(argv))
 
 
@@ -85,9 +90,9 @@ def make_env(args):
                              "machine with a GPU, or run with --device cpu")  # fmt: skip
     if args.device == "cpu" and args.env == "native":
         return NativeTorchEnv(args)
-    bank = args.bank_size or 4 * args.num_envs
-    return DeviceVectorEnv(args.env_id, args.num_envs, device=args.device, bank_size=bank,
-                           autoreset_mode="same_step", **single.env_options(args))  # fmt: skip
+    return DeviceVectorEnv(args.env_id, args.num_envs, device=args.device, bank_size=args.bank_size,
+                           autoreset_mode="same_step", refill=args.refill, bank_workers=args.bank_workers,
+                           **single.env_options(args))  # fmt: skip
 
 
 def train(args) -> tuple[single.Agent, list[dict]]:
@@ -153,6 +158,10 @@ def train(args) -> tuple[single.Agent, list[dict]]:
               f"{row['episode_return']:9.2f}  pg {row['pg_loss']:+.4f}  v {row['v_loss']:.4f}  entropy "
               f"{row['entropy']:.3f}  kl {row['approx_kl']:.4f}  clipfrac {row['clipfrac']:.3f}  "
               f"SPS {int(row['sps'])}", flush=True)  # fmt: skip
+    if isinstance(envs, DeviceVectorEnv):
+        bank = envs.bank_stats()
+        print(f"bank: {bank['episodes']} episodes started, {bank['substituted']} substitutes, "
+              f"{bank['drawn']} drawn on the host ({args.refill} refill)")  # fmt: skip
     envs.close()
     return agent, history
 

@@ -12,15 +12,18 @@ its upload and the kernels' compilation. The CPU's native vector env at ``--cpu-
 the same run as the reference ratio (its rate is this machine's CPUs'). Parity: the device env on CUDA
 against its host mode (the CPU build of the same thread functions) over ``--parity-steps`` decisions with
 the same actions: the largest differences of the state and the observation, and whether they are equal
-bit for bit. Without a CUDA device it prints ``{"measured": false, "reason": ...}`` and exits 0: nothing
-is claimed.
+bit for bit. Bank: the host's drawing rate of the refill (episodes/s, one thread, measured with or without
+a device) and the decisions/s it feeds (episodes/s x decisions per episode: above that rate a thread
+refill substitutes), and at each size the bank's statistics after the timed blocks (substitutes among
+the episodes started). Without a CUDA device it prints ``{"measured": false, "reason": ..., "bank_draw":
+...}`` and exits 0: no device figure is claimed.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
-import platform
+import os
 import subprocess
 import sys
 import time
@@ -30,7 +33,12 @@ import gymnasium as gym
 import numpy as np
 
 import planetnav_env  # noqa: F401
+from planetnav_env.core.batch import BatchCore
+from planetnav_env.device.bank import EpisodeBank
+from planetnav_env.device.draw_pool import DrawPool
 from planetnav_env.device.vector_env import DeviceVectorEnv, cuda_unavailable_reason
+from planetnav_env.envs.env import resolve_config
+from planetnav_train.provenance import cpu_model
 
 IDS = ("planetnav/Cruise-Target-v1", "planetnav/Cruise-TorqueControl-v1", "planetnav/MarsApproach-Tasking-v1")
 ROOT = Path(__file__).resolve().parents[1]
@@ -45,12 +53,14 @@ def _torch_actions(env, rng: np.random.Generator, torch):
     return a.to(env.device)
 
 
-def device_rate(env_id: str, n: int, decisions: int, repeats: int, bank: int) -> dict:
-    """Env-only rate of the device env with ``n`` rows (fixed random actions, autoresets included)."""
+def device_rate(env_id: str, n: int, args) -> dict:
+    """Env-only rate of the device env with ``n`` rows (fixed random actions; the timed blocks are shorter
+    than an episode, so the bank's refill does not enter: the PPO run's does)."""
     import torch
 
+    decisions, repeats = args.decisions, args.repeats
     t0 = time.perf_counter()
-    env = DeviceVectorEnv(env_id, n, device="cuda", bank_size=min(bank, n))
+    env = DeviceVectorEnv(env_id, n, device="cuda", bank_size=min(args.bank, n))
     env.reset(seed=0)
     torch.cuda.synchronize()
     setup = time.perf_counter() - t0
@@ -66,10 +76,32 @@ def device_rate(env_id: str, n: int, decisions: int, repeats: int, bank: int) ->
         best = max(best, n * decisions / (time.perf_counter() - t))
     k = env.config.decision_steps
     out = {"n": n, "decisions_per_s": best, "physics_steps_per_s": best * k, "setup_s": setup,
-           "bytes_per_row": env.bytes_per_row()}  # fmt: skip
+           "bytes_per_row": env.bytes_per_row(), "bank": env.bank_stats()}  # fmt: skip
+    env.close()
     del env
     torch.cuda.empty_cache()
     return out
+
+
+def bank_draw_rate(env_id: str, workers: int, episodes: int, repeats: int = 3) -> dict:
+    """The host's drawing rate of ``env_id``'s episodes (best of ``repeats`` banks of ``episodes``) in this
+    process (``workers`` 1) or a pool of ``workers`` processes, and the decisions/s it feeds."""
+    cfg = resolve_config(env_id, {})
+    core = BatchCore(cfg, 1)
+    pool = DrawPool(cfg, workers) if workers > 1 else None
+    try:
+        EpisodeBank.for_vector_env(core, 64, 64, 0, pool)  # warm the table caches and the compiled code
+        rate = 0.0
+        for r in range(repeats):
+            t = time.perf_counter()
+            EpisodeBank.for_vector_env(core, 4096, episodes, 1 + 10_000 * r, pool)
+            rate = max(rate, episodes / (time.perf_counter() - t))
+    finally:
+        if pool is not None:
+            pool.close()
+    decisions = -(-cfg.episode_steps // cfg.decision_steps)
+    return {"workers": workers, "episodes_per_s": rate, "decisions_per_episode": decisions,
+            "feeds_decisions_per_s": rate * decisions}  # fmt: skip
 
 
 def cpu_rate(env_id: str, n: int, decisions: int, repeats: int) -> dict:
@@ -94,7 +126,9 @@ def parity(env_id: str, n: int, steps: int) -> dict:
     """The device env on CUDA against its host mode, the same actions: largest differences."""
     import torch
 
-    envs = {d: DeviceVectorEnv(env_id, n, device=d, bank_size=n * (steps + 2)) for d in ("cuda", "cpu")}
+    # A bank as deep as the run: both play the CPU env's episodes, no refill needed.
+    deep = {"bank_size": n * (steps + 2), "refill": "off"}
+    envs = {d: DeviceVectorEnv(env_id, n, device=d, **deep) for d in ("cuda", "cpu")}
     for e in envs.values():
         e.reset(seed=1)
     rng = np.random.default_rng(2)
@@ -121,14 +155,15 @@ def ppo_rate(args) -> dict:
     cmd = [sys.executable, str(ROOT / "baselines" / "ppo_device.py"), "--device", "cuda",
            "--env-id", IDS[0], "--num-envs", str(args.ppo_n), "--num-steps", "16", "--num-minibatches", "4",
            "--update-epochs", "4", "--total-timesteps", str(args.ppo_n * 16 * args.ppo_updates),
-           "--eval-episodes", "0"]  # fmt: skip
+           "--eval-episodes", "0", "--bank-workers", str(args.bank_workers)]  # fmt: skip
     t = time.perf_counter()
     proc = subprocess.run(cmd, capture_output=True, text=True, check=False)
     lines = [ln for ln in proc.stdout.splitlines() if ln.startswith("iter")]
+    bank = [ln for ln in proc.stdout.splitlines() if ln.startswith("bank:")]
     sps = [float(ln.rsplit("SPS", 1)[1]) for ln in lines]
     return {"n": args.ppo_n, "updates": len(lines), "decisions_per_s_last": sps[-1] if sps else None,
             "physics_steps_per_s_last": sps[-1] * 10 if sps else None, "wall_s": time.perf_counter() - t,
-            "returncode": proc.returncode,
+            "bank": bank[-1] if bank else None, "returncode": proc.returncode,
             "stderr_tail": proc.stderr[-2000:] if proc.returncode else ""}  # fmt: skip
 
 
@@ -143,20 +178,25 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--skip-ppo", action="store_true")
     p.add_argument("--ppo-n", type=int, default=1 << 14)
     p.add_argument("--ppo-updates", type=int, default=5)
+    p.add_argument("--bank-workers", type=int, default=os.cpu_count() or 1,
+                   help="processes that draw the bank (default: the CPUs)")  # fmt: skip
     args = p.parse_args(argv)
+    workers = sorted({1, args.bank_workers})
+    bank_draw = {env_id: [bank_draw_rate(env_id, w, 256 * w) for w in workers] for env_id in IDS}
     why = cuda_unavailable_reason()
     if why is not None:
-        print(json.dumps({"measured": False, "reason": f"not measured: no CUDA device ({why})"}, indent=1))
+        print(json.dumps({"measured": False, "reason": f"not measured: no CUDA device ({why})",
+                          "cpu": cpu_model(), "bank_draw": bank_draw}, indent=1))  # fmt: skip
         return 0
     import torch
 
-    out: dict = {"measured": True, "device": torch.cuda.get_device_name(0), "cpu": platform.processor(),
-                 "torch": torch.__version__, "env_only": {}, "cpu_reference": {}, "parity": {}}  # fmt: skip
+    out: dict = {"measured": True, "device": torch.cuda.get_device_name(0), "cpu": cpu_model(),
+                 "torch": torch.__version__, "env_only": {}, "cpu_reference": {}, "parity": {},
+                 "bank_draw": bank_draw}  # fmt: skip
     for env_id in IDS:
         if args.parity_steps:
             out["parity"][env_id] = parity(env_id, 64, args.parity_steps)
-        out["env_only"][env_id] = [device_rate(env_id, 1 << s, args.decisions, args.repeats, args.bank)
-                                   for s in args.sizes]  # fmt: skip
+        out["env_only"][env_id] = [device_rate(env_id, 1 << s, args) for s in args.sizes]
         if args.cpu_n:
             out["cpu_reference"][env_id] = cpu_rate(env_id, args.cpu_n, args.decisions, args.repeats)
         print(json.dumps({env_id: out["env_only"][env_id]}), file=sys.stderr, flush=True)

@@ -152,6 +152,15 @@ def require_positive(name: str, value: float) -> float:
     return v
 
 
+def require_count(name: str, value: int, minimum: int = 1) -> int:
+    """Return ``int(value)`` for an integer of at least ``minimum`` (bool excluded), or raise
+    :class:`InvalidParameterError` naming it."""
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < minimum:
+        what = "a positive integer" if minimum == 1 else f"an integer of at least {minimum}"
+        raise InvalidParameterError(f"{name} must be {what}, got {value!r}")
+    return int(value)
+
+
 def require_finite(name: str, array: np.ndarray) -> np.ndarray:
     """Return ``array`` as float64, or raise :class:`NonFiniteError` naming it and the bad entries."""
     a = np.asarray(array, dtype=float)

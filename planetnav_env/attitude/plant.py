@@ -60,7 +60,13 @@ from numba import njit
 
 from planetnav_env.attitude import quaternion as qt
 from planetnav_env.codes import AttitudeStatus
-from planetnav_env.errors import InvalidParameterError, NonFiniteError, require_finite, require_positive
+from planetnav_env.errors import (
+    InvalidParameterError,
+    NonFiniteError,
+    require_count,
+    require_finite,
+    require_positive,
+)
 from planetnav_env.numerics.jit import ROW_KERNEL_OPTIONS, row_kernel
 
 __all__ = [
@@ -530,9 +536,7 @@ def _wheel_torque_batch(
 
 def require_substeps(n_substeps: int) -> int:
     """``n_substeps`` as a positive int, or :class:`InvalidParameterError` naming it."""
-    if isinstance(n_substeps, bool) or not isinstance(n_substeps, (int, np.integer)) or n_substeps < 1:
-        raise InvalidParameterError(f"n_substeps must be a positive integer, got {n_substeps!r}")
-    return int(n_substeps)
+    return require_count("n_substeps", n_substeps)
 
 
 def as_state_arrays(

@@ -3,7 +3,11 @@ device (torch tensors, stepped by the CUDA entry points of :mod:`planetnav_env.c
 
 * :mod:`planetnav_env.device.bank`: :class:`~planetnav_env.device.bank.EpisodeBank`, the host-side part of
   ``M`` resets drawn in advance by :meth:`BatchCore.draw_row <planetnav_env.core.batch.BatchCore.draw_row>`
-  (the CPU reset's own code), laid out like the state's rows;
+  (the CPU reset's own code), laid out like the state's rows, in the CPU vector env's order of episodes;
+* :mod:`planetnav_env.device.refill`: :class:`~planetnav_env.device.refill.BankRefill`, the bank's next
+  passes drawn on a host thread while the rows step, written into the slots the rows have left;
+* :mod:`planetnav_env.device.draw_pool`: :class:`~planetnav_env.device.draw_pool.DrawPool`, processes that
+  draw the bank's episodes in parallel, each for its own rows;
 * :mod:`planetnav_env.device.rows`: the autoreset thread function (copy a bank row into a state row, then
   the compiled reset), and the row loops that run the thread functions on the CPU;
 * :mod:`planetnav_env.device.blocks`: the observation blocks the CPU computes in Python after the compiled

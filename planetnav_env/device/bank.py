@@ -1,34 +1,38 @@
-"""The episode bank: what ``M`` resets draw on the host, drawn in advance and laid out like the state rows.
+"""The episode bank: what resets draw on the host, drawn in advance and laid out like the state rows.
 
 A reset of a row has two parts (:meth:`BatchCore.reset_rows <planetnav_env.core.batch.BatchCore.reset_rows>`):
 the host draws the episode from the row's ``numpy`` generator (scenario, ephemeris table fit, initial
 filter error, attitude, the compiled noise stream's seed, the episode's events) with
 :meth:`BatchCore.draw_row <planetnav_env.core.batch.BatchCore.draw_row>`, then the compiled part
 (``kernels.reset_row``) takes the first star fix, rate measurement and observation. A GPU thread cannot run
-the first part, so the device env draws it here, once, into arrays of the state's row layout
+the first part, so the device env draws it here, into arrays of the state's row layout
 (:class:`BankRows`: ``f`` (M, NF), ``p`` (M, 6, 6), ``rng`` (M, STATE_WORDS) uint64, ``eph`` (M, table)),
 and a device autoreset copies bank row ``k`` into state row ``n`` and runs the compiled part
 (:func:`planetnav_env.device.rows.autoreset_thread`).
 
-Which bank row a reset takes: row ``n``'s ``e``-th episode (``e = 0`` at ``reset``) is bank row
-``(e * N + n) mod M`` (:func:`bank_slot`), and bank row ``k < M`` is drawn as episode ``k // N`` of row
-``k mod N``'s generator, seeded as the CPU vector env seeds it (``seed + n``). So while ``e < M / N`` the
-device env's row ``n`` plays the CPU vector env's row ``n``'s episodes, bit for bit in what is drawn; past
-that the bank cycles (an episode, its noise stream included, is played again), and with ``M < N`` rows
-``n`` and ``n + M`` start from the same episode. The bank is drawn once per ``reset(seed=...)``.
+Numbering. For ``N`` rows, row ``n``'s ``e``-th episode (``e = 0`` at ``reset``) is the *global episode*
+``g = e N + n``, drawn as episode ``e`` of row ``n``'s generator, seeded as the CPU vector env seeds it
+(``seed + n``) and continued episode after episode as the CPU env continues it at its autoresets. So
+global episode ``g`` is, in what is drawn, bit for bit the CPU vector env's row ``g mod N``'s episode
+``g // N``. The bank has ``M`` slots: global episode ``g`` belongs in slot ``g mod M`` (:func:`bank_slot`)
+in *pass* ``g // M``. ``reset`` draws pass 0 (global episodes ``0 .. M-1``); the refill
+(:mod:`planetnav_env.device.refill`) draws the later passes in order (:meth:`EpisodeBank.draw`) and writes
+each slot once every row has started the episode it held. A row that reaches a slot before its pass is
+written starts the episode the slot still holds (a *substitute*: another row's, or an earlier pass's), and
+the env counts it.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import NamedTuple
+from typing import NamedTuple, Protocol
 
 import numpy as np
 from gymnasium.utils import seeding
 
 from planetnav_env.core.batch import BatchCore, RowEpisode
 from planetnav_env.core.rng import STATE_WORDS
-from planetnav_env.errors import InvalidParameterError
+from planetnav_env.errors import InvalidParameterError, require_count
 
 
 class BankRows(NamedTuple):
@@ -42,46 +46,104 @@ class BankRows(NamedTuple):
 
 
 def bank_slot(episode: np.ndarray, row: np.ndarray, num_rows: int, size: int) -> np.ndarray:
-    """Bank row of row ``row``'s ``episode``-th episode (0: the one ``reset`` starts), for ``num_rows``
-    rows and a bank of ``size`` rows: ``(episode * num_rows + row) mod size``. Works on numpy arrays and
+    """Bank slot of row ``row``'s ``episode``-th episode (0: the one ``reset`` starts), for ``num_rows``
+    rows and a bank of ``size`` slots: ``(episode * num_rows + row) mod size``. Works on numpy arrays and
     torch tensors alike (the device env computes it on the device)."""
     return (episode * num_rows + row) % size
 
 
+def bank_pass(episode: np.ndarray, row: np.ndarray, num_rows: int, size: int) -> np.ndarray:
+    """The pass of the bank that holds row ``row``'s ``episode``-th episode: ``(episode * num_rows + row)
+    // size`` (numpy arrays or torch tensors)."""
+    return (episode * num_rows + row) // size
+
+
+class Drawer(Protocol):
+    """What draws a bank's episodes in parallel (:class:`~planetnav_env.device.draw_pool.DrawPool`)."""
+
+    def seed(self, seeds: Sequence[int | None], num_rows: int) -> None: ...
+
+    def draw(self, start: int, out: BankRows) -> list[RowEpisode]: ...
+
+
+def empty_rows(core: BatchCore, count: int) -> BankRows:
+    """Zeroed host arrays for ``count`` bank rows of ``core``'s configuration."""
+    return BankRows(
+        f=np.zeros((count, core.f.shape[1])),
+        p=np.zeros((count, 6, 6)),
+        rng=np.zeros((count, STATE_WORDS), dtype=np.uint64),
+        eph=np.zeros((count, *core.table_spec.shape)),
+    )
+
+
 class EpisodeBank:
-    """``size`` episodes' host-side reset results for a batch of ``num_rows`` rows (module docstring).
+    """The episodes of ``num_rows`` rows in global order, and pass 0 of a bank of ``size`` slots (module
+    docstring).
 
     ``core`` is a :class:`~planetnav_env.core.batch.BatchCore` of the configuration (any number of rows: only
     its drawing code and its table cache are used); ``seeds`` one seed (or None: fresh entropy) per row,
-    as ``PlanetNavVectorEnv.reset(seed=...)`` takes them.
+    as ``PlanetNavVectorEnv.reset(seed=...)`` takes them; ``pool`` worker processes that draw in parallel
+    (:mod:`planetnav_env.device.draw_pool`; None: draw in this process, the same numbers). ``rows`` holds
+    pass 0 (global episodes ``0 .. size-1``) and ``episodes`` their scenarios; :meth:`draw` continues from
+    ``size``.
     """
 
-    def __init__(self, core: BatchCore, num_rows: int, size: int, seeds: Sequence[int | None]) -> None:
-        if int(size) != size or size < 1:
-            raise InvalidParameterError(f"bank size must be a positive integer, got {size!r}")
+    def __init__(
+        self,
+        core: BatchCore,
+        num_rows: int,
+        size: int,
+        seeds: Sequence[int | None],
+        pool: Drawer | None = None,
+    ) -> None:
+        require_count("bank_size", size)
         if len(seeds) != num_rows:
             raise InvalidParameterError(f"seeds must have {num_rows} entries, got {len(seeds)}")
+        self.core = core
         self.num_rows, self.size = int(num_rows), int(size)
-        m = self.size
-        self.rows = BankRows(
-            f=np.zeros((m, core.f.shape[1])),
-            p=np.zeros((m, 6, 6)),
-            rng=np.zeros((m, STATE_WORDS), dtype=np.uint64),
-            eph=np.zeros((m, *core.table_spec.shape)),
-        )
-        self.episodes: list[RowEpisode | None] = [None] * m
-        # One generator per row (only the rows the bank reaches), continued episode after episode, as the
-        # CPU vector env continues a row's generator at its autoresets.
-        used = min(self.num_rows, m)
-        self.generators = [seeding.np_random(seeds[n])[0] for n in range(used)]
-        r = self.rows
-        for k in range(m):  # k = e * N + n: episode e of every row before episode e + 1 of any
-            gen = self.generators[k % self.num_rows]
-            self.episodes[k] = core.draw_row(gen, r.f[k], r.p[k], r.rng[k], r.eph[k])
+        self._seeds = list(seeds)
+        # Row n's generator, created when its first episode is drawn (a bank smaller than N reaches some
+        # rows only in later passes) and continued episode after episode, as the CPU vector env continues
+        # a row's generator at its autoresets.
+        self._generators: dict[int, np.random.Generator] = {}
+        self._pool = pool
+        if pool is not None:
+            pool.seed(self._seeds, self.num_rows)
+        #: The next global episode :meth:`draw` must draw (episodes are drawn in order, once each).
+        self.next_episode = 0
+        self.rows = empty_rows(core, self.size)
+        self.episodes = self.draw(0, self.rows)
+
+    def draw(self, start: int, out: BankRows) -> list[RowEpisode]:
+        """Draw global episodes ``start .. start + len(out.f) - 1`` into ``out``'s rows, in order, and return
+        their scenarios. ``start`` must be :attr:`next_episode`: a row's generator draws its episodes in
+        order, so the sequence is the CPU env's only if no episode is skipped or drawn twice."""
+        if start != self.next_episode:
+            raise InvalidParameterError(
+                f"the bank draws global episodes in order: next is {self.next_episode}, asked for {start}"
+            )
+        if self._pool is not None:
+            episodes = self._pool.draw(start, out)
+            self.next_episode = start + out.f.shape[0]
+            return episodes
+        episodes = []
+        for j in range(out.f.shape[0]):
+            n = (start + j) % self.num_rows
+            gen = self._generators.get(n)
+            if gen is None:
+                gen = self._generators[n] = seeding.np_random(self._seeds[n])[0]
+            episodes.append(self.core.draw_row(gen, out.f[j], out.p[j], out.rng[j], out.eph[j]))
+        self.next_episode = start + out.f.shape[0]
+        return episodes
 
     @classmethod
     def for_vector_env(
-        cls, core: BatchCore, num_rows: int, size: int, seed: int | Sequence[int | None] | None
+        cls,
+        core: BatchCore,
+        num_rows: int,
+        size: int,
+        seed: int | Sequence[int | None] | None,
+        pool: Drawer | None = None,
     ) -> EpisodeBank:
         """A bank seeded as ``PlanetNavVectorEnv.reset(seed=seed)`` seeds its rows: an int ``s`` gives
         row ``n`` the seed ``s + n``, a list one seed per row, None fresh entropy."""
@@ -91,8 +153,8 @@ class EpisodeBank:
             seeds = [int(seed) + n for n in range(num_rows)]
         else:
             seeds = list(seed)
-        return cls(core, num_rows, size, seeds)
+        return cls(core, num_rows, size, seeds, pool)
 
     def nbytes(self) -> int:
-        """Bytes the bank's arrays hold (what a device copy of it takes)."""
+        """Bytes the bank's slots hold (what a device copy of it takes)."""
         return sum(a.nbytes for a in self.rows)

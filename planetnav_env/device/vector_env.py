@@ -17,18 +17,24 @@ Where things run. On the device: the physics step and the compiled part of the r
 autoreset (a bank row copied in, then the compiled reset, for the rows a mask marks), the decision's
 physics steps (``decision_steps``) with their reward sum, the Python-side observation blocks
 (:mod:`planetnav_env.device.blocks`), the action decoding and the float32 observation. On the host, once
-per ``reset(seed=...)``: the episode bank (:mod:`planetnav_env.device.bank`). Nothing is copied between
-host and device in a step, and nothing waits on the device: the state, the buffers and the bank are
-torch tensors, and numba-cuda reads them without a copy (``numba.cuda.as_cuda_array``, the
-``__cuda_array_interface__``).
+per ``reset(seed=...)``: the episode bank (:mod:`planetnav_env.device.bank`), and on a host thread its
+refill (:mod:`planetnav_env.device.refill`). A step copies nothing between host and device but the
+refill's asynchronous writes and its asynchronous read of the episode counts, and nothing waits on the
+device: the state, the buffers and the bank are torch tensors, and numba-cuda reads them without a copy
+(``numba.cuda.as_cuda_array``, the ``__cuda_array_interface__``).
 
 What differs from the CPU vector env (``gym.make_vec``):
 
-* resets come from the bank of ``bank_size`` pre-drawn episodes: row ``n``'s ``e``-th episode is bank row
-  ``(e N + n) mod bank_size`` (:func:`~planetnav_env.device.bank.bank_slot`). With ``bank_size = E N`` the
-  first ``E`` episodes of every row are the CPU vector env's (same seed), then they repeat; with a bank
-  smaller than ``N`` rows share their first episodes. The bank is drawn once per ``reset(seed=...)``;
-  refilling it while the rows step is not built;
+* resets come from a bank of ``bank_size`` pre-drawn episodes (:mod:`~planetnav_env.device.bank`): row
+  ``n``'s ``e``-th episode is the CPU vector env's row ``n``'s ``e``-th (same seed), taken from slot
+  ``(e N + n) mod bank_size``. ``reset(seed=...)`` draws the first ``bank_size`` of them; the refill
+  (:mod:`~planetnav_env.device.refill`, ``refill=``) draws the next ones on the host while the rows step.
+  A row that reaches a slot before the refill has written it starts the episode the slot still holds, a
+  *substitute* (another row's, or one played before), counted per row in ``substituted``
+  (:meth:`DeviceVectorEnv.bank_stats`). ``refill="inline"`` never lets that happen while rows stay within
+  a bank of each other (the step waits for the drawing); ``"thread"`` (the default) never waits, so it
+  substitutes when the rows start episodes faster than one host thread draws them; ``"off"`` cycles the
+  first bank. With a bank smaller than ``N`` rows share their first episodes;
 * actions are not validated (a check would read a flag back to the host every step): a target action
   outside the action space is taken modulo the targets, Box actions are clipped to [-1, 1] as on the CPU,
   NaN is not caught;
@@ -40,8 +46,8 @@ What differs from the CPU vector env (``gym.make_vec``):
 
 What stays equal: the configuration, spaces, physics and observation; on the CPU (``device="cpu"``, the
 host mode: numpy state viewed by torch CPU tensors, the thread functions run row by row on the CPU) the
-rows equal the CPU vector env's bit for bit, autoresets included, while every row is within its bank's
-first episodes (``tests/env/test_device_env.py``). On a GPU the numbers are expected to differ from the
+rows equal the CPU vector env's bit for bit, autoresets included, for every row that has started no
+substitute (``tests/env/test_device_env.py``). On a GPU the numbers are expected to differ from the
 CPU's in the last bits where NVVM fuses a multiply and an add or where libdevice's functions differ from
 glibc's (docs/architecture.md, "Two targets"); only a device can measure by how much.
 """
@@ -59,11 +65,13 @@ from planetnav_env.core import layout as L
 from planetnav_env.core.batch import BatchCore
 from planetnav_env.core.records import Actions, CoreParams, RowState, make_scratch, scratch_rows
 from planetnav_env.device import rows as R
-from planetnav_env.device.bank import BankRows, EpisodeBank, bank_slot
+from planetnav_env.device.bank import BankRows, EpisodeBank, bank_pass, bank_slot
 from planetnav_env.device.blocks import ObservationBlocks
+from planetnav_env.device.draw_pool import DrawPool
+from planetnav_env.device.refill import DEFAULT_CHUNK, BankRefill, check_refill
 from planetnav_env.envs.env import resolve_config
 from planetnav_env.envs.spaces import action_space, observation_space
-from planetnav_env.errors import InvalidParameterError
+from planetnav_env.errors import InvalidParameterError, require_count
 from planetnav_env.numerics import portable_math as pm
 
 #: ``autoreset_mode`` choices.
@@ -196,7 +204,10 @@ class _Cuda:
 class DeviceVectorEnv:
     """``num_envs`` rows on ``device`` ("cuda", "cuda:k", or "cpu": the host mode), see the module
     docstring. ``config``: a registered id, an ``EnvConfig`` or a mapping of options; ``overrides`` as
-    ``gym.make_vec`` takes them. ``bank_size``: episodes pre-drawn per ``reset`` (default ``2 N``)."""
+    ``gym.make_vec`` takes them. ``bank_size``: the bank's slots, episodes drawn by ``reset`` (default
+    ``2 N``). ``refill``: ``"thread"``, ``"inline"`` or ``"off"`` (:mod:`~planetnav_env.device.refill`);
+    ``refill_chunk``: slots the refill writes at a time. ``bank_workers``: processes that draw the bank
+    (:mod:`~planetnav_env.device.draw_pool`; 1: the refill's thread alone)."""
 
     def __init__(
         self,
@@ -206,14 +217,19 @@ class DeviceVectorEnv:
         bank_size: int | None = None,
         autoreset_mode: str = "next_step",
         threads_per_block: int = THREADS_PER_BLOCK,
+        refill: str = "thread",
+        refill_chunk: int = DEFAULT_CHUNK,
+        bank_workers: int = 1,
         **overrides: Any,
     ) -> None:
-        if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
-            raise InvalidParameterError(f"num_envs must be a positive integer, got {num_envs!r}")
+        require_count("num_envs", num_envs)
         if autoreset_mode not in AUTORESET_MODES:
             raise InvalidParameterError(
                 f"autoreset_mode must be one of {list(AUTORESET_MODES)}, got {autoreset_mode!r}"
             )
+        check_refill(refill, refill_chunk)
+        workers = require_count("bank_workers", bank_workers)
+        self.refill_mode, self.refill_chunk = refill, int(refill_chunk)
         cfg = resolve_config(config, overrides)
         if cfg.observation != "box":
             raise InvalidParameterError(
@@ -221,9 +237,7 @@ class DeviceVectorEnv:
             )
         self.config, self.autoreset_mode = cfg, autoreset_mode
         self.num_envs = n = int(num_envs)
-        self.bank_size = int(bank_size) if bank_size is not None else 2 * n
-        if self.bank_size < 1:
-            raise InvalidParameterError(f"bank_size must be a positive integer, got {bank_size!r}")
+        self.bank_size = require_count("bank_size", bank_size) if bank_size is not None else 2 * n
         dev = str(device)
         self.backend = _Host() if dev == "cpu" else _Cuda(dev, threads_per_block)
         self.device = self.backend.device
@@ -256,8 +270,13 @@ class DeviceVectorEnv:
         self.episode_count = torch.zeros(n, dtype=torch.int64, device=dev_)
         self._needs_reset = torch.zeros(n, dtype=torch.bool, device=dev_)
         self._all = torch.ones(n, dtype=torch.bool, device=dev_)
+        #: Per row: episodes started that were not the row's own (substitutes, see the module docstring).
+        self.substituted = torch.zeros(n, dtype=torch.int64, device=dev_)
+        self._passes = torch.zeros(self.bank_size, dtype=torch.int64, device=dev_)
         self.bank: EpisodeBank | None = None
         self._bank: BankRows | None = None
+        self.refill: BankRefill | None = None
+        self._pool = DrawPool(cfg, workers) if workers > 1 else None
 
     # ------------------------------------------------------------------------------------------
     def bytes_per_row(self) -> int:
@@ -272,19 +291,31 @@ class DeviceVectorEnv:
         if options:
             raise InvalidParameterError(f"DeviceVectorEnv.reset takes no options, got {sorted(options)}")
         n, be = self.num_envs, self.backend
-        self.bank = EpisodeBank.for_vector_env(self.core, n, self.bank_size, seed)
+        if self.refill is not None:
+            self.refill.close()
+        self.bank = EpisodeBank.for_vector_env(self.core, n, self.bank_size, seed, self._pool)
         uploaded = [be.upload(a) for a in self.bank.rows]
         self._bank_tensors = [t for t, _ in uploaded]  # keeps the device copies alive
         self._bank = BankRows(*(v for _, v in uploaded))
+        self._passes.zero_()
         self.episode_count.zero_()
+        self.substituted.zero_()
         self._autoreset(self._all)
         self._needs_reset.zero_()
+        self.refill = BankRefill(
+            self.bank, self._bank_tensors, self._passes, self.episode_count,
+            self.refill_mode, self.refill_chunk,
+        )  # fmt: skip
         self.obs.copy_(self._obs64)
         return self.obs, self.info_tensors()
 
     def _autoreset(self, mask: torch.Tensor) -> None:
-        """Rows ``mask`` start their next bank episode (on the device, whatever the mask)."""
-        self._slots.copy_(bank_slot(self.episode_count, self._rows, self.num_envs, self.bank_size))
+        """Rows ``mask`` start their next bank episode (on the device, whatever the mask); a row whose slot
+        does not hold its own episode's pass counts a substitute."""
+        n, m = self.num_envs, self.bank_size
+        self._slots.copy_(bank_slot(self.episode_count, self._rows, n, m))
+        own = self._passes[self._slots] == bank_pass(self.episode_count, self._rows, n, m)
+        self.substituted += mask & ~own
         self._mask.copy_(mask)
         self.backend.autoreset(
             self._prm, self._state, self._bank, self._slots_view, self._mask_view, self._scratch
@@ -353,6 +384,7 @@ class DeviceVectorEnv:
         ``reward`` (N,) float64, ``terminated`` / ``truncated`` (N,) bool, all on the device."""
         if self._bank is None:
             raise RuntimeError("call reset() before step()")
+        self.refill.poll()
         self._decode(actions)
         if self.autoreset_mode == "next_step":
             needs = self._needs_reset
@@ -404,5 +436,38 @@ class DeviceVectorEnv:
                 "i": self.i.cpu().numpy().copy(), "rng": rng.copy(), "eph": self.eph.cpu().numpy().copy(),
                 "obs": self._obs64.cpu().numpy().copy()}  # fmt: skip
 
+    def bank_stats(self) -> dict[str, int]:
+        """How the bank has served the rows since ``reset`` (reads a few numbers back to the host):
+        ``episodes`` started, ``substituted`` (episodes that were not the row's own), ``drawn`` (global
+        episodes drawn on the host), ``written`` (written into the bank, ``bank_size`` by ``reset``),
+        ``bank_size``."""
+        if self.refill is None:
+            raise RuntimeError("call reset() before bank_stats()")
+        return {
+            "episodes": int(self.episode_count.sum()),
+            "substituted": int(self.substituted.sum()),
+            "drawn": self.bank.next_episode,
+            "written": self.refill.written,
+            "bank_size": self.bank_size,
+        }
+
+    def flush_bank(self) -> None:
+        """Write every bank slot that is free now, waiting for the refill's drawing (thread mode: catch up
+        at a moment of the caller's choosing)."""
+        if self.refill is None:
+            raise RuntimeError("call reset() before flush_bank()")
+        self.refill.flush()
+
     def close(self) -> None:
-        return None
+        """Stop the refill's thread and the drawing processes (idempotent)."""
+        if self.refill is not None:
+            self.refill.close()
+        if getattr(self, "_pool", None) is not None:
+            self._pool.close()
+            self._pool = None
+
+    def __del__(self) -> None:
+        try:
+            self.close()
+        except Exception:  # at interpreter shutdown there is nothing left to stop
+            pass

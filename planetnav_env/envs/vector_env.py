@@ -50,7 +50,7 @@ from planetnav_env.envs.spaces import (
     format_observation,
     observation_space,
 )
-from planetnav_env.errors import InvalidParameterError
+from planetnav_env.errors import InvalidParameterError, require_count
 
 _MODES = {"next_step": AutoresetMode.NEXT_STEP, "same_step": AutoresetMode.SAME_STEP}
 #: ``info_keys`` choices: the documented key set, or its numeric, flat form (module docstring).
@@ -77,8 +77,7 @@ class PlanetNavVectorEnv(EpisodeLengthSpec, VectorEnv):
         info_keys: str = "all",
         **overrides: Any,
     ) -> None:
-        if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
-            raise InvalidParameterError(f"num_envs must be a positive integer, got {num_envs!r}")
+        require_count("num_envs", num_envs)
         if render_mode is not None:
             raise InvalidParameterError(
                 f"the vector environment does not render (got render_mode={render_mode!r}); "

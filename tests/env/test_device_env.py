@@ -182,17 +182,23 @@ def test_host_buffers_are_views_of_one_memory() -> None:
     assert dev.episode_count.tolist() == [1, 1]
 
 
-def test_the_bank_wraps_and_episodes_repeat() -> None:
-    """Past ``bank_size / N`` episodes a row replays its bank episodes (the documented difference)."""
-    dev = DeviceVectorEnv("planetnav/Cruise-TorqueControl-v1", 2, device="cpu", bank_size=2, episode_steps=3)
+def test_without_refill_the_bank_wraps_and_episodes_repeat() -> None:
+    """With ``refill="off"``, past ``bank_size / N`` episodes a row replays its bank episodes, and each
+    replay counts as a substitute."""
+    dev = DeviceVectorEnv(
+        "planetnav/Cruise-TorqueControl-v1", 2, device="cpu", bank_size=2, refill="off", episode_steps=3
+    )
     o0, _ = dev.reset(seed=4)
     first = o0.clone()
     zero = torch.zeros((2, 3))
     for _ in range(3):  # ends at the third step; next_step: the fourth starts the next episode
         dev.step(zero)
+    assert dev.substituted.tolist() == [0, 0]
     o, *_ = dev.step(zero)
     assert dev.episode_count.tolist() == [2, 2]
     assert torch.equal(o, first)
+    assert dev.substituted.tolist() == [1, 1]
+    assert dev.bank_stats() == {"episodes": 4, "substituted": 2, "drawn": 2, "written": 2, "bank_size": 2}
 
 
 # --- the torch blocks against the numpy ones ---
