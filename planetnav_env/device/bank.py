@@ -32,6 +32,7 @@ from gymnasium.utils import seeding
 
 from planetnav_env.core.batch import BatchCore, RowEpisode
 from planetnav_env.core.rng import STATE_WORDS
+from planetnav_env.envs.vector_env import row_seeds
 from planetnav_env.errors import InvalidParameterError, require_count
 
 
@@ -145,15 +146,9 @@ class EpisodeBank:
         seed: int | Sequence[int | None] | None,
         pool: Drawer | None = None,
     ) -> EpisodeBank:
-        """A bank seeded as ``PlanetNavVectorEnv.reset(seed=seed)`` seeds its rows: an int ``s`` gives
-        row ``n`` the seed ``s + n``, a list one seed per row, None fresh entropy."""
-        if seed is None:
-            seeds: list[int | None] = [None] * num_rows
-        elif isinstance(seed, (int, np.integer)) and not isinstance(seed, bool):
-            seeds = [int(seed) + n for n in range(num_rows)]
-        else:
-            seeds = list(seed)
-        return cls(core, num_rows, size, seeds, pool)
+        """A bank seeded as ``PlanetNavVectorEnv.reset(seed=seed)`` seeds its rows
+        (:func:`~planetnav_env.envs.vector_env.row_seeds`)."""
+        return cls(core, num_rows, size, row_seeds(seed, num_rows), pool)
 
     def nbytes(self) -> int:
         """Bytes the bank's slots hold (what a device copy of it takes)."""

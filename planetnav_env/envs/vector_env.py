@@ -28,7 +28,7 @@ A row whose filter diverges terminates alone.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -61,6 +61,19 @@ NAME_KEYS = ("target", "sensor", "visibility")
 _DISABLED = getattr(AutoresetMode, "DISABLED", None)
 if _DISABLED is not None:
     _MODES["disabled"] = _DISABLED
+
+
+def row_seeds(seed: int | Sequence[int | None] | None, num_rows: int) -> list[int | None]:
+    """The seed of each row's generator for ``reset(seed=seed)``: an int ``s`` gives row ``n`` the seed
+    ``s + n``, a list one seed (or None) per row, None fresh entropy for every row."""
+    if seed is None:
+        return [None] * num_rows
+    if isinstance(seed, (int, np.integer)) and not isinstance(seed, bool):
+        return [int(seed) + n for n in range(num_rows)]
+    seeds = list(seed)
+    if len(seeds) != num_rows:
+        raise InvalidParameterError(f"seed list must have {num_rows} entries, got {len(seeds)}")
+    return seeds
 
 
 class PlanetNavVectorEnv(EpisodeLengthSpec, VectorEnv):
@@ -126,14 +139,7 @@ class PlanetNavVectorEnv(EpisodeLengthSpec, VectorEnv):
         seeds row i with s + i; a list gives one seed (or None) per row."""
         check_reset_options(options, ("reset_mask",), "PlanetNavVectorEnv")
         n = self.num_envs
-        if seed is None:
-            seeds: list[int | None] = [None] * n
-        elif isinstance(seed, (int, np.integer)) and not isinstance(seed, bool):
-            seeds = [int(seed) + i for i in range(n)]
-        else:
-            seeds = list(seed)
-            if len(seeds) != n:
-                raise InvalidParameterError(f"seed list must have {n} entries, got {len(seeds)}")
+        seeds = row_seeds(seed, n)
         mask = np.ones(n, dtype=bool)
         if options and "reset_mask" in options:
             mask = np.asarray(options["reset_mask"], dtype=bool)

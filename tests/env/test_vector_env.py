@@ -395,6 +395,18 @@ def test_vector_reset_rejects_unknown_options_by_name() -> None:
     assert info["pos_err_km"].shape == (2,)
 
 
+def test_vector_reset_seeds_rows_by_the_rule_and_names_a_short_seed_list() -> None:
+    """``seed=s`` seeds row n with s + n (the device env's bank uses the same rule: row_seeds)."""
+    venv, single = PlanetNavVectorEnv(2, **SHORT), PlanetNavEnv(**SHORT)
+    obs, _ = venv.reset(seed=[None, 12])
+    o1, _ = single.reset(seed=12)
+    assert obs[1].tobytes() == o1.tobytes()
+    obs, _ = venv.reset(seed=11)
+    assert obs[1].tobytes() == o1.tobytes()
+    with pytest.raises(InvalidParameterError, match="seed list must have 2 entries, got 3"):
+        venv.reset(seed=[1, 2, 3])
+
+
 @pytest.mark.skipif(not hasattr(gym.vector.AutoresetMode, "DISABLED"), reason="Gymnasium < 1.1")
 def test_disabled_autoreset_leaves_resets_to_the_caller() -> None:
     """``autoreset_mode="disabled"`` (TorchRL's preferred mode): a row that ended refuses to step, naming
