@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: run test test-ray test-ray-all reproduce bench bench-ray clean
+.PHONY: run test test-ray test-ray-all reproduce bench bench-ray device-wheels clean
 
 $(STAMP): pyproject.toml
 	$(PY) -m venv $(VENV)
@@ -74,6 +74,14 @@ bench: $(STAMP)
 	$(BIN)/python benchmarks/bench_env.py
 	$(BIN)/python benchmarks/bench_vec.py
 	$(BIN)/python benchmarks/bench_gnss.py
+
+# The pure-Python packages a lent GPU machine's image lacks, as wheels for benchmarks/device_check.sh (it
+# installs them there without the network): the versions this machine's .venv holds.
+DEVICE_WHEELS := gymnasium farama-notifications filterpy jplephem skyfield-data
+device-wheels: $(STAMP)
+	mkdir -p .whl
+	$(BIN)/python -m pip download -q --no-deps -d .whl \
+		$$(for p in $(DEVICE_WHEELS); do echo "$$p==$$($(BIN)/python -m pip show $$p | sed -n 's/^Version: //p')"; done)
 
 clean:
 	rm -rf $(VENV) $(RAY_VENV) results runs
