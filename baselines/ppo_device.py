@@ -47,7 +47,8 @@ def parse_args(argv: list[str] | None = None):
                    help="--device cpu: the native vector env, or the device env's host mode")  # fmt: skip
     p.add_argument("--bank-size", type=int, default=None, help="device env: bank slots (default 2 N)")
     p.add_argument("--refill", choices=REFILL_MODES, default="thread", help="device env: the bank's refill")
-    p.add_argument("--bank-workers", type=int, default=1, help="device env: processes drawing the bank")
+    p.add_argument("--bank-workers", type=int, default=None,
+                   help="device env: processes drawing the bank (default: the env's)")  # fmt: skip
     return single.finish_args(p.parse_args(argv))
 
 

@@ -60,7 +60,7 @@ def device_rate(env_id: str, n: int, args) -> dict:
 
     decisions, repeats = args.decisions, args.repeats
     t0 = time.perf_counter()
-    env = DeviceVectorEnv(env_id, n, device="cuda", bank_size=min(args.bank, n))
+    env = DeviceVectorEnv(env_id, n, device="cuda", bank_size=min(args.bank, n), bank_workers=0)
     env.reset(seed=0)
     torch.cuda.synchronize()
     setup = time.perf_counter() - t0
@@ -127,7 +127,7 @@ def parity(env_id: str, n: int, steps: int) -> dict:
     import torch
 
     # A bank as deep as the run: both play the CPU env's episodes, no refill needed.
-    deep = {"bank_size": n * (steps + 2), "refill": "off"}
+    deep = {"bank_size": n * (steps + 2), "refill": "off", "bank_workers": 0}
     envs = {d: DeviceVectorEnv(env_id, n, device=d, **deep) for d in ("cuda", "cpu")}
     for e in envs.values():
         e.reset(seed=1)

@@ -156,7 +156,7 @@ def require_count(name: str, value: int, minimum: int = 1) -> int:
     """Return ``int(value)`` for an integer of at least ``minimum`` (bool excluded), or raise
     :class:`InvalidParameterError` naming it."""
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < minimum:
-        what = "a positive integer" if minimum == 1 else f"an integer of at least {minimum}"
+        what = {0: "a non-negative integer", 1: "a positive integer"}.get(minimum, f"an integer >= {minimum}")
         raise InvalidParameterError(f"{name} must be {what}, got {value!r}")
     return int(value)
 

@@ -9,8 +9,12 @@ their global episodes into a shared-memory block. Each row's episodes are drawn 
 generator that owns it, so what the bank holds does not depend on ``W``: the pool's draws equal the
 in-process draws bit for bit (``tests/env/test_device_bank_refill.py``).
 
-The processes are spawned (not forked: the parent may hold a CUDA context), once per pool; ``seed``
-starts a new sequence at each ``reset``.
+Why processes, not threads: drawing is Python, and a thread that draws holds the interpreter lock that the
+stepping thread needs to launch its kernels (in host mode on a 2-core machine, a drawing thread cut the
+step rate of 8-decision episodes to 0.22-0.28 of the rate without a refill, one drawing process to 0.81-0.90:
+``research/probes/refill_gil_probe.py``). The processes are spawned (not forked: the parent may hold a
+CUDA context), once per pool, so a script that makes them must guard its entry under ``if __name__ ==
+"__main__":``; ``seed`` starts a new sequence at each ``reset``.
 """
 
 from __future__ import annotations
@@ -93,7 +97,7 @@ class DrawPool:
     env does). ``block``: episodes a round draws at most (default :data:`BLOCK_EPISODES`)."""
 
     def __init__(self, config: EnvConfig, workers: int, block: int | None = None) -> None:
-        self.workers = require_count("bank_workers of a draw pool", workers, minimum=2)
+        self.workers = require_count("bank_workers", workers)
         self.block = require_count("block", block if block is not None else BLOCK_EPISODES)
         self._core = BatchCore(config, 1)  # the layout of the shared block
         self._shm = shared_memory.SharedMemory(create=True, size=block_bytes(self._core, self.block))
@@ -109,9 +113,17 @@ class DrawPool:
             self._procs.append(proc)
 
     def _round(self, msg: tuple) -> list:
-        for c in self._conns:
-            c.send(msg)
-        replies = [c.recv() for c in self._conns]
+        try:
+            for c in self._conns:
+                c.send(msg)
+            replies = [c.recv() for c in self._conns]
+        except (EOFError, OSError) as exc:  # a worker died: its pipe closed
+            codes = {p.name: p.exitcode for p in self._procs if not p.is_alive()}
+            raise RuntimeError(
+                f"a bank-drawing worker exited ({codes or exc!r}). Worker processes are spawned: a script "
+                "that makes a device env with bank_workers > 0 must do so under if __name__ == '__main__': "
+                "(or pass bank_workers=0 to draw in this process)"
+            ) from exc
         errors = [r[1] for r in replies if r[0] == "error"]
         if errors:
             raise RuntimeError(f"a bank-drawing worker failed: {errors[0]}")

@@ -54,6 +54,7 @@ glibc's (docs/architecture.md, "Two targets"); only a device can measure by how 
 
 from __future__ import annotations
 
+import os
 from collections.abc import Mapping
 from typing import Any
 
@@ -207,7 +208,9 @@ class DeviceVectorEnv:
     ``gym.make_vec`` takes them. ``bank_size``: the bank's slots, episodes drawn by ``reset`` (default
     ``2 N``). ``refill``: ``"thread"``, ``"inline"`` or ``"off"`` (:mod:`~planetnav_env.device.refill`);
     ``refill_chunk``: slots the refill writes at a time. ``bank_workers``: processes that draw the bank
-    (:mod:`~planetnav_env.device.draw_pool`; 1: the refill's thread alone)."""
+    (:mod:`~planetnav_env.device.draw_pool`; 0: the refill's thread draws in this process). Default: 0 in
+    host mode; on CUDA the CPUs but one, at most 8, so that drawing never holds the interpreter lock the
+    kernel launches need."""
 
     def __init__(
         self,
@@ -219,7 +222,7 @@ class DeviceVectorEnv:
         threads_per_block: int = THREADS_PER_BLOCK,
         refill: str = "thread",
         refill_chunk: int = DEFAULT_CHUNK,
-        bank_workers: int = 1,
+        bank_workers: int | None = None,
         **overrides: Any,
     ) -> None:
         require_count("num_envs", num_envs)
@@ -228,7 +231,8 @@ class DeviceVectorEnv:
                 f"autoreset_mode must be one of {list(AUTORESET_MODES)}, got {autoreset_mode!r}"
             )
         check_refill(refill, refill_chunk)
-        workers = require_count("bank_workers", bank_workers)
+        if bank_workers is not None:
+            require_count("bank_workers", bank_workers, minimum=0)
         self.refill_mode, self.refill_chunk = refill, int(refill_chunk)
         cfg = resolve_config(config, overrides)
         if cfg.observation != "box":
@@ -276,7 +280,10 @@ class DeviceVectorEnv:
         self.bank: EpisodeBank | None = None
         self._bank: BankRows | None = None
         self.refill: BankRefill | None = None
-        self._pool = DrawPool(cfg, workers) if workers > 1 else None
+        if bank_workers is None:
+            bank_workers = 0 if self.backend.kind == "cpu" else max(1, min(8, (os.cpu_count() or 2) - 1))
+        self.bank_workers = int(bank_workers)
+        self._pool = DrawPool(cfg, self.bank_workers) if self.bank_workers > 0 else None
 
     # ------------------------------------------------------------------------------------------
     def bytes_per_row(self) -> int:

@@ -168,6 +168,22 @@ def test_a_failing_worker_names_its_error() -> None:
         pool.close()
 
 
+def test_a_dead_worker_is_named_with_the_spawn_rule() -> None:
+    pool = DrawPool(DeviceVectorEnv("planetnav/Cruise-Target-v1", 1, device="cpu").config, 1)
+    try:
+        pool._procs[0].kill()
+        pool._procs[0].join(timeout=10)
+        with pytest.raises(RuntimeError, match=r"worker exited.*if __name__ == '__main__'"):
+            pool.seed([0], 1)
+    finally:
+        pool.close()
+
+
+def test_host_mode_draws_in_process_by_default() -> None:
+    dev = DeviceVectorEnv("planetnav/Cruise-Target-v1", 2, device="cpu")
+    assert dev.bank_workers == 0 and dev._pool is None
+
+
 def test_the_bank_draws_in_order_only() -> None:
     dev = DeviceVectorEnv("planetnav/Cruise-TorqueControl-v1", 2, device="cpu", refill="off")
     dev.reset(seed=0)
@@ -182,7 +198,7 @@ def test_the_bank_draws_in_order_only() -> None:
         ({"refill_chunk": 0}, "refill_chunk must be a positive integer, got 0"),
         ({"bank_size": 0}, "bank_size must be a positive integer, got 0"),
         ({"bank_size": 2.5}, "bank_size must be a positive integer, got 2.5"),
-        ({"bank_workers": 0}, "bank_workers must be a positive integer, got 0"),
+        ({"bank_workers": -1}, "bank_workers must be a non-negative integer, got -1"),
     ],
 )
 def test_bad_bank_settings_are_named(kwargs, match) -> None:
