@@ -46,23 +46,51 @@ class BankRows(NamedTuple):
     eph: np.ndarray  # (M, *TableSpec.shape) each episode's ephemeris table
 
 
+def global_episode(episode: np.ndarray, row: np.ndarray, num_rows: int) -> np.ndarray:
+    """Global number of row ``row``'s ``episode``-th episode (0: the one ``reset`` starts) among
+    ``num_rows`` rows: ``episode * num_rows + row``; its slot is this mod the bank's size, its pass this
+    floor-divided by it. Works on numpy arrays and torch tensors alike (the device env computes it on the
+    device)."""
+    return episode * num_rows + row
+
+
 def bank_slot(episode: np.ndarray, row: np.ndarray, num_rows: int, size: int) -> np.ndarray:
-    """Bank slot of row ``row``'s ``episode``-th episode (0: the one ``reset`` starts), for ``num_rows``
-    rows and a bank of ``size`` slots: ``(episode * num_rows + row) mod size``. Works on numpy arrays and
-    torch tensors alike (the device env computes it on the device)."""
-    return (episode * num_rows + row) % size
+    """Bank slot of row ``row``'s ``episode``-th episode in a bank of ``size`` slots."""
+    return global_episode(episode, row, num_rows) % size
 
 
-def bank_pass(episode: np.ndarray, row: np.ndarray, num_rows: int, size: int) -> np.ndarray:
-    """The pass of the bank that holds row ``row``'s ``episode``-th episode: ``(episode * num_rows + row)
-    // size`` (numpy arrays or torch tensors)."""
-    return (episode * num_rows + row) // size
+class RowGenerators:
+    """Each row's episode generator, seeded with ``seeds[n]`` (as the CPU vector env seeds row ``n``) when
+    its first episode is drawn and continued episode after episode, as the CPU env continues it at its
+    autoresets. Created lazily: a bank smaller than ``N``, or a worker owning some rows, reaches only some
+    of them."""
+
+    def __init__(self, seeds: Sequence[int | None]) -> None:
+        self.seeds, self.num_rows = list(seeds), len(seeds)
+        self._generators: dict[int, np.random.Generator] = {}
+
+    def draw(
+        self, core: BatchCore, start: int, out: BankRows, worker: int = 0, workers: int = 1
+    ) -> dict[int, RowEpisode]:
+        """Draw global episodes ``start .. start + len(out.f) - 1`` of the rows ``n`` with ``n mod workers
+        == worker`` into ``out``'s rows (``out`` row ``j`` holds global episode ``start + j``); returns
+        their scenarios by ``j``."""
+        drawn = {}
+        for j in range(out.f.shape[0]):
+            n = (start + j) % self.num_rows
+            if n % workers != worker:
+                continue
+            gen = self._generators.get(n)
+            if gen is None:
+                gen = self._generators[n] = seeding.np_random(self.seeds[n])[0]
+            drawn[j] = core.draw_row(gen, out.f[j], out.p[j], out.rng[j], out.eph[j])
+        return drawn
 
 
 class Drawer(Protocol):
     """What draws a bank's episodes in parallel (:class:`~planetnav_env.device.draw_pool.DrawPool`)."""
 
-    def seed(self, seeds: Sequence[int | None], num_rows: int) -> None: ...
+    def seed(self, seeds: Sequence[int | None]) -> None: ...
 
     def draw(self, start: int, out: BankRows) -> list[RowEpisode]: ...
 
@@ -102,14 +130,10 @@ class EpisodeBank:
             raise InvalidParameterError(f"seeds must have {num_rows} entries, got {len(seeds)}")
         self.core = core
         self.num_rows, self.size = int(num_rows), int(size)
-        self._seeds = list(seeds)
-        # Row n's generator, created when its first episode is drawn (a bank smaller than N reaches some
-        # rows only in later passes) and continued episode after episode, as the CPU vector env continues
-        # a row's generator at its autoresets.
-        self._generators: dict[int, np.random.Generator] = {}
+        self._generators = RowGenerators(seeds)
         self._pool = pool
         if pool is not None:
-            pool.seed(self._seeds, self.num_rows)
+            pool.seed(seeds)
         #: The next global episode :meth:`draw` must draw (episodes are drawn in order, once each).
         self.next_episode = 0
         self.rows = empty_rows(core, self.size)
@@ -123,18 +147,13 @@ class EpisodeBank:
             raise InvalidParameterError(
                 f"the bank draws global episodes in order: next is {self.next_episode}, asked for {start}"
             )
+        count = out.f.shape[0]
         if self._pool is not None:
             episodes = self._pool.draw(start, out)
-            self.next_episode = start + out.f.shape[0]
-            return episodes
-        episodes = []
-        for j in range(out.f.shape[0]):
-            n = (start + j) % self.num_rows
-            gen = self._generators.get(n)
-            if gen is None:
-                gen = self._generators[n] = seeding.np_random(self._seeds[n])[0]
-            episodes.append(self.core.draw_row(gen, out.f[j], out.p[j], out.rng[j], out.eph[j]))
-        self.next_episode = start + out.f.shape[0]
+        else:
+            drawn = self._generators.draw(self.core, start, out)
+            episodes = [drawn[j] for j in range(count)]
+        self.next_episode = start + count
         return episodes
 
     @classmethod

@@ -27,7 +27,7 @@ import numpy as np
 
 from planetnav_env.config import EnvConfig
 from planetnav_env.core.batch import BatchCore, RowEpisode
-from planetnav_env.device.bank import BankRows, empty_rows
+from planetnav_env.device.bank import BankRows, RowGenerators, empty_rows
 from planetnav_env.errors import require_count
 
 #: Episodes one round of the pool draws at most (the shared block's rows).
@@ -55,13 +55,10 @@ def _worker(  # pragma: no cover - runs in the spawned processes
     conn, config: EnvConfig, worker: int, workers: int, shm_name: str, block: int
 ) -> None:
     """One process of the pool: answers ``seed``, ``draw`` and ``stop`` messages on ``conn``."""
-    from gymnasium.utils import seeding
-
     core = BatchCore(config, 1)
     shm = shared_memory.SharedMemory(name=shm_name)
     rows = _views(core, shm.buf, block)
-    seeds: Sequence[int | None] = ()
-    num_rows, generators = 1, {}
+    generators = RowGenerators(())
     try:
         while True:
             msg = conn.recv()
@@ -69,21 +66,12 @@ def _worker(  # pragma: no cover - runs in the spawned processes
                 break
             try:
                 if msg[0] == "seed":
-                    _, seeds, num_rows = msg
-                    generators = {}
+                    generators = RowGenerators(msg[1])
                     conn.send(("ok", None))
                     continue
                 _, start, count = msg
-                drawn: dict[int, RowEpisode] = {}
-                for j in range(count):
-                    n = (start + j) % num_rows
-                    if n % workers != worker:
-                        continue
-                    gen = generators.get(n)
-                    if gen is None:
-                        gen = generators[n] = seeding.np_random(seeds[n])[0]
-                    drawn[j] = core.draw_row(gen, rows.f[j], rows.p[j], rows.rng[j], rows.eph[j])
-                conn.send(("ok", drawn))
+                out = BankRows(*(a[:count] for a in rows))
+                conn.send(("ok", generators.draw(core, start, out, worker, workers)))
             except Exception as exc:  # sent to the parent, which raises it
                 conn.send(("error", repr(exc)))
     finally:
@@ -129,9 +117,9 @@ class DrawPool:
             raise RuntimeError(f"a bank-drawing worker failed: {errors[0]}")
         return [r[1] for r in replies]
 
-    def seed(self, seeds: Sequence[int | None], num_rows: int) -> None:
+    def seed(self, seeds: Sequence[int | None]) -> None:
         """Start a new sequence: row ``n``'s generator is seeded with ``seeds[n]`` when first drawn."""
-        self._round(("seed", list(seeds), int(num_rows)))
+        self._round(("seed", list(seeds)))
 
     def draw(self, start: int, out: BankRows) -> list[RowEpisode]:
         """Global episodes ``start ..`` into ``out``'s rows (as :meth:`EpisodeBank.draw` draws them), in

@@ -86,8 +86,6 @@ class BankRefill:
         self._cuda = passes.is_cuda
         #: The next global episode to write into the bank (pass 0 is written by ``reset``).
         self.written = bank.next_episode
-        #: Chunks written so far.
-        self.chunks_written = 0
         # The host's copy of the episode counts: read synchronously now (once, at reset), then refreshed
         # by poll (asynchronously on a GPU).
         self._counts = episode_count.cpu().numpy().copy()
@@ -157,7 +155,6 @@ class BankRefill:
             buf.copied = torch.cuda.Event()
             buf.copied.record()
         self.written = buf.start + c
-        self.chunks_written += 1
         self._in_flight.append(buf)
 
     def _recycle(self, wait: bool = False) -> None:

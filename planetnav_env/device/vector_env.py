@@ -66,7 +66,7 @@ from planetnav_env.core import layout as L
 from planetnav_env.core.batch import BatchCore
 from planetnav_env.core.records import Actions, CoreParams, RowState, make_scratch, scratch_rows
 from planetnav_env.device import rows as R
-from planetnav_env.device.bank import BankRows, EpisodeBank, bank_pass, bank_slot
+from planetnav_env.device.bank import BankRows, EpisodeBank, global_episode
 from planetnav_env.device.blocks import ObservationBlocks
 from planetnav_env.device.draw_pool import DrawPool
 from planetnav_env.device.refill import DEFAULT_CHUNK, BankRefill, check_refill
@@ -319,9 +319,9 @@ class DeviceVectorEnv:
     def _autoreset(self, mask: torch.Tensor) -> None:
         """Rows ``mask`` start their next bank episode (on the device, whatever the mask); a row whose slot
         does not hold its own episode's pass counts a substitute."""
-        n, m = self.num_envs, self.bank_size
-        self._slots.copy_(bank_slot(self.episode_count, self._rows, n, m))
-        own = self._passes[self._slots] == bank_pass(self.episode_count, self._rows, n, m)
+        g = global_episode(self.episode_count, self._rows, self.num_envs)
+        self._slots.copy_(g % self.bank_size)
+        own = self._passes[self._slots] == g // self.bank_size
         self.substituted += mask & ~own
         self._mask.copy_(mask)
         self.backend.autoreset(

@@ -174,7 +174,7 @@ def test_a_dead_worker_is_named_with_the_spawn_rule() -> None:
         pool._procs[0].kill()
         pool._procs[0].join(timeout=10)
         with pytest.raises(RuntimeError, match=r"worker exited.*if __name__ == '__main__'"):
-            pool.seed([0], 1)
+            pool.seed([0])
     finally:
         pool.close()
 
