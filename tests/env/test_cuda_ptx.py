@@ -210,3 +210,57 @@ def test_compute_capability_is_supplied_only_inside_the_block() -> None:
     with supplied_compute_capability((8, 0)):
         assert dispatcher.get_current_device().compute_capability == (8, 0)
     assert dispatcher.get_current_device is before
+
+
+# --- assembled by ptxas: what the driver will do with the PTX on a device ---
+def _ptxas() -> str:
+    from planetnav_env.device.kernel_resources import find_ptxas
+
+    try:
+        return find_ptxas()
+    except FileNotFoundError as exc:
+        pytest.skip(str(exc))
+
+
+@pytest.mark.parametrize("entry", ["step", "reset"])
+def test_entry_point_assembles_for_sm_90(entry: str, ptx_by_signature) -> None:
+    """ptxas accepts the PTX (as the driver must at the first launch), and a block of the device env's
+    size launches with the registers it reports. The ids share one PTX per entry (the fixture's check)."""
+    from planetnav_env.device.kernel_resources import assemble
+    from planetnav_env.device.occupancy import SM_90, require_launchable
+    from planetnav_env.device.vector_env import THREADS_PER_BLOCK
+
+    ptxas = _ptxas()
+    found = assemble(ptx_by_signature("planetnav/Cruise-Target-v1", entry), ptxas=ptxas)
+    ((name, res),) = found.items()
+    assert f"{entry}_kernel" in name
+    assert 1 <= res.registers <= SM_90.max_regs_per_thread
+    require_launchable(entry, res.registers, THREADS_PER_BLOCK, SM_90)  # the device env's default
+
+
+def test_ptxas_rejection_is_reported() -> None:
+    from planetnav_env.device.kernel_resources import assemble
+
+    ptxas = _ptxas()
+    with pytest.raises(RuntimeError, match=r"ptxas rejected the PTX for sm_90: .*"):
+        assemble(".version 8.5\n.target sm_90\n.address_size 64\nnot an instruction;\n", ptxas=ptxas)
+
+
+def test_ptxas_report_is_parsed() -> None:
+    """The report's shape (ptxas 12.9): an entry's own frame and registers; a callee's frame is not the
+    entry's."""
+    from planetnav_env.device.kernel_resources import parse_ptxas_verbose
+
+    text = (
+        "ptxas info    : 648 bytes gmem\n"
+        "ptxas info    : Compiling entry function '_Z6kernelPd' for 'sm_90'\n"
+        "ptxas info    : Function properties for _Z6kernelPd\n"
+        "    40 bytes stack frame, 8 bytes spill stores, 12 bytes spill loads\n"
+        "ptxas info    : Used 200 registers, used 0 barriers, 40 bytes cumulative stack size\n"
+        "ptxas info    : Compile time = 8323.124 ms\n"
+        "ptxas info    : Function properties for __internal_trig_reduction_slowpathd\n"
+        "    0 bytes stack frame, 0 bytes spill stores, 0 bytes spill loads\n"
+    )
+    (res,) = parse_ptxas_verbose(text).values()
+    assert (res.function, res.registers, res.stack_bytes) == ("_Z6kernelPd", 200, 40)
+    assert (res.spill_store_bytes, res.spill_load_bytes) == (8, 12)

@@ -1,0 +1,116 @@
+"""What a CUDA kernel costs a multiprocessor, read without a GPU from NVIDIA's PTX assembler.
+
+numba-cuda compiles a kernel to PTX (:func:`planetnav_env.numerics.cuda_target.compile_ptx`); on a device the
+driver assembles that PTX into machine code when the kernel first launches. ``ptxas`` does the same
+assembly on any machine, and with ``-v`` reports per kernel the registers per thread, the stack frame and
+the bytes spilled to local memory. Those numbers decide occupancy (:mod:`planetnav_env.device.occupancy`),
+and assembling catches PTX the driver would reject before a device is ever lent.
+
+``ptxas`` comes with the ``[gpu]`` extra (numba-cuda for CUDA 12 installs NVIDIA's ``nvidia-cuda-nvcc-cu12``
+wheel, which holds it); :func:`find_ptxas` looks there first, so the assembler is the release of the NVVM
+that wrote the PTX, then on ``PATH``.
+
+    python benchmarks/kernel_resources.py      # every entry point's resources and occupancy, JSON
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import re
+import shutil
+import subprocess
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+
+from planetnav_env.errors import require_count
+from planetnav_env.numerics.cuda_target import DEFAULT_CC
+
+
+@dataclass(frozen=True)
+class KernelResources:
+    """One kernel's resources as ``ptxas -v`` reports them, for one compute capability.
+
+    ``registers``: 32-bit registers per thread; ``stack_bytes``: the kernel's stack frame per thread (local
+    memory); ``spill_store_bytes`` / ``spill_load_bytes``: registers spilled to local memory and reloaded,
+    bytes per thread, the kernel's own (functions it calls report theirs)."""
+
+    function: str
+    registers: int
+    stack_bytes: int
+    spill_store_bytes: int
+    spill_load_bytes: int
+
+
+def find_ptxas() -> str:
+    """The path of ``ptxas``: NVIDIA's CUDA 12 compiler wheel first (the release numba-cuda's NVVM comes
+    with), then ``PATH``; FileNotFoundError saying how to get it otherwise."""
+    spec = importlib.util.find_spec("nvidia.cuda_nvcc") if importlib.util.find_spec("nvidia") else None
+    for root in (spec.submodule_search_locations or []) if spec else []:
+        candidate = Path(root) / "bin" / "ptxas"
+        if candidate.is_file():
+            return str(candidate)
+    found = shutil.which("ptxas")
+    if found:
+        return found
+    raise FileNotFoundError(
+        'ptxas not found: it comes with the [gpu] extra (pip install -e ".[gpu]" installs '
+        "nvidia-cuda-nvcc-cu12), or with a CUDA toolkit on PATH"
+    )
+
+
+_ENTRY = re.compile(r"Compiling entry function '([^']+)'")
+_PROPS = re.compile(r"Function properties for (\S+)")
+_FRAME = re.compile(r"(\d+) bytes stack frame, (\d+) bytes spill stores, (\d+) bytes spill loads")
+_USED = re.compile(r"Used (\d+) registers")
+
+
+def parse_ptxas_verbose(text: str) -> dict[str, KernelResources]:
+    """The entry functions' :class:`KernelResources` from ``ptxas -v``'s report, by mangled name."""
+    frames: dict[str, tuple[int, int, int]] = {}
+    registers: dict[str, int] = {}
+    entry = props_for = None
+    for line in text.splitlines():
+        if m := _ENTRY.search(line):
+            entry = m.group(1)
+        elif m := _PROPS.search(line):
+            props_for = m.group(1)
+        elif (m := _FRAME.search(line)) and props_for is not None:
+            frames[props_for] = (int(m.group(1)), int(m.group(2)), int(m.group(3)))
+            props_for = None
+        elif (m := _USED.search(line)) and entry is not None:
+            registers[entry] = int(m.group(1))
+    return {
+        name: KernelResources(name, regs, *frames.get(name, (0, 0, 0))) for name, regs in registers.items()
+    }
+
+
+def assemble(
+    ptx: str, cc: tuple[int, int] = DEFAULT_CC, max_registers: int | None = None, ptxas: str | None = None
+) -> dict[str, KernelResources]:
+    """Assemble ``ptx`` for compute capability ``cc`` with ``ptxas`` (optionally capped at
+    ``max_registers`` per thread, as ``cuda.jit(max_registers=...)`` caps them) and return its entry
+    functions' resources. RuntimeError with ptxas's message if it rejects the PTX."""
+    cmd = [ptxas or find_ptxas(), f"-arch=sm_{cc[0]}{cc[1]}", "-v"]
+    if max_registers is not None:
+        cmd += ["--maxrregcount", str(require_count("max_registers", max_registers))]
+    with tempfile.TemporaryDirectory(prefix="planetnav_ptxas_") as tmp:
+        src = Path(tmp) / "kernel.ptx"
+        src.write_text(ptx)
+        proc = subprocess.run(
+            [*cmd, str(src), "-o", str(Path(tmp) / "kernel.cubin")],
+            capture_output=True,
+            text=True,
+            check=False,
+        )
+    if proc.returncode != 0:
+        raise RuntimeError(
+            f"ptxas rejected the PTX for sm_{cc[0]}{cc[1]}: {(proc.stderr or proc.stdout)[-2000:]}"
+        )
+    found = parse_ptxas_verbose(proc.stderr + proc.stdout)
+    if not found:
+        raise RuntimeError(f"ptxas reported no entry function: {(proc.stderr + proc.stdout)[-2000:]}")
+    return found
+
+
+__all__ = ["KernelResources", "assemble", "find_ptxas", "parse_ptxas_verbose"]
