@@ -8,6 +8,9 @@
 
 from __future__ import annotations
 
+import functools
+from typing import Any, NamedTuple
+
 import numba
 import numpy as np
 
@@ -49,4 +52,32 @@ def autoreset_ptx(core: BatchCore, cc: tuple[int, int] = DEFAULT_CC) -> str:
     return compile_ptx(autoreset_kernel, autoreset_argtypes(core), cc)
 
 
-__all__ = ["autoreset_argtypes", "autoreset_kernel", "autoreset_ptx", "entry_argtypes"]
+class Dispatchers(NamedTuple):
+    """The device env's kernels as numba-cuda dispatchers (compiled at their first launch)."""
+
+    step: Any
+    autoreset: Any
+
+
+def dispatchers(max_registers: int | None = None) -> Dispatchers:
+    """The step and autoreset kernels, one dispatcher each per ``max_registers`` for the whole process.
+
+    A dispatcher compiles a kernel once per argument types and keeps it, and every id has the same types;
+    so every device env of a process shares one compilation (tens of seconds: NVVM, then the driver's
+    assembly of a PTX of several MB) instead of repeating it for each env it creates. ``max_registers``
+    caps the registers per thread (``cuda.jit(max_registers=...)``): more resident warps, paid in spills
+    (``python benchmarks/kernel_resources.py --max-registers ...`` prints both)."""
+    return _dispatchers(None if max_registers is None else int(max_registers))
+
+
+@functools.cache
+def _dispatchers(max_registers: int | None) -> Dispatchers:
+    from planetnav_env.core.cuda_entry import step_kernel
+
+    options = {} if max_registers is None else {"max_registers": max_registers}
+    return Dispatchers(step=cuda.jit(**options)(step_kernel), autoreset=cuda.jit(**options)(autoreset_kernel))
+
+
+__all__ = [
+    "Dispatchers", "autoreset_argtypes", "autoreset_kernel", "autoreset_ptx", "dispatchers", "entry_argtypes",
+]  # fmt: skip

@@ -77,8 +77,21 @@ from planetnav_env.numerics import portable_math as pm
 
 #: ``autoreset_mode`` choices.
 AUTORESET_MODES = ("next_step", "same_step")
-#: Threads per block of the kernels (the step is register-heavy; tune on a device).
+#: Threads per block of the kernels. The step's 200 registers per thread leave 8 warps per SM at any
+#: block size that fits (``python benchmarks/kernel_resources.py``); 128 holds them in 2 blocks.
 THREADS_PER_BLOCK = 128
+
+
+def check_launch(threads_per_block: int, max_registers: int | None) -> None:
+    """Raise :class:`InvalidParameterError` naming a block size or register cap no CUDA device takes (a block
+    size the kernels' registers do not fit is named at the first launch, when they are known)."""
+    require_count("threads_per_block", threads_per_block)
+    if threads_per_block > 1024:
+        raise InvalidParameterError(f"threads_per_block must be at most 1024, got {threads_per_block}")
+    if max_registers is not None and not 16 <= require_count("max_registers", max_registers) <= 255:
+        raise InvalidParameterError(
+            f"max_registers must be in [16, 255] (or None: no cap), got {max_registers}"
+        )
 
 
 def cuda_unavailable_reason() -> str | None:
@@ -138,7 +151,7 @@ class _Cuda:
 
     kind = "cuda"
 
-    def __init__(self, device: str, threads_per_block: int) -> None:
+    def __init__(self, device: str, threads_per_block: int, max_registers: int | None) -> None:
         why = cuda_unavailable_reason()
         if why is not None:
             raise RuntimeError(
@@ -146,15 +159,14 @@ class _Cuda:
                 f'{why}. Install with pip install -e ".[gpu]" on a machine with a GPU, or use device="cpu"'
             )
         from numba import cuda
+        from numba.cuda.cudadrv.driver import CudaAPIError
 
-        from planetnav_env.core import cuda_entry
         from planetnav_env.device import cuda_kernels
 
-        self.cuda = cuda
+        self.cuda, self._api_error = cuda, CudaAPIError
         self.device = torch.device(device)
         self.tpb = int(threads_per_block)
-        self._step = cuda.jit(cuda_entry.step_kernel)
-        self._autoreset = cuda.jit(cuda_kernels.autoreset_kernel)
+        self.kernels = cuda_kernels.dispatchers(max_registers)
 
     def zeros(self, shape: tuple, dtype: np.dtype) -> tuple[torch.Tensor, Any]:
         tdtype = torch.int64 if np.dtype(dtype) == np.uint64 else torch.from_numpy(np.zeros(0, dtype)).dtype
@@ -195,11 +207,36 @@ class _Cuda:
     def _grid(self, n: int) -> tuple[int, int]:
         return (n + self.tpb - 1) // self.tpb, self.tpb
 
+    def _launch(self, name: str, n: int, *args: Any) -> None:
+        kernel = getattr(self.kernels, name)
+        try:
+            kernel[self._grid(n)](*args)
+        except self._api_error:
+            self._explain_launch_failure(name, kernel)
+            raise
+
+    def _explain_launch_failure(self, name: str, kernel: Any) -> None:
+        """A block too large for the kernel's registers fails at the launch with the driver's terse code;
+        name the setting instead (only when that is the cause)."""
+        from planetnav_env.device.occupancy import SM_LIMITS, require_launchable
+
+        limits = SM_LIMITS.get(tuple(self.cuda.get_current_device().compute_capability))
+        for overload in list(kernel.overloads.values()) if limits is not None else []:
+            require_launchable(f"the {name} kernel", overload.regs_per_thread, self.tpb, limits)
+
     def step(self, prm, st, act, scratch) -> None:
-        self._step[self._grid(st.f.shape[0])](prm, st, act, scratch)
+        self._launch("step", st.f.shape[0], prm, st, act, scratch)
 
     def autoreset(self, prm, st, bank, slots, mask, scratch) -> None:
-        self._autoreset[self._grid(st.f.shape[0])](prm, st, bank, slots, mask, scratch)
+        self._launch("autoreset", st.f.shape[0], prm, st, bank, slots, mask, scratch)
+
+    def kernel_registers(self) -> dict[str, int]:
+        """Registers per thread of each kernel compiled so far (the device's own assembly)."""
+        out = {}
+        for name in self.kernels._fields:
+            for overload in getattr(self.kernels, name).overloads.values():
+                out[name] = int(overload.regs_per_thread)
+        return out
 
 
 class DeviceVectorEnv:
@@ -210,7 +247,11 @@ class DeviceVectorEnv:
     ``refill_chunk``: slots the refill writes at a time. ``bank_workers``: processes that draw the bank
     (:mod:`~planetnav_env.device.draw_pool`; 0: the refill's thread draws in this process). Default: 0 in
     host mode; on CUDA the CPUs but one, at most 8, so that drawing never holds the interpreter lock the
-    kernel launches need."""
+    kernel launches need. On CUDA only: ``threads_per_block`` (at most 1024; the kernels' registers may
+    allow fewer, named at the first launch) and ``max_registers`` (a cap on the kernels' registers per
+    thread: more resident warps, paid in spills; :mod:`~planetnav_env.device.occupancy`). Every env of a
+    process with the same ``max_registers`` shares one compilation of the kernels
+    (:func:`~planetnav_env.device.cuda_kernels.dispatchers`)."""
 
     def __init__(
         self,
@@ -223,9 +264,11 @@ class DeviceVectorEnv:
         refill: str = "thread",
         refill_chunk: int = DEFAULT_CHUNK,
         bank_workers: int | None = None,
+        max_registers: int | None = None,
         **overrides: Any,
     ) -> None:
         require_count("num_envs", num_envs)
+        check_launch(threads_per_block, max_registers)
         if autoreset_mode not in AUTORESET_MODES:
             raise InvalidParameterError(
                 f"autoreset_mode must be one of {list(AUTORESET_MODES)}, got {autoreset_mode!r}"
@@ -243,7 +286,7 @@ class DeviceVectorEnv:
         self.num_envs = n = int(num_envs)
         self.bank_size = require_count("bank_size", bank_size) if bank_size is not None else 2 * n
         dev = str(device)
-        self.backend = _Host() if dev == "cpu" else _Cuda(dev, threads_per_block)
+        self.backend = _Host() if dev == "cpu" else _Cuda(dev, threads_per_block, max_registers)
         self.device = self.backend.device
         # One row of the core: its parameters, layout and drawing code (the bank's), not its state.
         self.core = core = BatchCore(cfg, 1)

@@ -42,6 +42,7 @@ from planetnav_env.device import blocks as DB
 from planetnav_env.device.bank import EpisodeBank, bank_slot
 from planetnav_env.device.vector_env import DeviceVectorEnv, cuda_unavailable_reason
 from planetnav_env.envs.registration import ENV_IDS, id_options
+from planetnav_env.errors import InvalidParameterError
 from planetnav_env.numerics import portable_math as pm
 
 ROWS = 3
@@ -274,3 +275,47 @@ def test_autoreset_kernel_compiles_to_ptx(env_id: str, autoreset_ptx) -> None:
     assert ".target sm_90" in ptx
     assert ".visible .entry" in ptx and "autoreset_kernel" in ptx
     assert ".extern" not in ptx
+
+
+def test_autoreset_kernel_assembles_for_sm_90(autoreset_ptx) -> None:
+    """ptxas accepts the autoreset's PTX, and the device env's default block launches with its registers."""
+    from planetnav_env.device.kernel_resources import assemble, find_ptxas
+    from planetnav_env.device.occupancy import SM_90, require_launchable
+    from planetnav_env.device.vector_env import THREADS_PER_BLOCK
+
+    try:
+        ptxas = find_ptxas()
+    except FileNotFoundError as exc:
+        pytest.skip(str(exc))
+    (res,) = assemble(autoreset_ptx("planetnav/Cruise-Target-v1"), ptxas=ptxas).values()
+    assert "autoreset_kernel" in res.function
+    require_launchable("autoreset", res.registers, THREADS_PER_BLOCK, SM_90)
+
+
+def test_launch_settings_are_checked() -> None:
+    for bad, match in [
+        ({"threads_per_block": 0}, "threads_per_block must be a positive integer, got 0"),
+        ({"threads_per_block": 2048}, "threads_per_block must be at most 1024, got 2048"),
+        ({"max_registers": 8}, r"max_registers must be in \[16, 255\] \(or None: no cap\), got 8"),
+        ({"max_registers": 1.5}, "max_registers must be a positive integer, got 1.5"),
+    ]:
+        with pytest.raises(InvalidParameterError, match=match):
+            DeviceVectorEnv("planetnav/Cruise-Target-v1", 2, device="cpu", **bad)
+
+
+def test_the_kernels_compile_once_per_process() -> None:
+    """Every device env of a process launches the same dispatchers (one compilation, minutes of a device's
+    time saved in a benchmark that creates a dozen envs); a register cap is its own pair."""
+    from planetnav_env.numerics.cuda_target import require_numba_cuda
+
+    try:
+        require_numba_cuda()
+    except ImportError as exc:
+        pytest.skip(str(exc))
+    from planetnav_env.device.cuda_kernels import dispatchers
+
+    assert dispatchers() is dispatchers(None)
+    capped = dispatchers(128)
+    assert capped.step is not dispatchers().step
+    assert capped.step.targetoptions["max_registers"] == 128
+    assert "max_registers" not in dispatchers().step.targetoptions
