@@ -17,7 +17,9 @@ place); this file adds the device loop and its environments:
   CPU tensors (what CI runs); ``--env host`` the device env's host mode instead (its CPU build).
 
 The evaluation is the suite's (sampled actions on seeds 50,000.., on the CPU's native vector env), so its
-scores compare with the single-file PPO's and the suite's. A timestep is one decision of one env.
+scores compare with the single-file PPO's and the suite's. A timestep is one decision of one env. Each
+update's line gives the cumulative rate (SPS, from before the reset) and the update's own rate (the steady
+one: the first update's includes the kernels' compilation).
 """
 
 from __future__ import annotations
@@ -117,6 +119,7 @@ def train(args) -> tuple[single.Agent, list[dict]]:
     global_step, start = 0, time.time()
     next_obs = envs.reset(seed=args.seed)[0]
     next_done = torch.zeros(N, device=dev)
+    update_start = time.time()
     for iteration in range(1, args.num_iterations + 1):
         single.anneal_lr(optimizer, args, iteration)
         for step in range(T):
@@ -152,13 +155,18 @@ def train(args) -> tuple[single.Agent, list[dict]]:
         st["explained_var"] = 1 - (returns - values).var() / var_y
         st["episode_return"] = finished_sum / finished_n.clamp(min=1)
         row = {k: float(v.detach()) for k, v in st.items()}  # the one host read of the update
-        row.update(iteration=iteration, decisions=global_step, sps=global_step / (time.time() - start))
+        # The read waits for the device, so the time between two reads is the update's: its rate is the
+        # steady one (the first update's includes the kernels' compilation, the cumulative rate the reset).
+        now = time.time()
+        row.update(iteration=iteration, decisions=global_step, sps=global_step / (now - start),
+                   update_sps=T * N / (now - update_start))  # fmt: skip
+        update_start = now
         history.append(row)
         finished_sum.zero_(), finished_n.zero_()
         print(f"iter {iteration:4d}/{args.num_iterations}  decisions {global_step:9d}  episode return "
               f"{row['episode_return']:9.2f}  pg {row['pg_loss']:+.4f}  v {row['v_loss']:.4f}  entropy "
               f"{row['entropy']:.3f}  kl {row['approx_kl']:.4f}  clipfrac {row['clipfrac']:.3f}  "
-              f"SPS {int(row['sps'])}", flush=True)  # fmt: skip
+              f"SPS {int(row['sps'])} (this update {int(row['update_sps'])})", flush=True)  # fmt: skip
     if isinstance(envs, DeviceVectorEnv):
         bank = envs.bank_stats()
         print(f"bank: {bank['episodes']} episodes started, {bank['substituted']} substitutes, "

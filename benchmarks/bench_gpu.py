@@ -8,25 +8,33 @@ Ids: planetnav/Cruise-Target-v1 (target choice, 10 physics steps a decision),
 planetnav/Cruise-TorqueControl-v1 (1-s torque control), planetnav/MarsApproach-Tasking-v1 (the Mars
 approach). A rate is physics steps (row x decision x ``decision_steps``) per second and decisions per
 second, best of ``--repeats`` timed blocks after a warm-up step; ``setup_s`` holds the bank's drawing,
-its upload and the kernels' compilation. The CPU's native vector env at ``--cpu-n`` rows is measured in
+its upload and, for the process's first env, the kernels' compilation (every env of a process shares
+it). The CPU's native vector env at ``--cpu-n`` rows is measured in
 the same run as the reference ratio (its rate is this machine's CPUs'). Parity: the device env on CUDA
 against its host mode (the CPU build of the same thread functions) over ``--parity-steps`` decisions with
 the same actions: the largest differences of the state and the observation, and whether they are equal
 bit for bit. Bank: the host's drawing rate of the refill (episodes/s, one thread, measured with or without
 a device) and the decisions/s it feeds (episodes/s x decisions per episode: above that rate a thread
 refill substitutes), and at each size the bank's statistics after the timed blocks (substitutes among
-the episodes started). Without a CUDA device it prints ``{"measured": false, "reason": ..., "bank_draw":
-...}`` and exits 0: no device figure is claimed.
+the episodes started). Kernels: each kernel's registers and local memory on the device, and the blocks
+per SM that the occupancy rule (:mod:`planetnav_env.device.occupancy`) and the driver each give;
+``--max-registers R ...`` times the target-choice id at the largest size again with the registers capped.
+PPO: baselines/ppo_device.py in this process (the compiled kernels reused), its updates' own rate, the
+first update's apart. Each stage's result goes to stderr as it finishes, and a failing stage records its
+error in the JSON instead of ending the run. Without a CUDA device it prints ``{"measured": false,
+"reason": ..., "bank_draw": ...}`` and exits 0: no device figure is claimed.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
+import io
 import json
 import os
-import subprocess
 import sys
 import time
+import traceback
 from pathlib import Path
 
 import gymnasium as gym
@@ -36,7 +44,7 @@ import planetnav_env  # noqa: F401
 from planetnav_env.core.batch import BatchCore
 from planetnav_env.device.bank import EpisodeBank
 from planetnav_env.device.draw_pool import DrawPool
-from planetnav_env.device.vector_env import DeviceVectorEnv, cuda_unavailable_reason
+from planetnav_env.device.vector_env import THREADS_PER_BLOCK, DeviceVectorEnv, cuda_unavailable_reason
 from planetnav_env.envs.env import resolve_config
 from planetnav_train.provenance import cpu_model
 
@@ -53,14 +61,16 @@ def _torch_actions(env, rng: np.random.Generator, torch):
     return a.to(env.device)
 
 
-def device_rate(env_id: str, n: int, args) -> dict:
+def device_rate(env_id: str, n: int, args, max_registers: int | None = None) -> dict:
     """Env-only rate of the device env with ``n`` rows (fixed random actions; the timed blocks are shorter
-    than an episode, so the bank's refill does not enter: the PPO run's does)."""
+    than an episode, so the bank's refill does not enter: the PPO run's does), its kernels' registers
+    capped at ``max_registers`` if given."""
     import torch
 
     decisions, repeats = args.decisions, args.repeats
     t0 = time.perf_counter()
-    env = DeviceVectorEnv(env_id, n, device="cuda", bank_size=min(args.bank, n), bank_workers=0)
+    env = DeviceVectorEnv(env_id, n, device="cuda", bank_size=min(args.bank, n), bank_workers=0,
+                          max_registers=max_registers)  # fmt: skip
     env.reset(seed=0)
     torch.cuda.synchronize()
     setup = time.perf_counter() - t0
@@ -76,7 +86,8 @@ def device_rate(env_id: str, n: int, args) -> dict:
         best = max(best, n * decisions / (time.perf_counter() - t))
     k = env.config.decision_steps
     out = {"n": n, "decisions_per_s": best, "physics_steps_per_s": best * k, "setup_s": setup,
-           "bytes_per_row": env.bytes_per_row(), "bank": env.bank_stats()}  # fmt: skip
+           "bytes_per_row": env.bytes_per_row(), "bank": env.bank_stats(),
+           "registers": env.backend.kernel_registers()}  # fmt: skip
     env.close()
     del env
     torch.cuda.empty_cache()
@@ -150,21 +161,68 @@ def parity(env_id: str, n: int, steps: int) -> dict:
     return out
 
 
-def ppo_rate(args) -> dict:
-    """End-to-end env steps/s of baselines/ppo_device.py on the target-choice task (no evaluation)."""
-    cmd = [sys.executable, str(ROOT / "baselines" / "ppo_device.py"), "--device", "cuda",
-           "--env-id", IDS[0], "--num-envs", str(args.ppo_n), "--num-steps", "16", "--num-minibatches", "4",
-           "--update-epochs", "4", "--total-timesteps", str(args.ppo_n * 16 * args.ppo_updates),
-           "--eval-episodes", "0", "--bank-workers", str(args.bank_workers)]  # fmt: skip
+def ppo_rate(args, device: str = "cuda") -> dict:
+    """End-to-end rate of baselines/ppo_device.py on the target-choice task (no evaluation), in this process
+    so that it launches the kernels the env-only stage compiled. The rate is the updates' own (the first
+    update, which may compile, left out), decisions and physics steps per second."""
+    sys.path.insert(0, str(ROOT / "baselines"))
+    import ppo_device
+
+    argv = ["--device", device, "--env-id", IDS[0], "--num-envs", str(args.ppo_n), "--num-steps", "16",
+            "--num-minibatches", "4", "--update-epochs", "4",
+            "--total-timesteps", str(args.ppo_n * 16 * args.ppo_updates), "--eval-episodes", "0",
+            "--bank-workers", str(args.bank_workers)]  # fmt: skip
     t = time.perf_counter()
-    proc = subprocess.run(cmd, capture_output=True, text=True, check=False)
-    lines = [ln for ln in proc.stdout.splitlines() if ln.startswith("iter")]
-    bank = [ln for ln in proc.stdout.splitlines() if ln.startswith("bank:")]
-    sps = [float(ln.rsplit("SPS", 1)[1]) for ln in lines]
-    return {"n": args.ppo_n, "updates": len(lines), "decisions_per_s_last": sps[-1] if sps else None,
-            "physics_steps_per_s_last": sps[-1] * 10 if sps else None, "wall_s": time.perf_counter() - t,
-            "bank": bank[-1] if bank else None, "returncode": proc.returncode,
-            "stderr_tail": proc.stderr[-2000:] if proc.returncode else ""}  # fmt: skip
+    printed = io.StringIO()
+    with contextlib.redirect_stdout(printed):
+        hist = ppo_device.main(argv)["history"]
+    steady = [h["update_sps"] for h in hist[1:]] or [h["update_sps"] for h in hist]
+    k = resolve_config(IDS[0], {}).decision_steps
+    bank = [ln for ln in printed.getvalue().splitlines() if ln.startswith("bank:")]
+    return {"n": args.ppo_n, "updates": len(hist), "decisions_per_s_median": float(np.median(steady)),
+            "decisions_per_s_first_update": hist[0]["update_sps"],
+            "physics_steps_per_s_median": float(np.median(steady)) * k, "wall_s": time.perf_counter() - t,
+            "bank": bank[-1] if bank else None}  # fmt: skip
+
+
+def kernel_report() -> dict:
+    """The kernels the env-only stage compiled (no register cap): their registers on this device, the
+    occupancy they allow by the rule of :mod:`planetnav_env.device.occupancy`, and the driver's own
+    occupancy figure beside it."""
+    from numba import cuda
+
+    from planetnav_env.device.cuda_kernels import dispatchers
+    from planetnav_env.device.occupancy import SM_LIMITS, blocks_per_sm
+
+    cc = tuple(cuda.get_current_device().compute_capability)
+    limits, tpb, kernels = SM_LIMITS.get(cc), THREADS_PER_BLOCK, dispatchers()
+    out: dict = {"compute_capability": list(cc), "threads_per_block": tpb}
+    for name in kernels._fields:
+        for overload in getattr(kernels, name).overloads.values():
+            regs = int(overload.regs_per_thread)
+            row: dict = {"registers": regs, "local_bytes": int(overload.local_mem_per_thread)}
+            if limits is not None:
+                row["blocks_per_sm_rule"] = blocks_per_sm(regs, tpb, limits)
+            try:  # the driver's answer (numba-cuda's internal handle of the compiled function)
+                ctx = cuda.current_context()
+                func = overload._codelibrary.get_cufunc()
+                row["blocks_per_sm_driver"] = int(ctx.get_active_blocks_per_multiprocessor(func, tpb, 0))
+            except Exception as exc:  # a report, not a check
+                row["blocks_per_sm_driver"] = f"unavailable: {exc!r}"[:200]
+            out[name] = row
+    return out
+
+
+def _stage(out: dict, key: str, fn, *args) -> None:
+    """Run one stage into ``out[key]``; its error is recorded, not raised, so that one failing stage of a
+    device's few minutes does not lose the others. Each result goes to stderr as it comes."""
+    t = time.perf_counter()
+    try:
+        out[key] = fn(*args)
+    except Exception as exc:  # recorded in the JSON with its traceback
+        out[key] = {"error": repr(exc), "traceback": traceback.format_exc()[-3000:]}
+    print(json.dumps({key: out[key], "stage_s": round(time.perf_counter() - t, 1)}, default=str),
+          file=sys.stderr, flush=True)  # fmt: skip
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -178,6 +236,13 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--skip-ppo", action="store_true")
     p.add_argument("--ppo-n", type=int, default=1 << 14)
     p.add_argument("--ppo-updates", type=int, default=5)
+    p.add_argument(
+        "--max-registers",
+        type=int,
+        nargs="*",
+        default=[],
+        help="also time the target-choice id at the largest size with the registers capped",
+    )
     p.add_argument("--bank-workers", type=int, default=os.cpu_count() or 1,
                    help="processes that draw the bank (default: the CPUs)")  # fmt: skip
     args = p.parse_args(argv)
@@ -195,14 +260,18 @@ def main(argv: list[str] | None = None) -> int:
                  "bank_draw": bank_draw}  # fmt: skip
     for env_id in IDS:
         if args.parity_steps:
-            out["parity"][env_id] = parity(env_id, 64, args.parity_steps)
-        out["env_only"][env_id] = [device_rate(env_id, 1 << s, args) for s in args.sizes]
+            _stage(out["parity"], env_id, parity, env_id, 64, args.parity_steps)
+        for s in args.sizes:
+            _stage(out["env_only"].setdefault(env_id, {}), f"2^{s}", device_rate, env_id, 1 << s, args)
         if args.cpu_n:
-            out["cpu_reference"][env_id] = cpu_rate(env_id, args.cpu_n, args.decisions, args.repeats)
-        print(json.dumps({env_id: out["env_only"][env_id]}), file=sys.stderr, flush=True)
+            _stage(out["cpu_reference"], env_id, cpu_rate, env_id, args.cpu_n, args.decisions, args.repeats)
+    _stage(out, "kernels", kernel_report)
+    capped = out.setdefault("max_registers", {})
+    for cap in args.max_registers:
+        _stage(capped, str(cap), device_rate, IDS[0], 1 << max(args.sizes), args, cap)
     if not args.skip_ppo:
-        out["ppo"] = ppo_rate(args)
-    print(json.dumps(out, indent=1))
+        _stage(out, "ppo", ppo_rate, args)
+    print(json.dumps(out, indent=1, default=str))
     return 0
 
 

@@ -9,8 +9,9 @@
 # pure-Python packages planetnav adds (gymnasium, filterpy, jplephem, skyfield-data) travel as wheels and
 # install into /tmp/site; the repository itself is put on PYTHONPATH (no install, no build).
 #   quick: bench_gpu.py: GPU rows against the host mode on three ids (200 decisions), env-only rates at
-#          N = 2^10, 2^14, 2^18, the host's bank-drawing rate, the device PPO's end-to-end rate
-#          ($OUT/bench_gpu.json, its progress in $OUT/bench_gpu.log).
+#          N = 2^10, 2^14, 2^18, the kernels' registers and occupancy, the step capped at 168 registers
+#          at 2^18, the host's bank-drawing rate, the device PPO's end-to-end rate ($OUT/bench_gpu.json;
+#          each stage's result in $OUT/bench_gpu.log as it finishes).
 #   ppo:   baselines/ppo_device.py on planetnav/Cruise-Target-v2, 10^8 decisions from 65,536 rows, then the
 #          suite's evaluation on the CPU ($OUT/ppo.log).
 # A stage that has not finished when the call's limit comes leaves what it wrote so far in $OUT.
@@ -38,7 +39,8 @@ print(f"gpu {gpu}; torch {torch.__version__}; numba {numba.__version__}; numba-c
 PY
 case "${1:-quick}" in
 quick)
-    python3 benchmarks/bench_gpu.py --sizes 10 14 18 --ppo-updates 5 >"$OUT/bench_gpu.json" 2>"$OUT/bench_gpu.log"
+    python3 benchmarks/bench_gpu.py --sizes 10 14 18 --max-registers 168 --ppo-updates 5 \
+        >"$OUT/bench_gpu.json" 2>"$OUT/bench_gpu.log"
     cat "$OUT/bench_gpu.json"
     ;;
 ppo)

@@ -44,6 +44,10 @@ def test_trains_a_few_updates_on_the_cpu(env: str) -> None:
     for row in hist:
         for k in ("pg_loss", "v_loss", "entropy", "approx_kl", "clipfrac"):
             assert math.isfinite(row[k]), (k, row)
+        assert row["update_sps"] > 0 and row["sps"] > 0
+    # The cumulative rate is the decisions over the sum of the updates' times (and the reset before them).
+    total = sum(64 / r["update_sps"] for r in hist)
+    assert hist[-1]["sps"] <= 192 / total * (1 + 1e-9)
     init = _initial_agent(mod, out)
     moved = [not torch.equal(a, b) for a, b in zip(init.parameters(), out["agent"].parameters(), strict=True)]
     assert any(moved)
