@@ -10,10 +10,11 @@ approach). A rate is physics steps (row x decision x ``decision_steps``) per sec
 second, best of ``--repeats`` timed blocks after a warm-up step; ``setup_s`` holds the bank's drawing,
 its upload and, for the process's first env, the kernels' compilation (every env of a process shares
 it). The CPU's native vector env at ``--cpu-n`` rows is measured in
-the same run as the reference ratio (its rate is this machine's CPUs'). Parity: the device env on CUDA
-against its host mode (the CPU build of the same thread functions) over ``--parity-steps`` decisions with
-the same actions: the largest differences of the state and the observation, and whether they are equal
-bit for bit. Bank: the host's drawing rate of the refill (episodes/s, one thread, measured with or without
+the same run as the reference ratio (its rate is this machine's CPUs'). Parity, on every registered id
+(``--parity-ids``): the device env on CUDA against its host mode (the CPU build of the same thread
+functions) over ``--parity-steps`` decisions of ``--parity-rows`` rows with the same episodes and actions:
+the largest differences of the observations, rewards and final state, and whether they are equal bit for
+bit. Bank: the host's drawing rate of the refill (episodes/s, one thread, measured with or without
 a device) and the decisions/s it feeds (episodes/s x decisions per episode: above that rate a thread
 refill substitutes), and at each size the bank's statistics after the timed blocks (substitutes among
 the episodes started). Kernels: each kernel's registers and local memory on the device, and the blocks
@@ -46,6 +47,7 @@ from planetnav_env.device.bank import EpisodeBank
 from planetnav_env.device.draw_pool import DrawPool
 from planetnav_env.device.vector_env import THREADS_PER_BLOCK, DeviceVectorEnv, cuda_unavailable_reason
 from planetnav_env.envs.env import resolve_config
+from planetnav_env.envs.registration import ENV_IDS
 from planetnav_train.provenance import cpu_model
 
 IDS = ("planetnav/Cruise-Target-v1", "planetnav/Cruise-TorqueControl-v1", "planetnav/MarsApproach-Tasking-v1")
@@ -133,31 +135,57 @@ def cpu_rate(env_id: str, n: int, decisions: int, repeats: int) -> dict:
     return {"n": n, "decisions_per_s": best, "physics_steps_per_s": best * k}
 
 
+def row_differences(gpu: np.ndarray, cpu: np.ndarray, rows_axes: int = 1) -> dict:
+    """How far ``gpu`` is from ``cpu`` (the same shape; the first ``rows_axes`` axes count rows or steps,
+    the others name a quantity): over the entries finite in both, the largest absolute difference, the
+    largest difference relative to the quantity's scale (its largest ``|cpu|`` over the rows: a value
+    near zero does not inflate it), the largest and 99th-percentile difference relative to the entry's own
+    ``|cpu|``, how many entries differ, and whether the same entries are finite."""
+    a, b = np.asarray(gpu, float), np.asarray(cpu, float)
+    both = np.isfinite(a) & np.isfinite(b)
+    axes = tuple(range(rows_axes))
+    scale = np.broadcast_to(np.nanmax(np.where(both, np.abs(b), 0.0), axis=axes, keepdims=True), b.shape)
+    d = np.abs(a - b)[both]
+    rel = d / np.maximum(np.abs(b[both]), 1e-300)
+    return {"max_abs": float(d.max(initial=0.0)),
+            "max_scaled": float((d / np.maximum(scale[both], 1e-300)).max(initial=0.0)),
+            "max_rel": float(rel.max(initial=0.0)),
+            "rel_p99": float(np.quantile(rel, 0.99)) if rel.size else 0.0,
+            "entries_differing": f"{int((d > 0).sum())} of {d.size}",
+            "finite_pattern_equal": bool(np.array_equal(np.isfinite(a), np.isfinite(b)))}  # fmt: skip
+
+
 def parity(env_id: str, n: int, steps: int) -> dict:
-    """The device env on CUDA against its host mode, the same actions: largest differences."""
+    """The device env on CUDA against its host mode (the CPU build of the same thread functions), the same
+    episodes and actions: :func:`row_differences` of the observations and rewards of every decision and of
+    the final state."""
     import torch
 
-    # A bank as deep as the run: both play the CPU env's episodes, no refill needed.
-    deep = {"bank_size": n * (steps + 2), "refill": "off", "bank_workers": 0}
-    envs = {d: DeviceVectorEnv(env_id, n, device=d, **deep) for d in ("cuda", "cpu")}
+    # Both cycle the same 4 N episodes without a refill: the same sequence whatever the episodes' lengths.
+    same = {"bank_size": 4 * n, "refill": "off", "bank_workers": 0}
+    envs = {d: DeviceVectorEnv(env_id, n, device=d, **same) for d in ("cuda", "cpu")}
     for e in envs.values():
         e.reset(seed=1)
     rng = np.random.default_rng(2)
-    worst = {"obs_abs": 0.0, "obs_rel": 0.0}
+    obs: dict = {d: [] for d in envs}
+    reward: dict = {d: [] for d in envs}
     for _ in range(steps):
         a = _torch_actions(envs["cpu"], rng, torch)
-        o = {d: e.step(a.to(e.device))[0].cpu().numpy() for d, e in envs.items()}
-        diff = np.abs(o["cuda"].astype(float) - o["cpu"])
-        worst["obs_abs"] = max(worst["obs_abs"], float(np.nanmax(diff)))
-        worst["obs_rel"] = max(worst["obs_rel"], float(np.nanmax(diff / np.maximum(np.abs(o["cpu"]), 1e-30))))
+        for d, e in envs.items():
+            o, r = e.step(a.to(e.device))[:2]
+            obs[d].append(o.cpu().numpy().copy())
+            reward[d].append(r.cpu().numpy().copy())
     sg, sc = envs["cuda"].state_arrays(), envs["cpu"].state_arrays()
-    out = {"steps": steps, "rows": n, **worst}
-    for k in ("f", "p", "obs"):
-        d = np.abs(sg[k] - sc[k])
-        out[f"{k}_max_abs"] = float(np.nanmax(d))
-        out[f"{k}_max_rel"] = float(np.nanmax(d / np.maximum(np.abs(sc[k]), 1e-30)))
-    out["i_equal"] = bool(np.array_equal(sg["i"], sc["i"]))
+    # (decisions, rows, quantity): a quantity's scale is over the decisions and rows
+    out = {"steps": steps, "rows": n,
+           "observation": row_differences(np.stack(obs["cuda"]), np.stack(obs["cpu"]), 2),
+           "reward": row_differences(np.stack(reward["cuda"]), np.stack(reward["cpu"]), 2)}  # fmt: skip
+    for k in ("f", "p"):
+        out[f"state_{k}"] = row_differences(sg[k], sc[k])
+    out["state_i_equal"] = bool(np.array_equal(sg["i"], sc["i"]))
     out["bit_for_bit"] = all(sg[k].tobytes() == sc[k].tobytes() for k in sg)
+    for e in envs.values():
+        e.close()
     return out
 
 
@@ -233,6 +261,9 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--bank", type=int, default=1 << 14, help="bank size (at most N)")
     p.add_argument("--cpu-n", type=int, default=1024, help="rows of the CPU reference (0: none)")
     p.add_argument("--parity-steps", type=int, default=200, help="decisions of the parity check (0: none)")
+    p.add_argument("--parity-rows", type=int, default=32, help="rows of the parity check")
+    p.add_argument("--parity-ids", choices=("all", "bench"), default="all",
+                   help="parity on every registered id, or on the three timed ones")  # fmt: skip
     p.add_argument("--skip-ppo", action="store_true")
     p.add_argument("--ppo-n", type=int, default=1 << 14)
     p.add_argument("--ppo-updates", type=int, default=5)
@@ -258,9 +289,9 @@ def main(argv: list[str] | None = None) -> int:
     out: dict = {"measured": True, "device": torch.cuda.get_device_name(0), "cpu": cpu_model(),
                  "torch": torch.__version__, "env_only": {}, "cpu_reference": {}, "parity": {},
                  "bank_draw": bank_draw}  # fmt: skip
+    for env_id in (ENV_IDS if args.parity_ids == "all" else IDS) if args.parity_steps else ():
+        _stage(out["parity"], env_id, parity, env_id, args.parity_rows, args.parity_steps)
     for env_id in IDS:
-        if args.parity_steps:
-            _stage(out["parity"], env_id, parity, env_id, 64, args.parity_steps)
         for s in args.sizes:
             _stage(out["env_only"].setdefault(env_id, {}), f"2^{s}", device_rate, env_id, 1 << s, args)
         if args.cpu_n:
