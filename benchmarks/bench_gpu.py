@@ -45,6 +45,7 @@ import planetnav_env  # noqa: F401
 from planetnav_env.core.batch import BatchCore
 from planetnav_env.device.bank import EpisodeBank
 from planetnav_env.device.draw_pool import DrawPool
+from planetnav_env.device.parity import compare_runs
 from planetnav_env.device.vector_env import THREADS_PER_BLOCK, DeviceVectorEnv, cuda_unavailable_reason
 from planetnav_env.envs.env import resolve_config
 from planetnav_env.envs.registration import ENV_IDS
@@ -135,30 +136,10 @@ def cpu_rate(env_id: str, n: int, decisions: int, repeats: int) -> dict:
     return {"n": n, "decisions_per_s": best, "physics_steps_per_s": best * k}
 
 
-def row_differences(gpu: np.ndarray, cpu: np.ndarray, rows_axes: int = 1) -> dict:
-    """How far ``gpu`` is from ``cpu`` (the same shape; the first ``rows_axes`` axes count rows or steps,
-    the others name a quantity): over the entries finite in both, the largest absolute difference, the
-    largest difference relative to the quantity's scale (its largest ``|cpu|`` over the rows: a value
-    near zero does not inflate it), the largest and 99th-percentile difference relative to the entry's own
-    ``|cpu|``, how many entries differ, and whether the same entries are finite."""
-    a, b = np.asarray(gpu, float), np.asarray(cpu, float)
-    both = np.isfinite(a) & np.isfinite(b)
-    axes = tuple(range(rows_axes))
-    scale = np.broadcast_to(np.nanmax(np.where(both, np.abs(b), 0.0), axis=axes, keepdims=True), b.shape)
-    d = np.abs(a - b)[both]
-    rel = d / np.maximum(np.abs(b[both]), 1e-300)
-    return {"max_abs": float(d.max(initial=0.0)),
-            "max_scaled": float((d / np.maximum(scale[both], 1e-300)).max(initial=0.0)),
-            "max_rel": float(rel.max(initial=0.0)),
-            "rel_p99": float(np.quantile(rel, 0.99)) if rel.size else 0.0,
-            "entries_differing": f"{int((d > 0).sum())} of {d.size}",
-            "finite_pattern_equal": bool(np.array_equal(np.isfinite(a), np.isfinite(b)))}  # fmt: skip
-
-
 def parity(env_id: str, n: int, steps: int) -> dict:
     """The device env on CUDA against its host mode (the CPU build of the same thread functions), the same
-    episodes and actions: :func:`row_differences` of the observations and rewards of every decision and of
-    the final state."""
+    episodes and actions over ``steps`` decisions of ``n`` rows
+    (:func:`planetnav_env.device.parity.compare_runs`)."""
     import torch
 
     # Both cycle the same 4 N episodes without a refill: the same sequence whatever the episodes' lengths.
@@ -167,26 +148,19 @@ def parity(env_id: str, n: int, steps: int) -> dict:
     for e in envs.values():
         e.reset(seed=1)
     rng = np.random.default_rng(2)
-    obs: dict = {d: [] for d in envs}
-    reward: dict = {d: [] for d in envs}
+    runs: dict = {d: {"obs": [], "reward": []} for d in envs}
     for _ in range(steps):
         a = _torch_actions(envs["cpu"], rng, torch)
         for d, e in envs.items():
             o, r = e.step(a.to(e.device))[:2]
-            obs[d].append(o.cpu().numpy().copy())
-            reward[d].append(r.cpu().numpy().copy())
-    sg, sc = envs["cuda"].state_arrays(), envs["cpu"].state_arrays()
-    # (decisions, rows, quantity): a quantity's scale is over the decisions and rows
-    out = {"steps": steps, "rows": n,
-           "observation": row_differences(np.stack(obs["cuda"]), np.stack(obs["cpu"]), 2),
-           "reward": row_differences(np.stack(reward["cuda"]), np.stack(reward["cpu"]), 2)}  # fmt: skip
-    for k in ("f", "p"):
-        out[f"state_{k}"] = row_differences(sg[k], sc[k])
-    out["state_i_equal"] = bool(np.array_equal(sg["i"], sc["i"]))
-    out["bit_for_bit"] = all(sg[k].tobytes() == sc[k].tobytes() for k in sg)
-    for e in envs.values():
+            runs[d]["obs"].append(o.cpu().numpy().copy())
+            runs[d]["reward"].append(r.cpu().numpy().copy())
+    for d, e in envs.items():
+        state = e.state_arrays()
+        runs[d] = {"obs": np.stack(runs[d]["obs"]), "reward": np.stack(runs[d]["reward"]),
+                   **{k: state[k] for k in ("f", "p", "i")}}  # fmt: skip
         e.close()
-    return out
+    return {"steps": steps, "rows": n, **compare_runs(runs["cuda"], runs["cpu"])}
 
 
 def ppo_rate(args, device: str = "cuda") -> dict:
