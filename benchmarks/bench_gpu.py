@@ -21,9 +21,11 @@ the episodes started). Kernels: each kernel's registers and local memory on the 
 per SM that the occupancy rule (:mod:`planetnav_env.device.occupancy`) and the driver each give;
 ``--max-registers R ...`` times the target-choice id at the largest size again with the registers capped.
 PPO: baselines/ppo_device.py in this process (the compiled kernels reused), its updates' own rate, the
-first update's apart. Each stage's result goes to stderr as it finishes, and a failing stage records its
-error in the JSON instead of ending the run. Without a CUDA device it prints ``{"measured": false,
-"reason": ..., "bank_draw": ...}`` and exits 0: no device figure is claimed.
+first update's apart. The stages run in the order of what a short loan must not miss (the target-choice
+rates, the parity on the timed ids, the PPO, the other ids' rates, then the rest); each one's result goes
+to stderr as it finishes, and a failing stage records its error in the JSON instead of ending the run.
+Without a CUDA device it prints ``{"measured": false, "reason": ..., "bank_draw": ...}`` and exits 0: no
+device figure is claimed.
 """
 
 from __future__ import annotations
@@ -221,7 +223,7 @@ def _stage(out: dict, key: str, fn, *args) -> None:
     t = time.perf_counter()
     try:
         out[key] = fn(*args)
-    except Exception as exc:  # recorded in the JSON with its traceback
+    except (Exception, SystemExit) as exc:  # recorded in the JSON with its traceback
         out[key] = {"error": repr(exc), "traceback": traceback.format_exc()[-3000:]}
     print(json.dumps({key: out[key], "stage_s": round(time.perf_counter() - t, 1)}, default=str),
           file=sys.stderr, flush=True)  # fmt: skip
@@ -252,9 +254,9 @@ def main(argv: list[str] | None = None) -> int:
                    help="processes that draw the bank (default: the CPUs)")  # fmt: skip
     args = p.parse_args(argv)
     workers = sorted({1, args.bank_workers})
-    bank_draw = {env_id: [bank_draw_rate(env_id, w, 256 * w) for w in workers] for env_id in IDS}
     why = cuda_unavailable_reason()
     if why is not None:
+        bank_draw = {env_id: [bank_draw_rate(env_id, w, 256 * w) for w in workers] for env_id in IDS}
         print(json.dumps({"measured": False, "reason": f"not measured: no CUDA device ({why})",
                           "cpu": cpu_model(), "bank_draw": bank_draw}, indent=1))  # fmt: skip
         return 0
@@ -262,20 +264,31 @@ def main(argv: list[str] | None = None) -> int:
 
     out: dict = {"measured": True, "device": torch.cuda.get_device_name(0), "cpu": cpu_model(),
                  "torch": torch.__version__, "env_only": {}, "cpu_reference": {}, "parity": {},
-                 "bank_draw": bank_draw}  # fmt: skip
-    for env_id in (ENV_IDS if args.parity_ids == "all" else IDS) if args.parity_steps else ():
+                 "bank_draw": {}}  # fmt: skip
+    # In the order of what a short loan must not miss (each stage is in the log when it finishes): the
+    # target-choice rates (the first stage compiles the kernels and the CPU core), the parity on the
+    # timed ids, the PPO's rate, the other timed ids, then what can wait.
+    for s in args.sizes:
+        _stage(out["env_only"].setdefault(IDS[0], {}), f"2^{s}", device_rate, IDS[0], 1 << s, args)
+    parity_ids = [i for i in IDS if args.parity_steps]
+    parity_ids += [i for i in ENV_IDS if args.parity_ids == "all" and args.parity_steps and i not in IDS]
+    for env_id in parity_ids[: len(IDS)]:
         _stage(out["parity"], env_id, parity, env_id, args.parity_rows, args.parity_steps)
-    for env_id in IDS:
+    if not args.skip_ppo:
+        _stage(out, "ppo", ppo_rate, args)
+    for env_id in IDS[1:]:
         for s in args.sizes:
             _stage(out["env_only"].setdefault(env_id, {}), f"2^{s}", device_rate, env_id, 1 << s, args)
-        if args.cpu_n:
-            _stage(out["cpu_reference"], env_id, cpu_rate, env_id, args.cpu_n, args.decisions, args.repeats)
+    for env_id in IDS if args.cpu_n else ():
+        _stage(out["cpu_reference"], env_id, cpu_rate, env_id, args.cpu_n, args.decisions, args.repeats)
     _stage(out, "kernels", kernel_report)
     capped = out.setdefault("max_registers", {})
     for cap in args.max_registers:
         _stage(capped, str(cap), device_rate, IDS[0], 1 << max(args.sizes), args, cap)
-    if not args.skip_ppo:
-        _stage(out, "ppo", ppo_rate, args)
+    for env_id in IDS:
+        _stage(out["bank_draw"], env_id, lambda e: [bank_draw_rate(e, w, 256 * w) for w in workers], env_id)
+    for env_id in parity_ids[len(IDS) :]:
+        _stage(out["parity"], env_id, parity, env_id, args.parity_rows, args.parity_steps)
     print(json.dumps(out, indent=1, default=str))
     return 0
 

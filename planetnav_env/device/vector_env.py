@@ -144,6 +144,10 @@ class _Host:
     def autoreset(self, prm, st, bank, slots, mask, scratch) -> None:
         R.autoreset_rows(prm, st, bank, slots, mask, scratch)
 
+    def kernel_registers(self) -> dict[str, int]:
+        """No CUDA kernels in host mode."""
+        return {}
+
 
 class _Cuda:
     """CUDA mode: torch tensors on the device, read by numba-cuda without a copy; the kernels launched
