@@ -13,7 +13,12 @@ device (torch tensors, stepped by the CUDA entry points of :mod:`planetnav_env.c
 * :mod:`planetnav_env.device.blocks`: the observation blocks the CPU computes in Python after the compiled
   step (``since_measured``, ``image_log``, ``residual_log``, ``position_correlation``), as masked torch
   operations;
-* :mod:`planetnav_env.device.vector_env`: :class:`~planetnav_env.device.vector_env.DeviceVectorEnv`.
+* :mod:`planetnav_env.device.vector_env`: :class:`~planetnav_env.device.vector_env.DeviceVectorEnv`;
+* :mod:`planetnav_env.device.cuda_kernels`: the autoreset kernel, and the process's one dispatcher of each
+  kernel;
+* :mod:`planetnav_env.device.kernel_resources` and :mod:`planetnav_env.device.occupancy`: what the kernels
+  cost a multiprocessor (registers, spills, from ``ptxas`` without a GPU) and the occupancy that allows;
+* :mod:`planetnav_env.device.parity`: the GPU-against-CPU comparison and its stated tolerance.
 
 Nothing here imports torch or numba-cuda at import time of the package: the modules that need them import
 them themselves (torch comes with the ``[train]`` and ``[gpu]`` extras, numba-cuda with ``[gpu]``).

@@ -49,7 +49,8 @@ host mode: numpy state viewed by torch CPU tensors, the thread functions run row
 rows equal the CPU vector env's bit for bit, autoresets included, for every row that has started no
 substitute (``tests/env/test_device_env.py``). On a GPU the numbers are expected to differ from the
 CPU's in the last bits where NVVM fuses a multiply and an add or where libdevice's functions differ from
-glibc's (docs/architecture.md, "Two targets"); only a device can measure by how much.
+glibc's (docs/architecture.md, "Two targets"): :mod:`planetnav_env.device.parity` states the tolerance
+the benchmark's parity check holds them to on a device.
 """
 
 from __future__ import annotations
