@@ -42,7 +42,10 @@ PY
 # A second process compiles it into the cache while the benchmark compiles the bank's drawing and the CUDA
 # kernels, so the later stages find it done. Its output goes to a file, not to this script's pipes.
 python3 - >"$OUT/warm_cpu_cache.log" 2>&1 <<'PY' &
+import time
 import warnings
+
+start = time.perf_counter()
 
 import gymnasium as gym
 import numpy as np
@@ -59,7 +62,7 @@ env.close()
 vec = gym.make_vec("planetnav/Cruise-Target-v1", num_envs=2)
 vec.reset(seed=0)
 vec.step(np.zeros(2, np.int64))
-print("CPU side compiled into numba's cache")
+print(f"CPU side compiled into numba's cache in {time.perf_counter() - start:.0f} s")
 PY
 warm=$!
 case "${1:-quick}" in
