@@ -115,7 +115,7 @@ def bank_draw_rate(env_id: str, workers: int, episodes: int, repeats: int = 3) -
     finally:
         if pool is not None:
             pool.close()
-    decisions = -(-cfg.episode_steps // cfg.decision_steps)
+    decisions = cfg.episode_decisions
     return {"workers": workers, "episodes_per_s": rate, "decisions_per_episode": decisions,
             "feeds_decisions_per_s": rate * decisions}  # fmt: skip
 
@@ -138,31 +138,33 @@ def cpu_rate(env_id: str, n: int, decisions: int, repeats: int) -> dict:
     return {"n": n, "decisions_per_s": best, "physics_steps_per_s": best * k}
 
 
+def record_run(env_id: str, n: int, steps: int, device: str) -> dict:
+    """The device env on ``device`` for ``steps`` decisions of ``n`` rows, random actions from a fixed
+    seed: the observations and rewards of every decision and the final state (``f``, ``p``, ``i``), as
+    :func:`planetnav_env.device.parity.compare_runs` takes them. The same arguments give the same episodes
+    and actions on any device."""
+    import torch
+
+    # 4 N episodes cycled without a refill: the same sequence whatever the episodes' lengths.
+    env = DeviceVectorEnv(env_id, n, device=device, bank_size=4 * n, refill="off", bank_workers=0)
+    env.reset(seed=1)
+    rng = np.random.default_rng(2)
+    obs, reward = [], []
+    for _ in range(steps):
+        o, r = env.step(_torch_actions(env, rng, torch))[:2]
+        obs.append(o.cpu().numpy().copy())
+        reward.append(r.cpu().numpy().copy())
+    state = env.state_arrays()
+    env.close()
+    return {"obs": np.stack(obs), "reward": np.stack(reward), **{k: state[k] for k in ("f", "p", "i")}}
+
+
 def parity(env_id: str, n: int, steps: int) -> dict:
     """The device env on CUDA against its host mode (the CPU build of the same thread functions), the same
     episodes and actions over ``steps`` decisions of ``n`` rows
     (:func:`planetnav_env.device.parity.compare_runs`)."""
-    import torch
-
-    # Both cycle the same 4 N episodes without a refill: the same sequence whatever the episodes' lengths.
-    same = {"bank_size": 4 * n, "refill": "off", "bank_workers": 0}
-    envs = {d: DeviceVectorEnv(env_id, n, device=d, **same) for d in ("cuda", "cpu")}
-    for e in envs.values():
-        e.reset(seed=1)
-    rng = np.random.default_rng(2)
-    runs: dict = {d: {"obs": [], "reward": []} for d in envs}
-    for _ in range(steps):
-        a = _torch_actions(envs["cpu"], rng, torch)
-        for d, e in envs.items():
-            o, r = e.step(a.to(e.device))[:2]
-            runs[d]["obs"].append(o.cpu().numpy().copy())
-            runs[d]["reward"].append(r.cpu().numpy().copy())
-    for d, e in envs.items():
-        state = e.state_arrays()
-        runs[d] = {"obs": np.stack(runs[d]["obs"]), "reward": np.stack(runs[d]["reward"]),
-                   **{k: state[k] for k in ("f", "p", "i")}}  # fmt: skip
-        e.close()
-    return {"steps": steps, "rows": n, **compare_runs(runs["cuda"], runs["cpu"])}
+    gpu, cpu = (record_run(env_id, n, steps, d) for d in ("cuda", "cpu"))
+    return {"steps": steps, "rows": n, **compare_runs(gpu, cpu)}
 
 
 def ppo_rate(args, device: str = "cuda") -> dict:

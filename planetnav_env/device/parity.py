@@ -58,7 +58,10 @@ def compare_runs(gpu: dict, cpu: dict) -> dict:
     obs_ok = bool(np.all(np.abs(o_g - o_c)[both] <= tol["observation"] * np.maximum(np.abs(o_c[both]), 1.0)))
     diag = np.abs(np.diagonal(cpu["p"], axis1=1, axis2=2))
     p_scale = np.sqrt(diag[:, :, None] * diag[:, None, :])
-    p_ok = bool(np.all(np.nan_to_num(np.abs(gpu["p"] - cpu["p"]), nan=np.inf) <= tol["covariance"] * p_scale))
+    p_off = np.nan_to_num(np.abs(gpu["p"] - cpu["p"]), nan=np.inf) / np.maximum(p_scale, 1e-300)
+    # the covariance's largest difference in the tolerance's own terms
+    out["state_p"]["max_of_sqrt_pii_pjj"] = float(p_off.max(initial=0.0))
+    p_ok = bool(np.all(p_off <= tol["covariance"]))
     out["within_tolerance"] = {
         "observation": obs_ok and out["observation"]["finite_pattern_equal"],
         "reward": out["reward"]["max_scaled"] <= tol["reward"] and out["reward"]["finite_pattern_equal"],

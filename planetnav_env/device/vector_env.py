@@ -70,6 +70,7 @@ from planetnav_env.device import rows as R
 from planetnav_env.device.bank import BankRows, EpisodeBank, global_episode
 from planetnav_env.device.blocks import ObservationBlocks
 from planetnav_env.device.draw_pool import DrawPool
+from planetnav_env.device.occupancy import SM_90
 from planetnav_env.device.refill import DEFAULT_CHUNK, BankRefill, check_refill
 from planetnav_env.envs.env import resolve_config
 from planetnav_env.envs.spaces import action_space, observation_space
@@ -86,12 +87,14 @@ THREADS_PER_BLOCK = 128
 def check_launch(threads_per_block: int, max_registers: int | None) -> None:
     """Raise :class:`InvalidParameterError` naming a block size or register cap no CUDA device takes (a block
     size the kernels' registers do not fit is named at the first launch, when they are known)."""
-    require_count("threads_per_block", threads_per_block)
-    if threads_per_block > 1024:
-        raise InvalidParameterError(f"threads_per_block must be at most 1024, got {threads_per_block}")
-    if max_registers is not None and not 16 <= require_count("max_registers", max_registers) <= 255:
+    most_threads, most_regs = SM_90.max_threads_per_block, SM_90.max_regs_per_thread
+    if require_count("threads_per_block", threads_per_block) > most_threads:
         raise InvalidParameterError(
-            f"max_registers must be in [16, 255] (or None: no cap), got {max_registers}"
+            f"threads_per_block must be at most {most_threads}, got {threads_per_block}"
+        )
+    if max_registers is not None and not 16 <= require_count("max_registers", max_registers) <= most_regs:
+        raise InvalidParameterError(
+            f"max_registers must be in [16, {most_regs}] (or None: no cap), got {max_registers}"
         )
 
 

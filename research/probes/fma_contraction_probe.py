@@ -30,10 +30,6 @@ from pathlib import Path
 
 import numpy as np
 
-#: The bench's three ids (benchmarks/bench_gpu.py; not imported from it: it imports planetnav, and the
-#: contracted run must wrap numba.njit before planetnav is imported).
-IDS = ("planetnav/Cruise-Target-v1", "planetnav/Cruise-TorqueControl-v1", "planetnav/MarsApproach-Tasking-v1")
-
 
 def _contract_everything() -> None:
     """Wrap numba.njit so that every function planetnav compiles gets LLVM's contraction flag (and no
@@ -51,24 +47,30 @@ def _contract_everything() -> None:
     numba.njit = njit
 
 
+def _bench():
+    """benchmarks/bench_gpu.py, imported (after the contraction's wrapper, if any: it imports planetnav)."""
+    sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
+    import bench_gpu
+
+    return bench_gpu
+
+
 def run(mode: str, out: Path, rows: int, decisions: int) -> None:
-    """One process: the three ids' runs, saved to ``out`` (``.npz``)."""
+    """One process: the bench's parity run (``bench_gpu.record_run``) of its three ids in host mode, saved
+    to ``out`` (``.npz``). The shipped build saves its banks; the contracted one plays them."""
     if mode == "contract":
         _contract_everything()
-    import gymnasium as gym
-    import torch
-
-    from planetnav_env.device import vector_env as V
+    bench = _bench()
     from planetnav_env.device.bank import BankRows, EpisodeBank
 
     saved: dict[str, np.ndarray] = {}
     bank_file = out.with_name("bank.npz")
     loaded = dict(np.load(bank_file)) if mode == "contract" else None
-    for env_id in IDS:
+    original = EpisodeBank.for_vector_env
+    for env_id in bench.IDS:
         key = env_id.split("/")[1]
-        original = EpisodeBank.for_vector_env
 
-        def for_vector_env(*args, key=key, original=original, **kw):
+        def for_vector_env(*args, key=key, **kw):
             bank = original(*args, **kw)
             for name in BankRows._fields:
                 if loaded is None:
@@ -79,25 +81,10 @@ def run(mode: str, out: Path, rows: int, decisions: int) -> None:
 
         EpisodeBank.for_vector_env = for_vector_env
         try:
-            deep = rows * (decisions + 2)  # every row plays its own episodes: no refill needed
-            env = V.DeviceVectorEnv(env_id, rows, device="cpu", bank_size=deep, refill="off")
-            env.reset(seed=1)
+            recorded = bench.record_run(env_id, rows, decisions, "cpu")
         finally:
             EpisodeBank.for_vector_env = original
-        rng, space = np.random.default_rng(2), env.single_action_space
-        obs, reward = [], []
-        for _ in range(decisions):
-            if isinstance(space, gym.spaces.Discrete):
-                a = torch.as_tensor(rng.integers(0, space.n, rows))
-            else:
-                a = torch.as_tensor(rng.uniform(-1, 1, (rows, *space.shape)).astype(np.float32))
-            o, r = env.step(a)[:2]
-            obs.append(o.numpy().copy())
-            reward.append(r.numpy().copy())
-        saved[f"obs_{key}"], saved[f"reward_{key}"] = np.stack(obs), np.stack(reward)
-        for name, arr in env.state_arrays().items():
-            saved[f"state_{key}_{name}"] = np.asarray(arr).copy()
-        env.close()
+        saved.update({f"{name}_{key}": a for name, a in recorded.items()})
     if mode == "plain":
         np.savez(bank_file, **{k: v for k, v in saved.items() if k.startswith("bank_")})
     np.savez(out, **{k: v for k, v in saved.items() if not k.startswith("bank_")})
@@ -159,12 +146,11 @@ def main(argv: list[str] | None = None) -> int:
     from planetnav_env.device.parity import compare_runs
 
     report: dict = {"rows": args.rows, "decisions": args.decisions}
-    for env_id in IDS:
+    for env_id in _bench().IDS:
         key = env_id.split("/")[1]
         # contracted in the place of the GPU, shipped in the place of the CPU: the bench's comparison
         runs = {
-            m: {"obs": d[f"obs_{key}"], "reward": d[f"reward_{key}"],
-                **{k: d[f"state_{key}_{k}"] for k in ("f", "p", "i")}}
+            m: {k: d[f"{k}_{key}"] for k in ("obs", "reward", "f", "p", "i")}
             for m, d in (("contract", contract), ("plain", plain))
         }  # fmt: skip
         names = _column_names(env_id)

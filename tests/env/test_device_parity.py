@@ -83,7 +83,10 @@ def test_covariance_tolerance_is_the_entrys_own_scale() -> None:
     gpu = _copy(cpu)
     s = np.sqrt(cpu["p"][2, 1, 1] * cpu["p"][2, 4, 4])
     gpu["p"][2, 1, 4] += 0.5 * PARITY_TOLERANCE["covariance"] * s
-    assert compare_runs(gpu, cpu)["within_tolerance"]["covariance"]
+    out = compare_runs(gpu, cpu)
+    assert out["within_tolerance"]["covariance"]
+    half = 0.5 * PARITY_TOLERANCE["covariance"]
+    assert out["state_p"]["max_of_sqrt_pii_pjj"] == pytest.approx(half, rel=1e-6)
     gpu["p"][2, 1, 4] += 1.0 * PARITY_TOLERANCE["covariance"] * s
     assert not compare_runs(gpu, cpu)["within_tolerance"]["covariance"]
 
