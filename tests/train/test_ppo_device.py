@@ -1,7 +1,8 @@
 """baselines/ppo_device.py on the CPU (CI has no GPU): the device loop trains on the native vector env and
 on the device env's host mode for a few updates, with finite losses, a policy that moved, and the suite's
-evaluation computed; it shares the single-file PPO's formulas instead of copying them; asked for CUDA
-without one, it says what is missing."""
+evaluation computed, the host mode's agent equal to the native env's weight for weight; it shares the
+single-file PPO's formulas instead of copying them; asked for CUDA without one, it says what is
+missing."""
 
 from __future__ import annotations
 
@@ -34,11 +35,22 @@ def _initial_agent(mod, out: dict):
     return mod.single.Agent(first.shape[1], int(out["agent"].actor[-1].out_features))
 
 
-@pytest.mark.parametrize("env", ["native", "host"])
-def test_trains_a_few_updates_on_the_cpu(env: str) -> None:
+@pytest.fixture(scope="module")
+def trained() -> dict[str, dict]:
+    """The tiny run on each CPU env: the native vector env (evaluated on 2 seeds) and the host mode, its
+    bank refilled inline (a refill thread that falls behind hands out substitutes: another run)."""
     mod = _module()
-    evals = ["--eval-episodes", "2"] if env == "native" else ["--eval-episodes", "0"]
-    out = mod.main([*TINY, "--env", env, *evals])
+    host = ["--env", "host", "--refill", "inline", "--eval-episodes", "0"]
+    return {
+        "native": mod.main([*TINY, "--env", "native", "--eval-episodes", "2"]),
+        "host": mod.main([*TINY, *host]),
+    }
+
+
+@pytest.mark.parametrize("env", ["native", "host"])
+def test_trains_a_few_updates_on_the_cpu(env: str, trained: dict[str, dict]) -> None:
+    mod = _module()
+    out = trained[env]
     hist = out["history"]
     assert len(hist) == 3 and hist[-1]["decisions"] == 192
     for row in hist:
@@ -54,6 +66,18 @@ def test_trains_a_few_updates_on_the_cpu(env: str) -> None:
     if env == "native":
         assert out["J"].shape == (2,) and (out["J"] > 0).all()
         assert math.isfinite(out["score"])
+
+
+def test_the_host_mode_trains_the_native_envs_policy(trained: dict[str, dict]) -> None:
+    """The host mode's rows (bank, autoreset, torch views) equal the native env's, so the same seeds train
+    the same agent, weight for weight, and log the same losses."""
+    native, host = trained["native"]["agent"], trained["host"]["agent"]
+    for (name, a), b in zip(native.named_parameters(), host.parameters(), strict=True):
+        assert torch.equal(a, b), name
+    keys = ("pg_loss", "v_loss", "entropy", "approx_kl", "episode_return")
+    assert [[r[k] for k in keys] for r in trained["native"]["history"]] == [
+        [r[k] for k in keys] for r in trained["host"]["history"]
+    ]
 
 
 def test_shares_the_single_file_formulas_and_stays_short() -> None:
