@@ -1,6 +1,7 @@
 """baselines/ppo_single_file.py: the single-file PPO runs end to end on the native vector env (two tiny
 updates, three short evaluation episodes), changes its policy, prints a finite blind-zero score, stays
-within 400 lines, and its evaluation reproduces the suite's stored per-seed values."""
+within 400 lines, its evaluation reproduces the suite's stored per-seed values, and its GAE and update equal
+Stable-Baselines3's PPO on SB3's own rollout."""
 
 from __future__ import annotations
 
@@ -106,3 +107,76 @@ def test_evaluation_reproduces_the_stored_blind_winner() -> None:
     cfg = EnvConfig.from_dict(id_options("planetnav/Cruise-Target-v2"), noise_streams="per_step")
     j = _module().evaluate(schedule, cfg, [50_000, 50_001, 50_002])
     assert j.tolist() == rec["agents"][rec["blind_winner"]]["per_seed"][:3]
+
+
+def test_gae_and_update_equal_stable_baselines3s_ppo(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Stable-Baselines3's PPO is the oracle: on SB3's own rollout (short episodes, so it holds episode
+    ends and bootstrapped time limits), the single file's GAE gives SB3's advantages, and its clipped
+    update, from SB3's initial weights with SB3's minibatch order, gives SB3's weights after the update.
+    The suite's PPO and the device PPO (which imports these functions) are then one algorithm."""
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.buffers import RolloutBuffer
+
+    from planetnav_train.config import parse_config
+    from planetnav_train.envs import make_training_env
+
+    mod = _module()
+    torch.set_num_threads(1)
+    T, N, gamma, lam = 16, 8, 0.95, 0.95
+    tc = parse_config({"algo": "ppo", "env_id": "planetnav/Cruise-Target-v2", "n_envs": N, "seed": 0,
+                       "env": {"episode_steps": 40}})  # fmt: skip
+    model = PPO("MlpPolicy", make_training_env(tc, None), n_steps=T, batch_size=32, n_epochs=2, gamma=gamma,
+                gae_lambda=lam, ent_coef=0.01, learning_rate=LR, seed=0, device="cpu")  # fmt: skip
+    seen: dict = {}
+    compute = RolloutBuffer.compute_returns_and_advantage
+
+    def record_gae(self, last_values, dones):
+        seen["last"] = (last_values.clone().flatten(), torch.as_tensor(dones, dtype=torch.float32))
+        return compute(self, last_values, dones)
+
+    sb3_train = model.train
+
+    def record_train():
+        seen["before"] = {k: v.clone() for k, v in model.policy.state_dict().items()}
+        seen["buffer"] = {k: torch.as_tensor(getattr(model.rollout_buffer, k).copy()) for k in
+                          ("observations", "actions", "rewards", "episode_starts", "values", "log_probs",
+                           "advantages", "returns")}  # fmt: skip
+        np.random.seed(7)  # noqa: NPY002 - SB3's minibatches come from numpy's global generator
+        sb3_train()
+
+    monkeypatch.setattr(RolloutBuffer, "compute_returns_and_advantage", record_gae)
+    monkeypatch.setattr(model, "train", record_train)
+    state = np.random.get_state()  # noqa: NPY002
+    try:
+        model.learn(T * N)  # one rollout, one update
+        b = seen["buffer"]
+        assert b["episode_starts"].sum() >= N, "the rollout should hold episode ends"
+        adv, ret = mod.gae(b["rewards"], b["values"], b["episode_starts"], seen["last"][0].reshape(1, -1),
+                           seen["last"][1], gamma, lam)  # fmt: skip
+        torch.testing.assert_close(adv, b["advantages"], rtol=1e-6, atol=1e-6)
+        torch.testing.assert_close(ret, b["returns"], rtol=1e-6, atol=1e-6)
+
+        names = {"critic.0": "mlp_extractor.value_net.0", "critic.2": "mlp_extractor.value_net.2",
+                 "critic.4": "value_net", "actor.0": "mlp_extractor.policy_net.0",
+                 "actor.2": "mlp_extractor.policy_net.2", "actor.4": "action_net"}  # fmt: skip
+        pairs = [(f"{a}.{w}", f"{s}.{w}") for a, s in names.items() for w in ("weight", "bias")]
+        agent = mod.Agent(b["observations"].shape[-1], 3)
+        agent.load_state_dict({ours: seen["before"][theirs] for ours, theirs in pairs})
+        args = mod.parse_args(["--num-envs", str(N), "--num-steps", str(T), "--num-minibatches", "4",
+                               "--update-epochs", "2", "--learning-rate", str(LR)])  # fmt: skip
+        optimizer = torch.optim.Adam(agent.parameters(), lr=LR, eps=1e-5)
+
+        def flat(x: torch.Tensor) -> torch.Tensor:  # SB3's order: row after row (N, T), not (T, N)
+            return x.swapaxes(0, 1).reshape(T * N, *x.shape[2:])
+
+        np.random.seed(7)  # noqa: NPY002
+        mod.ppo_update(agent, optimizer, args, flat(b["observations"]), flat(b["actions"]).long().flatten(),
+                       flat(b["log_probs"]), flat(b["advantages"]), flat(b["returns"]),
+                       lambda: torch.as_tensor(np.random.permutation(T * N)))  # noqa: NPY002  # fmt: skip
+    finally:
+        np.random.set_state(state)  # noqa: NPY002
+    after = model.policy.state_dict()
+    for ours, theirs in pairs:
+        moved = (after[theirs] - seen["before"][theirs]).abs().max().item()
+        assert moved > 1e-4, (theirs, moved)  # every tensor moved, by 100x the tolerance or more
+        torch.testing.assert_close(agent.state_dict()[ours], after[theirs], rtol=0, atol=1e-6, msg=ours)
