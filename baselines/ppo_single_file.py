@@ -329,13 +329,18 @@ def main(argv: list[str] | None = None) -> dict:
     return evaluate_and_score(agent, args, {"agent": agent})
 
 
+def eval_config(args: argparse.Namespace) -> EnvConfig:
+    """The evaluation's environment: the run's id and options, with per-step noise streams (the suite's)."""
+    return EnvConfig.from_dict({**id_options(args.env_id), **env_options(args)}, noise_streams="per_step")
+
+
 def evaluate_and_score(agent: Agent, args: argparse.Namespace, out: dict) -> dict:
     """The suite's evaluation of ``agent`` (on the CPU) and its blind-zero score, added to ``out``."""
     if args.eval_episodes <= 0:
         return out
 
     seed, n = 50_000, args.eval_episodes
-    cfg = EnvConfig.from_dict({**id_options(args.env_id), **env_options(args)}, noise_streams="per_step")
+    cfg = eval_config(args)
     j = evaluate(sampled_policy(agent, seed), cfg, list(range(seed, seed + n)))
     out["J"] = j
     print(f"evaluation: {n} episodes on seeds {seed}..{seed + n - 1}, per-step noise streams, sampled "
@@ -352,7 +357,7 @@ def evaluate_and_score(agent: Agent, args: argparse.Namespace, out: dict) -> dic
     if jr.mean() >= jb.mean():
         print("  note: the best reference is not better than the blind policy here: the scale is inverted")
     s = paired_ratio_ci(jb, jr, j)
-    out.update(score=s["score"], score_lo=s["score_lo"], score_hi=s["score_hi"])
+    out.update(score=s["score"], score_lo=s["score_lo"], score_hi=s["score_hi"], J_blind=jb, J_best=jr)
     print(f"blind-zero score: {s['score']:+.3f} [{s['score_lo']:+.3f}, {s['score_hi']:+.3f}] (95 % paired "
           f"bootstrap over {n} seeds; 0 = best blind, 1 = best reference)")  # fmt: skip
     return out

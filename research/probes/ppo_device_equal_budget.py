@@ -29,9 +29,10 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[2]
+sys.path.insert(0, str(ROOT / "baselines"))  # ppo_device and ppo_single_file, imported where used
 TASK = "Cruise-Target-v2"
-EVAL_SEED = 50_000
-EVAL_SEEDS = list(range(EVAL_SEED, EVAL_SEED + 100))
+#: The suite's evaluation seeds (the single file's: 50,000..50,099).
+EVAL_SEEDS = list(range(50_000, 50_100))
 #: A run's own sampling stream is seeded OWN_STREAM + its training seed.
 OWN_STREAM = 900_000
 
@@ -54,7 +55,6 @@ def train_and_score(env: str, seed: int, total: int) -> dict:
     """One training run and its scores: on the script's own evaluation (the sampling generator seeded
     50,000 for every run: the runs share one stream of draws) and on the run's own stream (seeded
     ``OWN_STREAM + seed``: independent across runs, as each suite run's sampling is)."""
-    sys.path.insert(0, str(ROOT / "baselines"))
     import ppo_device
     import ppo_single_file as single
 
@@ -66,10 +66,9 @@ def train_and_score(env: str, seed: int, total: int) -> dict:
             "--torch-threads", "1"]  # fmt: skip
     out = ppo_device.main(argv)
     args = ppo_device.parse_args(argv)
-    cfg = single.EnvConfig.from_dict(single.id_options(args.env_id), noise_streams="per_step")
-    _, jb, _, jr, _ = single.references(args, cfg, EVAL_SEED, 100)
-    j_own = single.evaluate(single.sampled_policy(out["agent"], OWN_STREAM + seed), cfg, EVAL_SEEDS)
-    own = paired_ratio_ci(jb, jr, j_own)
+    sampled = single.sampled_policy(out["agent"], OWN_STREAM + seed)
+    j_own = single.evaluate(sampled, single.eval_config(args), EVAL_SEEDS)
+    own = paired_ratio_ci(out["J_blind"], out["J_best"], j_own)
     keep = ("score", "score_lo", "score_hi", "train_seconds")
     return {"env": env, "seed": seed, "J": out["J"].tolist(), **{k: out[k] for k in keep},
             "J_own_stream": j_own.tolist(), "score_own_stream": own["score"]}  # fmt: skip
