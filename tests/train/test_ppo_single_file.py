@@ -1,7 +1,8 @@
 """baselines/ppo_single_file.py: the single-file PPO runs end to end on the native vector env (two tiny
 updates, three short evaluation episodes), changes its policy, prints a finite blind-zero score, stays
-within 400 lines, its evaluation reproduces the suite's stored per-seed values, and its GAE and update equal
-Stable-Baselines3's PPO on SB3's own rollout."""
+within 400 lines, its evaluation reproduces the suite's stored per-seed values, its GAE and update equal
+Stable-Baselines3's PPO on SB3's own rollout, and its whole training loop ends with SB3's weights when it
+is given SB3's random draws."""
 
 from __future__ import annotations
 
@@ -24,6 +25,14 @@ LR = 3e-4
 TINY = ["--num-envs", "8", "--num-steps", "16", "--total-timesteps", "256", "--eval-episodes", "3",
         "--episode-steps", "40", "--seed", "0", "--learning-rate", str(LR),
         "--torch-threads", "1"]  # fmt: skip
+#: (the single file's Agent parameter, the same parameter's name in SB3's MlpPolicy)
+SB3_PARAMS = [
+    (f"{ours}.{w}", f"{theirs}.{w}")
+    for ours, theirs in {"critic.0": "mlp_extractor.value_net.0", "critic.2": "mlp_extractor.value_net.2",
+                         "critic.4": "value_net", "actor.0": "mlp_extractor.policy_net.0",
+                         "actor.2": "mlp_extractor.policy_net.2", "actor.4": "action_net"}.items()
+    for w in ("weight", "bias")
+]  # fmt: skip
 SCORE = re.compile(r"^blind-zero score: (\S+) \[(\S+), (\S+)\]", re.M)
 
 
@@ -156,12 +165,8 @@ def test_gae_and_update_equal_stable_baselines3s_ppo(monkeypatch: pytest.MonkeyP
         torch.testing.assert_close(adv, b["advantages"], rtol=1e-6, atol=1e-6)
         torch.testing.assert_close(ret, b["returns"], rtol=1e-6, atol=1e-6)
 
-        names = {"critic.0": "mlp_extractor.value_net.0", "critic.2": "mlp_extractor.value_net.2",
-                 "critic.4": "value_net", "actor.0": "mlp_extractor.policy_net.0",
-                 "actor.2": "mlp_extractor.policy_net.2", "actor.4": "action_net"}  # fmt: skip
-        pairs = [(f"{a}.{w}", f"{s}.{w}") for a, s in names.items() for w in ("weight", "bias")]
         agent = mod.Agent(b["observations"].shape[-1], 3)
-        agent.load_state_dict({ours: seen["before"][theirs] for ours, theirs in pairs})
+        agent.load_state_dict({ours: seen["before"][theirs] for ours, theirs in SB3_PARAMS})
         args = mod.parse_args(["--num-envs", str(N), "--num-steps", str(T), "--num-minibatches", "4",
                                "--update-epochs", "2", "--learning-rate", str(LR)])  # fmt: skip
         optimizer = torch.optim.Adam(agent.parameters(), lr=LR, eps=1e-5)
@@ -176,7 +181,69 @@ def test_gae_and_update_equal_stable_baselines3s_ppo(monkeypatch: pytest.MonkeyP
     finally:
         np.random.set_state(state)  # noqa: NPY002
     after = model.policy.state_dict()
-    for ours, theirs in pairs:
+    for ours, theirs in SB3_PARAMS:
         moved = (after[theirs] - seen["before"][theirs]).abs().max().item()
+        assert moved > 1e-4, (theirs, moved)  # every tensor moved, by 100x the tolerance or more
+        torch.testing.assert_close(agent.state_dict()[ours], after[theirs], rtol=0, atol=1e-6, msg=ours)
+
+
+def test_training_loop_equals_stable_baselines3s_ppo_on_its_draws(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The whole loop against Stable-Baselines3's PPO: rollout, same-step autoreset, bootstrapped time
+    limits, GAE and update, three updates of 8 rows x 16 decisions with 4-decision episodes. Given SB3's
+    initial weights, torch's global generator where SB3's first action draw finds it, and SB3's
+    minibatch order, ``train()`` ends with SB3's weights: the single file trains SB3's policy, and only
+    the random streams tell the two apart."""
+    from stable_baselines3 import PPO
+
+    from planetnav_train.config import parse_config
+    from planetnav_train.envs import make_training_env
+
+    mod = _module()
+    torch.set_num_threads(1)
+    T, N, updates, seed = 16, 8, 3, 3
+    tc = parse_config({"algo": "ppo", "env_id": "planetnav/Cruise-Target-v2", "n_envs": N, "seed": seed,
+                       "env": {"episode_steps": 40}})  # fmt: skip
+    model = PPO("MlpPolicy", make_training_env(tc, None), n_steps=T, batch_size=32, n_epochs=2, gamma=0.95,
+                ent_coef=0.01, learning_rate=LR, seed=seed, device="cpu")  # fmt: skip
+    before = {k: v.clone() for k, v in model.policy.state_dict().items()}
+    at_first_draw: dict = {}
+    collect = model.collect_rollouts
+
+    def record_collect(*a, **kw):
+        at_first_draw.setdefault("torch", torch.get_rng_state())
+        at_first_draw.setdefault("numpy", np.random.get_state())  # noqa: NPY002
+        return collect(*a, **kw)
+
+    monkeypatch.setattr(model, "collect_rollouts", record_collect)
+    state = np.random.get_state()  # noqa: NPY002
+    try:
+        model.learn(T * N * updates)
+        after = model.policy.state_dict()
+
+        class SB3Initialized(mod.Agent):
+            def __init__(self, *a) -> None:
+                super().__init__(*a)
+                self.load_state_dict({ours: before[theirs] for ours, theirs in SB3_PARAMS})
+                torch.set_rng_state(at_first_draw["torch"])  # the initialization above drew from it
+
+        def sb3_order(_rng, _inds):
+            def permutation() -> np.ndarray:  # SB3 flattens (T, N) row after row; the single file t after t
+                k = np.random.permutation(T * N)  # noqa: NPY002 - SB3's minibatches' generator
+                return (k % T) * N + k // T
+
+            return permutation
+
+        monkeypatch.setattr(mod, "Agent", SB3Initialized)
+        monkeypatch.setattr(mod, "shuffler", sb3_order)
+        np.random.set_state(at_first_draw["numpy"])  # noqa: NPY002
+        args = mod.parse_args(["--num-envs", str(N), "--num-steps", str(T), "--num-minibatches", "4",
+                               "--update-epochs", "2", "--learning-rate", str(LR), "--seed", str(seed),
+                               "--episode-steps", "40", "--total-timesteps", str(T * N * updates),
+                               "--eval-episodes", "0"])  # fmt: skip
+        agent = mod.train(args)
+    finally:
+        np.random.set_state(state)  # noqa: NPY002
+    for ours, theirs in SB3_PARAMS:
+        moved = (after[theirs] - before[theirs]).abs().max().item()
         assert moved > 1e-4, (theirs, moved)  # every tensor moved, by 100x the tolerance or more
         torch.testing.assert_close(agent.state_dict()[ours], after[theirs], rtol=0, atol=1e-6, msg=ours)
