@@ -13,16 +13,17 @@ one decision of one env (a vector-env step), which the -v1/-v2 target tasks hold
 physics steps (10 on the cruise: 300,000 decisions = the suite's budget of 3M physics steps). A truncated
 episode is bootstrapped from the value of its last observation, as Stable-Baselines3 does.
 
-Evaluation, the suite's protocol: sampled actions on the evaluation seeds (50,000.., one vector-env row per
-seed) with per-step noise streams; the objective J is each episode's mean true position error [km] over
-its physics steps. The blind-zero score ``(J_blind - J) / (J_blind - J_best)`` (0: the best blind policy,
-1: the best non-privileged reference) and its 95 % paired bootstrap interval come from the suite's scorer
-(:func:`planetnav_train.suite.blind.paired_ratio_ci`), paired with the per-seed values of the best blind
-policy and the best reference stored in docs/tasks_v2_blind.json (100 seeds: ``--eval-episodes`` up to
-100 uses their prefix). With ``--episode-steps``, or beyond the stored seeds, the two references are
-evaluated here on the same seeds by the suite's evaluator
-(:func:`planetnav_train.suite.blind.evaluate_objective`). Training results differ across CPUs (torch
-picks its kernels per CPU); the environment and the stored references do not.
+Evaluation, the suite's protocol: sampled actions on the evaluation seeds (50,000.., one vector-env row
+per seed) with per-step noise streams, each episode's draws seeded with its seed as the suite seeds them
+(so a policy scores here what it scores in the suite, draw for draw); the objective J is each episode's
+mean true position error [km] over its physics steps. The blind-zero score ``(J_blind - J) / (J_blind -
+J_best)`` (0: the best blind policy, 1: the best non-privileged reference) and its 95 % paired bootstrap
+interval come from the suite's scorer (:func:`planetnav_train.suite.blind.paired_ratio_ci`), paired with
+the per-seed values of the best blind policy and the best reference stored in docs/tasks_v2_blind.json
+(100 seeds: ``--eval-episodes`` up to 100 uses their prefix). With ``--episode-steps``, or beyond the
+stored seeds, the two references are evaluated here on the same seeds by the suite's evaluator
+(:func:`planetnav_train.suite.blind.evaluate_objective`). Training results differ across CPUs (torch picks
+its kernels per CPU); the environment and the stored references do not.
 """
 
 from __future__ import annotations
@@ -285,15 +286,18 @@ def evaluate(act, cfg: EnvConfig, seeds: list[int]) -> np.ndarray:
     return np.array([np.mean(row[~np.isnan(row)]) for row in np.array(errs).T])
 
 
-def sampled_policy(agent: Agent, seed: int):
-    """The agent's sampled actions (the suite's protocol for PPO), drawn from one generator seeded ``seed``
-    for all rows at every decision."""
-    gen = torch.Generator().manual_seed(seed)
+def sampled_policy(agent: Agent, seeds: list[int], stream: int = 0):
+    """The agent's sampled actions, row ``r`` drawing from its own generator seeded ``stream + seeds[r]``
+    as a one-row ``Categorical.sample`` draws. ``stream`` 0 gives the suite's draws (its evaluation seeds
+    each episode's sampling with the episode's seed), so a policy scores here what it scores in the suite;
+    another ``stream`` gives other draws of the same policy."""
+    gens = [torch.Generator().manual_seed(stream + int(s)) for s in seeds]
 
     def act(o: np.ndarray) -> np.ndarray:
         with torch.no_grad():
-            probs = torch.softmax(agent.actor(torch.as_tensor(o)), dim=-1)
-        return torch.multinomial(probs, 1, generator=gen).flatten().numpy()
+            probs = Categorical(logits=agent.actor(torch.as_tensor(o))).probs
+        return np.array([torch.multinomial(probs[r : r + 1], 1, True, generator=g).item()
+                         for r, g in enumerate(gens)])  # fmt: skip
 
     return act
 
@@ -341,10 +345,11 @@ def evaluate_and_score(agent: Agent, args: argparse.Namespace, out: dict) -> dic
 
     seed, n = 50_000, args.eval_episodes
     cfg = eval_config(args)
-    j = evaluate(sampled_policy(agent, seed), cfg, list(range(seed, seed + n)))
+    seeds = list(range(seed, seed + n))
+    j = evaluate(sampled_policy(agent, seeds), cfg, seeds)
     out["J"] = j
     print(f"evaluation: {n} episodes on seeds {seed}..{seed + n - 1}, per-step noise streams, sampled "
-          f"actions, {cfg.episode_steps} physics steps each")  # fmt: skip
+          f"actions (the suite's draws), {cfg.episode_steps} physics steps each")  # fmt: skip
     print(f"  PPO (this run)       {j.mean():9.2f} km")
     ref = references(args, cfg, seed, n) if n >= 2 else None
     if ref is None:

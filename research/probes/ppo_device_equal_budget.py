@@ -8,9 +8,10 @@ GPU runs compiled for the CPU) and on the native vector env.
 Each run is ``baselines/ppo_device.py --device cpu`` with the suite's PPO settings for
 planetnav/Cruise-Target-v2 (64 envs x 64 decisions an update, 4 minibatches, 5 epochs, 300,000 decisions:
 the suite's 3M physics steps; one torch thread), trained from scratch and scored as the suite scores it
-(sampled actions on seeds 50,000..50,099, per-step noise streams, blind-zero scale): once with the
-script's evaluation, whose sampling generator is seeded alike for every run, and once with the run's own
-sampling stream, independent across runs as the suite's runs are. It prints each run's scores, whether the
+(sampled actions on seeds 50,000..50,099, per-step noise streams, blind-zero scale): once with the suite's
+draws (each evaluation episode's sampling seeded with its seed, as the suite's evaluator seeds it, so every
+run here and every suite run shares them), and once with the run's own draws, independent across runs.
+It prints each run's scores, whether the
 host mode trained the same policy as the native env (the same J on every evaluation seed: the host mode's
 rows equal the native env's, so with no substitute from the bank they should), and the interquartile mean
 of the training seeds with its stratified-bootstrap interval beside the suite's PPO (Stable-Baselines3's
@@ -33,8 +34,9 @@ sys.path.insert(0, str(ROOT / "baselines"))  # ppo_device and ppo_single_file, i
 TASK = "Cruise-Target-v2"
 #: The suite's evaluation seeds (the single file's: 50,000..50,099).
 EVAL_SEEDS = list(range(50_000, 50_100))
-#: A run's own sampling stream is seeded OWN_STREAM + its training seed.
-OWN_STREAM = 900_000
+#: A run's own draws: stream ``OWN_STREAM * (training seed + 1)`` (each episode's generator is seeded with
+#: the stream plus its evaluation seed; the suite's draws are stream 0).
+OWN_STREAM = 1_000_000
 
 
 def suite_ppo_scores(paths: list[Path]) -> list[float]:
@@ -52,9 +54,8 @@ def suite_ppo_scores(paths: list[Path]) -> list[float]:
 
 
 def train_and_score(env: str, seed: int, total: int) -> dict:
-    """One training run and its scores: on the script's own evaluation (the sampling generator seeded
-    50,000 for every run: the runs share one stream of draws) and on the run's own stream (seeded
-    ``OWN_STREAM + seed``: independent across runs, as each suite run's sampling is)."""
+    """One training run and its scores: with the suite's draws (the single file's evaluation: shared by
+    every run) and with the run's own draws (:data:`OWN_STREAM`: independent across runs)."""
     import ppo_device
     import ppo_single_file as single
 
@@ -66,7 +67,7 @@ def train_and_score(env: str, seed: int, total: int) -> dict:
             "--torch-threads", "1"]  # fmt: skip
     out = ppo_device.main(argv)
     args = ppo_device.parse_args(argv)
-    sampled = single.sampled_policy(out["agent"], OWN_STREAM + seed)
+    sampled = single.sampled_policy(out["agent"], EVAL_SEEDS, stream=OWN_STREAM * (seed + 1))
     j_own = single.evaluate(sampled, single.eval_config(args), EVAL_SEEDS)
     own = paired_ratio_ci(out["J_blind"], out["J_best"], j_own)
     keep = ("score", "score_lo", "score_hi", "train_seconds")
@@ -101,7 +102,7 @@ def main(argv: list[str] | None = None) -> None:
 
     print(f"\n{TASK}, {args.total_timesteps} decisions, blind-zero score [95 % paired bootstrap]:")
     for r in runs:
-        own = f", own stream {r['score_own_stream']:+.3f}" if "score_own_stream" in r else ""
+        own = f", own draws {r['score_own_stream']:+.3f}" if "score_own_stream" in r else ""
         print(f"  device loop, {r['env']:6s} env, seed {r['seed']}: {r['score']:+.3f} [{r['score_lo']:+.3f}, "
               f"{r['score_hi']:+.3f}]{own}  ({r['train_seconds']:.0f} s)")  # fmt: skip
     print(f"  suite PPO, {len(suite)} runs: " + ", ".join(f"{s:+.3f}" for s in suite))
@@ -118,7 +119,7 @@ def main(argv: list[str] | None = None) -> None:
     if all("score_own_stream" in r for r in runs):
         for env in args.envs:
             own = [r["score_own_stream"] for r in runs if r["env"] == env]
-            matrices[f"device loop ({env}), own streams"] = np.asarray(own)[:, None]
+            matrices[f"device loop ({env}), own draws"] = np.asarray(own)[:, None]
     for name, v in iqm_intervals(matrices).items():
         print(f"IQM {name:35s} {v['iqm']:+.3f} [{v['low']:+.3f}, {v['high']:+.3f}]")
     pairs = {(n, "suite PPO"): (m, matrices["suite PPO"]) for n, m in matrices.items() if n != "suite PPO"}

@@ -71,7 +71,8 @@ def test_runs_two_updates_and_prints_a_finite_blind_zero_score(run) -> None:
     assert proc.returncode == 0, proc.stderr[-3000:]
     out = proc.stdout
     assert re.findall(r"^iter +(\d+)/2 ", out, re.M) == ["1", "2"], out
-    assert "evaluation: 3 episodes on seeds 50000..50002, per-step noise streams, sampled actions, 40" in out
+    head = "evaluation: 3 episodes on seeds 50000..50002, per-step noise streams, sampled actions"
+    assert f"{head} (the suite's draws), 40" in out
     m = SCORE.search(out)
     assert m, out
     score, lo, hi = (float(x) for x in m.groups())
@@ -116,6 +117,42 @@ def test_evaluation_reproduces_the_stored_blind_winner() -> None:
     cfg = EnvConfig.from_dict(id_options("planetnav/Cruise-Target-v2"), noise_streams="per_step")
     j = _module().evaluate(schedule, cfg, [50_000, 50_001, 50_002])
     assert j.tolist() == rec["agents"][rec["blind_winner"]]["per_seed"][:3]
+
+
+def test_sampled_evaluation_draws_the_suites_draws(tmp_path: Path) -> None:
+    """A policy scores in the script what it scores in the suite: the script's sampled evaluation of a
+    Stable-Baselines3 policy gives the suite's evaluator's per-episode objective (``PATH@sampled``) on the
+    same seeds bit for bit, draw for draw; another ``stream`` gives other draws, hence another J."""
+    import yaml
+    from stable_baselines3 import PPO
+
+    from planetnav_env.config import EnvConfig
+    from planetnav_env.envs.registration import id_options
+    from planetnav_train.evaluate import evaluate_agent
+    from planetnav_train.suite import OBJECTIVES, get_task
+    from planetnav_train.vec_training import NavTrainingVecEnv
+
+    mod = _module()
+    cfg = EnvConfig.from_dict(id_options("planetnav/Cruise-Target-v2"), episode_steps=200,
+                              noise_streams="per_step")  # fmt: skip
+    model = PPO("MlpPolicy", NavTrainingVecEnv(2, cfg, seed=0), n_steps=8, batch_size=8, seed=0, device="cpu")
+    with torch.no_grad():  # logits that depend on the observation (the initial head's are nearly uniform)
+        model.policy.action_net.weight.mul_(300.0)
+    run = tmp_path / "run"
+    run.mkdir()
+    model.save(run / "model.zip")
+    (run / "config.yaml").write_text(yaml.safe_dump({"algo": "ppo"}))
+    seeds = [50_000, 50_001, 50_002, 50_003]
+    m = evaluate_agent(f"{run}@sampled", cfg, len(seeds), seeds[0], progress=False).metrics
+    suite_j = OBJECTIVES[get_task("Cruise-Target-v2").objective].values(m)
+
+    agent = mod.Agent(model.observation_space.shape[0], 3)
+    sd = model.policy.state_dict()
+    agent.load_state_dict({ours: sd[theirs] for ours, theirs in SB3_PARAMS})
+    j = mod.evaluate(mod.sampled_policy(agent, seeds), cfg, seeds)
+    assert j.tolist() == list(suite_j)
+    other = mod.evaluate(mod.sampled_policy(agent, seeds, stream=1), cfg, seeds)
+    assert (other != j).all(), (other, j)
 
 
 def test_gae_and_update_equal_stable_baselines3s_ppo(monkeypatch: pytest.MonkeyPatch) -> None:
