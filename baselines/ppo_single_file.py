@@ -123,6 +123,24 @@ class Agent(nn.Module):
         return action, probs.log_prob(action), probs.entropy(), self.critic(x)
 
 
+#: Each Agent parameter's name in Stable-Baselines3's MlpPolicy (the same layers, same shapes).
+SB3_NAMES = {
+    f"{ours}.{w}": f"{theirs}.{w}"
+    for ours, theirs in {"critic.0": "mlp_extractor.value_net.0", "critic.2": "mlp_extractor.value_net.2",
+                         "critic.4": "value_net", "actor.0": "mlp_extractor.policy_net.0",
+                         "actor.2": "mlp_extractor.policy_net.2", "actor.4": "action_net"}.items()
+    for w in ("weight", "bias")
+}  # fmt: skip
+
+
+def agent_from_sb3(policy_state: dict) -> Agent:
+    """An Agent holding the weights of an SB3 ``MlpPolicy``'s ``state_dict()`` (a PPO on Discrete actions)."""
+    agent = Agent(policy_state["mlp_extractor.policy_net.0.weight"].shape[1],
+                  policy_state["action_net.weight"].shape[0])  # fmt: skip
+    agent.load_state_dict({ours: policy_state[theirs] for ours, theirs in SB3_NAMES.items()})
+    return agent
+
+
 def env_options(args: argparse.Namespace) -> dict:
     """The env options this run overrides on top of the id's."""
     return {"episode_steps": args.episode_steps} if args.episode_steps else {}

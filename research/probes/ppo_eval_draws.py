@@ -28,6 +28,7 @@ score. Training differs across CPUs (torch's kernels); the scoring of a given mo
 from __future__ import annotations
 
 import argparse
+import functools
 import json
 import sys
 from pathlib import Path
@@ -42,10 +43,6 @@ SHARED = {"suite": 0, "alt1": 10**8, "alt2": 2 * 10**8, "alt3": 3 * 10**8}
 DRAWS = (*SHARED, "own", "onegen")
 #: Own draws: stream OWN * (seed + 1) + the population's offset.
 OWN, OFFSET = 10**6, {"suite": 0, "single": 5 * 10**5}
-#: The single file's parameter names and SB3's MlpPolicy's.
-SB3_NAMES = {"critic.0": "mlp_extractor.value_net.0", "critic.2": "mlp_extractor.value_net.2",
-             "critic.4": "value_net", "actor.0": "mlp_extractor.policy_net.0",
-             "actor.2": "mlp_extractor.policy_net.2", "actor.4": "action_net"}  # fmt: skip
 
 
 def suite_model(out: Path, seed: int) -> tuple[Path, float]:
@@ -83,10 +80,8 @@ def load_agent(path: Path):
     if path.suffix == ".zip":
         from stable_baselines3 import PPO
 
-        sd = PPO.load(path, device="cpu").policy.state_dict()
-        sd = {f"{a}.{w}": sd[f"{s}.{w}"] for a, s in SB3_NAMES.items() for w in ("weight", "bias")}
-    else:
-        sd = torch.load(path)
+        return ppo_single_file.agent_from_sb3(PPO.load(path, device="cpu").policy.state_dict())
+    sd = torch.load(path)
     agent = ppo_single_file.Agent(sd["actor.0.weight"].shape[1], sd["actor.4.weight"].shape[0])
     agent.load_state_dict(sd)
     return agent
@@ -106,15 +101,24 @@ def one_generator(agent, seed: int = 50_000):
     return act
 
 
+@functools.cache
+def evaluation():
+    """The evaluation's environment and the two references' per-seed J (the blind winner's, the best's)."""
+    import ppo_single_file as single
+
+    args = single.parse_args(["--env-id", f"planetnav/{TASK}"])
+    cfg = single.eval_config(args)
+    _, jb, _, jr, _ = single.references(args, cfg, EVAL_SEEDS[0], len(EVAL_SEEDS))
+    return cfg, jb, jr
+
+
 def score_draws(agent, own_stream: int) -> dict[str, float]:
     """The agent's blind-zero score under each shared draw and under its own."""
     import ppo_single_file as single
 
     from planetnav_train.suite.blind import paired_ratio_ci
 
-    args = single.parse_args(["--env-id", f"planetnav/{TASK}"])
-    cfg = single.eval_config(args)
-    _, jb, _, jr, _ = single.references(args, cfg, EVAL_SEEDS[0], len(EVAL_SEEDS))
+    cfg, jb, jr = evaluation()
     out = {}
     for name, stream in {**SHARED, "own": own_stream}.items():
         j = single.evaluate(single.sampled_policy(agent, EVAL_SEEDS, stream), cfg, EVAL_SEEDS)

@@ -25,14 +25,6 @@ LR = 3e-4
 TINY = ["--num-envs", "8", "--num-steps", "16", "--total-timesteps", "256", "--eval-episodes", "3",
         "--episode-steps", "40", "--seed", "0", "--learning-rate", str(LR),
         "--torch-threads", "1"]  # fmt: skip
-#: (the single file's Agent parameter, the same parameter's name in SB3's MlpPolicy)
-SB3_PARAMS = [
-    (f"{ours}.{w}", f"{theirs}.{w}")
-    for ours, theirs in {"critic.0": "mlp_extractor.value_net.0", "critic.2": "mlp_extractor.value_net.2",
-                         "critic.4": "value_net", "actor.0": "mlp_extractor.policy_net.0",
-                         "actor.2": "mlp_extractor.policy_net.2", "actor.4": "action_net"}.items()
-    for w in ("weight", "bias")
-]  # fmt: skip
 SCORE = re.compile(r"^blind-zero score: (\S+) \[(\S+), (\S+)\]", re.M)
 
 
@@ -124,18 +116,16 @@ def test_sampled_evaluation_draws_the_suites_draws(tmp_path: Path) -> None:
     Stable-Baselines3 policy gives the suite's evaluator's per-episode objective (``PATH@sampled``) on the
     same seeds bit for bit, draw for draw; another ``stream`` gives other draws, hence another J."""
     import yaml
-    from stable_baselines3 import PPO
 
     from planetnav_env.config import EnvConfig
     from planetnav_env.envs.registration import id_options
     from planetnav_train.evaluate import evaluate_agent
     from planetnav_train.suite import OBJECTIVES, get_task
-    from planetnav_train.vec_training import NavTrainingVecEnv
 
     mod = _module()
     cfg = EnvConfig.from_dict(id_options("planetnav/Cruise-Target-v2"), episode_steps=200,
                               noise_streams="per_step")  # fmt: skip
-    model = PPO("MlpPolicy", NavTrainingVecEnv(2, cfg, seed=0), n_steps=8, batch_size=8, seed=0, device="cpu")
+    model = _sb3_ppo(16, 2, seed=0)  # a policy to score: it is never trained
     with torch.no_grad():  # logits that depend on the observation (the initial head's are nearly uniform)
         model.policy.action_net.weight.mul_(300.0)
     run = tmp_path / "run"
@@ -146,13 +136,25 @@ def test_sampled_evaluation_draws_the_suites_draws(tmp_path: Path) -> None:
     m = evaluate_agent(f"{run}@sampled", cfg, len(seeds), seeds[0], progress=False).metrics
     suite_j = OBJECTIVES[get_task("Cruise-Target-v2").objective].values(m)
 
-    agent = mod.Agent(model.observation_space.shape[0], 3)
-    sd = model.policy.state_dict()
-    agent.load_state_dict({ours: sd[theirs] for ours, theirs in SB3_PARAMS})
+    agent = mod.agent_from_sb3(model.policy.state_dict())
     j = mod.evaluate(mod.sampled_policy(agent, seeds), cfg, seeds)
     assert j.tolist() == list(suite_j)
     other = mod.evaluate(mod.sampled_policy(agent, seeds, stream=1), cfg, seeds)
     assert (other != j).all(), (other, j)
+
+
+def _sb3_ppo(T: int, N: int, seed: int, **hyperparams):
+    """Stable-Baselines3's PPO on the suite's training env of Cruise-Target-v2 (N rows, 4-decision
+    episodes): T decisions a rollout, minibatches of 32, 2 epochs, entropy 0.01."""
+    from stable_baselines3 import PPO
+
+    from planetnav_train.config import parse_config
+    from planetnav_train.envs import make_training_env
+
+    tc = parse_config({"algo": "ppo", "env_id": "planetnav/Cruise-Target-v2", "n_envs": N, "seed": seed,
+                       "env": {"episode_steps": 40}})  # fmt: skip
+    return PPO("MlpPolicy", make_training_env(tc, None), n_steps=T, batch_size=32, n_epochs=2, ent_coef=0.01,
+               learning_rate=LR, seed=seed, device="cpu", **hyperparams)  # fmt: skip
 
 
 def test_gae_and_update_equal_stable_baselines3s_ppo(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -160,19 +162,12 @@ def test_gae_and_update_equal_stable_baselines3s_ppo(monkeypatch: pytest.MonkeyP
     ends and bootstrapped time limits), the single file's GAE gives SB3's advantages, and its clipped
     update, from SB3's initial weights with SB3's minibatch order, gives SB3's weights after the update.
     The suite's PPO and the device PPO (which imports these functions) are then one algorithm."""
-    from stable_baselines3 import PPO
     from stable_baselines3.common.buffers import RolloutBuffer
-
-    from planetnav_train.config import parse_config
-    from planetnav_train.envs import make_training_env
 
     mod = _module()
     torch.set_num_threads(1)
     T, N, gamma, lam = 16, 8, 0.95, 0.95
-    tc = parse_config({"algo": "ppo", "env_id": "planetnav/Cruise-Target-v2", "n_envs": N, "seed": 0,
-                       "env": {"episode_steps": 40}})  # fmt: skip
-    model = PPO("MlpPolicy", make_training_env(tc, None), n_steps=T, batch_size=32, n_epochs=2, gamma=gamma,
-                gae_lambda=lam, ent_coef=0.01, learning_rate=LR, seed=0, device="cpu")  # fmt: skip
+    model = _sb3_ppo(T, N, seed=0, gamma=gamma, gae_lambda=lam)
     seen: dict = {}
     compute = RolloutBuffer.compute_returns_and_advantage
 
@@ -202,8 +197,7 @@ def test_gae_and_update_equal_stable_baselines3s_ppo(monkeypatch: pytest.MonkeyP
         torch.testing.assert_close(adv, b["advantages"], rtol=1e-6, atol=1e-6)
         torch.testing.assert_close(ret, b["returns"], rtol=1e-6, atol=1e-6)
 
-        agent = mod.Agent(b["observations"].shape[-1], 3)
-        agent.load_state_dict({ours: seen["before"][theirs] for ours, theirs in SB3_PARAMS})
+        agent = mod.agent_from_sb3(seen["before"])
         args = mod.parse_args(["--num-envs", str(N), "--num-steps", str(T), "--num-minibatches", "4",
                                "--update-epochs", "2", "--learning-rate", str(LR)])  # fmt: skip
         optimizer = torch.optim.Adam(agent.parameters(), lr=LR, eps=1e-5)
@@ -218,7 +212,7 @@ def test_gae_and_update_equal_stable_baselines3s_ppo(monkeypatch: pytest.MonkeyP
     finally:
         np.random.set_state(state)  # noqa: NPY002
     after = model.policy.state_dict()
-    for ours, theirs in SB3_PARAMS:
+    for ours, theirs in mod.SB3_NAMES.items():
         moved = (after[theirs] - seen["before"][theirs]).abs().max().item()
         assert moved > 1e-4, (theirs, moved)  # every tensor moved, by 100x the tolerance or more
         torch.testing.assert_close(agent.state_dict()[ours], after[theirs], rtol=0, atol=1e-6, msg=ours)
@@ -230,18 +224,10 @@ def test_training_loop_equals_stable_baselines3s_ppo_on_its_draws(monkeypatch: p
     initial weights, torch's global generator where SB3's first action draw finds it, and SB3's
     minibatch order, ``train()`` ends with SB3's weights: the single file trains SB3's policy, and only
     the random streams tell the two apart."""
-    from stable_baselines3 import PPO
-
-    from planetnav_train.config import parse_config
-    from planetnav_train.envs import make_training_env
-
     mod = _module()
     torch.set_num_threads(1)
     T, N, updates, seed = 16, 8, 3, 3
-    tc = parse_config({"algo": "ppo", "env_id": "planetnav/Cruise-Target-v2", "n_envs": N, "seed": seed,
-                       "env": {"episode_steps": 40}})  # fmt: skip
-    model = PPO("MlpPolicy", make_training_env(tc, None), n_steps=T, batch_size=32, n_epochs=2, gamma=0.95,
-                ent_coef=0.01, learning_rate=LR, seed=seed, device="cpu")  # fmt: skip
+    model = _sb3_ppo(T, N, seed=seed, gamma=0.95)
     before = {k: v.clone() for k, v in model.policy.state_dict().items()}
     at_first_draw: dict = {}
     collect = model.collect_rollouts
@@ -260,7 +246,7 @@ def test_training_loop_equals_stable_baselines3s_ppo_on_its_draws(monkeypatch: p
         class SB3Initialized(mod.Agent):
             def __init__(self, *a) -> None:
                 super().__init__(*a)
-                self.load_state_dict({ours: before[theirs] for ours, theirs in SB3_PARAMS})
+                self.load_state_dict({ours: before[theirs] for ours, theirs in mod.SB3_NAMES.items()})
                 torch.set_rng_state(at_first_draw["torch"])  # the initialization above drew from it
 
         def sb3_order(_rng, _inds):
@@ -280,7 +266,7 @@ def test_training_loop_equals_stable_baselines3s_ppo_on_its_draws(monkeypatch: p
         agent = mod.train(args)
     finally:
         np.random.set_state(state)  # noqa: NPY002
-    for ours, theirs in SB3_PARAMS:
+    for ours, theirs in mod.SB3_NAMES.items():
         moved = (after[theirs] - before[theirs]).abs().max().item()
         assert moved > 1e-4, (theirs, moved)  # every tensor moved, by 100x the tolerance or more
         torch.testing.assert_close(agent.state_dict()[ours], after[theirs], rtol=0, atol=1e-6, msg=ours)
