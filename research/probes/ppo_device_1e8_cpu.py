@@ -1,0 +1,102 @@
+"""What does the device PPO's 10^8-decision configuration score? Trained on the CPU, where the same loop
+runs on the native vector env (no device has been lent to this work).
+
+    python research/probes/ppo_device_1e8_cpu.py --train MODEL.pt    # about 1.9 h on a 2-core CPU
+    python research/probes/ppo_device_1e8_cpu.py --from-model research/probes/ppo_device_1e8_cpu.pt
+
+``--train`` runs ``baselines/ppo_device.py --device cpu`` with ``benchmarks/device_check.sh ppo``'s
+settings (planetnav/Cruise-Target-v2, 65,536 rows x 16 decisions an update, 8 minibatches, 4 epochs,
+10^8 decisions, seed 0; two torch threads) and saves the weights. Both modes then score the weights as the
+suite scores them (sampled actions on seeds 50,000..50,099, per-step noise streams, blind-zero scale):
+with the suite's draws, and with three other draws of the same policy (one sampled score depends on its
+draw; see docs/performance.md, "GPU"). Beside them: the suite's PPO runs at the suite's budget (3M physics
+steps, 300,000 decisions), their interquartile mean and where this run falls among them. Training is not
+the same on every CPU (torch picks its kernels for the CPU), and a GPU run differs in its last bits, so
+another run of the configuration lands elsewhere within the spread of training seeds; scoring saved
+weights gives the same numbers on any CPU.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+import torch
+
+ROOT = Path(__file__).resolve().parents[2]
+sys.path.insert(0, str(ROOT / "baselines"))  # ppo_device and ppo_single_file, imported where used
+TASK = "Cruise-Target-v2"
+EVAL_SEEDS = list(range(50_000, 50_100))
+#: Other draws of the same policy: each episode's generator is seeded with the stream plus its seed.
+OTHER_STREAMS = (1_000_000, 2_000_000, 3_000_000)
+TRAIN_ARGV = ["--device", "cpu", "--env-id", f"planetnav/{TASK}", "--num-envs", "65536", "--num-steps", "16",
+              "--num-minibatches", "8", "--update-epochs", "4", "--total-timesteps", "100000000",
+              "--seed", "0", "--torch-threads", "2", "--eval-episodes", "0"]  # fmt: skip
+
+
+def suite_ppo_scores(paths: list[Path]) -> list[float]:
+    """The suite's raw-track PPO scores on :data:`TASK` in the suite JSONs ``paths`` (a seed counts once)."""
+    by_seed: dict[int, float] = {}
+    for path in paths:
+        for r in json.loads(path.read_text())["runs"]:
+            if r["task"] == TASK and r["algorithm"] == "ppo" and r["track"] == "raw":
+                by_seed.setdefault(r["seed"], r["normalized_score"])
+    if not by_seed:
+        raise SystemExit(f"{', '.join(map(str, paths))}: no PPO run on {TASK}")
+    return [by_seed[s] for s in sorted(by_seed)]
+
+
+def main(argv: list[str] | None = None) -> None:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    mode = p.add_mutually_exclusive_group(required=True)
+    mode.add_argument("--train", type=Path, metavar="MODEL", help="train and save the weights here")
+    mode.add_argument("--from-model", type=Path, metavar="MODEL", help="score saved weights")
+    p.add_argument("--suite-json", type=Path, nargs="+",
+                   default=[ROOT / "docs" / "benchmark.json",
+                            ROOT / "research" / "probes" / "suite_ppo_cruise_target_v2_s5-19.json"],
+                   help="suite JSONs whose PPO runs on the task are the reference")  # fmt: skip
+    args = p.parse_args(argv)
+
+    import ppo_device
+    import ppo_single_file as single
+
+    from planetnav_train.suite.blind import paired_ratio_ci
+    from planetnav_train.suite.scoring import iqm_intervals
+
+    if args.train:
+        ppo_device.main([*TRAIN_ARGV, "--save-model", str(args.train)])
+    model = args.train or args.from_model
+    run = ppo_device.parse_args([*TRAIN_ARGV[:-1], "100"])
+    cfg = single.eval_config(run)
+    ref = single.references(run, cfg, EVAL_SEEDS[0], len(EVAL_SEEDS))
+    assert ref is not None, f"{run.blind_json}: no blind-search record of {TASK}"
+    _, j_blind, _, j_best, _ = ref
+    state = torch.load(model, map_location="cpu")
+    obs_dim = state["critic.0.weight"].shape[1]
+    agent = single.Agent(obs_dim, state["actor.4.weight"].shape[0])
+    agent.load_state_dict(state)
+
+    print(f"{TASK}, {model.name}: the 10^8-decision configuration, blind-zero score on seeds "
+          f"{EVAL_SEEDS[0]}..{EVAL_SEEDS[-1]} [95 % paired bootstrap]")  # fmt: skip
+    scores = {}
+    for stream in (0, *OTHER_STREAMS):
+        j = single.evaluate(single.sampled_policy(agent, EVAL_SEEDS, stream=stream), cfg, EVAL_SEEDS)
+        s = paired_ratio_ci(j_blind, j_best, j)
+        scores[stream] = s["score"]
+        name = "the suite's draws" if stream == 0 else f"draws of stream {stream:,}"
+        print(f"  {name:27s} {s['score']:+.3f} [{s['score_lo']:+.3f}, {s['score_hi']:+.3f}]  "
+              f"(mean error {j.mean():.2f} km)")  # fmt: skip
+    suite = suite_ppo_scores(args.suite_json)
+    v = iqm_intervals({"suite": np.asarray(suite)[:, None]})["suite"]
+    below = sum(x < scores[0] for x in suite)
+    print(
+        f"suite PPO at its budget (300,000 decisions), {len(suite)} runs, suite's draws: IQM "
+        f"{v['iqm']:+.3f} [{v['low']:+.3f}, {v['high']:+.3f}]; this run is above {below} of them"
+    )
+
+
+if __name__ == "__main__":
+    main()
