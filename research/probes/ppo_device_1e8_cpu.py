@@ -19,7 +19,6 @@ weights gives the same numbers on any CPU.
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 
@@ -28,25 +27,14 @@ import torch
 
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / "baselines"))  # ppo_device and ppo_single_file, imported where used
-TASK = "Cruise-Target-v2"
-EVAL_SEEDS = list(range(50_000, 50_100))
+sys.path.insert(0, str(Path(__file__).resolve().parent))  # the equal-budget probe's task and reference
+from ppo_device_equal_budget import EVAL_SEEDS, TASK, suite_ppo_scores  # noqa: E402
+
 #: Other draws of the same policy: each episode's generator is seeded with the stream plus its seed.
 OTHER_STREAMS = (1_000_000, 2_000_000, 3_000_000)
 TRAIN_ARGV = ["--device", "cpu", "--env-id", f"planetnav/{TASK}", "--num-envs", "65536", "--num-steps", "16",
               "--num-minibatches", "8", "--update-epochs", "4", "--total-timesteps", "100000000",
-              "--seed", "0", "--torch-threads", "2", "--eval-episodes", "0"]  # fmt: skip
-
-
-def suite_ppo_scores(paths: list[Path]) -> list[float]:
-    """The suite's raw-track PPO scores on :data:`TASK` in the suite JSONs ``paths`` (a seed counts once)."""
-    by_seed: dict[int, float] = {}
-    for path in paths:
-        for r in json.loads(path.read_text())["runs"]:
-            if r["task"] == TASK and r["algorithm"] == "ppo" and r["track"] == "raw":
-                by_seed.setdefault(r["seed"], r["normalized_score"])
-    if not by_seed:
-        raise SystemExit(f"{', '.join(map(str, paths))}: no PPO run on {TASK}")
-    return [by_seed[s] for s in sorted(by_seed)]
+              "--seed", "0", "--torch-threads", "2"]  # fmt: skip
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -67,9 +55,9 @@ def main(argv: list[str] | None = None) -> None:
     from planetnav_train.suite.scoring import iqm_intervals
 
     if args.train:
-        ppo_device.main([*TRAIN_ARGV, "--save-model", str(args.train)])
+        ppo_device.main([*TRAIN_ARGV, "--eval-episodes", "0", "--save-model", str(args.train)])
     model = args.train or args.from_model
-    run = ppo_device.parse_args([*TRAIN_ARGV[:-1], "100"])
+    run = ppo_device.parse_args([*TRAIN_ARGV, "--eval-episodes", str(len(EVAL_SEEDS))])
     cfg = single.eval_config(run)
     ref = single.references(run, cfg, EVAL_SEEDS[0], len(EVAL_SEEDS))
     assert ref is not None, f"{run.blind_json}: no blind-search record of {TASK}"
