@@ -1,19 +1,25 @@
-"""What does the device PPO's 10^8-decision configuration score? Trained on the CPU, where the same loop
+"""What do the device PPO's 10^8-decision configurations score? Trained on the CPU, where the same loop
 runs on the native vector env (no device has been lent to this work).
 
-    python research/probes/ppo_device_1e8_cpu.py --train MODEL.pt    # about 1.9 h on a 2-core CPU
-    python research/probes/ppo_device_1e8_cpu.py --from-model research/probes/ppo_device_1e8_cpu.pt
+    python research/probes/ppo_device_1e8_cpu.py --config CONFIG --train MODEL.pt   # 1.5-2 h, 2-core CPU
+    python research/probes/ppo_device_1e8_cpu.py --config CONFIG --from-model MODEL.pt
 
-``--train`` runs ``baselines/ppo_device.py --device cpu`` with ``benchmarks/device_check.sh ppo``'s
-settings (planetnav/Cruise-Target-v2, 65,536 rows x 16 decisions an update, 8 minibatches, 4 epochs,
-10^8 decisions, seed 0; two torch threads) and saves the weights. Both modes then score the weights as the
-suite scores them (sampled actions on seeds 50,000..50,099, per-step noise streams, blind-zero scale):
-with the suite's draws, and with three other draws of the same policy (one sampled score depends on its
-draw; see docs/performance.md, "GPU"). Beside them: the suite's PPO runs at the suite's budget (3M physics
-steps, 300,000 decisions), their interquartile mean and where this run falls among them. Training is not
-the same on every CPU (torch picks its kernels for the CPU), and a GPU run differs in its last bits, so
-another run of the configuration lands elsewhere within the spread of training seeds; scoring saved
-weights gives the same numbers on any CPU.
+Two configurations, both 10^8 decisions of planetnav/Cruise-Target-v2 from ``baselines/ppo_device.py
+--device cpu`` (4 epochs, seed 0, two torch threads), 16 decisions per row an update:
+
+- ``large-updates``: 65,536 rows, 8 minibatches (96 updates of 1,048,576 decisions, 3,072 gradient
+  steps); weights ``research/probes/ppo_device_1e8_cpu.pt``.
+- ``small-updates``: 16,384 rows, 64 minibatches (382 updates of 262,144 decisions, 97,792 gradient
+  steps); weights ``research/probes/ppo_device_1e8_cpu_small.pt``.
+
+``--train`` trains one and saves the weights. Both modes then score the weights as the suite scores them
+(sampled actions on seeds 50,000..50,099, per-step noise streams, blind-zero scale): with the suite's
+draws, and with three other draws of the same policy (one sampled score depends on its draw; see
+docs/performance.md, "GPU"). Beside them: the suite's PPO runs at the suite's budget (3M physics steps,
+300,000 decisions), their interquartile mean and where this run falls among them. Training is not the
+same on every CPU (torch picks its kernels for the CPU), and a GPU run differs in its last bits, so another
+run of a configuration lands elsewhere within the spread of training seeds; scoring saved weights gives the
+same numbers on any CPU.
 """
 
 from __future__ import annotations
@@ -32,9 +38,16 @@ from ppo_device_equal_budget import EVAL_SEEDS, TASK, suite_ppo_scores  # noqa: 
 
 #: Other draws of the same policy: each episode's generator is seeded with the stream plus its seed.
 OTHER_STREAMS = (1_000_000, 2_000_000, 3_000_000)
-TRAIN_ARGV = ["--device", "cpu", "--env-id", f"planetnav/{TASK}", "--num-envs", "65536", "--num-steps", "16",
-              "--num-minibatches", "8", "--update-epochs", "4", "--total-timesteps", "100000000",
-              "--seed", "0", "--torch-threads", "2"]  # fmt: skip
+COMMON_ARGV = ["--device", "cpu", "--env-id", f"planetnav/{TASK}", "--num-steps", "16",
+               "--update-epochs", "4", "--total-timesteps", "100000000", "--seed", "0",
+               "--torch-threads", "2"]  # fmt: skip
+#: Name -> (rows, minibatches an update).
+CONFIGS = {"large-updates": (65_536, 8), "small-updates": (16_384, 64)}
+
+
+def train_argv(config: str) -> list[str]:
+    rows, minibatches = CONFIGS[config]
+    return [*COMMON_ARGV, "--num-envs", str(rows), "--num-minibatches", str(minibatches)]
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -46,6 +59,7 @@ def main(argv: list[str] | None = None) -> None:
                    default=[ROOT / "docs" / "benchmark.json",
                             ROOT / "research" / "probes" / "suite_ppo_cruise_target_v2_s5-19.json"],
                    help="suite JSONs whose PPO runs on the task are the reference")  # fmt: skip
+    p.add_argument("--config", choices=sorted(CONFIGS), required=True, help="the configuration (see above)")
     args = p.parse_args(argv)
 
     import ppo_device
@@ -55,9 +69,9 @@ def main(argv: list[str] | None = None) -> None:
     from planetnav_train.suite.scoring import iqm_intervals
 
     if args.train:
-        ppo_device.main([*TRAIN_ARGV, "--eval-episodes", "0", "--save-model", str(args.train)])
+        ppo_device.main([*train_argv(args.config), "--eval-episodes", "0", "--save-model", str(args.train)])
     model = args.train or args.from_model
-    run = ppo_device.parse_args([*TRAIN_ARGV, "--eval-episodes", str(len(EVAL_SEEDS))])
+    run = ppo_device.parse_args([*train_argv(args.config), "--eval-episodes", str(len(EVAL_SEEDS))])
     cfg = single.eval_config(run)
     ref = single.references(run, cfg, EVAL_SEEDS[0], len(EVAL_SEEDS))
     assert ref is not None, f"{run.blind_json}: no blind-search record of {TASK}"
@@ -67,7 +81,7 @@ def main(argv: list[str] | None = None) -> None:
     agent = single.Agent(obs_dim, state["actor.4.weight"].shape[0])
     agent.load_state_dict(state)
 
-    print(f"{TASK}, {model.name}: the 10^8-decision configuration, blind-zero score on seeds "
+    print(f"{TASK}, {model.name}: the 10^8-decision configuration {args.config}, blind-zero score on seeds "
           f"{EVAL_SEEDS[0]}..{EVAL_SEEDS[-1]} [95 % paired bootstrap]")  # fmt: skip
     scores = {}
     for stream in (0, *OTHER_STREAMS):
