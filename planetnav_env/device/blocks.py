@@ -11,9 +11,12 @@ rows back to the host every step).
 The arithmetic is the numpy functions', operation for operation (an increment of a count, ``x + 0.0``
 for the rows a count does not reach, leaves it as it was: counts and NIS sums are non-negative), so on the
 CPU these give the CPU env's numbers bit for bit; ``tests/env/test_device_env.py`` holds them to
-:mod:`~planetnav_env.core.decisions` and to the CPU vector env. ``log1p`` is passed in: the C library's
-(:func:`planetnav_env.numerics.portable_math.log1p`) on the CPU, ``torch.log1p`` on the device, which may
-differ from it in the last bit before the float32 rounding of the observation.
+:mod:`~planetnav_env.core.decisions` and to the CPU vector env. ``log1p`` and ``sqrt`` are passed in:
+on the CPU the C library's log1p (:func:`planetnav_env.numerics.portable_math.log1p`) and numpy's sqrt,
+since torch's float64 ``sqrt`` on an AVX-512 CPU is not correctly rounded (torch 2.13: some
+values one ulp off, where numpy's and the C library's are exact); on the device ``torch.log1p``, which may
+differ from the C library's in the last bit before the float32 rounding of the observation, and
+``torch.sqrt``, which CUDA rounds correctly.
 """
 
 from __future__ import annotations
@@ -25,7 +28,8 @@ import torch
 from planetnav_env.core import layout as L
 from planetnav_env.core.decisions import _SINCE_LOG_SCALE, RESIDUAL_CAP
 
-Log1p = Callable[[torch.Tensor], torch.Tensor]
+#: An elementwise float64 function (``log1p``, ``sqrt``) chosen by the backend (see above).
+Elementwise = Callable[[torch.Tensor], torch.Tensor]
 
 
 def _onehot(hit: torch.Tensor, target: torch.Tensor, width: int) -> torch.Tensor:
@@ -51,7 +55,7 @@ def advance_since(
     since.copy_(torch.where(mask[:, None], new, since))
 
 
-def since_values(since: torch.Tensor, log1p: Log1p) -> torch.Tensor:
+def since_values(since: torch.Tensor, log1p: Elementwise) -> torch.Tensor:
     """:func:`~planetnav_env.core.decisions.since_measured_values`: (N, T) float32."""
     finite = torch.isfinite(since)
     scaled = log1p(torch.where(finite, since, torch.zeros_like(since))) / _SINCE_LOG_SCALE
@@ -70,7 +74,7 @@ def advance_image_log(
     log[:, 1] += fix
 
 
-def image_log_values(log: torch.Tensor, log1p: Log1p) -> torch.Tensor:
+def image_log_values(log: torch.Tensor, log1p: Elementwise) -> torch.Tensor:
     """:func:`~planetnav_env.core.decisions.image_log_values`: (N, 2, P) float32."""
     images, fixes = log[:, 0], log[:, 1]
     mean = (fixes + 1.0) / (images + 2.0)
@@ -93,10 +97,10 @@ def residual_log_values(log: torch.Tensor) -> torch.Tensor:
     return (torch.clamp(mean, max=RESIDUAL_CAP) / RESIDUAL_CAP).to(torch.float32)
 
 
-def position_correlation_values(p: torch.Tensor) -> torch.Tensor:
+def position_correlation_values(p: torch.Tensor, sqrt: Elementwise) -> torch.Tensor:
     """``BatchCore._observe_position_correlation``'s values: (N, 3) rho_xy, rho_xz, rho_yz of ``P_rr``."""
     prr = p[:, :3, :3]
-    sigma = torch.sqrt(torch.diagonal(prr, dim1=1, dim2=2))
+    sigma = sqrt(torch.diagonal(prr, dim1=1, dim2=2))
     rho = prr / (sigma[:, :, None] * sigma[:, None, :])
     values = torch.stack([rho[:, 0, 1], rho[:, 0, 2], rho[:, 1, 2]], dim=1)
     return torch.clamp(values, -1.0, 1.0)
@@ -108,9 +112,11 @@ class ObservationBlocks:
     calls the env makes, :meth:`after_step` (the ``mask`` rows took a physics step) and :meth:`after_reset`
     (the ``mask`` rows were reset)."""
 
-    def __init__(self, core, num_rows: int, device: torch.device, log1p: Log1p) -> None:
+    def __init__(
+        self, core, num_rows: int, device: torch.device, log1p: Elementwise, sqrt: Elementwise
+    ) -> None:
         cfg, lay = core.config, core.layout
-        self.layout, self.log1p = lay, log1p
+        self.layout, self.log1p, self.sqrt = lay, log1p, sqrt
         n, f64 = num_rows, torch.float64
         self.since = (
             torch.full((n, cfg.n_targets), torch.inf, dtype=f64, device=device)
@@ -166,4 +172,4 @@ class ObservationBlocks:
                                  target, mask)  # fmt: skip
             _write(obs, lay.residual_log_start, None, residual_log_values(self.residual_log), mask)
         if self.position_correlation:
-            _write(obs, lay.position_correlation_start, None, position_correlation_values(p), mask)
+            _write(obs, lay.position_correlation_start, None, position_correlation_values(p, self.sqrt), mask)

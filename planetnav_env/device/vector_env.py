@@ -142,6 +142,10 @@ class _Host:
     def log1p(self, t: torch.Tensor) -> torch.Tensor:
         return torch.from_numpy(pm.log1p(t.numpy()))
 
+    def sqrt(self, t: torch.Tensor) -> torch.Tensor:
+        # numpy's, not torch's: torch's float64 sqrt is not correctly rounded on AVX-512 CPUs.
+        return torch.from_numpy(np.sqrt(t.numpy()))
+
     def step(self, prm, st, act, scratch) -> None:
         R.step_rows(prm, st, act, scratch)
 
@@ -211,6 +215,9 @@ class _Cuda:
 
     def log1p(self, t: torch.Tensor) -> torch.Tensor:
         return torch.log1p(t)
+
+    def sqrt(self, t: torch.Tensor) -> torch.Tensor:
+        return torch.sqrt(t)
 
     def _grid(self, n: int) -> tuple[int, int]:
         return (n + self.tpb - 1) // self.tpb, self.tpb
@@ -311,7 +318,7 @@ class DeviceVectorEnv:
             be.zeros((n, *a.shape[1:]), a.dtype) for a in (core.rng, core.eph, core.obs)
         )
         self._state = RowState(f=f, p=p, i=i, rng=rng, eph=eph, obs=obs)
-        self.blocks = ObservationBlocks(core, n, self.device, be.log1p)
+        self.blocks = ObservationBlocks(core, n, self.device, be.log1p, be.sqrt)
         dev_ = self.device
         self.obs = torch.zeros((n, self.layout.size), dtype=torch.float32, device=dev_)
         self.final_obs = torch.zeros_like(self.obs) if autoreset_mode == "same_step" else None

@@ -239,6 +239,26 @@ def test_torch_blocks_equal_the_numpy_blocks() -> None:
     assert DB.residual_log_values(tr).numpy().tobytes() == residual_log_values(ref).tobytes()
 
 
+def test_position_correlation_block_equals_the_cpu_core_bit_for_bit() -> None:
+    # Covariances spanning the magnitudes a filter reaches [km^2, km^2/s^2]; on an AVX-512 CPU torch's own
+    # float64 sqrt is off by one ulp on some of these, so the host backend's sqrt is numpy's.
+    host = DeviceVectorEnv("planetnav/RandomCruise-Target-v2", 1, device="cpu", bank_size=1)
+    n = 512
+    core = BatchCore(host.config, n)
+    assert core.layout.position_correlation
+    rng = np.random.default_rng(5)
+    a = rng.standard_normal((n, 6, 6)) * 10.0 ** rng.uniform(-1, 4, (n, 1, 1))
+    core.p[:] = a @ a.transpose(0, 2, 1)
+    rows = np.arange(n)
+    core._observe_position_correlation(rows)
+    values = DB.position_correlation_values(torch.from_numpy(core.p), host.backend.sqrt)
+    start = core.layout.position_correlation_start
+    assert values.numpy().tobytes() == core.obs[:, start:].tobytes()
+    # The device's sqrt (torch's): within a few ulps of it wherever torch rounds differently.
+    device = DB.position_correlation_values(torch.from_numpy(core.p), torch.sqrt).numpy()
+    np.testing.assert_allclose(device, core.obs[:, start:], rtol=1e-15, atol=1e-15)
+
+
 # --- CUDA: the error without a device, the PTX of the autoreset ---
 def test_asking_for_cuda_without_it_names_what_is_missing() -> None:
     why = cuda_unavailable_reason()
