@@ -22,6 +22,7 @@ differ from the C library's in the last bit before the float32 rounding of the o
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import Protocol
 
 import torch
 
@@ -30,6 +31,14 @@ from planetnav_env.core.decisions import _SINCE_LOG_SCALE, RESIDUAL_CAP
 
 #: An elementwise float64 function (``log1p``, ``sqrt``) chosen by the backend (see above).
 Elementwise = Callable[[torch.Tensor], torch.Tensor]
+
+
+class BlockMath(Protocol):
+    """The elementwise functions a backend hands the blocks (see above)."""
+
+    def log1p(self, t: torch.Tensor) -> torch.Tensor: ...
+
+    def sqrt(self, t: torch.Tensor) -> torch.Tensor: ...
 
 
 def _onehot(hit: torch.Tensor, target: torch.Tensor, width: int) -> torch.Tensor:
@@ -112,11 +121,9 @@ class ObservationBlocks:
     calls the env makes, :meth:`after_step` (the ``mask`` rows took a physics step) and :meth:`after_reset`
     (the ``mask`` rows were reset)."""
 
-    def __init__(
-        self, core, num_rows: int, device: torch.device, log1p: Elementwise, sqrt: Elementwise
-    ) -> None:
+    def __init__(self, core, num_rows: int, device: torch.device, math: BlockMath) -> None:
         cfg, lay = core.config, core.layout
-        self.layout, self.log1p, self.sqrt = lay, log1p, sqrt
+        self.layout, self.math = lay, math
         n, f64 = num_rows, torch.float64
         self.since = (
             torch.full((n, cfg.n_targets), torch.inf, dtype=f64, device=device)
@@ -157,14 +164,13 @@ class ObservationBlocks:
         target = i[:, L.I_TARGET]
         if self.since is not None:
             advance_since(self.since, i[:, L.I_MEASURED] != 0, target, mask)
-            _write(
-                obs, lay.since_measured_start, lay.image_log_start, since_values(self.since, self.log1p), mask
-            )
+            values = since_values(self.since, self.math.log1p)
+            _write(obs, lay.since_measured_start, lay.image_log_start, values, mask)
         if self.image_log is not None:
             fixed = i[:, L.I_SENSOR] == L.SENSOR_CAMERA
             failed = i[:, L.I_REASON] == L.REASON_IMAGE_FAILED
             advance_image_log(self.image_log, fixed, failed, target, mask)
-            values = image_log_values(self.image_log, self.log1p).reshape(obs.shape[0], -1)
+            values = image_log_values(self.image_log, self.math.log1p).reshape(obs.shape[0], -1)
             _write(obs, lay.image_log_start, lay.residual_log_start, values, mask)
         if self.residual_log is not None:
             dof = self.fix_dof[torch.clamp(target, 0, self.fix_dof.shape[0] - 1)]
@@ -172,4 +178,5 @@ class ObservationBlocks:
                                  target, mask)  # fmt: skip
             _write(obs, lay.residual_log_start, None, residual_log_values(self.residual_log), mask)
         if self.position_correlation:
-            _write(obs, lay.position_correlation_start, None, position_correlation_values(p, self.sqrt), mask)
+            values = position_correlation_values(p, self.math.sqrt)
+            _write(obs, lay.position_correlation_start, None, values, mask)

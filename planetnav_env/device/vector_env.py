@@ -318,7 +318,7 @@ class DeviceVectorEnv:
             be.zeros((n, *a.shape[1:]), a.dtype) for a in (core.rng, core.eph, core.obs)
         )
         self._state = RowState(f=f, p=p, i=i, rng=rng, eph=eph, obs=obs)
-        self.blocks = ObservationBlocks(core, n, self.device, be.log1p, be.sqrt)
+        self.blocks = ObservationBlocks(core, n, self.device, be)
         dev_ = self.device
         self.obs = torch.zeros((n, self.layout.size), dtype=torch.float32, device=dev_)
         self.final_obs = torch.zeros_like(self.obs) if autoreset_mode == "same_step" else None
