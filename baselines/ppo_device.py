@@ -14,7 +14,9 @@ place); this file adds the device loop and its environments:
   ``--bank-workers`` processes); the last line says how many episodes were substitutes (a row got there
   before the refill: the env's ``bank_stats``);
 * ``--device cpu``: the native vector env (``gym.make_vec``) behind a small adapter that hands out torch
-  CPU tensors (what CI runs); ``--env host`` the device env's host mode instead (its CPU build).
+  CPU tensors (what CI runs); ``--env host`` the device env's host mode instead (its CPU build);
+* ``--stagger-starts``: each row's first episode is cut at a random decision, so the rows do not all end
+  their episodes on the same decision (:class:`StaggeredStarts`).
 
 The evaluation is the suite's (sampled actions on seeds 50,000.., on the CPU's native vector env), so its
 scores compare with the single-file PPO's and the suite's. A timestep is one decision of one env. Each
@@ -51,6 +53,8 @@ def parse_args(argv: list[str] | None = None):
     p.add_argument("--refill", choices=REFILL_MODES, default="thread", help="device env: the bank's refill")
     p.add_argument("--bank-workers", type=int, default=None,
                    help="device env: processes drawing the bank (default: the env's)")  # fmt: skip
+    p.add_argument("--stagger-starts", action="store_true",
+                   help="cut each row's first episode at a random decision (StaggeredStarts)")  # fmt: skip
     return single.finish_args(p.parse_args(argv))
 
 
@@ -65,10 +69,13 @@ class NativeTorchEnv:
         assert isinstance(self.env, PlanetNavVectorEnv), type(self.env).__name__
         self.single_action_space = self.env.single_action_space
         self.single_observation_space = self.env.single_observation_space
+        self.config = self.env.config
         self.final_obs = torch.zeros((args.num_envs, *self.single_observation_space.shape))
 
-    def reset(self, seed: int):
-        o, info = self.env.reset(seed=seed)
+    def reset(self, seed: int | None = None, options: dict | None = None):
+        if options and "reset_mask" in options:
+            options = {**options, "reset_mask": torch.as_tensor(options["reset_mask"]).numpy()}
+        o, info = self.env.reset(seed=seed, options=options)
         return torch.as_tensor(o), info
 
     def step(self, actions: torch.Tensor):
@@ -82,6 +89,50 @@ class NativeTorchEnv:
 
     def close(self) -> None:
         self.env.close()
+
+
+class StaggeredStarts:
+    """Row ``n``'s first episode is cut (a truncation, bootstrapped) after ``cut_at[n]`` decisions, drawn
+    uniformly from 1..L, L the task's decisions an episode (L: not cut). All rows start together and an
+    episode lasts L decisions unless it terminates, so without the cut every row ends on the same decision,
+    and an update's T decisions see one phase of the episode only (the value loss jumps each time the
+    phase wraps). After the cuts the phases are spread over 0..L-1 and stay so. Isaac Lab starts its rows
+    at random episode lengths for the same reason. The cuts are drawn on the host, so knowing which rows
+    to cut reads nothing back from the device."""
+
+    def __init__(self, num_envs: int, episode_decisions: int, seed: int) -> None:
+        g = torch.Generator().manual_seed(seed)
+        self.episode_decisions = episode_decisions
+        self.cut_at = torch.randint(1, episode_decisions + 1, (num_envs,), generator=g)
+        self.decision = 0
+
+    def next_cut(self) -> torch.Tensor | None:
+        """Called once after each decision: the rows (bool (N,), on the host) to cut now, or None."""
+        self.decision += 1
+        if self.decision >= self.episode_decisions:
+            return None
+        cut = self.cut_at == self.decision
+        return cut if bool(cut.any()) else None
+
+
+def env_step(envs, action: torch.Tensor, stagger: StaggeredStarts | None):
+    """One decision of every row (``same_step`` autoreset), and the cuts of ``stagger``. Returns ``(obs,
+    reward, ended, done, cut, last)``: ``obs`` after the resets, ``reward`` float32, ``ended`` the rows
+    whose episode ended by itself, ``done`` those and the rows cut now, ``cut`` the rows whose value is
+    bootstrapped from their ``last`` observation (a time limit or a stagger cut is not a terminal state),
+    all on the env's device. ``last`` holds the final observation of every row that ended or was cut (the
+    other rows' entries are stale and masked by ``cut``), so nothing reads a mask back to the host."""
+    o, reward, terminated, truncated, info = envs.step(action)
+    ended = terminated | truncated
+    cut = truncated & ~terminated
+    last = info["final_obs"]
+    staggered = stagger.next_cut() if stagger is not None else None
+    if staggered is None:
+        return o, reward.to(torch.float32), ended, ended, cut, last
+    staggered = staggered.to(ended.device) & ~ended  # a row that has just ended is not cut
+    last = torch.where(staggered[:, None], o, last)  # before the reset overwrites o
+    o = envs.reset(options={"reset_mask": staggered})[0]
+    return o, reward.to(torch.float32), ended, ended | staggered, cut | staggered, last
 
 
 def make_env(args):
@@ -115,6 +166,7 @@ def train(args) -> tuple[single.Agent, list[dict]]:
     ep_return = torch.zeros(N, device=dev)
     finished_sum, finished_n = torch.zeros((), device=dev), torch.zeros((), device=dev)
 
+    stagger = StaggeredStarts(N, envs.config.episode_decisions, args.seed) if args.stagger_starts else None
     history: list[dict] = []
     global_step, start = 0, time.time()
     next_obs = envs.reset(seed=args.seed)[0]
@@ -128,18 +180,13 @@ def train(args) -> tuple[single.Agent, list[dict]]:
             with torch.no_grad():
                 action, logprob, _, value = agent.get_action_and_value(next_obs)
             values[step], actions[step], logprobs[step] = value.flatten(), action, logprob
-            o, reward, terminated, truncated, info = envs.step(action)
-            reward = reward.to(torch.float32)
+            o, reward, ended, done, cut, last = env_step(envs, action, stagger)
             ep_return += reward
-            # same_step autoreset; a time limit is not a terminal state: bootstrap from the last observation
-            # (the value of every row's final_obs, kept where cut: no host read of the mask).
-            cut = truncated & ~terminated
             with torch.no_grad():
-                boot = agent.get_value(info["final_obs"]).flatten()
+                boot = agent.get_value(last).flatten()
             rewards[step] = reward + args.gamma * torch.where(cut, boot, 0.0)
-            done = terminated | truncated
-            finished_sum += torch.where(done, ep_return, 0.0).sum()
-            finished_n += done.sum()
+            finished_sum += torch.where(ended, ep_return, 0.0).sum()  # the return of whole episodes
+            finished_n += ended.sum()
             ep_return = torch.where(done, 0.0, ep_return)
             next_obs, next_done = o, done.to(torch.float32)
 

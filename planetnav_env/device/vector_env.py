@@ -8,9 +8,10 @@ Its own class, not ``gym.make_vec(id, num_envs=N, device="cuda")``: Gymnasium's 
 numpy arrays (its wrappers, ``batch_space`` samples and checkers read them on the host), and this env
 returns torch tensors on the device and takes them, as gymnax, Isaac Lab and PufferLib's device envs do.
 It keeps the rest of the vector env's interface: ``num_envs``, ``single_observation_space``,
-``single_action_space``, ``reset(seed=...)``, ``step(actions)`` returning ``(obs, reward, terminated,
-truncated, info)``, ``autoreset_mode`` ``"next_step"`` (Gymnasium's default) or ``"same_step"`` (the
-finished rows' last observations in ``info["final_obs"]``).
+``single_action_space``, ``reset(seed=...)``, ``reset(options={"reset_mask": mask})`` (the ``mask`` rows
+start their next episode), ``step(actions)`` returning ``(obs, reward, terminated, truncated, info)``,
+``autoreset_mode`` ``"next_step"`` (Gymnasium's default) or ``"same_step"`` (the finished rows' last
+observations in ``info["final_obs"]``).
 
 Where things run. On the device: the physics step and the compiled part of the reset
 (:mod:`planetnav_env.core.cuda_entry`, :mod:`planetnav_env.device.cuda_kernels`, one thread per row), the
@@ -72,7 +73,7 @@ from planetnav_env.device.blocks import ObservationBlocks
 from planetnav_env.device.draw_pool import DrawPool
 from planetnav_env.device.occupancy import SM_90
 from planetnav_env.device.refill import DEFAULT_CHUNK, BankRefill, check_refill
-from planetnav_env.envs.env import resolve_config
+from planetnav_env.envs.env import check_reset_options, resolve_config
 from planetnav_env.envs.spaces import action_space, observation_space
 from planetnav_env.errors import InvalidParameterError, require_count
 from planetnav_env.numerics import portable_math as pm
@@ -352,9 +353,15 @@ class DeviceVectorEnv:
 
     def reset(self, *, seed: int | list[int | None] | None = None, options: dict | None = None):
         """Draw the bank (seeded as the CPU vector env seeds its rows: ``seed + n``) and start every row
-        on its first bank episode. Returns ``(obs, info)``."""
-        if options:
-            raise InvalidParameterError(f"DeviceVectorEnv.reset takes no options, got {sorted(options)}")
+        on its first bank episode. Returns ``(obs, info)``.
+
+        ``options={"reset_mask": mask}`` (bool (N,), a tensor on any device or an array), after a first
+        reset: only the ``mask`` rows start their next bank episode, as an autoreset does, on the device;
+        the bank is kept, so ``seed`` must be None. Row ``n``'s next episode is the one the CPU vector
+        env's row ``n`` starts on the same call (its generator continues there too)."""
+        check_reset_options(options, ("reset_mask",), "DeviceVectorEnv")
+        if options and "reset_mask" in options:
+            return self._reset_rows(options["reset_mask"], seed)
         n, be = self.num_envs, self.backend
         if self.refill is not None:
             self.refill.close()
@@ -371,6 +378,26 @@ class DeviceVectorEnv:
             self.bank, self._bank_tensors, self._passes, self.episode_count,
             self.refill_mode, self.refill_chunk,
         )  # fmt: skip
+        self.obs.copy_(self._obs64)
+        return self.obs, self.info_tensors()
+
+    def _reset_rows(self, mask: Any, seed: Any) -> tuple[torch.Tensor, dict[str, torch.Tensor]]:
+        if self._bank is None:
+            raise RuntimeError("call reset(seed=...) (every row) before reset(options={'reset_mask': ...})")
+        if seed is not None:
+            raise InvalidParameterError(
+                f"DeviceVectorEnv.reset: seed={seed!r} with reset_mask; the rows' next episodes come from "
+                "the bank that reset(seed=...) drew, so a partial reset takes no seed"
+            )
+        m = torch.as_tensor(mask, device=self.device)
+        if m.dtype != torch.bool or tuple(m.shape) != (self.num_envs,):
+            raise InvalidParameterError(
+                f"reset_mask must be a bool tensor or array of shape ({self.num_envs},), got dtype "
+                f"{m.dtype} and shape {tuple(m.shape)}"
+            )
+        self.refill.poll()
+        self._autoreset(m)
+        self._needs_reset &= ~m
         self.obs.copy_(self._obs64)
         return self.obs, self.info_tensors()
 

@@ -5,7 +5,8 @@ runs on the native vector env (no device has been lent to this work).
     python research/probes/ppo_device_1e8_cpu.py --config CONFIG --from-model MODEL.pt
 
 Two configurations, both 10^8 decisions of planetnav/Cruise-Target-v2 from ``baselines/ppo_device.py
---device cpu`` (4 epochs, seed 0, two torch threads), 16 decisions per row an update:
+--device cpu`` (4 epochs, two torch threads, training seed 0 unless ``--seed``), 16 decisions per row an
+update:
 
 - ``large-updates``: 65,536 rows, 8 minibatches (96 updates of 1,048,576 decisions, 3,072 gradient
   steps); weights ``research/probes/ppo_device_1e8_cpu.pt``.
@@ -39,15 +40,14 @@ from ppo_device_equal_budget import EVAL_SEEDS, TASK, suite_ppo_scores  # noqa: 
 #: Other draws of the same policy: each episode's generator is seeded with the stream plus its seed.
 OTHER_STREAMS = (1_000_000, 2_000_000, 3_000_000)
 COMMON_ARGV = ["--device", "cpu", "--env-id", f"planetnav/{TASK}", "--num-steps", "16",
-               "--update-epochs", "4", "--total-timesteps", "100000000", "--seed", "0",
-               "--torch-threads", "2"]  # fmt: skip
+               "--update-epochs", "4", "--total-timesteps", "100000000", "--torch-threads", "2"]  # fmt: skip
 #: Name -> (rows, minibatches an update).
 CONFIGS = {"large-updates": (65_536, 8), "small-updates": (16_384, 64)}
 
 
-def train_argv(config: str) -> list[str]:
+def train_argv(config: str, seed: int) -> list[str]:
     rows, minibatches = CONFIGS[config]
-    return [*COMMON_ARGV, "--num-envs", str(rows), "--num-minibatches", str(minibatches)]
+    return [*COMMON_ARGV, "--seed", str(seed), "--num-envs", str(rows), "--num-minibatches", str(minibatches)]
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -60,6 +60,7 @@ def main(argv: list[str] | None = None) -> None:
                             ROOT / "research" / "probes" / "suite_ppo_cruise_target_v2_s5-19.json"],
                    help="suite JSONs whose PPO runs on the task are the reference")  # fmt: skip
     p.add_argument("--config", choices=sorted(CONFIGS), required=True, help="the configuration (see above)")
+    p.add_argument("--seed", type=int, default=0, help="the training seed (scoring does not depend on it)")
     args = p.parse_args(argv)
 
     import ppo_device
@@ -68,10 +69,11 @@ def main(argv: list[str] | None = None) -> None:
     from planetnav_train.suite.blind import paired_ratio_ci
     from planetnav_train.suite.scoring import iqm_intervals
 
+    argv = train_argv(args.config, args.seed)
     if args.train:
-        ppo_device.main([*train_argv(args.config), "--eval-episodes", "0", "--save-model", str(args.train)])
+        ppo_device.main([*argv, "--eval-episodes", "0", "--save-model", str(args.train)])
     model = args.train or args.from_model
-    run = ppo_device.parse_args([*train_argv(args.config), "--eval-episodes", str(len(EVAL_SEEDS))])
+    run = ppo_device.parse_args([*argv, "--eval-episodes", str(len(EVAL_SEEDS))])
     cfg = single.eval_config(run)
     ref = single.references(run, cfg, EVAL_SEEDS[0], len(EVAL_SEEDS))
     assert ref is not None, f"{run.blind_json}: no blind-search record of {TASK}"

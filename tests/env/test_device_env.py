@@ -172,6 +172,57 @@ def test_host_mode_equals_the_cpu_vector_env_bit_for_bit(env_id, overrides, mode
     dev.check_status()
 
 
+@pytest.mark.parametrize("mode", ["same_step", "next_step"])
+def test_a_partial_reset_equals_the_cpu_vector_envs(mode: str) -> None:
+    """``reset(options={"reset_mask": m})`` starts the ``m`` rows' next episodes, the ones the CPU vector
+    env's partial reset starts (bit for bit), leaves the other rows as they are, and the rows then step
+    on equal to the CPU env's, through autoresets."""
+    env_id, n, steps = "planetnav/RandomCruise-Target-v2", 4, 20
+    ref = gym.make_vec(env_id, num_envs=n, autoreset_mode=mode, episode_steps=60)
+    dev = DeviceVectorEnv(env_id, n, device="cpu", bank_size=n * 24, autoreset_mode=mode, episode_steps=60)
+    ref.reset(seed=5)
+    dev.reset(seed=5)
+    masks = {2: [True, False, True, False], 3: [False, False, False, True], 9: [True, True, True, True]}
+    rng = np.random.default_rng(2)
+    for k in range(steps):
+        a = _actions(ref.single_action_space, n, rng, k)
+        o_r, r_r, *_ = ref.step(a)
+        o_d, r_d, *_ = dev.step(torch.as_tensor(a))
+        assert o_d.numpy().tobytes() == o_r.tobytes() and r_d.numpy().tobytes() == r_r.tobytes(), k
+        if k in masks:
+            m = np.array(masks[k])
+            before = dev.obs.clone()
+            episodes = dev.episode_count.clone()
+            o_r, _ = ref.reset(options={"reset_mask": m})
+            o_d, info = dev.reset(options={"reset_mask": torch.as_tensor(m)})
+            assert o_d.numpy().tobytes() == o_r.tobytes(), f"partial reset after step {k}"
+            assert torch.equal(o_d[~m], before[~m])
+            assert not torch.equal(o_d[m], before[m])
+            assert torch.equal(info["episode"], episodes + torch.as_tensor(m))
+    core = ref.unwrapped.core
+    state = dev.state_arrays()
+    for name in ("f", "p", "i", "rng", "eph", "obs"):
+        assert state[name].tobytes() == getattr(core, name).tobytes(), name
+    assert dev.bank_stats()["substituted"] == 0
+
+
+def test_a_partial_reset_refuses_what_it_cannot_do() -> None:
+    dev = DeviceVectorEnv("planetnav/Cruise-Target-v1", 2, device="cpu")
+    mask = torch.tensor([True, False])
+    with pytest.raises(RuntimeError, match=r"call reset\(seed=...\)"):
+        dev.reset(options={"reset_mask": mask})
+    dev.reset(seed=0)
+    with pytest.raises(InvalidParameterError, match=r"seed=3 with reset_mask"):
+        dev.reset(seed=3, options={"reset_mask": mask})
+    with pytest.raises(InvalidParameterError, match=r"shape \(2,\), got dtype torch.bool and shape \(3,\)"):
+        dev.reset(options={"reset_mask": [True, False, True]})
+    with pytest.raises(InvalidParameterError, match=r"got dtype torch.int64"):
+        dev.reset(options={"reset_mask": np.array([1, 0])})
+    with pytest.raises(InvalidParameterError, match=r"unknown option\(s\) \['mask'\].*reset_mask"):
+        dev.reset(options={"mask": mask})
+    assert dev.episode_count.tolist() == [1, 1]  # nothing was reset by the refused calls
+
+
 def test_host_buffers_are_views_of_one_memory() -> None:
     """The torch tensors the env hands out and the arrays the kernels write are one memory (no copy)."""
     dev = DeviceVectorEnv("planetnav/Cruise-Target-v1", 2, device="cpu")
