@@ -11,7 +11,8 @@ update:
 - ``large-updates``: 65,536 rows, 8 minibatches (96 updates of 1,048,576 decisions, 3,072 gradient
   steps); weights ``research/probes/ppo_device_1e8_cpu.pt``.
 - ``small-updates``: 16,384 rows, 64 minibatches (382 updates of 262,144 decisions, 97,792 gradient
-  steps); weights ``research/probes/ppo_device_1e8_cpu_small.pt``.
+  steps); weights ``research/probes/ppo_device_1e8_cpu_small.pt`` (seed 0) and
+  ``research/probes/ppo_device_1e8_cpu_small_s1.pt`` (``--seed 1``).
 
 ``--train`` trains one and saves the weights. Both modes then score the weights as the suite scores them
 (sampled actions on seeds 50,000..50,099, per-step noise streams, blind-zero scale): with the suite's
