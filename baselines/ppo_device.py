@@ -73,9 +73,7 @@ class NativeTorchEnv:
         self.final_obs = torch.zeros((args.num_envs, *self.single_observation_space.shape))
 
     def reset(self, seed: int | None = None, options: dict | None = None):
-        if options and "reset_mask" in options:
-            options = {**options, "reset_mask": torch.as_tensor(options["reset_mask"]).numpy()}
-        o, info = self.env.reset(seed=seed, options=options)
+        o, info = self.env.reset(seed=seed, options=options)  # a CPU tensor mask reads as an array
         return torch.as_tensor(o), info
 
     def step(self, actions: torch.Tensor):
@@ -123,16 +121,17 @@ def env_step(envs, action: torch.Tensor, stagger: StaggeredStarts | None):
     all on the env's device. ``last`` holds the final observation of every row that ended or was cut (the
     other rows' entries are stale and masked by ``cut``), so nothing reads a mask back to the host."""
     o, reward, terminated, truncated, info = envs.step(action)
+    reward = reward.to(torch.float32)
     ended = terminated | truncated
     cut = truncated & ~terminated
     last = info["final_obs"]
     staggered = stagger.next_cut() if stagger is not None else None
     if staggered is None:
-        return o, reward.to(torch.float32), ended, ended, cut, last
+        return o, reward, ended, ended, cut, last
     staggered = staggered.to(ended.device) & ~ended  # a row that has just ended is not cut
     last = torch.where(staggered[:, None], o, last)  # before the reset overwrites o
     o = envs.reset(options={"reset_mask": staggered})[0]
-    return o, reward.to(torch.float32), ended, ended | staggered, cut | staggered, last
+    return o, reward, ended, ended | staggered, cut | staggered, last
 
 
 def make_env(args):

@@ -70,11 +70,11 @@ def main(argv: list[str] | None = None) -> None:
     from planetnav_train.suite.blind import paired_ratio_ci
     from planetnav_train.suite.scoring import iqm_intervals
 
-    argv = train_argv(args.config, args.seed)
+    run_argv = train_argv(args.config, args.seed)
     if args.train:
-        ppo_device.main([*argv, "--eval-episodes", "0", "--save-model", str(args.train)])
+        ppo_device.main([*run_argv, "--eval-episodes", "0", "--save-model", str(args.train)])
     model = args.train or args.from_model
-    run = ppo_device.parse_args([*argv, "--eval-episodes", str(len(EVAL_SEEDS))])
+    run = ppo_device.parse_args([*run_argv, "--eval-episodes", str(len(EVAL_SEEDS))])
     cfg = single.eval_config(run)
     ref = single.references(run, cfg, EVAL_SEEDS[0], len(EVAL_SEEDS))
     assert ref is not None, f"{run.blind_json}: no blind-search record of {TASK}"

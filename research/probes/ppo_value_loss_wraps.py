@@ -21,16 +21,16 @@ from pathlib import Path
 
 import numpy as np
 
-LINE = re.compile(r"^iter\s+(\d+)/\d+\s+decisions\s+(\d+)\s.*?\sv\s+([0-9.]+)\s")
+LINE = re.compile(r"^iter\s+(\d+)/\d+\s.*?\sv\s+([0-9.]+)\s")
 
 
-def read_log(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(update index, cumulative decisions, value loss) of every update line of a training log."""
+def read_log(path: Path) -> tuple[np.ndarray, np.ndarray]:
+    """(update index, value loss) of every update line of a training log."""
     rows = [tuple(map(float, m.groups())) for m in map(LINE.match, path.read_text().splitlines()) if m]
     if not rows:
-        raise SystemExit(f"{path}: no update lines ('iter k/K  decisions D ... v LOSS ...')")
-    k, d, v = (np.asarray(c) for c in zip(*rows, strict=True))
-    return k.astype(int), d.astype(int), v
+        raise SystemExit(f"{path}: no update lines ('iter k/K ... v LOSS ...')")
+    k, v = (np.asarray(c) for c in zip(*rows, strict=True))
+    return k.astype(int), v
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -40,11 +40,12 @@ def main(argv: list[str] | None = None) -> None:
     p.add_argument("--episode-decisions", type=int, default=144, help="L: decisions an episode")
     p.add_argument("--updates", type=int, default=None, help="read the first K updates of each log")
     args = p.parse_args(argv)
-    span = args.updates or min(len(read_log(path)[0]) for path in args.logs)
+    logs = {path: read_log(path) for path in args.logs}
+    span = args.updates or min(len(k) for k, _ in logs.values())
     print(f"value loss over updates 2..{span}; wrap: (k-1) T mod {args.episode_decisions} < T")
-    for path in args.logs:
-        k, _, v = (a[:span] for a in read_log(path))
-        t = args.num_steps
+    t = args.num_steps
+    for path, (k, v) in logs.items():
+        k, v = k[:span], v[:span]
         wrap = (((k - 1) * t) % args.episode_decisions < t) & (k > 1)
         rest = ~wrap & (k > 1)
         print(
