@@ -2,7 +2,7 @@
 runs on the native vector env (no device has been lent to this work).
 
     python research/probes/ppo_device_1e8_cpu.py --config CONFIG --train MODEL.pt   # 1.5-2 h, 2-core CPU
-    python research/probes/ppo_device_1e8_cpu.py --config CONFIG --from-model MODEL.pt
+    python research/probes/ppo_device_1e8_cpu.py --config CONFIG --from-model MODEL.pt [--against OTHER.pt]
 
 Two configurations, both 10^8 decisions of planetnav/Cruise-Target-v2 from ``baselines/ppo_device.py
 --device cpu`` (4 epochs, two torch threads, training seed 0 unless ``--seed``), 16 decisions per row an
@@ -13,6 +13,11 @@ update:
 - ``small-updates``: 16,384 rows, 64 minibatches (382 updates of 262,144 decisions, 97,792 gradient
   steps); weights ``research/probes/ppo_device_1e8_cpu_small.pt`` (seed 0) and
   ``research/probes/ppo_device_1e8_cpu_small_s1.pt`` (``--seed 1``).
+
+``--stagger-starts`` trains with each row's first episode cut at a random decision (``ppo_device.py
+--stagger-starts``); weights ``research/probes/ppo_device_1e8_cpu_small_staggered.pt`` (small-updates,
+seed 0). ``--against OTHER.pt`` adds, under each draw, the paired difference of mean error between the
+weights and OTHER's on the same seeds and draws.
 
 ``--train`` trains one and saves the weights. Both modes then score the weights as the suite scores them
 (sampled actions on seeds 50,000..50,099, per-step noise streams, blind-zero scale): with the suite's
@@ -46,9 +51,20 @@ COMMON_ARGV = ["--device", "cpu", "--env-id", f"planetnav/{TASK}", "--num-steps"
 CONFIGS = {"large-updates": (65_536, 8), "small-updates": (16_384, 64)}
 
 
-def train_argv(config: str, seed: int) -> list[str]:
+def train_argv(config: str, seed: int, stagger_starts: bool = False) -> list[str]:
     rows, minibatches = CONFIGS[config]
-    return [*COMMON_ARGV, "--seed", str(seed), "--num-envs", str(rows), "--num-minibatches", str(minibatches)]
+    argv = [*COMMON_ARGV, "--seed", str(seed), "--num-envs", str(rows), "--num-minibatches", str(minibatches)]
+    return [*argv, "--stagger-starts"] if stagger_starts else argv
+
+
+def load_agent(model: Path):
+    """The single-file PPO's agent with the weights saved in ``model``."""
+    import ppo_single_file as single
+
+    state = torch.load(model, map_location="cpu")
+    agent = single.Agent(state["critic.0.weight"].shape[1], state["actor.4.weight"].shape[0])
+    agent.load_state_dict(state)
+    return agent
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -62,15 +78,20 @@ def main(argv: list[str] | None = None) -> None:
                    help="suite JSONs whose PPO runs on the task are the reference")  # fmt: skip
     p.add_argument("--config", choices=sorted(CONFIGS), required=True, help="the configuration (see above)")
     p.add_argument("--seed", type=int, default=0, help="the training seed (scoring does not depend on it)")
+    p.add_argument("--stagger-starts", action="store_true",
+                   help="train with staggered first episodes (scoring does not depend on it)")  # fmt: skip
+    p.add_argument("--against", type=Path, metavar="MODEL",
+                   help="also print the paired difference of mean error against these weights")  # fmt: skip
     args = p.parse_args(argv)
 
     import ppo_device
     import ppo_single_file as single
 
+    from planetnav_train.stats import paired_difference
     from planetnav_train.suite.blind import paired_ratio_ci
     from planetnav_train.suite.scoring import iqm_intervals
 
-    run_argv = train_argv(args.config, args.seed)
+    run_argv = train_argv(args.config, args.seed, args.stagger_starts)
     if args.train:
         ppo_device.main([*run_argv, "--eval-episodes", "0", "--save-model", str(args.train)])
     model = args.train or args.from_model
@@ -79,10 +100,8 @@ def main(argv: list[str] | None = None) -> None:
     ref = single.references(run, cfg, EVAL_SEEDS[0], len(EVAL_SEEDS))
     assert ref is not None, f"{run.blind_json}: no blind-search record of {TASK}"
     _, j_blind, _, j_best, _ = ref
-    state = torch.load(model, map_location="cpu")
-    obs_dim = state["critic.0.weight"].shape[1]
-    agent = single.Agent(obs_dim, state["actor.4.weight"].shape[0])
-    agent.load_state_dict(state)
+    agent = load_agent(model)
+    other = load_agent(args.against) if args.against else None
 
     print(f"{TASK}, {model.name}: the 10^8-decision configuration {args.config}, blind-zero score on seeds "
           f"{EVAL_SEEDS[0]}..{EVAL_SEEDS[-1]} [95 % paired bootstrap]")  # fmt: skip
@@ -94,6 +113,10 @@ def main(argv: list[str] | None = None) -> None:
         name = "the suite's draws" if stream == 0 else f"draws of stream {stream:,}"
         print(f"  {name:27s} {s['score']:+.3f} [{s['score_lo']:+.3f}, {s['score_hi']:+.3f}]  "
               f"(mean error {j.mean():.2f} km)")  # fmt: skip
+        if other is not None:
+            policy = single.sampled_policy(other, EVAL_SEEDS, stream=stream)
+            d = paired_difference(j, single.evaluate(policy, cfg, EVAL_SEEDS))
+            print(f"  {'':27s} minus {args.against.name}: {d.format('{:+.2f}')} km (paired t, 95 %)")
     suite = suite_ppo_scores(args.suite_json)
     v = iqm_intervals({"suite": np.asarray(suite)[:, None]})["suite"]
     below = sum(x < scores[0] for x in suite)
