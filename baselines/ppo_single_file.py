@@ -141,6 +141,14 @@ def agent_from_sb3(policy_state: dict) -> Agent:
     return agent
 
 
+def load_agent(path: str | Path) -> Agent:
+    """An Agent holding the ``state_dict`` that ``--save-model`` wrote at ``path``."""
+    state = torch.load(path, map_location="cpu")
+    agent = Agent(state["actor.0.weight"].shape[1], state["actor.4.weight"].shape[0])
+    agent.load_state_dict(state)
+    return agent
+
+
 def env_options(args: argparse.Namespace) -> dict:
     """The env options this run overrides on top of the id's."""
     return {"episode_steps": args.episode_steps} if args.episode_steps else {}

@@ -36,7 +36,6 @@ import sys
 from pathlib import Path
 
 import numpy as np
-import torch
 
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / "baselines"))  # ppo_device and ppo_single_file, imported where used
@@ -55,16 +54,6 @@ def train_argv(config: str, seed: int, stagger_starts: bool = False) -> list[str
     rows, minibatches = CONFIGS[config]
     argv = [*COMMON_ARGV, "--seed", str(seed), "--num-envs", str(rows), "--num-minibatches", str(minibatches)]
     return [*argv, "--stagger-starts"] if stagger_starts else argv
-
-
-def load_agent(model: Path):
-    """The single-file PPO's agent with the weights saved in ``model``."""
-    import ppo_single_file as single
-
-    state = torch.load(model, map_location="cpu")
-    agent = single.Agent(state["critic.0.weight"].shape[1], state["actor.4.weight"].shape[0])
-    agent.load_state_dict(state)
-    return agent
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -100,22 +89,25 @@ def main(argv: list[str] | None = None) -> None:
     ref = single.references(run, cfg, EVAL_SEEDS[0], len(EVAL_SEEDS))
     assert ref is not None, f"{run.blind_json}: no blind-search record of {TASK}"
     _, j_blind, _, j_best, _ = ref
-    agent = load_agent(model)
-    other = load_agent(args.against) if args.against else None
+    agent = single.load_agent(model)
+    other = single.load_agent(args.against) if args.against else None
+
+    def errors(policy_agent, stream: int) -> np.ndarray:  # per-seed mean error (km), sampled actions
+        policy = single.sampled_policy(policy_agent, EVAL_SEEDS, stream=stream)
+        return single.evaluate(policy, cfg, EVAL_SEEDS)
 
     print(f"{TASK}, {model.name}: the 10^8-decision configuration {args.config}, blind-zero score on seeds "
           f"{EVAL_SEEDS[0]}..{EVAL_SEEDS[-1]} [95 % paired bootstrap]")  # fmt: skip
     scores = {}
     for stream in (0, *OTHER_STREAMS):
-        j = single.evaluate(single.sampled_policy(agent, EVAL_SEEDS, stream=stream), cfg, EVAL_SEEDS)
+        j = errors(agent, stream)
         s = paired_ratio_ci(j_blind, j_best, j)
         scores[stream] = s["score"]
         name = "the suite's draws" if stream == 0 else f"draws of stream {stream:,}"
         print(f"  {name:27s} {s['score']:+.3f} [{s['score_lo']:+.3f}, {s['score_hi']:+.3f}]  "
               f"(mean error {j.mean():.2f} km)")  # fmt: skip
         if other is not None:
-            policy = single.sampled_policy(other, EVAL_SEEDS, stream=stream)
-            d = paired_difference(j, single.evaluate(policy, cfg, EVAL_SEEDS))
+            d = paired_difference(j, errors(other, stream))
             print(f"  {'':27s} minus {args.against.name}: {d.format('{:+.2f}')} km (paired t, 95 %)")
     suite = suite_ppo_scores(args.suite_json)
     v = iqm_intervals({"suite": np.asarray(suite)[:, None]})["suite"]

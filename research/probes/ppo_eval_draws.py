@@ -75,16 +75,12 @@ def single_model(out: Path, seed: int) -> Path:
 def load_agent(path: Path):
     """A single-file Agent holding the policy saved at ``path`` (an SB3 zip or a state_dict)."""
     import ppo_single_file
-    import torch
 
     if path.suffix == ".zip":
         from stable_baselines3 import PPO
 
         return ppo_single_file.agent_from_sb3(PPO.load(path, device="cpu").policy.state_dict())
-    sd = torch.load(path)
-    agent = ppo_single_file.Agent(sd["actor.0.weight"].shape[1], sd["actor.4.weight"].shape[0])
-    agent.load_state_dict(sd)
-    return agent
+    return ppo_single_file.load_agent(path)
 
 
 def one_generator(agent, seed: int = 50_000):

@@ -90,6 +90,8 @@ def test_updates_change_the_policy_from_its_seeded_initialization(run) -> None:
     # (another seed's initialization differs by ~1).
     assert all(v > LR / 10 for v in moved.values()), moved
     assert max(moved.values()) < 40 * LR * 3.5, moved
+    loaded = _module().load_agent(model).state_dict()  # what the probes score
+    assert loaded.keys() == trained.keys() and all(torch.equal(loaded[k], trained[k]) for k in trained)
 
 
 def test_evaluation_reproduces_the_stored_blind_winner() -> None:
