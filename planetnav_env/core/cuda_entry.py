@@ -22,13 +22,12 @@ from __future__ import annotations
 
 from typing import Any
 
-import numba
 import numpy as np
 
 from planetnav_env.core.batch import BatchCore
 from planetnav_env.core.kernels import reset_thread, step_thread
 from planetnav_env.core.records import Actions, scratch_rows
-from planetnav_env.numerics.cuda_target import DEFAULT_CC, compile_ptx, require_numba_cuda
+from planetnav_env.numerics.cuda_target import DEFAULT_CC, compile_ptx, device_typeof, require_numba_cuda
 
 __all__ = ["ENTRY_POINTS", "compile_ptx", "entry_argtypes", "entry_ptx", "reset_kernel", "step_kernel"]
 
@@ -57,16 +56,16 @@ ENTRY_POINTS: dict[str, Any] = {"step": step_kernel, "reset": reset_kernel}
 
 
 def entry_argtypes(core: BatchCore) -> dict[str, tuple]:
-    """The numba argument types of each entry point for the batch ``core`` (a device array has the same
-    numba array type as the numpy array it mirrors, so these are the device's types too)."""
+    """The numba argument types of each entry point for the batch ``core``, as a launch with the records'
+    arrays on the device types them (:func:`~planetnav_env.numerics.cuda_target.device_typeof`)."""
     n = core.num_rows
     act = Actions(targets=np.zeros(n, np.int64), torques=np.zeros((n, 3)), active=np.ones(n, np.bool_))
-    prm = numba.typeof(core.params)
-    st = numba.typeof(core.state)
-    rows = numba.typeof(scratch_rows(core.params, n))
+    prm = device_typeof(core.params)
+    st = device_typeof(core.state)
+    rows = device_typeof(scratch_rows(core.params, n))
     return {
-        "step": (prm, st, numba.typeof(act), rows),
-        "reset": (prm, st, numba.typeof(np.zeros(n, np.int64)), rows),
+        "step": (prm, st, device_typeof(act), rows),
+        "reset": (prm, st, device_typeof(np.zeros(n, np.int64)), rows),
     }
 
 

@@ -11,7 +11,6 @@ from __future__ import annotations
 import functools
 from typing import Any, NamedTuple
 
-import numba
 import numpy as np
 
 from planetnav_env.core.batch import BatchCore
@@ -19,7 +18,7 @@ from planetnav_env.core.cuda_entry import entry_argtypes
 from planetnav_env.core.records import scratch_rows
 from planetnav_env.device.bank import BankRows
 from planetnav_env.device.rows import autoreset_thread
-from planetnav_env.numerics.cuda_target import DEFAULT_CC, compile_ptx, require_numba_cuda
+from planetnav_env.numerics.cuda_target import DEFAULT_CC, compile_ptx, device_typeof, require_numba_cuda
 
 cuda = require_numba_cuda()
 
@@ -33,18 +32,16 @@ def autoreset_kernel(prm, st, bank, slots, mask, rows) -> None:  # pragma: no co
 
 
 def autoreset_argtypes(core: BatchCore) -> tuple:
-    """The numba argument types of :func:`autoreset_kernel` for ``core``'s configuration (a bank has the
-    state arrays' dtypes and dimensions, so its record's types are those of the state's fields)."""
+    """The numba argument types of :func:`autoreset_kernel` for ``core``'s configuration, as the launch types
+    them (:func:`~planetnav_env.numerics.cuda_target.device_typeof`; a bank has the state arrays' dtypes
+    and dimensions, so its record's types are those of the state's fields)."""
     n = core.num_rows
     bank = BankRows(f=core.f, p=core.p, rng=core.rng, eph=core.eph)
-    return (
-        numba.typeof(core.params),
-        numba.typeof(core.state),
-        numba.typeof(bank),
-        numba.typeof(np.zeros(n, np.int64)),
-        numba.typeof(np.zeros(n, np.bool_)),
-        numba.typeof(scratch_rows(core.params, n)),
-    )
+    return tuple(
+        device_typeof(v)
+        for v in (core.params, core.state, bank, np.zeros(n, np.int64), np.zeros(n, np.bool_),
+                  scratch_rows(core.params, n))
+    )  # fmt: skip
 
 
 def autoreset_ptx(core: BatchCore, cc: tuple[int, int] = DEFAULT_CC) -> str:

@@ -75,3 +75,32 @@ def compile_ptx(kernel: Callable, argtypes: tuple, cc: tuple[int, int] = DEFAULT
     with supplied_compute_capability(cc):
         ptx, _ = cuda.compile_ptx(kernel, argtypes, cc=cc, device=False)
     return ptx
+
+
+def device_typeof(value: Any) -> Any:
+    """The numba type a kernel launch gives ``value`` once its numpy arrays are device arrays (the device
+    env's records: numpy arrays uploaded, nested named tuples kept).
+
+    numba-cuda types a device array as a writable array of its dtype, dimensions and layout, whatever the
+    host array it mirrors (``DeviceNDArray._numba_type_``). ``numba.typeof`` of the host value types a
+    read-only array (the star catalogue's) as read-only: a specialization the launch never compiles. So
+    the PTX checks and the register report compile these types, the ones the launch compiles."""
+    import numba
+
+    return _writable(numba.typeof(value))
+
+
+def _writable(t: Any) -> Any:
+    from numba.core import types
+
+    if isinstance(t, types.Array):
+        return t.copy(readonly=False)
+    if isinstance(t, types.NamedUniTuple):
+        return types.NamedUniTuple(_writable(t.dtype), t.count, t.instance_class)
+    if isinstance(t, types.NamedTuple):
+        return types.NamedTuple([_writable(x) for x in t.types], t.instance_class)
+    if isinstance(t, types.UniTuple):
+        return types.UniTuple(_writable(t.dtype), t.count)
+    if isinstance(t, types.Tuple):
+        return types.Tuple([_writable(x) for x in t.types])
+    return t

@@ -9,10 +9,12 @@ What a machine without a GPU can check (the rules are in :mod:`planetnav_env.num
   the CPU and looped over the rows, equal the chunked step bit for bit on every id;
 * :mod:`planetnav_env.numerics.portable_math`'s scalar ``remainder`` and ``rint`` equal numba's
   ``np.remainder`` and ``np.rint`` bit for bit;
-* with numba-cuda installed: every entry point (step, reset; autoreset is a reset of the finished rows)
-  compiles to PTX for every registered id, the compute capability supplied (9.0), with no unresolved
-  external function. It does not run the PTX: only a device checks the numbers (the CUDA simulator runs
-  the ``@njit`` functions a kernel calls as CPU code, so it would compare the CPU with itself).
+* with numba-cuda installed: the argument types compiled are those a launch compiles (numba-cuda's
+  typing of the records with device arrays); every entry point (step, reset; autoreset is a reset of the
+  finished rows) compiles to PTX for every registered id, the compute capability supplied (9.0), with no
+  unresolved external function. It does not run the PTX: only a device checks the numbers (the CUDA
+  simulator runs the ``@njit`` functions a kernel calls as CPU code, so it would compare the CPU with
+  itself).
 """
 
 from __future__ import annotations
@@ -198,6 +200,65 @@ def test_entry_point_compiles_to_ptx(env_id: str, entry: str, ptx_by_signature) 
     # Everything the kernel calls is in the module (libdevice is linked by NVVM): no runtime (NRT),
     # exception or host helper left to resolve.
     assert ".extern" not in ptx
+
+
+def _as_launched(value):
+    """``value`` with every non-empty numpy array replaced by numba-cuda's own device array of its shape,
+    strides and dtype (the memory a stand-in: typing reads none), as the device env passes its records;
+    an empty array by a writable one (numba-cuda's needs a context to exist)."""
+    from numba.cuda.cudadrv.devicearray import DeviceNDArray
+
+    if isinstance(value, np.ndarray):
+        if value.size == 0:
+            return np.zeros(value.shape, value.dtype)
+        return DeviceNDArray(value.shape, value.strides, value.dtype, gpu_data=object())
+    if isinstance(value, tuple) and hasattr(value, "_fields"):
+        return type(value)(*(_as_launched(v) for v in value))
+    return value
+
+
+def test_device_typeof_makes_every_array_writable() -> None:
+    """Read-only arrays anywhere in plain, uniform and named tuples become writable; the rest is kept."""
+    import numba
+
+    from planetnav_env.numerics.cuda_target import device_typeof
+
+    ro = np.zeros((2, 3))
+    ro.setflags(write=False)
+    act = Actions(targets=np.zeros(2, np.int64), torques=ro, active=np.ones(2, np.bool_))
+    value = (ro, (ro, ro), act, 1.5)
+    want = (np.zeros((2, 3)), (np.zeros((2, 3)),) * 2, act._replace(torques=np.zeros((2, 3))), 1.5)
+    assert "readonly" in str(numba.typeof(value))
+    assert device_typeof(value) == numba.typeof(want)
+
+
+@pytest.mark.parametrize("env_id", list(ENV_IDS))
+def test_argument_types_are_the_launchs(env_id: str) -> None:
+    """The PTX checks compile the types a launch compiles: numba-cuda's typing of the records with device
+    arrays, which are writable where the host's are read-only (the star catalogue's)."""
+    _numba_cuda()
+    import numba
+
+    from planetnav_env.core import cuda_entry
+    from planetnav_env.device.bank import BankRows
+    from planetnav_env.device.cuda_kernels import autoreset_argtypes
+
+    core = BatchCore(EnvConfig.from_dict(ENV_IDS[env_id]), 2)
+    n = core.num_rows
+    rows = scratch_rows(core.params, n)
+    act = Actions(targets=np.zeros(n, np.int64), torques=np.zeros((n, 3)), active=np.ones(n, np.bool_))
+    bank = BankRows(f=core.f, p=core.p, rng=core.rng, eph=core.eph)
+    launched = {
+        "step": (core.params, core.state, act, rows),
+        "reset": (core.params, core.state, np.zeros(n, np.int64), rows),
+        "autoreset": (core.params, core.state, bank, np.zeros(n, np.int64), np.zeros(n, np.bool_), rows),
+    }
+    compiled = {**cuda_entry.entry_argtypes(core), "autoreset": autoreset_argtypes(core)}
+    for entry, args in launched.items():
+        assert compiled[entry] == tuple(numba.typeof(_as_launched(a)) for a in args), entry
+    host = numba.typeof(core.params)
+    if "readonly" in str(host):  # ids with a star catalogue: the host's types are not the launch's
+        assert compiled["step"][0] != host and "readonly" not in str(compiled["step"][0])
 
 
 def test_compute_capability_is_supplied_only_inside_the_block() -> None:
