@@ -1,0 +1,147 @@
+"""What one kernel launch of the device env costs on the host in numba-cuda, measured without a GPU.
+
+The device env launches its step kernel once per physics step (``decision_steps`` a decision) and its
+autoreset kernel once per decision. Each launch, numba-cuda 0.30 types the arguments
+(``numba.cuda.typing.typeof``: the dispatcher picks the compiled overload), flattens them into the
+kernel's parameters (``_Kernel._prepare_args``: each array becomes meminfo, parent, size, itemsize,
+pointer, shape and strides) and packs those for the driver (cuda.core's ``ParamHolder``); only then does it
+call ``cuLaunchKernel``. The records are named tuples of some hundred arrays, so this is Python work per
+launch whatever the number of rows. This probe times those three parts on numba-cuda's own code, with
+``DeviceNDArray`` stand-ins for the device env's arrays (same shapes, strides and dtypes; the memory a
+stand-in: nothing reads it), and prints the bound they put on the env's rate: a decision of N rows takes
+at least ``decision_steps`` step launches and one autoreset launch, so decisions/s <= N / (that many
+launches x the time per launch). Not timed here: the C part of the dispatch, the driver's call and the
+torch operations between launches (each a few microseconds).
+
+    python research/probes/launch_overhead_probe.py [--rounds 5]
+
+The kernel parameters' total size is printed too: above the 4,096 bytes CUDA allowed before 12.1, under
+the 32,764 bytes it allows since (Volta and later); ptxas checks it (tests/env/test_cuda_ptx.py
+assembles every entry point).
+"""
+
+from __future__ import annotations
+
+import argparse
+import ctypes
+import json
+import statistics
+import time
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from planetnav_env.config import EnvConfig
+from planetnav_env.core.batch import BatchCore
+from planetnav_env.core.records import Actions, scratch_rows
+from planetnav_env.device.bank import BankRows
+from planetnav_env.envs.registration import ENV_IDS
+from planetnav_env.numerics.cuda_target import device_typeof, require_numba_cuda
+
+IDS = ("planetnav/Cruise-Target-v1", "planetnav/Cruise-TorqueControl-v1", "planetnav/MarsApproach-Tasking-v1")
+ROWS = (2**10, 2**14, 2**18)
+
+
+class _StandInMemory:
+    """What a DeviceNDArray reads of its memory when it is passed to a kernel: a device pointer."""
+
+    def __init__(self) -> None:
+        self.device_ctypes_pointer = ctypes.c_void_p(0x10000)
+
+
+def _stand_in(value: Any) -> Any:
+    """``value`` with each numpy array replaced by a DeviceNDArray of its shape, strides and dtype (an empty
+    one by a one-element one: numba-cuda makes an empty device array only with a CUDA context)."""
+    from numba.cuda.cudadrv.devicearray import DeviceNDArray
+
+    if isinstance(value, np.ndarray):
+        a = value if value.size else np.zeros(tuple(max(d, 1) for d in value.shape), value.dtype)
+        return DeviceNDArray(a.shape, a.strides, a.dtype, gpu_data=_StandInMemory())
+    if isinstance(value, tuple) and hasattr(value, "_fields"):
+        return type(value)(*(_stand_in(v) for v in value))
+    return value
+
+
+def _median_time(f: Callable[[], Any], rounds: int, reps: int = 100) -> float:
+    times = []
+    for _ in range(rounds):
+        t = time.perf_counter()
+        for _ in range(reps):
+            f()
+        times.append((time.perf_counter() - t) / reps)
+    return statistics.median(times)
+
+
+def launch_costs(host_args: tuple, rounds: int) -> dict:
+    """Median seconds per launch of typing, flattening and packing ``host_args`` (host records)."""
+    from cuda.core.cu12._kernel_arg_handler import ParamHolder
+    from numba.cuda.dispatcher import _Kernel
+    from numba.cuda.typing.typeof import Purpose, typeof
+
+    class Flattener:  # the one method of a compiled kernel this needs, on numba-cuda's own code
+        extensions = ()
+        _prepare_args = _Kernel._prepare_args
+
+    flattener = Flattener()
+    args = tuple(_stand_in(a) for a in host_args)
+    types = tuple(device_typeof(a) for a in host_args)
+
+    def flatten() -> list:
+        params: list = []
+        for t, v in zip(types, args, strict=True):
+            flattener._prepare_args(t, v, 0, [], params)
+        return params
+
+    params = flatten()
+    return {
+        "parameters": len(params),
+        "parameter_bytes": 8 * len(params),
+        "typeof_s": _median_time(lambda: [typeof(a, Purpose.argument) for a in args], rounds),
+        "flatten_s": _median_time(flatten, rounds),
+        "pack_s": _median_time(lambda: ParamHolder(params), rounds),
+    }
+
+
+def main(argv: list[str] | None = None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--rounds", type=int, default=5, help="timed rounds of 100 launches' work (median)")
+    args = ap.parse_args(argv)
+    require_numba_cuda()
+    out = {}
+    for env_id in IDS:
+        cfg = EnvConfig.from_dict(ENV_IDS[env_id])
+        core = BatchCore(cfg, 4)
+        n = core.num_rows
+        rows = scratch_rows(core.params, n)
+        act = Actions(targets=np.zeros(n, np.int64), torques=np.zeros((n, 3)), active=np.ones(n, np.bool_))
+        bank = BankRows(f=core.f, p=core.p, rng=core.rng, eph=core.eph)
+        slots, mask = np.zeros(n, np.int64), np.zeros(n, np.bool_)
+        kernels = {
+            "step": launch_costs((core.params, core.state, act, rows), args.rounds),
+            "autoreset": launch_costs((core.params, core.state, bank, slots, mask, rows), args.rounds),
+        }
+        for k in kernels.values():
+            k["per_launch_s"] = k["typeof_s"] + k["flatten_s"] + k["pack_s"]
+        k_steps = cfg.decision_steps
+        per_decision = k_steps * kernels["step"]["per_launch_s"] + kernels["autoreset"]["per_launch_s"]
+        out[env_id] = {
+            "decision_steps": k_steps,
+            "kernels": kernels,
+            "host_s_per_decision": per_decision,
+            "decisions_per_s_at_most": {f"2^{int(np.log2(r))}": r / per_decision for r in ROWS},
+        }
+        s = kernels["step"]
+        print(
+            f"{env_id}: step {s['parameters']} parameters ({s['parameter_bytes']} bytes), "
+            f"{s['per_launch_s'] * 1e6:.0f} us a launch (typeof {s['typeof_s'] * 1e6:.0f}, flatten "
+            f"{s['flatten_s'] * 1e6:.0f}, pack {s['pack_s'] * 1e6:.0f}); autoreset "
+            f"{kernels['autoreset']['per_launch_s'] * 1e6:.0f} us; {k_steps} + 1 launches a decision: "
+            + ", ".join(f"N={r}: <= {r / per_decision / 1e6:.2f}M decisions/s" for r in ROWS),
+            flush=True,
+        )
+    print(json.dumps(out, indent=1))
+
+
+if __name__ == "__main__":
+    main()
