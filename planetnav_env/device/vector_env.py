@@ -447,7 +447,7 @@ class DeviceVectorEnv:
         self._active.copy_(active)
         self.backend.step(self._prm, self._state, self._act, self._scratch)
         if self.blocks.any:
-            self.blocks.after_step(self.f, self.p, self.i, self._obs64, active)
+            self.blocks.count(self.f, self.i, active)
 
     def _advance(self, active: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
         """One decision of the ``active`` rows (``BatchCore.step_decision``'s rule, every physics step run:
@@ -462,8 +462,10 @@ class DeviceVectorEnv:
             for _ in range(k):
                 self._physics_step(running)
                 total += torch.where(running, f[:, L.F_REWARD], 0.0)
-                running &= (i[:, L.I_TERMINATED] == 0) & (i[:, L.I_TRUNCATED] == 0)
+                running &= (i[:, L.I_TERMINATED] | i[:, L.I_TRUNCATED]) == 0
             f[:, L.F_REWARD] = torch.where(active, total, f[:, L.F_REWARD])
+        if self.blocks.any:
+            self.blocks.write(self.p, self._obs64, active)
         reward = torch.where(active, f[:, L.F_REWARD], 0.0)
         terminated = (i[:, L.I_TERMINATED] != 0) & active
         truncated = (i[:, L.I_TRUNCATED] != 0) & active

@@ -11,7 +11,10 @@ launch whatever the number of rows. This probe times those three parts on numba-
 stand-in: nothing reads it), and prints the bound they put on the env's rate: a decision of N rows takes
 at least ``decision_steps`` step launches and one autoreset launch, so decisions/s <= N / (that many
 launches x the time per launch). Not timed here: the C part of the dispatch, the driver's call and the
-torch operations between launches (each a few microseconds).
+torch operations between launches. Those are counted instead: the torch operations of a decision other
+than views (each one a kernel launch on a GPU, a few microseconds of the host's time), profiled in the host
+mode (``device="cpu"``, the same Python as on CUDA but for ``log1p`` and ``sqrt``, which the host mode
+takes from numpy: a handful of operations a decision) over 15 decisions of random target actions.
 
     python research/probes/launch_overhead_probe.py [--rounds 5]
 
@@ -103,6 +106,42 @@ def launch_costs(host_args: tuple, rounds: int) -> dict:
     }
 
 
+#: Operations that make a view (no kernel on a GPU).
+VIEW_OPS = frozenset(
+    f"aten::{name}"
+    for name in ("select", "slice", "unsqueeze", "view", "reshape", "expand", "as_strided", "alias",
+                 "diagonal", "transpose", "t", "detach", "_reshape_alias", "lift_fresh", "result_type")
+)  # fmt: skip
+
+
+def torch_ops_per_decision(env_id: str, decisions: int = 15, rows: int = 64) -> float:
+    """Top-level torch operations other than views per decision of the device env in host mode."""
+    import torch
+    from torch.profiler import ProfilerActivity, profile
+
+    from planetnav_env.device.vector_env import DeviceVectorEnv
+
+    env = DeviceVectorEnv(env_id, num_envs=rows, device="cpu", refill="off")
+    env.reset(seed=0)
+    gen = torch.Generator().manual_seed(0)
+    n = getattr(env.single_action_space, "n", None)
+
+    def action() -> torch.Tensor:
+        if n is not None:
+            return torch.randint(0, int(n), (rows,), generator=gen)
+        return torch.rand((rows, *env.single_action_space.shape), generator=gen) * 2 - 1
+
+    for _ in range(5):
+        env.step(action())
+    actions = [action() for _ in range(decisions)]
+    with profile(activities=[ProfilerActivity.CPU]) as prof:
+        for a in actions:
+            env.step(a)
+    env.close()
+    top = [e for e in prof.events() if e.cpu_parent is None and e.name not in VIEW_OPS]
+    return len(top) / decisions
+
+
 def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--rounds", type=int, default=5, help="timed rounds of 100 launches' work (median)")
@@ -125,8 +164,10 @@ def main(argv: list[str] | None = None) -> None:
             k["per_launch_s"] = k["typeof_s"] + k["flatten_s"] + k["pack_s"]
         k_steps = cfg.decision_steps
         per_decision = k_steps * kernels["step"]["per_launch_s"] + kernels["autoreset"]["per_launch_s"]
+        ops = torch_ops_per_decision(env_id)
         out[env_id] = {
             "decision_steps": k_steps,
+            "torch_ops_per_decision": ops,
             "kernels": kernels,
             "host_s_per_decision": per_decision,
             "decisions_per_s_at_most": {f"2^{int(np.log2(r))}": r / per_decision for r in ROWS},
@@ -137,7 +178,8 @@ def main(argv: list[str] | None = None) -> None:
             f"{s['per_launch_s'] * 1e6:.0f} us a launch (typeof {s['typeof_s'] * 1e6:.0f}, flatten "
             f"{s['flatten_s'] * 1e6:.0f}, pack {s['pack_s'] * 1e6:.0f}); autoreset "
             f"{kernels['autoreset']['per_launch_s'] * 1e6:.0f} us; {k_steps} + 1 launches a decision: "
-            + ", ".join(f"N={r}: <= {r / per_decision / 1e6:.2f}M decisions/s" for r in ROWS),
+            + ", ".join(f"N={r}: <= {r / per_decision / 1e6:.2f}M decisions/s" for r in ROWS)
+            + f"; and {ops:.0f} torch operations a decision",
             flush=True,
         )
     print(json.dumps(out, indent=1))

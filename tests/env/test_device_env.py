@@ -115,6 +115,7 @@ PARITY = [
     ("planetnav/Cruise-Target-v1", {"episode_steps": 60}, "next_step", 40),  # 10 physics steps a decision
     ("planetnav/Cruise-Target-v1", {"episode_steps": 60}, "same_step", 40),
     ("planetnav/RandomCruise-Target-v2", {"episode_steps": 40}, "next_step", 20),  # events, image log
+    ("planetnav/RandomCruise-Target-v2", {"episode_steps": 35}, "same_step", 20),  # ends inside a hold
     ("planetnav/MarsApproach-Tasking-v1", {"episode_steps": 40}, "next_step", 30),
     ("planetnav/Cruise-TorqueControl-v1", {"episode_steps": 25}, "next_step", 100),  # 1-s torque control
     ("planetnav/Cruise-Hybrid-v1", {"episode_steps": 25}, "same_step", 60),
@@ -261,7 +262,8 @@ def test_torch_blocks_equal_the_numpy_blocks() -> None:
     measured, target = rng.random(n) < 0.6, rng.integers(-1, t + 1, n)
     mask = rng.random(n) < 0.7
     ts = torch.from_numpy(since.copy())
-    DB.advance_since(ts, torch.from_numpy(measured), torch.from_numpy(target), torch.from_numpy(mask))
+    hot = DB.target_onehot(torch.from_numpy(target), t)
+    DB.advance_since(ts, torch.from_numpy(measured), hot, torch.from_numpy(mask))
     ref = since.copy()
     sub = ref[mask]
     advance_since_measured(sub, measured[mask], target[mask])
@@ -275,7 +277,9 @@ def test_torch_blocks_equal_the_numpy_blocks() -> None:
     log = rng.integers(0, 9, (n, 2, p_)).astype(float)
     fixed, failed = rng.random(n) < 0.4, rng.random(n) < 0.3
     tl = torch.from_numpy(log.copy())
-    DB.advance_image_log(tl, *(torch.from_numpy(x) for x in (fixed, failed, target, mask)))
+    planets = DB.target_onehot(torch.from_numpy(target), p_)
+    fixed_t, failed_t, mask_t = (torch.from_numpy(x) for x in (fixed, failed, mask))
+    DB.advance_image_log(tl, fixed_t, failed_t, planets, mask_t)
     ref = _masked_reference(advance_image_log, log, mask, fixed, failed, target)
     assert tl.numpy().tobytes() == ref.tobytes()
     values = DB.image_log_values(tl, lambda x: torch.from_numpy(pm.log1p(x.numpy())))
@@ -284,7 +288,7 @@ def test_torch_blocks_equal_the_numpy_blocks() -> None:
     rlog = rng.uniform(0, 20, (n, 2, t))
     nis = np.where(rng.random(n) < 0.1, np.nan, rng.uniform(0, 5, n))
     tr = torch.from_numpy(rlog.copy())
-    DB.advance_residual_log(tr, *(torch.from_numpy(x) for x in (fixed, nis, target, mask)))
+    DB.advance_residual_log(tr, fixed_t, torch.from_numpy(nis), hot, mask_t)
     ref = _masked_reference(advance_residual_log, rlog, mask, fixed, nis, target)
     assert tr.numpy().tobytes() == ref.tobytes()
     assert DB.residual_log_values(tr).numpy().tobytes() == residual_log_values(ref).tobytes()
