@@ -42,7 +42,11 @@ from planetnav_env.device.bank import BankRows
 from planetnav_env.envs.registration import ENV_IDS
 from planetnav_env.numerics.cuda_target import device_typeof, require_numba_cuda
 
-IDS = ("planetnav/Cruise-Target-v1", "planetnav/Cruise-TorqueControl-v1", "planetnav/MarsApproach-Tasking-v1")
+#: The benchmark's three ids, and the device PPO's task.
+IDS = (
+    "planetnav/Cruise-Target-v1", "planetnav/Cruise-TorqueControl-v1", "planetnav/MarsApproach-Tasking-v1",
+    "planetnav/Cruise-Target-v2",
+)  # fmt: skip
 ROWS = (2**10, 2**14, 2**18)
 
 
