@@ -10,7 +10,8 @@ separate argument; the kernels take a few records instead of long positional lis
 
 from __future__ import annotations
 
-from typing import NamedTuple
+from collections.abc import Callable
+from typing import Any, NamedTuple
 
 import numpy as np
 from numba import njit
@@ -229,6 +230,16 @@ def scratch_rows(prm: CoreParams, rows: int) -> Scratch:
     :func:`scratch_row`."""
     one = make_scratch(prm)
     return Scratch(**{name: np.zeros((rows, *a.shape), a.dtype) for name, a in one._asdict().items()})
+
+
+def map_arrays(fn: Callable[[np.ndarray], Any], record: Any) -> Any:
+    """``record`` (a named tuple, nested ones included) with ``fn`` applied to each of its numpy arrays and
+    the other fields kept: how a record's arrays are uploaded to a device, or stood in for."""
+    if isinstance(record, np.ndarray):
+        return fn(record)
+    if isinstance(record, tuple) and hasattr(record, "_fields"):
+        return type(record)(*(map_arrays(fn, v) for v in record))
+    return record
 
 
 @njit(inline="always", **ROW_KERNEL_OPTIONS)

@@ -66,7 +66,7 @@ import torch
 from planetnav_env.config import EnvConfig
 from planetnav_env.core import layout as L
 from planetnav_env.core.batch import BatchCore
-from planetnav_env.core.records import Actions, CoreParams, RowState, make_scratch, scratch_rows
+from planetnav_env.core.records import Actions, CoreParams, RowState, make_scratch, map_arrays, scratch_rows
 from planetnav_env.device import rows as R
 from planetnav_env.device.bank import BankRows, EpisodeBank, global_episode
 from planetnav_env.device.blocks import ObservationBlocks
@@ -199,14 +199,7 @@ class _Cuda:
         return self.cuda.as_cuda_array(t)
 
     def params(self, prm: CoreParams) -> CoreParams:
-        def to_device(x: Any) -> Any:
-            if isinstance(x, np.ndarray):
-                return self.cuda.to_device(x)
-            if isinstance(x, tuple) and hasattr(x, "_fields"):
-                return type(x)(*(to_device(v) for v in x))
-            return x
-
-        return to_device(prm)
+        return map_arrays(self.cuda.to_device, prm)
 
     def scratch(self, prm: CoreParams, n: int) -> Any:
         one = make_scratch(prm)

@@ -37,7 +37,7 @@ import numpy as np
 
 from planetnav_env.config import EnvConfig
 from planetnav_env.core.batch import BatchCore
-from planetnav_env.core.records import Actions, scratch_rows
+from planetnav_env.core.records import Actions, map_arrays, scratch_rows
 from planetnav_env.device.bank import BankRows
 from planetnav_env.envs.registration import ENV_IDS
 from planetnav_env.numerics.cuda_target import device_typeof, require_numba_cuda
@@ -62,12 +62,11 @@ def _stand_in(value: Any) -> Any:
     one by a one-element one: numba-cuda makes an empty device array only with a CUDA context)."""
     from numba.cuda.cudadrv.devicearray import DeviceNDArray
 
-    if isinstance(value, np.ndarray):
-        a = value if value.size else np.zeros(tuple(max(d, 1) for d in value.shape), value.dtype)
+    def device(a: np.ndarray) -> DeviceNDArray:
+        a = a if a.size else np.zeros(tuple(max(d, 1) for d in a.shape), a.dtype)
         return DeviceNDArray(a.shape, a.strides, a.dtype, gpu_data=_StandInMemory())
-    if isinstance(value, tuple) and hasattr(value, "_fields"):
-        return type(value)(*(_stand_in(v) for v in value))
-    return value
+
+    return map_arrays(device, value)
 
 
 def _median_time(f: Callable[[], Any], rounds: int, reps: int = 100) -> float:
@@ -101,13 +100,13 @@ def launch_costs(host_args: tuple, rounds: int) -> dict:
         return params
 
     params = flatten()
-    return {
-        "parameters": len(params),
-        "parameter_bytes": 8 * len(params),
+    parts = {
         "typeof_s": _median_time(lambda: [typeof(a, Purpose.argument) for a in args], rounds),
         "flatten_s": _median_time(flatten, rounds),
         "pack_s": _median_time(lambda: ParamHolder(params), rounds),
     }
+    return {"parameters": len(params), "parameter_bytes": 8 * len(params), **parts,
+            "per_launch_s": sum(parts.values())}  # fmt: skip
 
 
 #: Operations that make a view (no kernel on a GPU).
@@ -164,8 +163,6 @@ def main(argv: list[str] | None = None) -> None:
             "step": launch_costs((core.params, core.state, act, rows), args.rounds),
             "autoreset": launch_costs((core.params, core.state, bank, slots, mask, rows), args.rounds),
         }
-        for k in kernels.values():
-            k["per_launch_s"] = k["typeof_s"] + k["flatten_s"] + k["pack_s"]
         k_steps = cfg.decision_steps
         per_decision = k_steps * kernels["step"]["per_launch_s"] + kernels["autoreset"]["per_launch_s"]
         ops = torch_ops_per_decision(env_id)

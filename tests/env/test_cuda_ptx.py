@@ -29,7 +29,7 @@ from numba import njit
 from planetnav_env.config import EnvConfig
 from planetnav_env.core import kernels as K
 from planetnav_env.core.batch import BatchCore
-from planetnav_env.core.records import Actions, scratch_rows
+from planetnav_env.core.records import Actions, map_arrays, scratch_rows
 from planetnav_env.envs.registration import ENV_IDS
 from planetnav_env.numerics import portable_math as pm
 
@@ -208,13 +208,12 @@ def _as_launched(value):
     an empty array by a writable one (numba-cuda's needs a context to exist)."""
     from numba.cuda.cudadrv.devicearray import DeviceNDArray
 
-    if isinstance(value, np.ndarray):
-        if value.size == 0:
-            return np.zeros(value.shape, value.dtype)
-        return DeviceNDArray(value.shape, value.strides, value.dtype, gpu_data=object())
-    if isinstance(value, tuple) and hasattr(value, "_fields"):
-        return type(value)(*(_as_launched(v) for v in value))
-    return value
+    def device(a: np.ndarray):
+        if a.size == 0:
+            return np.zeros(a.shape, a.dtype)
+        return DeviceNDArray(a.shape, a.strides, a.dtype, gpu_data=object())
+
+    return map_arrays(device, value)
 
 
 def test_device_typeof_makes_every_array_writable() -> None:
