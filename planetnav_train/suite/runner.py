@@ -62,19 +62,18 @@ def reference_agent(task: Task, spec: str, settings: Settings) -> dict[str, Any]
     """Agent ``spec``'s objective on ``task``'s evaluation seeds (mean, 95 % t-interval, per-episode
     values, wall seconds, provenance), cached in ``OUT/references/agents/`` per agent (the planner and the
     3,000-step tasks take minutes per agent). The references and the zero point are properties of the
-    physical task: every agent acts at the physics step (:meth:`EnvConfig.at_physics_step`: one decision
-    per physics step, absolute targets), ``random`` included; :data:`INTERFACE_RANDOM` is the random
-    policy in the task's own interface."""
+    physical task: every agent acts in the interface the task declares for its rule agents
+    (:meth:`Task.rule_config`: one decision per physics step, absolute targets), ``random`` included;
+    :data:`INTERFACE_RANDOM` is the random policy in the task's own interface."""
     from planetnav_train.evaluate import evaluate_agent
 
     path = agent_cache_path(task, spec, settings)
     if path.is_file():
         return json.loads(path.read_text())
-    env_cfg = task.eval_config(settings.episode_steps)
     if spec == INTERFACE_RANDOM:
-        spec = task.random
+        spec, env_cfg = task.random, task.eval_config(settings.episode_steps)
     else:
-        env_cfg = env_cfg.at_physics_step()
+        env_cfg = task.rule_config(settings.episode_steps)
     episodes = settings.eval_episodes or task.eval_episodes
     t0 = time.perf_counter()
     result = evaluate_agent(spec, env_cfg, episodes, task.eval_seed, progress=settings.progress)
@@ -113,9 +112,8 @@ def task_references(task: Task, settings: Settings) -> dict[str, Any]:
     point (the better of the zero candidates) and the best candidate (the lowest objective), chosen from
     the data. Each agent keeps the provenance of its evaluation (None for one cached before records
     carried it). Written to ``OUT/references/<task>.json``."""
-    env_cfg = task.eval_config(settings.episode_steps)
     agents = {}
-    zeros = zero_candidates(task, env_cfg.at_physics_step())
+    zeros = zero_candidates(task, task.rule_config(settings.episode_steps))
     for spec in dict.fromkeys((task.random, *zeros, *task.references, INTERFACE_RANDOM)):
         summary = reference_agent(task, spec, settings)
         agents[spec] = {k: summary[k] for k in ("objective", "ci95", "per_episode", "wall_seconds")}

@@ -21,8 +21,8 @@ from typing import Any
 import numpy as np
 
 from planetnav_env.config import EnvConfig
-from planetnav_env.envs.registration import ENV_IDS
 from planetnav_env.errors import ConfigError
+from planetnav_env.tasks import VERSIONS, get_version
 from planetnav_train.config import ROOT
 
 #: The suite version of the published table (:data:`TASKS`); :data:`SUITES` holds every version's tasks, so a
@@ -116,7 +116,7 @@ class Task:
     def __post_init__(self) -> None:
         # Every field with a closed set of values, checked in one pass (one error names every bad value).
         choices: dict[str, Sequence[str]] = {
-            "env_id": sorted(ENV_IDS), "action_kind": ACTION_KINDS, "objective": sorted(OBJECTIVES),
+            "env_id": sorted(VERSIONS), "action_kind": ACTION_KINDS, "objective": sorted(OBJECTIVES),
         }  # fmt: skip
         bad = [f"{k} {getattr(self, k)!r} is not one of {list(v)}" for k, v in choices.items()
                if getattr(self, k) not in v]  # fmt: skip
@@ -148,13 +148,20 @@ class Task:
         return tuple(range(self.eval_seed, self.eval_seed + self.eval_episodes))
 
     def env_config(self, episode_steps: int | None = None) -> EnvConfig:
-        """The registered environment (optionally with a shorter episode, for smoke runs)."""
+        """The registered environment, from the task's declaration (optionally with a shorter episode, for
+        smoke runs)."""
         over = {"episode_steps": episode_steps} if episode_steps else {}
-        return EnvConfig.from_dict({**ENV_IDS[self.env_id], **over})
+        return get_version(self.env_id).config(**over)
 
     def eval_config(self, episode_steps: int | None = None) -> EnvConfig:
         """The evaluation environment: the registered one with the task's noise streams."""
         return EnvConfig.from_dict(self.env_config(episode_steps).to_dict(), noise_streams=self.noise_streams)
+
+    def rule_config(self, episode_steps: int | None = None) -> EnvConfig:
+        """The evaluation environment in the interface the task's declaration gives its rule agents
+        (:attr:`planetnav_env.tasks.TaskVersion.rules`): the same physics, seeds and objective."""
+        rules = get_version(self.env_id).rules.options()
+        return EnvConfig.from_dict(self.eval_config(episode_steps).to_dict(), **rules)
 
     def to_dict(self) -> dict[str, Any]:
         """The task as JSON data (recorded with the runs)."""

@@ -24,4 +24,3 @@ def test_check_mode_names_a_stale_card(tmp_path, monkeypatch, capsys):
     assert cards.main(["--check"]) == 1
     assert "Cruise-Target.md" in capsys.readouterr().out
     assert (tmp_path / "Cruise-Target.md").read_text() == "edited by hand\n"  # --check writes nothing
-
