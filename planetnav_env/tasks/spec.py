@@ -44,7 +44,8 @@ def _choice(name: str, value: Any, choices: tuple[str, ...]) -> None:
 @dataclass(frozen=True)
 class Layout:
     """What fixes the compiled layout of a version: the state's columns, the observation's width and the
-    action space. Two versions with equal layouts and interfaces share their spaces.
+    action space (with the interface's ``since_measured`` block and the operations block of
+    :attr:`Params.operations`).
 
     scenario: one of :data:`planetnav_env.config.SCENARIOS`. planets: the bodies the camera may target, in
     action order. pulsars: the X-ray pulsars the detector may time, after the planets. action_mode: one of

@@ -21,7 +21,30 @@ from planetnav_env.errors import ConfigError
 from planetnav_env.tasks import TASKS, VERSIONS, get_task, get_version
 from planetnav_env.tasks.spec import Interface, Layout, Params, Reward
 
-ORACLE = json.loads((Path(__file__).parents[1] / "golden" / "id_options.json").read_text())["ids"]
+_RECORD = json.loads((Path(__file__).parents[1] / "golden" / "id_options.json").read_text())
+ORACLE, OLD_DEFAULTS = _RECORD["ids"], _RECORD["defaults"]
+
+
+def _same_configuration(now: dict, want: dict) -> dict:
+    """The options on which ``now`` (a resolved configuration today) and ``want`` (recorded) differ. An
+    option added since the record must be at today's default, and one removed since must have been at the
+    recorded default, in every id: neither may change what an id is."""
+    default = EnvConfig().to_dict()
+    moved = {k: (v, want.get(k)) for k, v in now.items() if k in want and want[k] != v}
+    moved |= {k: (v, "added") for k, v in now.items() if k not in want and v != default[k]}
+    moved |= {k: ("removed", v) for k, v in want.items() if k not in now and v != OLD_DEFAULTS[k]}
+    return moved
+
+
+def test_the_comparison_can_fail():
+    want = ORACLE["planetnav/Cruise-Target-v2"]["options"]
+    assert _same_configuration({**want, "image_success_min": 1.0}, want) == {"image_success_min": (1.0, 0.0)}
+    assert _same_configuration({**want, "filter": {**want["filter"], "sigma_pos0": 1.0}}, want)
+    removed = {k: v for k, v in want.items() if k != "centroid_bias_max"}
+    assert _same_configuration(removed, want) == {}  # an option removed at its default changes nothing
+    assert _same_configuration(removed, {**want, "centroid_bias_max": 0.5}) == {
+        "centroid_bias_max": ("removed", 0.5)
+    }
 
 
 def test_the_same_ids_are_registered():
@@ -35,12 +58,13 @@ def test_every_id_resolves_to_the_recorded_configuration(env_id):
     want = ORACLE[env_id]["options"]
     declared = get_version(env_id).config().to_dict()
     registered = EnvConfig.from_dict(id_options(env_id)).to_dict()
-    # Option by option, so a failure names what moved.
-    assert {k: v for k, v in declared.items() if want.get(k) != v} == {}
-    assert declared == want and registered == want
     env = gym.make(env_id)
-    assert env.unwrapped.config.to_dict() == want
+    made = env.unwrapped.config.to_dict()
     env.close()
+    # Option by option, so a failure names what moved.
+    for now in (declared, registered, made):
+        assert _same_configuration(now, want) == {}
+    assert declared == registered == made
 
 
 @pytest.mark.parametrize("env_id", sorted(ORACLE))
