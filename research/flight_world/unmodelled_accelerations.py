@@ -30,13 +30,12 @@ import argparse
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from planetnav_env.astro.bodies import AU_KM, body
+from planetnav_env.astro.bodies import body
 from planetnav_env.astro.ephemeris import DEEphemeris
+from planetnav_env.dynamics.srp import solar_pressure
 from planetnav_env.scenarios.episodes import CRUISE_EPOCH, cruise_state, draw_episode
 
 PLANETS = ("mercury", "venus", "earth", "mars", "jupiter", "saturn")
-#: Solar radiation pressure at 1 AU [N/m^2]: the solar constant 1361 W/m^2 over c.
-P_1AU = 1361.0 / 299_792_458.0
 AREA_TO_MASS = 0.01  # m^2/kg
 REFLECTIVITY = 1.3
 DAY = 86400.0
@@ -65,7 +64,7 @@ def accelerations(eph: DEEphemeris, epoch: float, x0: np.ndarray) -> dict[str, n
         direct = d / np.linalg.norm(d, axis=1, keepdims=True) ** 3
         a = body(name).gm * (direct - rj / np.linalg.norm(rj, axis=1, keepdims=True) ** 3)
         out[name] = np.linalg.norm(a, axis=1) * 1e3
-    srp = P_1AU * REFLECTIVITY * AREA_TO_MASS * (AU_KM / np.linalg.norm(r, axis=1)) ** 2
+    srp = REFLECTIVITY * AREA_TO_MASS * np.array([solar_pressure(x) for x in np.linalg.norm(r, axis=1)])
     out["SRP"] = srp
     out["5 % of SRP"] = 0.05 * srp
     return out
