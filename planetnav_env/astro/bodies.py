@@ -17,6 +17,10 @@ Radii
     Archinal et al. (2018), "Report of the IAU Working Group on Cartographic
     Coordinates and Rotational Elements: 2015", Celest. Mech. Dyn. Astr. 130:22.
     Equatorial radii: the limb a camera sees. Sun: IAU 2015 Resolution B3 nominal radius.
+    Polar radii and the north poles' right ascension and declination at J2000 (ICRF, the
+    constant terms; their rates move them by under 0.1 deg over 2018-2032) from the same
+    report; Mars's pole from its 2009 edition (Archinal et al. 2011, Celest. Mech. Dyn.
+    Astr. 109:101), whose constant terms the 2015 edition's periodic series averages to.
 Mean elements
     E. M. Standish, "Keplerian Elements for Approximate Positions of the Major
     Planets", JPL Solar System Dynamics, table 1 (valid 1800 AD - 2050 AD). Stated
@@ -50,30 +54,40 @@ ECLIPTIC_TO_EQUATORIAL = _rot_x(OBLIQUITY_J2000_RAD)
 
 @dataclass(frozen=True)
 class Body:
-    """A Solar-system body: name, GM [km^3/s^2], equatorial radius [km], NAIF id for the DE kernel."""
+    """A Solar-system body: name, GM [km^3/s^2], equatorial radius [km], NAIF id for the DE kernel, polar
+    radius [km] (a body's figure is the spheroid of the two radii) and the north pole's right ascension
+    and declination [deg, ICRF, J2000]."""
 
     name: str
     gm: float
     radius: float
     naif_id: int
+    polar_radius: float
+    pole_ra_dec_deg: tuple[float, float]
 
     @property
     def diameter(self) -> float:
         """Equatorial diameter [km]."""
         return 2.0 * self.radius
 
+    @property
+    def pole(self) -> np.ndarray:
+        """Unit vector of the north pole, ICRF."""
+        ra, dec = (math.radians(a) for a in self.pole_ra_dec_deg)
+        return np.array([math.cos(dec) * math.cos(ra), math.cos(dec) * math.sin(ra), math.sin(dec)])
+
 
 BODIES: dict[str, Body] = {
     b.name: b
     for b in (
-        Body("sun", 132_712_440_041.279419, 695_700.0, 10),
-        Body("mercury", 22_031.868551, 2_440.53, 199),
-        Body("venus", 324_858.592000, 6_051.8, 299),
-        Body("earth", 398_600.435507, 6_378.1366, 399),
-        Body("moon", 4_902.800118, 1_737.4, 301),
-        Body("mars", 42_828.375816, 3_396.19, 499),
-        Body("jupiter", 126_712_764.100000, 71_492.0, 5),
-        Body("saturn", 37_940_584.841800, 60_268.0, 6),
+        Body("sun", 132_712_440_041.279419, 695_700.0, 10, 695_700.0, (286.13, 63.87)),
+        Body("mercury", 22_031.868551, 2_440.53, 199, 2_438.26, (281.0103, 61.4155)),
+        Body("venus", 324_858.592000, 6_051.8, 299, 6_051.8, (272.76, 67.16)),
+        Body("earth", 398_600.435507, 6_378.1366, 399, 6_356.7519, (0.0, 90.0)),
+        Body("moon", 4_902.800118, 1_737.4, 301, 1_737.4, (269.9949, 66.5392)),
+        Body("mars", 42_828.375816, 3_396.19, 499, 3_376.20, (317.68143, 52.88650)),
+        Body("jupiter", 126_712_764.100000, 71_492.0, 5, 66_854.0, (268.056595, 64.495303)),
+        Body("saturn", 37_940_584.841800, 60_268.0, 6, 54_364.0, (40.589, 83.537)),
     )
 }
 

@@ -328,6 +328,31 @@ def position_kernel(coeffs_row, t0, segment_s, t, channel, out):
 
 
 @row_kernel
+def velocity_kernel(coeffs_row, t0, segment_s, t, channel, out):
+    """Velocity [km/s] of ``channel`` at ``t`` [TDB s] into ``out`` (3,): the time derivative of the
+    table's polynomial, ``d/dt sum_j c_j T_j(x) = (2 / segment_s) sum_j j c_j U_{j-1}(x)`` (Chebyshev
+    polynomials of the second kind, summed by Clenshaw's recurrence). Same conventions and failures as
+    :func:`position_kernel`; within a segment it is the exact derivative of what ``position_kernel``
+    returns, not a finite difference."""
+    if channel < 0 or channel >= coeffs_row.shape[1]:
+        return False
+    seg, x = _locate(t0, segment_s, coeffs_row.shape[0], t)
+    if seg < 0:
+        return False
+    c = coeffs_row[seg, channel]
+    x2 = 2.0 * x
+    scale = 2.0 / segment_s
+    for k in range(3):
+        b1 = b2 = 0.0
+        for j in range(c.shape[1] - 1, 0, -1):  # coefficient of U_{j-1} is j c_j
+            b0 = j * c[k, j] + x2 * b1 - b2
+            b2 = b1
+            b1 = b0
+        out[k] = scale * b1
+    return True
+
+
+@row_kernel
 def positions_kernel(coeffs_row, t0, segment_s, t, c_lo, c_hi, out):
     """Positions [km] of channels ``c_lo .. c_hi - 1`` at ``t`` into ``out`` ``(c_hi - c_lo, 3)``.
 

@@ -57,6 +57,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import vectorize
 
+from planetnav_env.astro.apparent import SPEED_OF_LIGHT_KM_S
 from planetnav_env.astro.bodies import body
 from planetnav_env.codes import VisibilityReason
 from planetnav_env.errors import (
@@ -94,9 +95,6 @@ __all__ = [
     "sun_ssb_position",
     "toa_sigma_s",
 ]
-
-#: Speed of light [km/s] (exact, SI).
-SPEED_OF_LIGHT_KM_S = 299_792.458
 
 
 class UnknownPulsarError(UnknownBodyError):
