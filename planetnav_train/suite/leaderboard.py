@@ -63,14 +63,8 @@ def score_legend(version: int) -> str:
 def aggregate_rows(track_agg: Mapping[str, Any]) -> list[str]:
     """Markdown table of one track's aggregates (:func:`aggregate`): one block of rows per task set, named,
     ranking only the algorithms that ran on every task of it (best first), with their runs per task and
-    IQM over those tasks with the 95 % interval. An aggregate written before task sets existed falls back
-    to each algorithm's own tasks, one set per row."""
-    sets = track_agg.get("task_sets")
-    if sets is None:
-        sets = [
-            {"tasks": track_agg["tasks"][a], "algorithms": {a: v}, "runs": {a: track_agg["runs"][a]}}
-            for a, v in track_agg["overall"].items()
-        ]
+    IQM over those tasks with the 95 % interval."""
+    sets = track_agg["task_sets"]
     lines = ["| task set | rank | algorithm | runs per task | IQM [95 % CI] |", "|---|---|---|---|---|"]
     for row in sets:
         algos = row["algorithms"]
@@ -250,7 +244,7 @@ def write_leaderboard(
     plot_dir = path.parent / f"{path.stem}_plots"
     for track, a in agg.items():
         lines += [f"## Track `{track}`", "", "### Per task (IQM of the normalized score over seeds)", ""]
-        algos = sorted(a["overall"])
+        algos = sorted(a["tasks"])
         lines += ["| task | " + " | ".join(algos) + " |", "|---|" + "---|" * len(algos)]
         for task in sorted(a["per_task"]):
             cells = [
@@ -273,12 +267,10 @@ def write_leaderboard(
                     f"[{row['low']:.2f}, {row['high']:.2f}] |"
                 )
         if plots:
-            sets = a.get("task_sets") or [
-                {"tasks": a["tasks"][x], "algorithms": {x: v}} for x, v in a["overall"].items()
-            ]
-            for p in scoring.write_plots(sets, a["profiles"], a["improvement"], plot_dir, prefix=f"{track}_"):
+            for p in scoring.write_plots(a["task_sets"], a["improvement"], plot_dir, prefix=f"{track}_"):
                 lines += ["", f"![{p.stem}]({plot_dir.name}/{p.name})"]
-            curve = scoring.write_curve_plot(a.get("curves", {}), plot_dir / f"{track}_curves.png")
+            curve = scoring.write_curve_plot(a.get("curves", {}), plot_dir / f"{track}_curves.png",
+                                             sets=a["task_sets"])  # fmt: skip
             if curve is not None:
                 title = "### Learning curves (IQM over seeds, 95 % stratified-bootstrap band)"
                 lines += ["", title, "", f"![{curve.stem}]({plot_dir.name}/{curve.name})"]
