@@ -16,7 +16,7 @@ from planetnav_train.spread import prediction_interval
 from planetnav_train.suite.cells import Settings, coverage_lines
 from planetnav_train.suite.challenges import challenge_lines, task_status
 from planetnav_train.suite.runner import INTERFACE_RANDOM, write_json_atomic
-from planetnav_train.suite.scoring import aggregate, entry_name, is_ranked
+from planetnav_train.suite.scoring import aggregate, best_ranked, entry_name, is_ranked
 from planetnav_train.suite.tasks import SUITES, records_version
 from planetnav_train.suite.walltime import WallTime, reference_seconds, table_wall_time, wall_time_lines
 
@@ -106,10 +106,10 @@ def best_per_task_rows(
         "|---|---|---|---|---|---|---|",
     ]
     for task in sorted(track_agg["per_task"]):
-        per = {k: v for k, v in track_agg["per_task"][task].items() if is_ranked(k)}
-        if not per:
+        per = track_agg["per_task"][task]
+        best = best_ranked(per)
+        if best is None:
             continue  # only short-budget entries: nothing to rank
-        best = min(per, key=lambda k: (-per[k]["iqm"], k))
         ref = references.get(task)
         ref_text = f"{ref['best']} ({ref['J_best']:.1f} km)" if ref else "-"
         new_run = _new_run_interval(runs, task, best, track)

@@ -27,6 +27,8 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from planetnav_env.errors import ConfigError
 from planetnav_train.config import is_rllib_algo
 from planetnav_train.export import export_policy
@@ -41,6 +43,7 @@ from planetnav_train.shipped import (
 from planetnav_train.suite.cells import Cell
 from planetnav_train.suite.leaderboard import summary_markdown
 from planetnav_train.suite.runner import load_records, write_json_atomic
+from planetnav_train.suite.scoring import best_ranked, entry_name, iqm, is_ranked
 from planetnav_train.suite.tasks import get_task, records_version
 
 #: The README's summary block lies between these two lines (the text between them is replaced).
@@ -121,15 +124,25 @@ def update_readme(readme: str | Path, data: Mapping[str, Any]) -> Path:
 def best_raw_runs(
     records: Sequence[Mapping[str, Any]], tasks: Sequence[str] | None = None, official_only: bool = True
 ) -> dict[str, Mapping[str, Any]]:
-    """Per task, the raw-track run with the lowest objective (ties: algorithm, then seed, by name/number);
-    ``tasks`` (default: every task with raw-track runs) must each have one. ``official_only``: runs with
+    """Per task, the run to ship: of the page's best entry (:func:`~planetnav_train.suite.scoring.best_ranked`
+    over the raw-track candidates: the ranked entry with the highest IQM of the normalized score, ties by
+    name), its run with the lowest objective (ties by seed). An unranked entry (a short budget,
+    :func:`~planetnav_train.suite.scoring.entry_name`) is never a candidate, whatever its objective.
+    ``tasks`` (default: every task with candidate runs) must each have one. ``official_only``: runs with
     smoke settings (``official: false``) are not candidates.
 
     Raises :class:`ConfigError` naming a task without candidate runs, and what it does have."""
     raw = [r for r in records if r["track"] == "raw"]
     pool = [r for r in raw if r.get("official", False) or not official_only]
+    unranked = [r for r in pool if not is_ranked(entry_name(r))]
+    pool = [r for r in pool if is_ranked(entry_name(r))]
     wanted = [get_task(t).id for t in tasks] if tasks else sorted({r["task"] for r in pool})
     if not wanted:
+        if unranked:
+            raise ConfigError(
+                f"no raw-track run to ship: the {len(unranked)} candidate run(s) are all unranked "
+                f"({', '.join(sorted({entry_name(r) for r in unranked}))}); an unranked entry never ships"
+            )
         raise ConfigError(
             f"no raw-track run to ship ({len(raw)} raw-track records, none official; smoke runs ship only "
             "with --allow-smoke)"
@@ -140,12 +153,21 @@ def best_raw_runs(
     for task in wanted:
         runs = [r for r in pool if r["task"] == task]
         if not runs:
-            smoke = sum(r["task"] == task for r in raw)
+            short = sorted({entry_name(r) for r in unranked if r["task"] == task})
+            smoke = sum(r["task"] == task for r in raw) - sum(r["task"] == task for r in unranked)
             raise ConfigError(
                 f"task {task}: no {'official ' if official_only else ''}raw-track run to ship ({smoke} "
-                "raw-track record(s) with smoke settings)"
+                "raw-track record(s) with smoke settings"
+                + (f"; unranked, never shipped: {', '.join(short)})" if short else ")")
             )
-        best[task] = min(runs, key=lambda r: (r["objective"], r["algorithm"], int(r["seed"])))
+        by_entry: dict[str, list[Mapping[str, Any]]] = {}
+        for r in runs:
+            by_entry.setdefault(entry_name(r), []).append(r)
+        # the page's per-task IQM (rliable's, over every seed of the entry)
+        scores = {e: {"iqm": iqm(np.array([[r["normalized_score"]] for r in rs]))}
+                  for e, rs in by_entry.items()}  # fmt: skip
+        entry = best_ranked(scores)
+        best[task] = min(by_entry[entry], key=lambda r: (r["objective"], int(r["seed"])))
     return best
 
 

@@ -313,6 +313,14 @@ def is_ranked(entry: str) -> bool:
     return not entry.endswith(SHORT_BUDGET)
 
 
+def best_ranked(per_task: Mapping[str, Mapping[str, float]]) -> str | None:
+    """The best entry of one task: the ranked entry (:func:`is_ranked`) with the highest IQM of the
+    normalized score, ties by name; None when no entry is ranked. ``per_task``: ``{entry: {"iqm", ...}}``.
+    The page names it best, and it is what ships (:func:`planetnav_train.suite.publish.best_raw_runs`)."""
+    ranked = {k: v for k, v in per_task.items() if is_ranked(k)}
+    return min(ranked, key=lambda k: (-ranked[k]["iqm"], k)) if ranked else None
+
+
 def scores_by_seed(records: Iterable[Mapping[str, Any]], track: str) -> Scores:
     """``{entry: {task: {seed: normalized score}}}`` of ``track``'s records, by :func:`entry_name`."""
     by: Scores = {}

@@ -96,3 +96,28 @@ def test_summary_ranks_no_short_budget_entry() -> None:
     text = suite.summary_markdown(suite.suite_json(records, {}, suite.aggregate(records, reps=100)))
     block = text.split("aggregated over tasks:")[1].split("best algorithm per task")[0]
     assert "sac" not in block and "| 1 | ppo |" in block
+
+
+def test_shipped_v2_baselines_are_the_published_pages_ranked_best() -> None:
+    """Each shipped ``suite:<task>`` of the published version-2 table is the run of the entry that the
+    page (docs/benchmark.json's per-task IQMs) names best, the entry's lowest objective; none is unranked."""
+    import json
+    from pathlib import Path
+
+    from planetnav_train.shipped import BASELINES_DIR, load_manifest
+    from planetnav_train.suite.scoring import best_ranked, entry_name
+
+    root = Path(__file__).resolve().parents[2]
+    published = json.loads((root / "docs" / "benchmark.json").read_text())
+    assert published["suite_version"] == 2
+    shipped = {t: e for t, e in load_manifest(BASELINES_DIR)["baselines"].items() if e["suite_version"] == 2}
+    assert shipped, "no version-2 baseline shipped"
+    per_task = published["aggregate"]["raw"]["per_task"]
+    for task, entry in shipped.items():
+        best = best_ranked(per_task[task])
+        runs = [r for r in published["runs"] if r["task"] == task and r["track"] == "raw"
+                and entry_name(r) == best]  # fmt: skip
+        want = min(runs, key=lambda r: (r["objective"], r["seed"]))
+        assert (entry["algorithm"], entry["seed"]) == (want["algorithm"], want["seed"]), task
+        assert entry["source_cell"] == f"{task}__{want['algorithm']}__raw__s{want['seed']}"
+        assert entry["objective"] == pytest.approx(want["objective"])
