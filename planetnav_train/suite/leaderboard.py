@@ -171,6 +171,24 @@ def curve_rows(curves: Mapping[str, Mapping[str, Mapping[str, list[float]]]]) ->
     return [*lines, ""]
 
 
+def provenance_lines(prov: Mapping[str, Any] | None) -> list[str]:
+    """Markdown: the tree the aggregation ran from, from its ``provenance``: a clean tree at a commit, or
+    (in bold) a tree with uncommitted changes or outside a git checkout, with whether ``--allow-dirty``
+    let it publish. Nothing when no provenance was recorded."""
+    if not prov:
+        return []
+    commit = prov.get("git_commit")
+    allowed = " (published with `--allow-dirty`)" if prov.get("allow_dirty") else ""
+    if commit is None:
+        text = f"**Aggregated outside a git checkout**{allowed}: no commit recorded."
+    elif prov.get("git_dirty"):
+        text = (f"**Aggregated from a tree with uncommitted changes** at commit `{commit[:12]}`{allowed}: "
+                "the changes are listed in the JSON's `provenance`; no commit reproduces it.")  # fmt: skip
+    else:
+        text = f"Aggregated from a clean tree at commit `{commit[:12]}` (the JSON's `provenance`)."
+    return [text, ""]
+
+
 def summary_markdown(data: Mapping[str, Any]) -> str:
     """The summary of a suite JSON (``OUT/suite.json``, :func:`suite_json`) as markdown: per track the
     algorithms' IQM over tasks with 95 % intervals and per task the best algorithm. Flags smoke-setting
@@ -186,6 +204,7 @@ def summary_markdown(data: Mapping[str, Any]) -> str:
     if unofficial:
         lines += [f"**Not a leaderboard**: {unofficial} of {len(runs)} runs used smoke settings.", ""]
     lines += coverage_lines(runs, table=False)
+    lines += provenance_lines(data.get("provenance"))
     for track, a in agg.items():
         lines += [f"Track `{track}`, aggregated over tasks:", "", *aggregate_rows(a), ""]
         lines += [f"Track `{track}`, best algorithm per task:", ""]
@@ -200,6 +219,7 @@ def write_leaderboard(
     path: Path,
     plots: bool = True,
     wall: WallTime | None = None,
+    prov: Mapping[str, Any] | None = None,
 ) -> Path:
     """The leaderboard markdown at ``path`` (plots beside it in ``<stem>_plots/``): the references used,
     per track the per-task and aggregated IQM tables, P(improvement), the plots, and every run with its
@@ -219,6 +239,7 @@ def write_leaderboard(
             "",
         ]
     lines += [score_legend(records_version(records)), ""]
+    lines += provenance_lines(prov)
     lines += ["## Coverage", "", *coverage_lines(records)]
     if wall is not None:
         lines += ["## Wall time of the table", "", "Worker-seconds of the published table on this run's "
@@ -299,20 +320,25 @@ def finish(
     json_path: str | None,
     markdown: Path | None,
     reps: int | None = None,
+    allow_dirty: bool = False,
 ) -> dict[str, Any]:
     """Aggregate every record under ``settings.out``, write ``OUT/suite.json``, the invocation's runs to
     ``json_path`` (same form) and the leaderboard markdown (default ``OUT/benchmark.md``). Both JSON carry
-    the ``provenance`` of this aggregation (each run keeps its own, of the process that ran it)."""
+    the ``provenance`` of this aggregation (each run keeps its own, of the process that ran it), with
+    ``allow_dirty``: whether the publisher was told to accept a tree that is not clean (``--allow-dirty``);
+    the page says which tree it was (:func:`provenance_lines`)."""
     records = result["records"]
     references = dict(result["references"])
     for p in sorted((settings.out / "references").glob("*.json")):  # tasks run by earlier invocations
         ref = json.loads(p.read_text())
         references.setdefault(ref["task"], ref)
     agg = aggregate(records, reps) if records else {}
-    data = {**suite_json(records, references, agg), "provenance": provenance()}
+    prov = {**provenance(), "allow_dirty": bool(allow_dirty)}
+    data = {**suite_json(records, references, agg), "provenance": prov}
     write_json_atomic(settings.out / "suite.json", data)
     if json_path:
         write_json_atomic(Path(json_path), {**data, "runs": list(result["ran"])})
     wall = table_wall_time(records, reference_seconds(settings.out))
-    md = write_leaderboard(records, references, agg, markdown or settings.out / "benchmark.md", wall=wall)
+    md = write_leaderboard(records, references, agg, markdown or settings.out / "benchmark.md", wall=wall,
+                           prov=prov)  # fmt: skip
     return {"json": settings.out / "suite.json", "markdown": md, "aggregate": agg}

@@ -32,6 +32,7 @@ import numpy as np
 from planetnav_env.errors import ConfigError
 from planetnav_train.config import is_rllib_algo
 from planetnav_train.export import export_policy
+from planetnav_train.provenance import git_state
 from planetnav_train.sb3 import resolve_model_path
 from planetnav_train.shipped import (
     BASELINES_DIR,
@@ -49,6 +50,29 @@ from planetnav_train.suite.tasks import get_task, records_version
 #: The README's summary block lies between these two lines (the text between them is replaced).
 README_START = "<!-- suite-summary:start -->"
 README_END = "<!-- suite-summary:end -->"
+
+
+def check_tree(allow_dirty: bool = False, source_dir: str | Path | None = None) -> dict[str, Any]:
+    """The git state (:func:`planetnav_train.provenance.git_state`) of the planetnav source that publishes,
+    when it is a clean checkout at a commit: published tables are aggregated there, and the page names the
+    commit. Otherwise (uncommitted changes, or no git checkout) :class:`ConfigError` naming what differs,
+    unless ``allow_dirty`` (``--allow-dirty``), when the state is returned and the page says so
+    (:func:`planetnav_train.suite.leaderboard.provenance_lines`)."""
+    state = git_state(source_dir)
+    if state["git_commit"] is None:
+        problem = "the planetnav source is not a git checkout (there is no commit to name)"
+    elif state["git_dirty"]:
+        changes = [c.strip() for c in state["git_changes"] or []]
+        listed = "; ".join(changes[:5]) + ("; ..." if len(changes) > 5 else "")
+        problem = f"the working tree at {state['git_commit'][:12]} has uncommitted changes ({listed})"
+    else:
+        return state
+    if not allow_dirty:
+        raise ConfigError(
+            f"refusing to publish: {problem}. Commit, then publish from the clean tree (the page names its "
+            "commit), or pass --allow-dirty (the page then says the tree was not clean)"
+        )
+    return state
 
 
 def load_suite_json(path: str | Path) -> dict[str, Any]:
@@ -282,6 +306,7 @@ __all__ = [
     "README_END",
     "README_START",
     "best_raw_runs",
+    "check_tree",
     "load_suite_json",
     "publish_json",
     "replace_block",
