@@ -121,3 +121,17 @@ def test_shipped_v2_baselines_are_the_published_pages_ranked_best() -> None:
         assert (entry["algorithm"], entry["seed"]) == (want["algorithm"], want["seed"]), task
         assert entry["source_cell"] == f"{task}__{want['algorithm']}__raw__s{want['seed']}"
         assert entry["objective"] == pytest.approx(want["objective"])
+
+
+def test_the_published_json_names_one_task_set_per_aggregate_from_a_clean_tree() -> None:
+    """docs/benchmark.json as published: every aggregate over tasks names its one task set and ranks only
+    full-budget entries that ran on all of it, and it was aggregated from a clean tree at a commit."""
+    import json
+    from pathlib import Path
+
+    published = json.loads((Path(__file__).resolve().parents[2] / "docs" / "benchmark.json").read_text())
+    assert published["aggregate"]
+    for track_agg in published["aggregate"].values():
+        check_one_task_set_each(track_agg)
+    prov = published["provenance"]
+    assert len(prov["git_commit"]) == 40 and prov["git_dirty"] is False and prov["allow_dirty"] is False
