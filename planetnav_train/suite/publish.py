@@ -6,7 +6,7 @@
 - :func:`update_readme`: the summary tables (:func:`planetnav_train.suite.leaderboard.summary_markdown`)
   written between the README's ``<!-- suite-summary:start -->`` and ``<!-- suite-summary:end -->``
   markers;
-- :func:`ship_baselines`: the best raw-track policy of each task copied to
+- :func:`ship_baselines`: the page's ranked best policy of each task (:func:`best_raw_runs`) copied to
   ``planetnav_train/baselines/<task>.zip`` with its manifest entry, loadable as the agent ``suite:<task>``
   (:mod:`planetnav_train.shipped`);
   a model of 1 MB or more ships as its policy-only export (``<task>.policy.zip``,
@@ -227,7 +227,7 @@ def ship_baselines(
     official_only: bool = True,
     max_bytes: int = MAX_BASELINE_BYTES,
 ) -> list[dict[str, Any]]:
-    """Ship the best raw-track model of each task (:func:`best_raw_runs` over ``OUT/runs``) to ``dest``
+    """Ship the page's ranked best model of each task (:func:`best_raw_runs` over ``OUT/runs``) to ``dest``
     and record it in ``dest/manifest.json`` (entries of other tasks kept): a model under ``max_bytes``
     bytes as it is (``dest/<task>.zip``, form ``"full"``), a larger one as its policy-only export
     (``dest/<task>.policy.zip``, form ``"policy-only"``: the acting network alone,
