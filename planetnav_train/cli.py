@@ -467,7 +467,10 @@ def cmd_suite(args: argparse.Namespace) -> int:
     """``suite``: train, evaluate, score and aggregate a grid of benchmark cells
     (:mod:`planetnav_train.suite`, docs/suite.md); a Ray Tune grid when Ray is installed; ``--resume``."""
     from planetnav_train import suite
+    from planetnav_train.suite.publish import check_tree
 
+    if args.publish_json or args.readme:  # publishing into the repository: from a clean tree (fail early)
+        check_tree(args.allow_dirty)
     if not args.budget_scale > 0:
         raise ConfigError(f"--budget-scale must be > 0, got {args.budget_scale}")
     _positive("--episode-steps", args.episode_steps)
@@ -489,7 +492,8 @@ def cmd_suite(args: argparse.Namespace) -> int:
     )
     use_ray = False if args.no_ray else None
     result = suite.run_suite(cells, settings, resume=args.resume, use_ray=use_ray, address=args.address)
-    out = suite.finish(result, settings, args.json, Path(args.markdown) if args.markdown else None)
+    out = suite.finish(result, settings, args.json, Path(args.markdown) if args.markdown else None,
+                       allow_dirty=args.allow_dirty)  # fmt: skip
     print(f"ran {len(result['ran'])}, skipped {len(result['skipped'])} finished; {len(result['records'])} "
           f"records in {out['json']}; leaderboard: {out['markdown']}")  # fmt: skip
     _publish(args, out["json"])
@@ -514,12 +518,14 @@ def cmd_suite_publish(args: argparse.Namespace) -> int:
     from planetnav_train import suite
     from planetnav_train.suite import publish
 
+    publish.check_tree(args.allow_dirty)  # before anything is written
     settings = suite.Settings(out=Path(args.out))
     records = suite.load_records(settings.out)
     if not records:
         raise ConfigError(f"no run records in {settings.out / 'runs'}: nothing to publish")
     result = {"ran": [], "records": records, "references": {}}
-    out = suite.finish(result, settings, None, Path(args.markdown) if args.markdown else None)
+    out = suite.finish(result, settings, None, Path(args.markdown) if args.markdown else None,
+                       allow_dirty=args.allow_dirty)  # fmt: skip
     print(f"{len(records)} records aggregated into {out['json']}; leaderboard: {out['markdown']}")
     _publish(args, out["json"])
     if args.baselines:
@@ -795,6 +801,10 @@ def build_parser() -> argparse.ArgumentParser:
         sp.add_argument(
             "--readme", help="write the summary tables between the suite-summary markers of this README"
         )
+        sp.add_argument(
+            "--allow-dirty", action="store_true",
+            help="publish from a tree with uncommitted changes (refused otherwise); the page says so",
+        )  # fmt: skip
 
     publishing(su)
     sp = sub.add_parser(

@@ -16,10 +16,14 @@ shape ``t.shape + (3,)``.
 from __future__ import annotations
 
 import functools
+import mmap
 import os
+import sys
 from typing import Protocol
 
 import numpy as np
+from jplephem.daf import DAF
+from jplephem.spk import SPK
 
 from planetnav_env.astro.bodies import (
     AU_KM,
@@ -270,11 +274,34 @@ _DE_CHAINS: dict[str, tuple[tuple[int, int], ...]] = {
 }
 
 
+class _MappedDAF(DAF):
+    """A DAF over a read-only memory map of the whole file (no file object stays open).
+
+    jplephem's own ``DAF.map_words`` maps each array from the open file; here the map is made once,
+    and the arrays are views of it. The pages are shared with every other process that maps the same
+    file (vector-env workers, Ray), as with jplephem's own maps."""
+
+    def __init__(self, mapped: mmap.mmap) -> None:
+        super().__init__(mapped)  # an mmap has the seek/read that the header records need
+        self._words = memoryview(mapped)
+
+    def map_words(self, start: int, end: int) -> tuple[memoryview, int]:
+        # the elements start..end (1-based, inclusive) of 8 bytes each; no page-alignment skip
+        return self._words[8 * start - 8 : 8 * end], 0
+
+
 @functools.lru_cache(maxsize=4)
 def _open_kernel(path: str):
-    from jplephem.spk import SPK
+    """The SPK kernel at ``path``, read once per process and shared by every :class:`DEEphemeris`.
 
-    return SPK.open(path)
+    The file is memory-mapped and its file object closed at once: jplephem's ``SPK.open`` would keep
+    a file object open for the life of the process (Python reports it as an unclosed file at exit).
+    From Python 3.13 the map holds no file descriptor either (``trackfd=False``); before, the map
+    keeps its own duplicate of the descriptor, released with the map."""
+    track = {"trackfd": False} if sys.version_info >= (3, 13) else {}
+    with open(path, "rb") as f:
+        mapped = mmap.mmap(f.fileno(), 0, access=mmap.ACCESS_READ, **track)
+    return SPK(_MappedDAF(mapped))
 
 
 class DEEphemeris:
@@ -291,8 +318,8 @@ class DEEphemeris:
 
     @property
     def _kernel(self):
-        # Looked up, not held: an open file handle cannot be pickled or deep-copied, and environments
-        # that hold this object must be (planners, Ray, multiprocessing). The kernel is opened once per
+        # Looked up, not held: a memory map cannot be pickled or deep-copied, and environments that
+        # hold this object must be (planners, Ray, multiprocessing). The kernel is mapped once per
         # process and path (``_open_kernel`` caches it).
         return _open_kernel(self.path)
 

@@ -156,28 +156,48 @@ def published_grid(version: int = SUITE_VERSION) -> list[Cell]:
     return cells
 
 
+def is_short_budget(cell: Cell) -> bool:
+    """Whether ``cell`` trains for fewer physics steps than its task's budget (:meth:`Algo.budget`), so
+    that its entry is "(short budget)": shown, never ranked (the rule of
+    :func:`planetnav_train.suite.scoring.entry_name`, applied to the grid)."""
+    task = get_task(cell.task)
+    return get_algo(cell.algo).budget(task) < 0.99 * task.budget
+
+
 def coverage(records: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
     """How much of the published grid of the records' suite version the official ``records`` cover: per
-    task and track the cells finished and expected, and the totals (``done``, ``expected``)."""
+    task and track the cells finished and expected, and the totals (``done``, ``expected``), of which
+    short-budget cells (:func:`is_short_budget`: never ranked) ``short_done`` and ``short_expected``."""
     done = {(r["task"], r["algorithm"], r["track"], int(r["seed"])) for r in records if r.get("official")}
     per: dict[str, dict[str, list[int]]] = {}
+    short = [0, 0]
     for c in published_grid(records_version(records)):
         row = per.setdefault(c.task, {}).setdefault(c.track, [0, 0])
-        row[0] += (c.task, c.algo, c.track, c.seed) in done
+        finished = (c.task, c.algo, c.track, c.seed) in done
+        row[0] += finished
         row[1] += 1
+        if is_short_budget(c):
+            short[0] += finished
+            short[1] += 1
     total = [sum(v[i] for t in per.values() for v in t.values()) for i in (0, 1)]
-    return {"per_task": per, "done": total[0], "expected": total[1]}
+    return {"per_task": per, "done": total[0], "expected": total[1], "short_done": short[0],
+            "short_expected": short[1]}  # fmt: skip
 
 
 def coverage_lines(records: Sequence[Mapping[str, Any]], table: bool = True) -> list[str]:
-    """Markdown: a line saying whether the records are the whole published table (and, with ``table``,
-    the cells finished per task and track)."""
+    """Markdown: a line saying whether the records are the whole published table, counting its ranked
+    cells apart from its short-budget ones (and, with ``table``, the cells finished per task and track)."""
     cov = coverage(records)
+    ranked = (cov["done"] - cov["short_done"], cov["expected"] - cov["short_expected"])
+    short = (cov["short_done"], cov["short_expected"])
     if cov["done"] == cov["expected"]:
-        head = f"Complete: all {cov['expected']} cells of the published table."
+        head = (f"Complete: all {ranked[1]} ranked cells of the published table, and its {short[1]} "
+                "short-budget cells (shown, never ranked)." if short[1]
+                else f"Complete: all {cov['expected']} cells of the published table.")  # fmt: skip
     else:
+        also = f" (and {short[0]} of its {short[1]} short-budget cells, never ranked)" if short[1] else ""
         head = (
-            f"**Partial**: {cov['done']} of the published table's {cov['expected']} cells are finished "
+            f"**Partial**: {ranked[0]} of the published table's {ranked[1]} ranked cells are finished{also} "
             "(the rest run in later invocations with `--resume`); aggregates over tasks cover only the "
             "tasks listed."
         )

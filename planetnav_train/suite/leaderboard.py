@@ -16,7 +16,7 @@ from planetnav_train.spread import prediction_interval
 from planetnav_train.suite.cells import Settings, coverage_lines
 from planetnav_train.suite.challenges import challenge_lines, task_status
 from planetnav_train.suite.runner import INTERFACE_RANDOM, write_json_atomic
-from planetnav_train.suite.scoring import aggregate, entry_name, is_ranked
+from planetnav_train.suite.scoring import aggregate, best_ranked, entry_name, is_ranked
 from planetnav_train.suite.tasks import SUITES, records_version
 from planetnav_train.suite.walltime import WallTime, reference_seconds, table_wall_time, wall_time_lines
 
@@ -63,14 +63,8 @@ def score_legend(version: int) -> str:
 def aggregate_rows(track_agg: Mapping[str, Any]) -> list[str]:
     """Markdown table of one track's aggregates (:func:`aggregate`): one block of rows per task set, named,
     ranking only the algorithms that ran on every task of it (best first), with their runs per task and
-    IQM over those tasks with the 95 % interval. An aggregate written before task sets existed falls back
-    to each algorithm's own tasks, one set per row."""
-    sets = track_agg.get("task_sets")
-    if sets is None:
-        sets = [
-            {"tasks": track_agg["tasks"][a], "algorithms": {a: v}, "runs": {a: track_agg["runs"][a]}}
-            for a, v in track_agg["overall"].items()
-        ]
+    IQM over those tasks with the 95 % interval."""
+    sets = track_agg["task_sets"]
     lines = ["| task set | rank | algorithm | runs per task | IQM [95 % CI] |", "|---|---|---|---|---|"]
     for row in sets:
         algos = row["algorithms"]
@@ -112,10 +106,10 @@ def best_per_task_rows(
         "|---|---|---|---|---|---|---|",
     ]
     for task in sorted(track_agg["per_task"]):
-        per = {k: v for k, v in track_agg["per_task"][task].items() if is_ranked(k)}
-        if not per:
+        per = track_agg["per_task"][task]
+        best = best_ranked(per)
+        if best is None:
             continue  # only short-budget entries: nothing to rank
-        best = min(per, key=lambda k: (-per[k]["iqm"], k))
         ref = references.get(task)
         ref_text = f"{ref['best']} ({ref['J_best']:.1f} km)" if ref else "-"
         new_run = _new_run_interval(runs, task, best, track)
@@ -177,6 +171,24 @@ def curve_rows(curves: Mapping[str, Mapping[str, Mapping[str, list[float]]]]) ->
     return [*lines, ""]
 
 
+def provenance_lines(prov: Mapping[str, Any] | None) -> list[str]:
+    """Markdown: the tree the aggregation ran from, from its ``provenance``: a clean tree at a commit, or
+    (in bold) a tree with uncommitted changes or outside a git checkout, with whether ``--allow-dirty``
+    let it publish. Nothing when no provenance was recorded."""
+    if not prov:
+        return []
+    commit = prov.get("git_commit")
+    allowed = " (published with `--allow-dirty`)" if prov.get("allow_dirty") else ""
+    if commit is None:
+        text = f"**Aggregated outside a git checkout**{allowed}: no commit recorded."
+    elif prov.get("git_dirty"):
+        text = (f"**Aggregated from a tree with uncommitted changes** at commit `{commit[:12]}`{allowed}: "
+                "the changes are listed in the JSON's `provenance`; no commit reproduces it.")  # fmt: skip
+    else:
+        text = f"Aggregated from a clean tree at commit `{commit[:12]}` (the JSON's `provenance`)."
+    return [text, ""]
+
+
 def summary_markdown(data: Mapping[str, Any]) -> str:
     """The summary of a suite JSON (``OUT/suite.json``, :func:`suite_json`) as markdown: per track the
     algorithms' IQM over tasks with 95 % intervals and per task the best algorithm. Flags smoke-setting
@@ -192,6 +204,7 @@ def summary_markdown(data: Mapping[str, Any]) -> str:
     if unofficial:
         lines += [f"**Not a leaderboard**: {unofficial} of {len(runs)} runs used smoke settings.", ""]
     lines += coverage_lines(runs, table=False)
+    lines += provenance_lines(data.get("provenance"))
     for track, a in agg.items():
         lines += [f"Track `{track}`, aggregated over tasks:", "", *aggregate_rows(a), ""]
         lines += [f"Track `{track}`, best algorithm per task:", ""]
@@ -206,6 +219,7 @@ def write_leaderboard(
     path: Path,
     plots: bool = True,
     wall: WallTime | None = None,
+    prov: Mapping[str, Any] | None = None,
 ) -> Path:
     """The leaderboard markdown at ``path`` (plots beside it in ``<stem>_plots/``): the references used,
     per track the per-task and aggregated IQM tables, P(improvement), the plots, and every run with its
@@ -225,6 +239,7 @@ def write_leaderboard(
             "",
         ]
     lines += [score_legend(records_version(records)), ""]
+    lines += provenance_lines(prov)
     lines += ["## Coverage", "", *coverage_lines(records)]
     if wall is not None:
         lines += ["## Wall time of the table", "", "Worker-seconds of the published table on this run's "
@@ -250,7 +265,7 @@ def write_leaderboard(
     plot_dir = path.parent / f"{path.stem}_plots"
     for track, a in agg.items():
         lines += [f"## Track `{track}`", "", "### Per task (IQM of the normalized score over seeds)", ""]
-        algos = sorted(a["overall"])
+        algos = sorted(a["tasks"])
         lines += ["| task | " + " | ".join(algos) + " |", "|---|" + "---|" * len(algos)]
         for task in sorted(a["per_task"]):
             cells = [
@@ -273,12 +288,10 @@ def write_leaderboard(
                     f"[{row['low']:.2f}, {row['high']:.2f}] |"
                 )
         if plots:
-            sets = a.get("task_sets") or [
-                {"tasks": a["tasks"][x], "algorithms": {x: v}} for x, v in a["overall"].items()
-            ]
-            for p in scoring.write_plots(sets, a["profiles"], a["improvement"], plot_dir, prefix=f"{track}_"):
+            for p in scoring.write_plots(a["task_sets"], a["improvement"], plot_dir, prefix=f"{track}_"):
                 lines += ["", f"![{p.stem}]({plot_dir.name}/{p.name})"]
-            curve = scoring.write_curve_plot(a.get("curves", {}), plot_dir / f"{track}_curves.png")
+            curve = scoring.write_curve_plot(a.get("curves", {}), plot_dir / f"{track}_curves.png",
+                                             sets=a["task_sets"])  # fmt: skip
             if curve is not None:
                 title = "### Learning curves (IQM over seeds, 95 % stratified-bootstrap band)"
                 lines += ["", title, "", f"![{curve.stem}]({plot_dir.name}/{curve.name})"]
@@ -307,20 +320,25 @@ def finish(
     json_path: str | None,
     markdown: Path | None,
     reps: int | None = None,
+    allow_dirty: bool = False,
 ) -> dict[str, Any]:
     """Aggregate every record under ``settings.out``, write ``OUT/suite.json``, the invocation's runs to
     ``json_path`` (same form) and the leaderboard markdown (default ``OUT/benchmark.md``). Both JSON carry
-    the ``provenance`` of this aggregation (each run keeps its own, of the process that ran it)."""
+    the ``provenance`` of this aggregation (each run keeps its own, of the process that ran it), with
+    ``allow_dirty``: whether the publisher was told to accept a tree that is not clean (``--allow-dirty``);
+    the page says which tree it was (:func:`provenance_lines`)."""
     records = result["records"]
     references = dict(result["references"])
     for p in sorted((settings.out / "references").glob("*.json")):  # tasks run by earlier invocations
         ref = json.loads(p.read_text())
         references.setdefault(ref["task"], ref)
     agg = aggregate(records, reps) if records else {}
-    data = {**suite_json(records, references, agg), "provenance": provenance()}
+    prov = {**provenance(), "allow_dirty": bool(allow_dirty)}
+    data = {**suite_json(records, references, agg), "provenance": prov}
     write_json_atomic(settings.out / "suite.json", data)
     if json_path:
         write_json_atomic(Path(json_path), {**data, "runs": list(result["ran"])})
     wall = table_wall_time(records, reference_seconds(settings.out))
-    md = write_leaderboard(records, references, agg, markdown or settings.out / "benchmark.md", wall=wall)
+    md = write_leaderboard(records, references, agg, markdown or settings.out / "benchmark.md", wall=wall,
+                           prov=prov)  # fmt: skip
     return {"json": settings.out / "suite.json", "markdown": md, "aggregate": agg}

@@ -6,7 +6,7 @@
 - :func:`update_readme`: the summary tables (:func:`planetnav_train.suite.leaderboard.summary_markdown`)
   written between the README's ``<!-- suite-summary:start -->`` and ``<!-- suite-summary:end -->``
   markers;
-- :func:`ship_baselines`: the best raw-track policy of each task copied to
+- :func:`ship_baselines`: the page's ranked best policy of each task (:func:`best_raw_runs`) copied to
   ``planetnav_train/baselines/<task>.zip`` with its manifest entry, loadable as the agent ``suite:<task>``
   (:mod:`planetnav_train.shipped`);
   a model of 1 MB or more ships as its policy-only export (``<task>.policy.zip``,
@@ -27,9 +27,12 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from planetnav_env.errors import ConfigError
 from planetnav_train.config import is_rllib_algo
 from planetnav_train.export import export_policy
+from planetnav_train.provenance import git_state
 from planetnav_train.sb3 import resolve_model_path
 from planetnav_train.shipped import (
     BASELINES_DIR,
@@ -41,11 +44,35 @@ from planetnav_train.shipped import (
 from planetnav_train.suite.cells import Cell
 from planetnav_train.suite.leaderboard import summary_markdown
 from planetnav_train.suite.runner import load_records, write_json_atomic
+from planetnav_train.suite.scoring import best_ranked, entry_name, iqm, is_ranked
 from planetnav_train.suite.tasks import get_task, records_version
 
 #: The README's summary block lies between these two lines (the text between them is replaced).
 README_START = "<!-- suite-summary:start -->"
 README_END = "<!-- suite-summary:end -->"
+
+
+def check_tree(allow_dirty: bool = False, source_dir: str | Path | None = None) -> dict[str, Any]:
+    """The git state (:func:`planetnav_train.provenance.git_state`) of the planetnav source that publishes,
+    when it is a clean checkout at a commit: published tables are aggregated there, and the page names the
+    commit. Otherwise (uncommitted changes, or no git checkout) :class:`ConfigError` naming what differs,
+    unless ``allow_dirty`` (``--allow-dirty``), when the state is returned and the page says so
+    (:func:`planetnav_train.suite.leaderboard.provenance_lines`)."""
+    state = git_state(source_dir)
+    if state["git_commit"] is None:
+        problem = "the planetnav source is not a git checkout (there is no commit to name)"
+    elif state["git_dirty"]:
+        changes = [c.strip() for c in state["git_changes"] or []]
+        listed = "; ".join(changes[:5]) + ("; ..." if len(changes) > 5 else "")
+        problem = f"the working tree at {state['git_commit'][:12]} has uncommitted changes ({listed})"
+    else:
+        return state
+    if not allow_dirty:
+        raise ConfigError(
+            f"refusing to publish: {problem}. Commit, then publish from the clean tree (the page names its "
+            "commit), or pass --allow-dirty (the page then says the tree was not clean)"
+        )
+    return state
 
 
 def load_suite_json(path: str | Path) -> dict[str, Any]:
@@ -121,15 +148,25 @@ def update_readme(readme: str | Path, data: Mapping[str, Any]) -> Path:
 def best_raw_runs(
     records: Sequence[Mapping[str, Any]], tasks: Sequence[str] | None = None, official_only: bool = True
 ) -> dict[str, Mapping[str, Any]]:
-    """Per task, the raw-track run with the lowest objective (ties: algorithm, then seed, by name/number);
-    ``tasks`` (default: every task with raw-track runs) must each have one. ``official_only``: runs with
+    """Per task, the run to ship: of the page's best entry (:func:`~planetnav_train.suite.scoring.best_ranked`
+    over the raw-track candidates: the ranked entry with the highest IQM of the normalized score, ties by
+    name), its run with the lowest objective (ties by seed). An unranked entry (a short budget,
+    :func:`~planetnav_train.suite.scoring.entry_name`) is never a candidate, whatever its objective.
+    ``tasks`` (default: every task with candidate runs) must each have one. ``official_only``: runs with
     smoke settings (``official: false``) are not candidates.
 
     Raises :class:`ConfigError` naming a task without candidate runs, and what it does have."""
     raw = [r for r in records if r["track"] == "raw"]
     pool = [r for r in raw if r.get("official", False) or not official_only]
+    unranked = [r for r in pool if not is_ranked(entry_name(r))]
+    pool = [r for r in pool if is_ranked(entry_name(r))]
     wanted = [get_task(t).id for t in tasks] if tasks else sorted({r["task"] for r in pool})
     if not wanted:
+        if unranked:
+            raise ConfigError(
+                f"no raw-track run to ship: the {len(unranked)} candidate run(s) are all unranked "
+                f"({', '.join(sorted({entry_name(r) for r in unranked}))}); an unranked entry never ships"
+            )
         raise ConfigError(
             f"no raw-track run to ship ({len(raw)} raw-track records, none official; smoke runs ship only "
             "with --allow-smoke)"
@@ -140,12 +177,21 @@ def best_raw_runs(
     for task in wanted:
         runs = [r for r in pool if r["task"] == task]
         if not runs:
-            smoke = sum(r["task"] == task for r in raw)
+            short = sorted({entry_name(r) for r in unranked if r["task"] == task})
+            smoke = sum(r["task"] == task for r in raw) - sum(r["task"] == task for r in unranked)
             raise ConfigError(
                 f"task {task}: no {'official ' if official_only else ''}raw-track run to ship ({smoke} "
-                "raw-track record(s) with smoke settings)"
+                "raw-track record(s) with smoke settings"
+                + (f"; unranked, never shipped: {', '.join(short)})" if short else ")")
             )
-        best[task] = min(runs, key=lambda r: (r["objective"], r["algorithm"], int(r["seed"])))
+        by_entry: dict[str, list[Mapping[str, Any]]] = {}
+        for r in runs:
+            by_entry.setdefault(entry_name(r), []).append(r)
+        # the page's per-task IQM (rliable's, over every seed of the entry)
+        scores = {e: {"iqm": iqm(np.array([[r["normalized_score"]] for r in rs]))}
+                  for e, rs in by_entry.items()}  # fmt: skip
+        entry = best_ranked(scores)
+        best[task] = min(by_entry[entry], key=lambda r: (r["objective"], int(r["seed"])))
     return best
 
 
@@ -181,7 +227,7 @@ def ship_baselines(
     official_only: bool = True,
     max_bytes: int = MAX_BASELINE_BYTES,
 ) -> list[dict[str, Any]]:
-    """Ship the best raw-track model of each task (:func:`best_raw_runs` over ``OUT/runs``) to ``dest``
+    """Ship the page's ranked best model of each task (:func:`best_raw_runs` over ``OUT/runs``) to ``dest``
     and record it in ``dest/manifest.json`` (entries of other tasks kept): a model under ``max_bytes``
     bytes as it is (``dest/<task>.zip``, form ``"full"``), a larger one as its policy-only export
     (``dest/<task>.policy.zip``, form ``"policy-only"``: the acting network alone,
@@ -260,6 +306,7 @@ __all__ = [
     "README_END",
     "README_START",
     "best_raw_runs",
+    "check_tree",
     "load_suite_json",
     "publish_json",
     "replace_block",

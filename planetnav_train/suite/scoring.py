@@ -199,64 +199,69 @@ def algorithm_colours(names: Iterable[str]) -> dict[str, Any]:
     }
 
 
+def _set_title(tasks: Sequence[str]) -> str:
+    import textwrap
+
+    return textwrap.fill(f"{len(tasks)} task(s): " + ", ".join(tasks), 90)
+
+
 def write_plots(
     sets: Sequence[Mapping[str, Any]],
-    profiles: Mapping[str, Mapping[str, list[float]]],
     improvements: Sequence[Mapping[str, Any]],
     out_dir: Path,
     prefix: str = "",
 ) -> list[Path]:
-    """PNG plots: ``{prefix}iqm.png`` (one panel per task set of :func:`task_set_rows`: the IQM with its
-    interval of each algorithm that ran on all of it), ``{prefix}profiles.png`` (performance profiles) and,
-    when there are pairs, ``{prefix}improvement.png``. One colour per algorithm throughout. Returns the
-    paths."""
+    """PNG plots: ``{prefix}iqm.png`` and ``{prefix}profiles.png`` (one panel per task set of
+    :func:`task_set_rows`, named: the IQM with its interval, and the performance profiles, of each
+    algorithm that ran on all of it) and, when there are pairs, ``{prefix}improvement.png`` (each pair on
+    its tasks in common). One colour per algorithm throughout. Returns the paths."""
     import matplotlib
 
     matplotlib.use("Agg")
-    import textwrap
-
     import matplotlib.pyplot as plt
 
     out_dir.mkdir(parents=True, exist_ok=True)
     paths = []
-    colours = algorithm_colours([a for row in sets for a in row["algorithms"]] + list(profiles))
-    height = sum(0.4 * len(row["algorithms"]) + 0.9 for row in sets) + 0.6
-    fig, axes = plt.subplots(
-        len(sets), 1, figsize=(6.4, height), squeeze=False, sharex=True,
-        gridspec_kw={"height_ratios": [len(row["algorithms"]) + 1 for row in sets]},
-    )  # fmt: skip
-    for ax, row in zip(axes[:, 0], sets, strict=True):
-        algos = row["algorithms"]
-        names = sorted(algos, key=lambda k: algos[k]["iqm"])
-        for i, k in enumerate(names):
-            v = algos[k]
-            ax.plot([v["low"], v["high"]], [i, i], lw=6, alpha=0.6, solid_capstyle="butt", color=colours[k])
-            ax.plot([v["iqm"]], [i], "k|", ms=14)
-        ax.set_yticks(range(len(names)), names)
-        ax.set_ylim(-0.7, len(names) - 0.3)
-        ax.axvline(0.0, color="grey", lw=0.8, ls=":")
-        ax.axvline(1.0, color="grey", lw=0.8, ls="--")
-        title = f"{len(row['tasks'])} task(s): " + ", ".join(row["tasks"])
-        ax.set_title(textwrap.fill(title, 90), fontsize=8)
-    axes[-1, 0].set_xlabel("normalized score: IQM and 95 % interval\n(0 the zero point, 1 the best rule)")
-    fig.tight_layout()
-    paths.append(out_dir / f"{prefix}iqm.png")
-    fig.savefig(paths[-1], dpi=110)
-    plt.close(fig)
+    colours = algorithm_colours([a for row in sets for a in row["algorithms"]])
+    if sets:  # no ranked algorithm (every entry short-budget): no set panels
+        height = sum(0.4 * len(row["algorithms"]) + 0.9 for row in sets) + 0.6
+        fig, axes = plt.subplots(
+            len(sets), 1, figsize=(6.4, height), squeeze=False, sharex=True,
+            gridspec_kw={"height_ratios": [len(row["algorithms"]) + 1 for row in sets]},
+        )  # fmt: skip
+        for ax, row in zip(axes[:, 0], sets, strict=True):
+            algos = row["algorithms"]
+            names = sorted(algos, key=lambda k: algos[k]["iqm"])
+            for i, k in enumerate(names):
+                v = algos[k]
+                ax.plot([v["low"], v["high"]], [i, i], lw=6, alpha=0.6, solid_capstyle="butt",
+                        color=colours[k])  # fmt: skip
+                ax.plot([v["iqm"]], [i], "k|", ms=14)
+            ax.set_yticks(range(len(names)), names)
+            ax.set_ylim(-0.7, len(names) - 0.3)
+            ax.axvline(0.0, color="grey", lw=0.8, ls=":")
+            ax.axvline(1.0, color="grey", lw=0.8, ls="--")
+            ax.set_title(_set_title(row["tasks"]), fontsize=8)
+        axes[-1, 0].set_xlabel("normalized score: IQM and 95 % interval\n(0 the zero point, 1 the best rule)")
+        fig.tight_layout()
+        paths.append(out_dir / f"{prefix}iqm.png")
+        fig.savefig(paths[-1], dpi=110)
+        plt.close(fig)
 
-    fig, ax = plt.subplots(figsize=(6, 4))
-    for k in sorted(profiles):
-        p = profiles[k]
-        ax.plot(p["tau"], p["fraction"], label=k, color=colours[k])
-        ax.fill_between(p["tau"], p["low"], p["high"], alpha=0.15, color=colours[k])
-    ax.axvline(1.0, color="grey", lw=0.8, ls="--")
-    ax.set_xlabel("normalized score τ")
-    ax.set_ylabel("fraction of runs with score > τ")
-    ax.legend(fontsize=8)
-    fig.tight_layout()
-    paths.append(out_dir / f"{prefix}profiles.png")
-    fig.savefig(paths[-1], dpi=110)
-    plt.close(fig)
+        fig, axes = plt.subplots(len(sets), 1, figsize=(6, 3.2 * len(sets) + 0.4), squeeze=False, sharex=True)
+        for ax, row in zip(axes[:, 0], sets, strict=True):
+            for k, p in sorted(row["profiles"].items()):
+                ax.plot(p["tau"], p["fraction"], label=k, color=colours[k])
+                ax.fill_between(p["tau"], p["low"], p["high"], alpha=0.15, color=colours[k])
+            ax.axvline(1.0, color="grey", lw=0.8, ls="--")
+            ax.set_ylabel("fraction of runs with score > τ", fontsize=8)
+            ax.set_title(_set_title(row["tasks"]), fontsize=8)
+            ax.legend(fontsize=8)
+        axes[-1, 0].set_xlabel("normalized score τ")
+        fig.tight_layout()
+        paths.append(out_dir / f"{prefix}profiles.png")
+        fig.savefig(paths[-1], dpi=110)
+        plt.close(fig)
 
     if improvements:
         fig, ax = plt.subplots(figsize=(5.5, 0.45 * len(improvements) + 1.2))
@@ -306,6 +311,14 @@ def entry_name(record: Mapping[str, Any]) -> str:
 def is_ranked(entry: str) -> bool:
     """Whether an entry (:func:`entry_name`) may be ranked: every one trained at its task's full budget."""
     return not entry.endswith(SHORT_BUDGET)
+
+
+def best_ranked(per_task: Mapping[str, Mapping[str, float]]) -> str | None:
+    """The best entry of one task: the ranked entry (:func:`is_ranked`) with the highest IQM of the
+    normalized score, ties by name; None when no entry is ranked. ``per_task``: ``{entry: {"iqm", ...}}``.
+    The page names it best, and it is what ships (:func:`planetnav_train.suite.publish.best_raw_runs`)."""
+    ranked = {k: v for k, v in per_task.items() if is_ranked(k)}
+    return min(ranked, key=lambda k: (-ranked[k]["iqm"], k)) if ranked else None
 
 
 def scores_by_seed(records: Iterable[Mapping[str, Any]], track: str) -> Scores:
@@ -364,8 +377,11 @@ def task_set_rows(
     records: Iterable[Mapping[str, Any]], track: str, reps: int = BOOTSTRAP_REPS
 ) -> list[dict[str, Any]]:
     """One aggregate per task set of :func:`task_sets`, ranking only the algorithms that ran on every task
-    of it: ``{"tasks", "algorithms": {algorithm: {"iqm", "low", "high"}}, "runs": {algorithm: n}}``, each
-    algorithm's IQM over those tasks alone (rliable over the ``(runs, tasks)`` matrix)."""
+    of it, each over those tasks alone: ``{"tasks", "headline", "algorithms": {algorithm: {"iqm", "low",
+    "high"}}, "runs": {algorithm: n}, "profiles": {algorithm: ...}, "curves": {algorithm: ...}}`` (the IQM
+    by rliable over the ``(runs, tasks)`` matrix, the performance profiles of the same matrices, and the
+    IQM learning curves pooled over the set's tasks: :func:`pooled_curves`). Every aggregate over more
+    than one task lives here, so that none mixes task sets: each names its own."""
     records = list(records)
     by = scores_by_seed(records, track)
     rows = []
@@ -380,55 +396,83 @@ def task_set_rows(
             "headline": set(names) == set(headline_tasks(names)),
             "algorithms": iqm_intervals(mats, reps),
             "runs": {a: int(m.shape[0]) for a, m in mats.items()},
+            "profiles": performance_profiles(mats, reps=min(reps, 2_000)),
+            "curves": pooled_curves(records, track, names, sorted(mats), reps=min(reps, 2_000)),
         })  # fmt: skip
     return rows
+
+
+def _curve_scores(records: Iterable[Mapping[str, Any]], track: str) -> dict[str, dict[str, np.ndarray]]:
+    """``{task: {entry: (runs, points, 2) array of (steps, score)}}`` of ``track``'s learning curves, runs
+    in the records' order, each entry's curves cut to its shortest."""
+    by: dict[str, dict[str, list[list[list[float]]]]] = {}
+    for r in records:
+        if r["track"] == track and r.get("learning_curve"):
+            by.setdefault(r["task"], {}).setdefault(entry_name(r), []).append(r["learning_curve"])
+    out: dict[str, dict[str, np.ndarray]] = {}
+    for task, algos in by.items():
+        for algo, curves in algos.items():
+            n = min(len(c) for c in curves)
+            out.setdefault(task, {})[algo] = np.array([c[:n] for c in curves], dtype=float)
+    return out
+
+
+def _band(algo: str, scores: np.ndarray, reps: int) -> dict[str, list[float]]:
+    """The IQM and its 95 % interval at each point of ``scores`` (runs, points[, tasks])."""
+    band = [iqm_intervals({algo: scores[:, k].reshape(scores.shape[0], -1)}, reps)[algo]
+            for k in range(scores.shape[1])]  # fmt: skip
+    return {key: [b[key] for b in band] for key in ("iqm", "low", "high")}
 
 
 def learning_curves(
     records: Iterable[Mapping[str, Any]], track: str, reps: int = 2_000
 ) -> dict[str, dict[str, dict[str, list[float]]]]:
-    """IQM learning curves of ``track`` with stratified-bootstrap 95 % bands: ``{task: {algorithm: {"steps",
-    "iqm", "low", "high"}}}`` over the seeds' ``learning_curve`` points (aligned by index, cut to the
-    shortest), and under the task ``"all"`` per algorithm over its tasks, the x axis as the fraction of
-    each run's budget."""
-    by: dict[str, dict[str, list[list[list[float]]]]] = {}
-    for r in records:
-        if r["track"] == track and r.get("learning_curve"):
-            by.setdefault(r["task"], {}).setdefault(entry_name(r), []).append(r["learning_curve"])
+    """IQM learning curves of ``track`` per task, with stratified-bootstrap 95 % bands: ``{task: {algorithm:
+    {"steps", "iqm", "low", "high"}}}`` over the seeds' ``learning_curve`` points (aligned by index, cut to
+    the shortest). Curves pooled over a task set are the set's (:func:`pooled_curves`)."""
     out: dict[str, dict[str, dict[str, list[float]]]] = {}
-    pooled: dict[str, list[np.ndarray]] = {}
-    for task, algos in sorted(by.items()):
-        for algo, curves in sorted(algos.items()):
-            n = min(len(c) for c in curves)
-            pts = np.array([c[:n] for c in curves], dtype=float)  # (runs, points, 2)
-            scores = pts[:, :, 1]
-            band = [iqm_intervals({algo: scores[:, [k]]}, reps)[algo] for k in range(n)]
-            out.setdefault(task, {})[algo] = {
-                "steps": pts[0, :, 0].tolist(),
-                "iqm": [b["iqm"] for b in band],
-                "low": [b["low"] for b in band],
-                "high": [b["high"] for b in band],
-            }
-            pooled.setdefault(algo, []).append(scores)
-    for algo, mats in sorted(pooled.items()):
+    for task, algos in sorted(_curve_scores(records, track).items()):
+        for algo, pts in sorted(algos.items()):
+            band = _band(algo, pts[:, :, 1], reps)
+            out.setdefault(task, {})[algo] = {"steps": pts[0, :, 0].tolist(), **band}
+    return out
+
+
+def pooled_curves(
+    records: Iterable[Mapping[str, Any]],
+    track: str,
+    tasks: Sequence[str],
+    algos: Sequence[str],
+    reps: int = 2_000,
+) -> dict[str, dict[str, list[float]]]:
+    """Per algorithm of ``algos`` with a learning curve on every task of ``tasks``: its IQM learning curve
+    over those tasks (stratified bootstrap, the tasks as strata), ``{"steps", "iqm", "low", "high"}`` with
+    the x axis as the fraction of each run's budget (the tasks' budgets differ), each task's curve cut to
+    the points and runs all of them have."""
+    by = _curve_scores(records, track)
+    out = {}
+    for algo in algos:
+        if not all(algo in by.get(t, {}) for t in tasks):
+            continue
+        mats = [by[t][algo][:, :, 1] for t in tasks]
         n = min(m.shape[1] for m in mats)
         runs = min(m.shape[0] for m in mats)
-        band = [iqm_intervals({algo: np.stack([m[:runs, k] for m in mats], axis=1)}, reps)[algo]
-                for k in range(n)]  # fmt: skip
-        out.setdefault("all", {})[algo] = {
-            "steps": [(k + 1) / n for k in range(n)],
-            "iqm": [b["iqm"] for b in band],
-            "low": [b["low"] for b in band],
-            "high": [b["high"] for b in band],
-        }
+        stacked = np.stack([m[:runs, :n] for m in mats], axis=2)  # (runs, points, tasks)
+        out[algo] = {"steps": [(k + 1) / n for k in range(n)], **_band(algo, stacked, reps)}
     return out
 
 
 def write_curve_plot(
-    curves: Mapping[str, Mapping[str, Mapping[str, list[float]]]], path: Path
+    curves: Mapping[str, Mapping[str, Mapping[str, list[float]]]],
+    path: Path,
+    sets: Sequence[Mapping[str, Any]] = (),
 ) -> Path | None:
-    """One panel per task (and the aggregate ``all``): each algorithm's IQM learning curve and its 95 %
+    """One panel per task, then one per task set of more than one task (``sets``: :func:`task_set_rows`,
+    their pooled curves, the panel titled with the set): each algorithm's IQM learning curve and its 95 %
     band; None when there are no curves."""
+    pooled = {_set_title(row["tasks"]): row["curves"] for row in sets
+              if len(row["tasks"]) > 1 and row.get("curves")}  # fmt: skip
+    curves = {**{t: c for t, c in curves.items() if t != "all"}, **pooled}
     if not curves:
         return None
     import matplotlib
@@ -436,7 +480,7 @@ def write_curve_plot(
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    names = [t for t in curves if t != "all"] + (["all"] if "all" in curves else [])
+    names = list(curves)
     colours = algorithm_colours(a for t in names for a in curves[t])
     # A grid of at most three panels a row: readable at page width (a single strip is not).
     cols = min(3, len(names))
@@ -446,13 +490,13 @@ def write_curve_plot(
         ax.remove()  # no empty panels
     for ax, task in zip(axes.flat, names, strict=False):
         for algo, c in curves[task].items():
-            x = np.asarray(c["steps"], dtype=float) / (1.0 if task == "all" else 1e6)
+            x = np.asarray(c["steps"], dtype=float) / (1.0 if task in pooled else 1e6)
             ax.plot(x, c["iqm"], label=algo, color=colours[algo])
             ax.fill_between(x, c["low"], c["high"], alpha=0.25, color=colours[algo])
         ax.axhline(1.0, color="grey", lw=0.8, ls=":")
         ax.axhline(0.0, color="grey", lw=0.8)
-        ax.set_title("each algorithm over its own tasks" if task == "all" else task, fontsize=9)
-        ax.set_xlabel("fraction of the budget" if task == "all" else "physics steps (millions)")
+        ax.set_title(task, fontsize=7 if task in pooled else 9)
+        ax.set_xlabel("fraction of the budget" if task in pooled else "physics steps (millions)")
         ax.set_ylabel("normalized score (IQM, 95 % band)")
         ax.legend(fontsize=8)
     fig.tight_layout()
@@ -463,10 +507,12 @@ def write_curve_plot(
 
 
 def aggregate(records: Sequence[Mapping[str, Any]], reps: int | None = None) -> dict[str, Any]:
-    """Per track: per-task IQM with stratified-bootstrap 95 % intervals per algorithm, the aggregates over
-    task sets (:func:`task_set_rows`: only algorithms that ran on every task of a set are ranked together),
-    each algorithm's IQM over its own tasks (``overall``), performance profiles, and the probability of
-    improvement between every two algorithms on the tasks they have in common (this module)."""
+    """Per track: per-task IQM with stratified-bootstrap 95 % intervals per algorithm and per-task learning
+    curves; the aggregates over task sets (:func:`task_set_rows`: only algorithms that ran on every task of
+    a set are ranked together, each aggregate naming its set: IQM, performance profiles, pooled curves);
+    and the probability of improvement between every two ranked algorithms on the tasks they have in
+    common, naming them. No aggregate mixes task sets (an algorithm over its own tasks beside another over
+    other tasks would rank numbers of different tasks)."""
     reps = reps or BOOTSTRAP_REPS
     out: dict[str, Any] = {}
     for track in TRACKS:
@@ -480,8 +526,6 @@ def aggregate(records: Sequence[Mapping[str, Any]], reps: int | None = None) -> 
             for task, seeds in tasks.items():
                 column = np.array([seeds[s] for s in sorted(seeds)], dtype=float)[:, None]
                 per_task.setdefault(task, {}).update(iqm_intervals({algo: column}, reps))
-        overall = iqm_intervals({a: m for a, (_, m) in mats.items()}, reps)
-        profiles = performance_profiles({a: m for a, (_, m) in mats.items()}, reps=min(reps, 2_000))
         # Every two algorithms on the tasks they have in common (each cut to the runs both have there).
         pairs = {}
         for x in sorted(by):
@@ -495,15 +539,17 @@ def aggregate(records: Sequence[Mapping[str, Any]], reps: int | None = None) -> 
         for row, (x, y) in zip(improvements, pairs, strict=True):
             row["tasks"] = sorted(set(by[x]) & set(by[y]))
         out[track] = {
+            # What ran where (no aggregate): each entry's tasks and runs per task.
             "tasks": {a: names for a, (names, _) in mats.items()},
             "runs": {a: int(m.shape[0]) for a, (_, m) in mats.items()},
+            # One task each.
             "per_task": per_task,
-            # Each algorithm over its own tasks (not comparable across algorithms with other task sets).
-            "overall": overall,
-            # The ranked aggregates: per task set, the algorithms that ran on all of it.
+            # Every aggregate over tasks, one task set each, named: only the algorithms that ran on all of
+            # it, ranked; with their profiles and pooled learning curves.
             "task_sets": task_set_rows(records, track, reps),
-            "profiles": profiles,
+            # One pair each, on the tasks the pair has in common (named).
             "improvement": improvements,
+            # One task each.
             "curves": learning_curves(records, track, reps=min(reps, 2_000)),
         }
     return out

@@ -64,6 +64,8 @@ def test_wheel_installs_planetnav_agents_and_no_top_level_agents(tmp_path: Path)
     # the shipped suite baselines (planetnav_train.shipped loads suite:<task> from the installed package)
     assert "planetnav_train/baselines/manifest.json" in names
     assert "planetnav_train/suite/runner.py" in names
+    # setuptools >= 77 ships LICEN[CS]E* by default (PEP 639): the declared license's text
+    assert any(n.endswith(".dist-info/licenses/LICENSE") for n in names), names
     entry_points = next(n for n in names if n.endswith(".dist-info/entry_points.txt"))
     text = zipfile.ZipFile(wheel).read(entry_points).decode()
     assert "planetnav_train.loaders:register" in text and "planetnav_rl.extensions:register" in text

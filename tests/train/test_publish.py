@@ -127,6 +127,27 @@ def test_the_repositorys_readme_has_one_summary_block() -> None:
     assert "docs/benchmark.md" in text
 
 
+def test_best_raw_runs_ship_the_pages_ranked_best_never_a_short_budget_entry() -> None:
+    """The shipped run is the page's best entry's (best_per_task_rows names the same one), even where an
+    unranked short-budget entry has the lowest objective; a task with only unranked runs ships nothing."""
+    pytest.importorskip("rliable")
+    task = "Cruise-Torque-v2"
+    budget = suite.get_task(task).budget
+    ppo = [{**_record(task, "ppo", s, v), "env_steps": budget} for s, v in enumerate([-0.6, -0.5, -0.55])]
+    sac = [{**_record(task, "sac", s, v), "env_steps": budget // 10} for s, v in enumerate([-0.1, -0.3, 0.2])]
+    best = publish.best_raw_runs([*ppo, *sac])[task]
+    assert (best["algorithm"], best["seed"]) == ("ppo", 1)
+    agg = suite.aggregate([*ppo, *sac], reps=100)["raw"]
+    (row,) = [ln for ln in suite.leaderboard.best_per_task_rows(agg, {}) if ln.startswith(f"| {task} |")]
+    assert row.split("|")[2].strip() == "ppo"
+    named = (r"task Cruise-Torque-v2: no official raw-track run to ship \(0 raw-track record\(s\) with smoke "
+             r"settings; unranked, never shipped: sac \(short")
+    with pytest.raises(ConfigError, match=named):
+        publish.best_raw_runs([*sac, _record("Cruise-Target-v1", "ppo", 0, 0.5)], tasks=[task])
+    with pytest.raises(ConfigError, match="all unranked"):
+        publish.best_raw_runs(sac)
+
+
 def test_best_raw_runs_lowest_objective_official_only() -> None:
     records = [
         _record("Cruise-Target-v1", "ppo", 0, 0.5),
@@ -138,8 +159,11 @@ def test_best_raw_runs_lowest_objective_official_only() -> None:
     best = publish.best_raw_runs(records)
     assert list(best) == ["Cruise-Target-v1"] and (best["Cruise-Target-v1"]["algorithm"], best[
         "Cruise-Target-v1"]["seed"]) == ("dqn", 3)  # fmt: skip
+    # with the smoke runs: PPO's IQM over seeds 0 and 2 is 0.85, below DQN's 0.9: DQN is still the best
+    # entry; shipped is the best entry's best run, not the best run of any entry (PPO's seed 2)
     smoke = publish.best_raw_runs(records, official_only=False)
-    assert smoke["Cruise-Target-v1"]["seed"] == 2 and smoke["Cruise-Torque-v1"]["algorithm"] == "sac"
+    assert (smoke["Cruise-Target-v1"]["algorithm"], smoke["Cruise-Target-v1"]["seed"]) == ("dqn", 3)
+    assert smoke["Cruise-Torque-v1"]["algorithm"] == "sac"
     with pytest.raises(ConfigError, match=r"task Cruise-Torque-v1: no official raw-track run .*1 raw"):
         publish.best_raw_runs(records, tasks=["Cruise-Torque-v1"])
     with pytest.raises(ConfigError, match="unknown task 'Nope-v0'"):
@@ -342,12 +366,16 @@ def test_coverage_counts_official_cells_of_the_published_grid() -> None:
     assert cov["per_task"]["Cruise-Target-v1"] == {"raw": [n_ct - 5, n_ct - 5], "assisted": [5, 5]}
     assert cov["per_task"]["Cruise-Torque-v1"]["raw"] == [0, 10]
     text = "\n".join(suite.coverage_lines(recs))
-    assert f"**Partial**: {n_ct} of the published table's {len(grid)} cells" in text
+    short = [c for c in grid if suite.cells.is_short_budget(c)]  # v1: DQN, SAC, ... on a share of the budget
+    assert {c.algo for c in short} == {"dqn", "sac", "recurrent_ppo", "rllib_ppo"}
+    n_short = sum(c.task == "Cruise-Target-v1" for c in short)
+    assert (f"**Partial**: {n_ct - n_short} of the published table's {len(grid) - len(short)} ranked cells "
+            f"are finished (and {n_short} of its {len(short)} short-budget cells, never ranked)") in text
     assert "| Cruise-Torque-v1 | 0 / 10 | 0 / 5 |" in text
     full = [_record(c.task, c.algo, c.seed, 0.5, track=c.track) for c in grid]
-    assert (
-        suite.coverage_lines(full, table=False)[0]
-        == f"Complete: all {len(grid)} cells of the published table."
+    assert suite.coverage_lines(full, table=False)[0] == (
+        f"Complete: all {len(grid) - len(short)} ranked cells of the published table, and its {len(short)} "
+        "short-budget cells (shown, never ranked)."
     )
     # Version 2: the raw track only, every algorithm of the task's kind (RecurrentPPO and RLlib's PPO ran on
     # v1 tasks only); a table of v2 records is covered against it, and records never mix versions.
@@ -358,6 +386,13 @@ def test_coverage_counts_official_cells_of_the_published_grid() -> None:
     v2 = [_record(c.task, c.algo, c.seed, 0.5) for c in grid2 if c.task == "ThrustArc-TCM-v2"]
     assert (suite.coverage(v2)["done"], suite.coverage(v2)["expected"]) == (10, len(grid2))
     assert "| ThrustArc-TCM-v2 | 10 / 10 |" in "\n".join(suite.coverage_lines(v2))
+    # the v2 table's short-budget cells are SAC's on Cruise-Torque-v2: not counted as the table's ranked
+    short2 = {(c.task, c.algo) for c in grid2 if suite.cells.is_short_budget(c)}
+    assert short2 == {("Cruise-Torque-v2", "sac")}
+    full2 = [_record(c.task, c.algo, c.seed, 0.5) for c in grid2]
+    assert suite.coverage_lines(full2, table=False)[0] == (
+        f"Complete: all {len(grid2) - 5} ranked cells of the published table, and its 5 short-budget cells "
+        "(shown, never ranked).")  # fmt: skip
     with pytest.raises(ConfigError, match=r"the records mix suite versions \[1, 2\]"):
         suite.coverage([*v2, *full])
     with pytest.raises(ConfigError, match="unknown suite version 3"):

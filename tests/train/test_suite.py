@@ -381,12 +381,12 @@ def test_suite_smoke_end_to_end(tmp_path, monkeypatch) -> None:
         lo, hi = sorted(normalized_score(j, ref["J_zero"], ref["J_best"]) for j in r["objective_ci95"])
         assert r["learning_curve"][-1][1] == r["normalized_score"] and lo <= r["normalized_score"] <= hi
         assert r["curve_seeds"] == [task.eval_seed, task.eval_seed + 2]  # all of the smoke run's 2 seeds
-    agg = published["aggregate"]["raw"]["overall"]["ppo"]
+    (task_set,) = published["aggregate"]["raw"]["task_sets"]
+    assert task_set["tasks"] == ["Cruise-Target-v1"]
+    agg = task_set["algorithms"]["ppo"]
     assert agg["low"] <= agg["iqm"] <= agg["high"]
-    # IQM learning curves with their bands, per task and over tasks, and their plot.
-    curves = published["aggregate"]["raw"]["curves"]
-    for key in ("Cruise-Target-v1", "all"):
-        c = curves[key]["ppo"]
+    # IQM learning curves with their bands, per task and over the task set, and their plot.
+    for c in (published["aggregate"]["raw"]["curves"]["Cruise-Target-v1"]["ppo"], task_set["curves"]["ppo"]):
         bands = zip(c["low"], c["iqm"], c["high"], strict=True)
         assert len(c["steps"]) >= 10 and all(lo <= m <= hi for lo, m, hi in bands)
     assert (tmp_path / "benchmark_plots" / "raw_curves.png").is_file()
@@ -412,7 +412,7 @@ def test_suite_smoke_end_to_end(tmp_path, monkeypatch) -> None:
     readme, bench_json, baselines = tmp_path / "README.md", tmp_path / "benchmark.json", tmp_path / "bl"
     readme.write_text(f"# r\n\n{publish.README_START}\nnot yet\n{publish.README_END}\n\n## next\n")
     pub = ["suite-publish", "--out", str(out), "--markdown", str(md), "--publish-json", str(bench_json),
-           "--readme", str(readme), "--baselines", str(baselines)]  # fmt: skip
+           "--readme", str(readme), "--baselines", str(baselines), "--allow-dirty"]  # fmt: skip
     assert main(pub) == 2 and not baselines.exists()  # smoke runs ship only with --allow-smoke
     assert main([*pub, "--allow-smoke"]) == 0
     published = json.loads((out / "suite.json").read_text())
@@ -440,7 +440,8 @@ def test_suite_smoke_end_to_end(tmp_path, monkeypatch) -> None:
 
     restored = tmp_path / "restored"
     assert len(restore(bench_json, restored).records) == 2
-    assert main(["suite-publish", "--out", str(restored), "--markdown", str(tmp_path / "again.md")]) == 0
+    assert main(["suite-publish", "--out", str(restored), "--markdown", str(tmp_path / "again.md"),
+                 "--allow-dirty"]) == 0  # a development tree may be dirty: test_publish_clean_tree.py
     again = json.loads((restored / "suite.json").read_text())
     assert again["aggregate"] == published["aggregate"] and again["references"] == published["references"]
     assert [r["objective"] for r in again["runs"]] == [r["objective"] for r in published["runs"]]
