@@ -531,7 +531,7 @@ def nees_kernel(x_est, x_true, p, lo, y):  # pragma: no cover - compiled
     ``P`` (6, 6); NaN if the factorisation fails. ``lo`` (6, 6) and ``y`` (6,) are scratch (no allocation).
 
     The one compiled implementation (the environments' core and the Monte Carlo harnesses call it;
-    ``BatchEKF.nees`` is its numpy oracle in the tests).
+    ``planetnav_validation.numpy_ekf.nees`` is its numpy oracle in the tests).
     """
     n = 6
     for i in range(n):
@@ -570,7 +570,7 @@ _EMPTY = np.zeros((0, 3))
 class SingleEKF(EKFBase):
     """One EKF on the compiled kernels (the environment's filter).
 
-    Same settings and equations as :class:`~planetnav_env.estimation.ekf.BatchEKF` (its oracle) and the
+    Same settings and equations as :class:`~planetnav_validation.numpy_ekf.BatchEKF` (its oracle) and the
     same construction (:class:`~planetnav_env.estimation.ekf.EKFBase`); ``x`` (6,) [km, km/s] and
     ``P`` (6, 6) are public.
     """
