@@ -4,7 +4,7 @@ Spec syntax (``make_agent`` / ``train.py --agents``): ``periodic:period=60,cycle
 ``period`` is the dwell on each planet in environment steps (an integer >= 1; 60 steps of 60 s = 1 h in
 cruise) and ``cycle`` the planets in visiting order, by index into ``config.planets`` or by name
 (``venus-mars``), separated by ``-``. A planet may repeat (``0-1-0-2``). ``periodic`` alone uses the
-defaults below, the best setting of ``python train.py sweep-periodic`` on the default cruise
+defaults below, the best setting of the periodic sweep on the default cruise
 (``docs/agents.md``).
 
 The schedule is open loop: step ``k`` of the episode (counted from :meth:`reset`) looks at

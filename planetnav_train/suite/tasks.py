@@ -195,7 +195,7 @@ TASKS_V1: tuple[Task, ...] = (
     Task("planetnav/ThrustArc-TCM-v1", "discrete", 3_000_000, THRUST_ARC_REFS, objective="operations_J_km"),
 )
 #: Suite version 2's tasks: the ``-v2`` ids (docs/tasks_v2.md). Each task's zero point is the winner of its
-#: published blind search (docs/tasks_v2_blind.json, ``train.py blind-search``; ``random`` there acts in the
+#: published blind search (docs/tasks_v2_blind.json; ``random`` there acts in the
 #: task's interface), its references the search's non-privileged ones: on the event tasks nominal and adaptive
 #: greedy (the oracle is privileged, never the 1), on the posing fixes the v1 task's.
 _V2_EVENT_REFS = ("greedy", "greedy:success=observed")
