@@ -17,10 +17,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from planetnav_env.dynamics.orbit import GravityModel, PerturberFn, euler_stm, rk4_step_stm
+from planetnav_env.dynamics.orbit import GravityModel, PerturberFn
 from planetnav_env.errors import InvalidParameterError, require_finite
 from planetnav_env.estimation.ekf import EKFBase, FilterConfig, process_noise
 from planetnav_env.estimation.measurements import wrap_angle
+from planetnav_validation.numpy_orbit import euler_stm, rk4_step_stm
 
 
 def symmetrize(p: np.ndarray) -> np.ndarray:

@@ -188,7 +188,8 @@ def plot_angular_sizes(eph: Ephemeris, camera: CameraConfig, days: float, out: P
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from planetnav_env.dynamics.orbit import GravityModel, propagate
+    from planetnav_env.dynamics.orbit import GravityModel
+    from planetnav_validation.numpy_orbit import propagate
 
     step = 3600.0
     n = int(days * 86400 / step)
