@@ -71,8 +71,8 @@ from planetnav_env.core.what_if import coasted_position_trace
 from planetnav_env.estimation.ekf_kernels import (
     OrbitModel,
     PredictScratch,
-    _matmul,
     covariance_predict_kernel,
+    matmul_kernel,
     planet_model_kernel,
     predict_kernel,
     update_kernel,
@@ -209,7 +209,7 @@ def _stay_blocks(phis, qproc, us, grid, dt, q_par, q_perp):  # pragma: no cover 
         for k in range(b * grid, (b + 1) * grid):
             covariance_predict_kernel(q_b[b], phis[k], qproc, tmp)
             add_thrust_q(q_b[b], dt, 1.0, q_par, q_perp, us[k])
-            _matmul(phis[k], phi_b[b], 6, 6, 6, tmp)  # the estimation kernels' one 6x6 product
+            matmul_kernel(phis[k], phi_b[b], 6, 6, 6, tmp)  # the estimation kernels' one 6x6 product
             phi_b[b] = tmp
     return phi_b, q_b
 

@@ -11,5 +11,6 @@ Not part of the environment: nothing in ``planetnav_env``, ``planetnav_agents``,
 * the GNSS/magnetometer paper's geometry: :mod:`~planetnav_validation.gnss_visibility`,
   :mod:`~planetnav_validation.euler` (3-2-1 angles), :mod:`~planetnav_validation.body_rate` (eq. (3));
 * oracles the compiled code is held to: :mod:`~planetnav_validation.numpy_ekf` (the numpy EKF and the
-  filterpy adapter), :mod:`~planetnav_validation.wahba_svd` (Markley's SVD solution, Wahba's loss).
+  filterpy adapter), :mod:`~planetnav_validation.numpy_orbit` (the numpy RK4 state transition matrix),
+  :mod:`~planetnav_validation.wahba_svd` (Markley's SVD solution, Wahba's loss).
 """

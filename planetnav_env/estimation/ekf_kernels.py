@@ -181,7 +181,7 @@ def rk4_kernel(x, dt, orbit, x_out, w6, v6):
 
 
 @njit(inline="always", **ROW_KERNEL_OPTIONS)  # inlined into numba IR: the callers' constant sizes unroll
-def _matmul(a, b, rows, cols, inner, out):
+def matmul_kernel(a, b, rows, cols, inner, out):
     """``out[:rows, :cols] = a[:rows, :inner] @ b[:inner, :cols]``, summed in index order from 0.0 (the one
     matrix product of the predict and update kernels; loops, because BLAS on 6x6 costs more in overhead)."""
     for i in range(rows):
@@ -225,7 +225,7 @@ def covariance_predict_kernel(p, phi, q, tmp):
     ``Phi`` (planners' what-if covariances) call it rather than writing the product again.
     """
     # Hand-written loops: BLAS calls on 6x6 matrices cost more in overhead than in arithmetic.
-    _matmul(phi, p, 6, 6, 6, tmp)
+    matmul_kernel(phi, p, 6, 6, 6, tmp)
     for i in range(6):
         for j in range(i, 6):
             acc = 0.0
@@ -321,7 +321,7 @@ def update_kernel(x, p, z, h, jac, rcov, m, wrap_index, gate, uw):
             nis += y[i] * s_inv[i, j] * y[j]
     if not nis <= gate:
         return nis, False
-    _matmul(pht, s_inv, 6, m, m, kg)
+    matmul_kernel(pht, s_inv, 6, m, m, kg)
     # Joseph form: P+ = (I - K H) P (I - K H)^T + K R K^T.
     for i in range(6):
         for j in range(6):
@@ -329,8 +329,8 @@ def update_kernel(x, p, z, h, jac, rcov, m, wrap_index, gate, uw):
             for k in range(m):
                 acc += kg[i, k] * jac[k, j]
             ikh[i, j] = -acc
-    _matmul(ikh, p, 6, 6, 6, tmp)
-    _matmul(kg, rcov, 6, m, m, kr)
+    matmul_kernel(ikh, p, 6, 6, 6, tmp)
+    matmul_kernel(kg, rcov, 6, m, m, kr)
     for i in range(6):
         acc = 0.0
         for j in range(m):
