@@ -1,5 +1,5 @@
 """``optimum``: the open-loop session schedule of an operations scenario, searched at reset on the filter's
-covariance prediction (``research/operations_log.md`` §3.3 item 3).
+covariance prediction (docs/agents.md, docs/tasks/ThrustArc-TCM.md).
 
 Units: times [s], steps of ``step_s``, covariances [km^2, km^2/s, km^2/s^2], σ [km], Δv [m/s], the cost
 weight ``w`` [km per m/s], J [km].
@@ -79,7 +79,7 @@ from planetnav_env.estimation.ekf_kernels import (
 )
 from planetnav_env.estimation.measurement_kernels import los_basis_kernel
 
-#: The tuned periodic rule (research/operations_log.md §7.1) whose schedule is one start of the search.
+#: The tuned periodic rule (a session of 12 steps every 432 from step 108) whose schedule starts the search.
 PERIODIC_START = (432, 12, 108, (0, 1, 2))
 
 

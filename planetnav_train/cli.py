@@ -166,7 +166,7 @@ def cmd_train(args: argparse.Namespace) -> int:
         return 0
     env_cfg = evaluation_env(tc.env_config(), tc.eval.episode_steps, tc.eval.noise_streams)
     # The trained policy twice: its argmax (the usual deterministic evaluation) and its sampled actions,
-    # which on this problem can differ a lot (research/training_log.md).
+    # which on this problem can differ a lot (an argmax can collapse to one action).
     specs = [str(model_path), f"{model_path}@sampled", *tc.eval.agents]
     t0 = time.perf_counter()
     results = compare_agents(specs, env_cfg, tc.eval.episodes, tc.eval.seed, progress, tc.eval.reference)

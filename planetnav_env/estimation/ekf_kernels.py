@@ -381,8 +381,8 @@ def predict_arrays_kernel(x, p, dt, mu, p0, p1, p2, mus, q, euler_stm, w6, v6, p
     :class:`OrbitModel` and :class:`PredictScratch` as separate arguments; the records are built here.
 
     Kept positional on purpose: numba's dispatcher types a tuple argument in Python (arrays and scalars
-    in C), and passing the two records from Python made SingleEKF's cycle 8.6 -> 12.6 us (bench_core,
-    CPU time). Compiled callers pass the records to :func:`predict_kernel`."""
+    in C), so two records passed from Python would cost every cycle of :class:`SingleEKF` their typing.
+    Compiled callers pass the records to :func:`predict_kernel`."""
     orbit = OrbitModel(mu=mu, p0=p0, p1=p1, p2=p2, mus=mus)
     ws = PredictScratch(w6=w6, v6=v6, phi=phi, tmp=tmp)
     predict_kernel(x, p, dt, orbit, q, euler_stm, ws)
@@ -515,8 +515,8 @@ def cycle_batch_kernel(x, p, dt, mu, p0, p1, p2, mus, q, euler_stm, *update_args
     """Predict + update for N filters (leading axis): :func:`predict_batch_kernel` with the arguments up
     to ``euler_stm`` (the orbit model by its parts ``mu``, ``p0``, ``p1``, ``p2``, ``mus``: the fields of
     :class:`OrbitModel`), then :func:`update_batch_kernel` on the same ``x``, ``p`` with the rest (``z`` to
-    ``acc_out``: the fields of :class:`PlanetFixes` and :class:`FixModel`, then the outputs, in the order
-    of the former positional form, which ``tests/env/test_fast_ekf.py`` calls). The measurement and basis must
+    ``acc_out``: the fields of :class:`PlanetFixes` and :class:`FixModel`, then the outputs, in that order,
+    as ``tests/env/test_fast_ekf.py`` calls it). The measurement and basis must
     not depend on the prediction."""
     predict_batch_kernel(x, p, dt, OrbitModel(mu=mu, p0=p0, p1=p1, p2=p2, mus=mus), q, euler_stm)
     z, planet, diameter, kind, sig_dir, sig_size, basis, active, gate, nis_out, acc_out = update_args
