@@ -35,9 +35,9 @@ run: $(STAMP)
 	$(BIN)/python train.py
 
 reproduce: $(STAMP)
-	$(BIN)/python -m planetnav_env.reproduce angular-size --plots results/angular_size --json results/angular_size.json
-	$(BIN)/python -m planetnav_env.reproduce optical-pulsar --plots results/optical_pulsar --json results/optical_pulsar.json
-	$(BIN)/python -m planetnav_env.reproduce gnss-magnetometer --plots results/gnss_magnetometer --json results/gnss_magnetometer.json
+	$(BIN)/python -m planetnav_validation.reproduce angular-size --plots results/angular_size --json results/angular_size.json
+	$(BIN)/python -m planetnav_validation.reproduce optical-pulsar --plots results/optical_pulsar --json results/optical_pulsar.json
+	$(BIN)/python -m planetnav_validation.reproduce gnss-magnetometer --plots results/gnss_magnetometer --json results/gnss_magnetometer.json
 
 test: $(STAMP)
 	$(BIN)/ruff check .
@@ -52,12 +52,12 @@ test: $(STAMP)
 # package's tests that cannot differ here: pure physics and numerics that import neither gymnasium nor
 # planetnav_env.envs (tests/project/test_ci_split.py holds that, through every module they import), and every
 # other package they use is the same version in both environments. A new test file under tests/env runs here
-# until it is listed. `make test-ray-all` runs the whole suite there.
+# until it is listed. tests/validation (the reproductions, harnesses and oracles) does not run here: it reaches
+# no gymnasium either (test_ci_split.py holds that too). `make test-ray-all` runs the whole suite there.
 RAY_TESTS := tests/rl tests/env tests/train/test_client_sb3_contrib.py tests/train/test_training_golden.py \
 	tests/train/test_vec_training.py tests/project/test_install_extras.py
-RAY_SAME := approach attitude camera config_options core_ephemeris core_rng ekf ephemeris gnss_magnetometer \
-	image_plane measurements numba_cache orbit pointing pulsar quaternion reproduce_angular_size \
-	star_fix_kernels star_tracker wahba
+RAY_SAME := approach attitude camera config_options core_ephemeris core_rng ekf ephemeris measurements \
+	numba_cache orbit pointing pulsar quaternion star_fix_kernels star_tracker wahba
 
 test-ray: $(RAY_STAMP)
 	RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER=0 $(RAY_BIN)/python -m pytest -m "not cpu_settings" $(RAY_TESTS) \

@@ -19,96 +19,25 @@ chosen planet index into an action for any ``action_mode``:
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 from typing import Any
 
 import gymnasium as gym
 import numpy as np
 
-from planetnav_env.astro.bodies import AU_KM, body
-from planetnav_env.attitude import quaternion as qt
+from planetnav_env.astro.bodies import body
 from planetnav_env.attitude.plant import AttitudeConfig, raise_state_error
-from planetnav_env.attitude.pointing import _frame_batch, _pd_torque_batch
+from planetnav_env.attitude.pointing import frame_batch, pd_torque_batch
 from planetnav_env.config import EnvConfig
-from planetnav_env.core import layout as L
+from planetnav_env.envs.parsed_observation import ParsedObservation
 from planetnav_env.errors import InvalidParameterError, require_finite
 
 _DEG = math.pi / 180.0
 
 
-@dataclass(frozen=True)
-class ParsedObservation:
-    """The observation as named float64 arrays in physical units (:meth:`PlanetNavEnv.decode_observation`).
-
-    position_km, velocity_km_s: the filter's estimate relative to the scenario's central body; q:
-    star-tracker attitude (body->inertial, scalar first); rates_rad_s: reported body rates;
-    wheel_fraction: wheel momentum / capacity; planets (P, 7) and pulsars (Q, 7): the per-target blocks
-    of the class docstring; target: index of the current target (planets first, then pulsars) or -1;
-    elapsed: fraction of the episode.
-    """
-
-    position_km: np.ndarray
-    velocity_km_s: np.ndarray
-    q: np.ndarray
-    rates_rad_s: np.ndarray
-    wheel_fraction: np.ndarray
-    planets: np.ndarray
-    pulsars: np.ndarray
-    target: int
-    elapsed: float
-    #: (2, P) the image log (``EnvConfig.observe_image_log``): per planet the mean of its image success rate
-    #: (Beta(1, 1) prior updated by this episode's images), then the scaled image counts; None without it.
-    image_log: np.ndarray | None = None
-    #: (T,) the residual log (``EnvConfig.observe_residual_log``): mean normalized NIS per target / 10.
-    residual_log: np.ndarray | None = None
-
-    @property
-    def planet_distance_km(self) -> np.ndarray:
-        """Estimated distance to each planet [km], (P,)."""
-        return AU_KM * 10.0 ** self.planets[:, L.TF_LOG_DISTANCE]
-
-    @property
-    def planet_los_inertial(self) -> np.ndarray:
-        """Estimated unit line of sight to each planet, inertial axes (P, 3) (body block rotated by q)."""
-        return qt.rotate_body_to_inertial(self.q, self.planets[:, L.TF_DIR : L.TF_DIR + 3])
-
-    @property
-    def planet_observable(self) -> np.ndarray:
-        """(P,) bool: measurable if pointed at (Sun exclusion, occultation, size), per the env."""
-        return self.planets[:, L.TF_OBSERVABLE] > 0.5
-
-    @property
-    def pulsar_los_inertial(self) -> np.ndarray:
-        """Unit direction of each pulsar, inertial axes (Q, 3)."""
-        return qt.rotate_body_to_inertial(self.q, self.pulsars[:, L.TF_DIR : L.TF_DIR + 3])
-
-    @property
-    def boresight_inertial(self) -> np.ndarray:
-        """Current camera boresight (body +x) in inertial axes, from the star-tracker attitude."""
-        return qt.rotate_body_to_inertial(self.q, np.array([1.0, 0.0, 0.0]))
-
-    def planet_positions(self, x_est: np.ndarray) -> np.ndarray:
-        """Planet positions (P, 3) [km] in the estimate's frame: ``x_est + distance * line of sight``."""
-        x = np.asarray(x_est, dtype=float)[:3]
-        return x + self.planet_los_inertial * self.planet_distance_km[:, None]
-
-
 def parse_observation(observation: Any, env: gym.Env) -> ParsedObservation:
-    """Split a ``box`` or ``dict`` observation of ``env`` (a planetnav environment, wrapped or not)."""
-    d = env.unwrapped.decode_observation(observation)
-    return ParsedObservation(
-        position_km=d["position_km"],
-        velocity_km_s=d["velocity_km_s"],
-        q=d["q"],
-        rates_rad_s=d["rates_rad_s"],
-        wheel_fraction=d["wheel_fraction"],
-        planets=d["planets"],
-        pulsars=d["pulsars"],
-        target=d["target"],
-        elapsed=d["elapsed"],
-        image_log=d.get("image_log"),
-        residual_log=d.get("residual_log"),
-    )
+    """Split a ``box`` or ``dict`` observation of ``env`` (a planetnav environment, wrapped or not) into the
+    environment's public record (:class:`planetnav_env.envs.parsed_observation.ParsedObservation`)."""
+    return ParsedObservation.from_observation(observation, env)
 
 
 def with_planet_choice(actions: np.ndarray, choice: np.ndarray, n_planets: int) -> np.ndarray:
@@ -242,12 +171,12 @@ class PointingLaw:
         # The compiled kernels of attitude.pointing.pd_torque, called directly: its validation and
         # broadcasting cost ~0.5 ms a call, more than a training step of 8 rows; the inputs are checked here.
         frame = np.empty((n * k, 3, 3))
-        bad = _frame_batch(p_, x_, frame)
+        bad = frame_batch(p_, x_, frame)
         if bad:
             r, i = divmod(bad - 1, k)
             raise InvalidParameterError(f"direction {i} of row {r} has zero length: {p_[bad - 1].tolist()}")
         u = np.empty((n * k, 3))
-        status = _pd_torque_batch(q_, w_, h_, frame, self._att_config.inertia_matrix, self.k_a, self.k_w, u)
+        status = pd_torque_batch(q_, w_, h_, frame, self._att_config.inertia_matrix, self.k_a, self.k_w, u)
         raise_state_error(status, [("q", q_)])
         u = u.reshape(n, k, 3)
         return np.clip(u / (self._tau_max * self._torque_scale), -1.0, 1.0).astype(np.float32)

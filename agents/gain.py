@@ -130,7 +130,7 @@ def planet_gains(
     observations.
 
     Why relative to the best: the scores themselves are ~1e-3 of trace(P_rr) per step and differ between
-    planets in the fourth decimal (``research/training_log.md``), which a policy network does not resolve; the
+    planets in the fourth decimal, which a policy network does not resolve; the
     ratio puts greedy's ranking, and how far the current target is behind the best, on a unit scale."""
     obs = np.asarray(observations, dtype=np.float64)
     a = _ATTITUDE

@@ -1,5 +1,5 @@
 """Deadline- and cost-aware session rule of ``greedy:threshold=θ`` on the operations scenarios
-(``research/operations_log.md`` §3.3 item 2).
+(docs/agents.md).
 
 Units: times [s], covariances [km^2, km^2/s, km^2/s^2], σ [km], Δv [m/s], the cost weight ``w`` [km per
 m/s], ``threshold`` θ dimensionless.
@@ -33,7 +33,7 @@ from planetnav_agents.base import ParsedObservation, unwrapped_config
 from planetnav_env.core.operations import add_thrust_q
 from planetnav_env.core.what_if import coasted_position_trace, predicted_planet_trace
 
-#: Default session [s]: 2 h of images (research/operations_log.md §3.1).
+#: Default session [s]: 2 h of images.
 DEFAULT_SESSION_S = 7200.0
 
 
@@ -64,8 +64,7 @@ class DeadlineSessionRule:
         self.n_planets = cfg.n_planets
         self.stay = cfg.n_targets  # the last action: stay at the mission attitude
         self.encounter_s = float(ops.encounter_s)
-        # The env reaches a deadline at the first step end at or after its epoch
-        # (research/operations_log.md §3.4).
+        # The env reaches a deadline at the first step end at or after its epoch.
         self.deadline_s = np.array([math.ceil(d / step_s - 1e-9) * step_s for d in ops.deadlines_s])
         self.q_par, self.q_perp = ops.psd_km2_s3
         self.dv_session_m_s = ops.thrust_accel_km_s2 * 1e3 * self.session * step_s

@@ -1,5 +1,5 @@
 """``optimum``: the open-loop session schedule of an operations scenario, searched at reset on the filter's
-covariance prediction (``research/operations_log.md`` §3.3 item 3).
+covariance prediction (docs/agents.md, docs/tasks/ThrustArc-TCM.md).
 
 Units: times [s], steps of ``step_s``, covariances [km^2, km^2/s, km^2/s^2], σ [km], Δv [m/s], the cost
 weight ``w`` [km per m/s], J [km].
@@ -71,15 +71,15 @@ from planetnav_env.core.what_if import coasted_position_trace
 from planetnav_env.estimation.ekf_kernels import (
     OrbitModel,
     PredictScratch,
-    _matmul,
     covariance_predict_kernel,
+    matmul_kernel,
     planet_model_kernel,
     predict_kernel,
     update_kernel,
 )
 from planetnav_env.estimation.measurement_kernels import los_basis_kernel
 
-#: The tuned periodic rule (research/operations_log.md §7.1) whose schedule is one start of the search.
+#: The tuned periodic rule (a session of 12 steps every 432 from step 108) whose schedule starts the search.
 PERIODIC_START = (432, 12, 108, (0, 1, 2))
 
 
@@ -209,7 +209,7 @@ def _stay_blocks(phis, qproc, us, grid, dt, q_par, q_perp):  # pragma: no cover 
         for k in range(b * grid, (b + 1) * grid):
             covariance_predict_kernel(q_b[b], phis[k], qproc, tmp)
             add_thrust_q(q_b[b], dt, 1.0, q_par, q_perp, us[k])
-            _matmul(phis[k], phi_b[b], 6, 6, 6, tmp)  # the estimation kernels' one 6x6 product
+            matmul_kernel(phis[k], phi_b[b], 6, 6, 6, tmp)  # the estimation kernels' one 6x6 product
             phi_b[b] = tmp
     return phi_b, q_b
 

@@ -4,7 +4,7 @@ Spec syntax (``make_agent`` / ``train.py --agents``): ``periodic:period=60,cycle
 ``period`` is the dwell on each planet in environment steps (an integer >= 1; 60 steps of 60 s = 1 h in
 cruise) and ``cycle`` the planets in visiting order, by index into ``config.planets`` or by name
 (``venus-mars``), separated by ``-``. A planet may repeat (``0-1-0-2``). ``periodic`` alone uses the
-defaults below, the best setting of ``python train.py sweep-periodic`` on the default cruise
+defaults below, the best setting of the periodic sweep on the default cruise
 (``docs/agents.md``).
 
 The schedule is open loop: step ``k`` of the episode (counted from :meth:`reset`) looks at
@@ -12,7 +12,7 @@ The schedule is open loop: step ``k`` of the episode (counted from :meth:`reset`
 could not see even if pointed at it (the observation's flag) is replaced by the next visible one of the
 cycle, so the schedule does not stare into the Sun's glare on random cruises.
 
-Sessions (the operations scenarios, ``research/operations_log.md`` §3.3): with ``session`` given,
+Sessions (the operations scenarios): with ``session`` given,
 ``periodic:period=144,session=12,phase=30,cycle=0-1`` images for ``session`` steps out of every ``period``
 steps, starting at step ``phase`` (an integer in ``[0, period)``): step ``k`` is in a session when
 ``(k - phase) mod period < session``, and session number ``n = floor((k - phase) / period)`` images
@@ -22,8 +22,7 @@ thrusts), when the environment has it (``idle_action``); otherwise it keeps to t
 Here ``period`` is the spacing of sessions, not the dwell per planet. Without ``session`` (and ``phase``
 0) the schedule is the plain one above, unchanged.
 
-Deadline-anchored sessions (the operations scenarios, ``research/operations_log.md`` §7.5): with ``lead``
-given,
+Deadline-anchored sessions (the operations scenarios): with ``lead`` given,
 ``periodic:lead=0,session=24-48-12,start=6,dwell=6,cycle=0-1-2`` images in one block before each knowledge
 deadline (TCM) of ``config.operations.deadlines_s`` instead of every ``period`` steps. The environment
 reaches deadline ``j`` at the end of step count ``d_j = ceil(deadlines_s[j] / step_s)`` (the first step end

@@ -23,7 +23,7 @@ from planetnav_env.astro.ephemeris import KeplerianEphemeris
 from planetnav_env.attitude.plant import AttitudeConfig
 from planetnav_env.attitude.pointing import propagate_pointing
 from planetnav_env.dynamics.orbit import GravityModel, rk4_step
-from planetnav_env.estimation.ekf import BatchEKF, FilterConfig, FilterpyEKF, process_noise
+from planetnav_env.estimation.ekf import FilterConfig, process_noise
 from planetnav_env.estimation.ekf_kernels import (
     KIND_CODES,
     FixModel,
@@ -43,7 +43,8 @@ from planetnav_env.estimation.measurements import (
     jac_direction,
     jac_size,
 )
-from planetnav_env.reproduce.angular_size import EPOCH, initial_state
+from planetnav_validation.numpy_ekf import BatchEKF, FilterpyEKF
+from planetnav_validation.reproduce.angular_size import EPOCH, initial_state
 
 
 def _time(fn, repeat: int) -> float:

@@ -18,8 +18,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 import numpy as np
 
 from planetnav_env.attitude import quaternion as qt
-from planetnav_env.reproduce.gnss_magnetometer import ALTITUDES_KM, simulate
 from planetnav_env.sensors.star_tracker import StarTrackerConfig, estimate_attitude
+from planetnav_validation.reproduce.gnss_magnetometer import ALTITUDES_KM, simulate
 
 TARGET_S = 10.0
 

@@ -16,4 +16,6 @@ from planetnav_env.envs.registration import ENV_IDS, register_envs  # noqa: E402
 
 register_envs()
 
-__all__ = ["ENV_IDS", "__version__"]
+from planetnav_env.envs.parsed_observation import ParsedObservation  # noqa: E402
+
+__all__ = ["ENV_IDS", "ParsedObservation", "__version__"]

@@ -32,8 +32,7 @@ from planetnav_env.estimation.ekf import FilterConfig
 from planetnav_env.estimation.measurements import MODELS
 from planetnav_env.options import check_options, declared, option, option_table, replace_table, section
 from planetnav_env.scenarios.approach import DEFAULT_CLOSEST_APPROACH_TDB
-from planetnav_env.scenarios.episodes import _RANDOM_EPOCHS as RANDOM_EPOCHS
-from planetnav_env.scenarios.episodes import CRUISE_EPOCH
+from planetnav_env.scenarios.episodes import CRUISE_EPOCH, RANDOM_EPOCHS
 from planetnav_env.sensors.camera_config import CameraConfig
 from planetnav_env.sensors.pulsar import XrayDetector, pulsar
 

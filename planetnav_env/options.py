@@ -2,7 +2,7 @@
 
 :func:`option` declares a field of a frozen settings dataclass with its type, unit, range, description and,
 for a plain scalar the compiled kernels read, the name of its slot in the kernels' scalar record
-(:data:`planetnav_env.core.records.SCALAR_FIELDS`). From those declarations come
+(:data:`planetnav_env.kernel_params.SCALAR_FIELDS`). From those declarations come
 
 * the checks: :func:`check_options` (called first in ``__post_init__``) raises an
   :class:`~planetnav_env.errors.OptionError` naming the option, its type, unit and range and the bad value;
@@ -215,7 +215,7 @@ def option(
     the option optional. ``gt``/``ge``/``lt``/``le``: bounds (of every item of a sequence); ``choices``:
     the allowed values; ``length``: a sequence's length, exact or ``(min, max)`` (max None: unbounded), a
     matrix's ``(rows, cols)``; ``kernel``: the name of the slot of
-    :data:`~planetnav_env.core.records.SCALAR_FIELDS` that holds a copy of the value (0 while an optional
+    :data:`~planetnav_env.kernel_params.SCALAR_FIELDS` that holds a copy of the value (0 while an optional
     section that holds it is absent). Nested settings records are declared with :func:`section`.
     """
     kind = kind or type(default).__name__
@@ -283,7 +283,7 @@ def walk(cls: type, prefix: str = "") -> Iterator[tuple[str, Option, Any]]:
 # --- the compiled record's copies -------------------------------------------------------------------------
 def kernel_fields(cls: type) -> tuple[tuple[str, str, str], ...]:
     """``(name, numpy type, meaning)`` of each kernel scalar that copies an option of ``cls``: the
-    :data:`~planetnav_env.core.records.SCALAR_FIELDS` entries generated from the declarations."""
+    :data:`~planetnav_env.kernel_params.SCALAR_FIELDS` entries generated from the declarations."""
     return tuple(
         (opt.kernel, "i8" if opt.kind == "int" else "f8", f"{cls.__name__}.{path} [{opt.unit}]")
         for path, opt, _ in walk(cls)

@@ -7,7 +7,6 @@ Usage::
     python train.py evaluate --agent NAME|PATH --episodes N --seed S --json out.json [--config X.yaml]
     python train.py compare --agents planner greedy periodic baseline random idle [PATH ...] --episodes N \\
         [--json J] [--report DIR] [--reference greedy]
-    python train.py sweep-periodic [--periods 10 30 60 ...] [--cycles 0-1 0-1-2 ...] [--episodes N] [--seed S]
     python train.py train --config configs/rllib_ppo.yaml [--address HOST:PORT]   # RLlib, needs [ray]
     python train.py tune --config configs/sweep.yaml [--address HOST:PORT] [--resume]  # Ray Tune sweep
     python train.py suite --tasks ... --algos ... --seeds ... [--resume]      # benchmark suite, docs/suite.md
@@ -36,14 +35,11 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import sys
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
-
-import numpy as np
 
 from planetnav_agents import strip_sampled
 from planetnav_agents.loaders import config_path as model_config_path
@@ -52,7 +48,6 @@ from planetnav_env.errors import ConfigError
 from planetnav_train import extensions
 from planetnav_train.config import (
     DEFAULT_CONFIG,
-    EVAL_EPISODES,
     EVAL_SEED,
     REFERENCE,
     ROOT,
@@ -62,23 +57,18 @@ from planetnav_train.config import (
     parse_config,
 )
 from planetnav_train.evaluate import (
-    DEFAULT_SWEEP_CYCLES,
-    DEFAULT_SWEEP_PERIODS,
-    SWEEP_SEED,
     compare_agents,
     evaluate_agent,
     evaluation_env,
     results_json,
-    sweep_periodic,
 )
 from planetnav_train.provenance import provenance
 from planetnav_train.report import print_table, write_report
 from planetnav_train.shipped import is_shipped_spec, shipped_model, task_of
-from planetnav_train.stats import paired_difference
 from planetnav_train.training import train
 
 
-def _eval_env_config(args: argparse.Namespace, specs: Sequence[str]) -> tuple[EnvConfig, EvalSettings]:
+def eval_env_config(args: argparse.Namespace, specs: Sequence[str]) -> tuple[EnvConfig, EvalSettings]:
     """The env of ``--config``, else of the first model run directory's ``config.yaml`` or shipped
     baseline's task (``suite:<task>``), else defaults."""
     if args.config:
@@ -176,7 +166,7 @@ def cmd_train(args: argparse.Namespace) -> int:
         return 0
     env_cfg = evaluation_env(tc.env_config(), tc.eval.episode_steps, tc.eval.noise_streams)
     # The trained policy twice: its argmax (the usual deterministic evaluation) and its sampled actions,
-    # which on this problem can differ a lot (research/training_log.md).
+    # which on this problem can differ a lot (an argmax can collapse to one action).
     specs = [str(model_path), f"{model_path}@sampled", *tc.eval.agents]
     t0 = time.perf_counter()
     results = compare_agents(specs, env_cfg, tc.eval.episodes, tc.eval.seed, progress, tc.eval.reference)
@@ -192,7 +182,7 @@ def cmd_train(args: argparse.Namespace) -> int:
     return 0
 
 
-def _write_json(path: str, data: Any) -> None:
+def write_json(path: str, data: Any) -> None:
     """``data`` as indented JSON at ``path`` (the ``--json`` option of the commands), folders created."""
     Path(path).parent.mkdir(parents=True, exist_ok=True)
     Path(path).write_text(json.dumps(data, indent=2))
@@ -200,7 +190,7 @@ def _write_json(path: str, data: Any) -> None:
 
 def cmd_evaluate(args: argparse.Namespace) -> int:
     """``evaluate``: one agent on held-out seeds; prints its row and optionally writes the JSON."""
-    env_cfg, ev = _eval_env_config(args, [args.agent])
+    env_cfg, ev = eval_env_config(args, [args.agent])
     episodes = args.episodes or ev.episodes
     seed = ev.seed if args.seed is None else args.seed
     t0 = time.perf_counter()
@@ -208,13 +198,13 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     wall_s = time.perf_counter() - t0
     print_table([result])
     if args.json:
-        _write_json(args.json, {**results_json([result]), "provenance": provenance(wall_s=wall_s)})
+        write_json(args.json, {**results_json([result]), "provenance": provenance(wall_s=wall_s)})
     return 0
 
 
 def cmd_compare(args: argparse.Namespace) -> int:
     """``compare``: several agents on the same seeds in one table, with the JSON and the report on request."""
-    env_cfg, ev = _eval_env_config(args, args.agents or [])
+    env_cfg, ev = eval_env_config(args, args.agents or [])
     # --agents, else the config's eval.agents (the defaults without a config)
     agents = list(args.agents or ev.agents)
     episodes = args.episodes or ev.episodes
@@ -225,96 +215,10 @@ def cmd_compare(args: argparse.Namespace) -> int:
     wall_s = time.perf_counter() - t0
     print_table(results)
     if args.json:
-        _write_json(args.json, {**results_json(results), "provenance": provenance(wall_s=wall_s)})
+        write_json(args.json, {**results_json(results), "provenance": provenance(wall_s=wall_s)})
     if args.report:
         report = write_report(Path(args.report), results, env_cfg, "Agent comparison", wall_s=wall_s)
         print(f"report: {report}")
-    return 0
-
-
-def _evaluation_entry(given: str) -> tuple[str, dict[str, Any]]:
-    """``FILE:AGENT`` (an ``eval.json`` or a ``--json`` output and one of its agents) -> (agent, metrics)."""
-    # Agent names hold colons (ppo:run, periodic:period=10): the file is the shortest prefix that exists.
-    cuts = [i for i, ch in enumerate(given) if ch == ":" and Path(given[:i]).is_file()]
-    if not cuts or cuts[0] == len(given) - 1:
-        raise ConfigError(f"paired: expected FILE:AGENT with an existing evaluation file, got {given!r}")
-    path, agent = given[: cuts[0]], given[cuts[0] + 1 :]
-    try:
-        agents = json.loads(Path(path).read_text())["agents"]
-    except (ValueError, KeyError, TypeError):
-        raise ConfigError(f"paired: {path!r} is not an evaluation JSON (no 'agents')") from None
-    if agent not in agents:
-        raise ConfigError(f"paired: no agent {agent!r} in {path}; it has {sorted(agents)}")
-    return agent, agents[agent]
-
-
-def cmd_paired(args: argparse.Namespace) -> int:
-    """Paired difference of two evaluations on the same seeds, which may come from two environments (the
-    same policy in target and target+torque mode) or two runs of ``compare``."""
-    (name_a, a), (name_b, b) = _evaluation_entry(args.a), _evaluation_entry(args.b)
-    if (a["seed"], a["episodes"]) != (b["seed"], b["episodes"]):
-        raise ConfigError(
-            f"paired: the evaluations ran on different seeds: {args.a} on {a['episodes']} from {a['seed']}, "
-            f"{args.b} on {b['episodes']} from {b['seed']}"
-        )
-    # --metric objective: the scenario objective J [km] per episode (evaluate.episode_objective).
-    per_key, mean_key, label = (
-        ("per_episode_objective", "objective_mean", "objective J")
-        if getattr(args, "metric", "pos_err") == "objective"
-        else ("per_episode_mean_pos_err_km", "mean_pos_err_km", "mean position error")
-    )
-    for given, entry in ((args.a, a), (args.b, b)):
-        if per_key not in entry:
-            raise ConfigError(f"paired: {given} has no {per_key!r} (written before that key existed)")
-    diff = paired_difference(a[per_key], b[per_key])
-    print(
-        f"{label}: {name_a}: {a[mean_key]:.1f} km, {name_b}: {b[mean_key]:.1f} km; paired "
-        f"difference (first - second) {diff.format('{:+.1f}')} km on {a['episodes']} seeds from {a['seed']}"
-    )
-    # Files written before the key existed used the sequential stream.
-    streams = (a.get("noise_streams", "sequential"), b.get("noise_streams", "sequential"))
-    if streams[0] != streams[1]:
-        print(
-            f"note: {args.a} drew {streams[0]} noise, {args.b} {streams[1]}: the two share no sensor noise, "
-            "so the pairing is by seed only (common random numbers need the same noise streams)"
-        )
-    per_seed = np.subtract(a[per_key], b[per_key])
-    q05, q50, q95 = np.percentile(per_seed, [5, 50, 95])
-    print(f"per seed: 5 % quantile {q05:+.1f} km, median {q50:+.1f} km, 95 % quantile {q95:+.1f} km")
-    key = "per_episode_mean_pos_sigma_km"
-    if key in a and key in b:  # evaluation files written before this key have the error only
-        sig = paired_difference(a[key], b[key])
-        print(
-            f"filter 1-sigma (mean over the day): {a['mean_pos_sigma_km']:.1f} km vs "
-            f"{b['mean_pos_sigma_km']:.1f} km; paired difference {sig.format('{:+.1f}')} km"
-        )
-    return 0
-
-
-def cmd_agreement(args: argparse.Namespace) -> int:
-    """How often a trained policy picks another planet than a teacher on the policy's own states."""
-    from planetnav_train.pretrain import agreement
-
-    env_cfg, ev = _eval_env_config(args, [args.student])
-    episodes = args.episodes or 5
-    seed = ev.seed if args.seed is None else args.seed
-    t0 = time.perf_counter()
-    try:
-        got = agreement(args.student, env_cfg, args.teacher, episodes, seed)
-    except ValueError as exc:
-        raise ConfigError(f"agreement: {exc}") from None
-    residual = got["mean_abs_residual"]
-    print(
-        f"{args.student} vs {args.teacher} on {episodes} episodes from seed {seed}: another planet at "
-        f"{100 * got['different']:.1f} % of {got['decisions']} decisions"
-        + (f"; mean |residual torque| {residual:.4f} of the action range" if math.isfinite(residual) else "")
-    )
-    if args.json:
-        if not math.isfinite(residual):
-            got["mean_abs_residual"] = None  # target mode: no residual torque (JSON has no NaN)
-        _write_json(args.json, {"student": args.student, "teacher": args.teacher, "episodes": episodes,
-                                "seed": seed, **got,
-                                "provenance": provenance(wall_s=time.perf_counter() - t0)})  # fmt: skip
     return 0
 
 
@@ -329,132 +233,6 @@ def cmd_spread(args: argparse.Namespace) -> int:
     print(format_spread(result))
     print(f"per-run figures and intervals: {out / 'spread.json'}")
     return 0
-
-
-def cmd_sweep_periodic(args: argparse.Namespace) -> int:
-    """``sweep-periodic``: the grid of periodic schedules on the sweep seeds, best first."""
-    env_cfg, _ = _eval_env_config(args, [])
-    if env_cfg.action_mode != "target":
-        raise ConfigError("sweep-periodic runs in action_mode 'target' (use a target-mode --config)")
-    episodes = args.episodes or EVAL_EPISODES
-    seed = SWEEP_SEED if args.seed is None else args.seed
-    t0 = time.perf_counter()
-    results = sweep_periodic(env_cfg, args.periods, args.cycles, episodes, seed, not args.no_progress)
-    print_table(
-        results,
-        title=f"periodic schedules: {episodes} seeds ({seed}..{seed + episodes - 1}), paired with the best",
-    )
-    best = results[0]
-    wall_s = time.perf_counter() - t0
-    print(f"best: {best.name} (mean err {best.metrics['mean_pos_err_km']:.1f} km); "
-          f"{len(results)} settings in {wall_s:.0f} s")  # fmt: skip
-    if args.json:
-        _write_json(args.json, {**results_json(results), "best": best.name,
-                                "provenance": provenance(wall_s=wall_s)})  # fmt: skip
-    return 0
-
-
-def cmd_blind_search(args: argparse.Namespace) -> int:
-    """``blind-search``: the best blind policy of each task on the search seeds, then the winner beside the
-    references on the evaluation seeds: the closed-loop gap and the blind-zero scores
-    (:mod:`planetnav_train.suite.blind`)."""
-    from planetnav_env.envs.registration import ENV_IDS
-    from planetnav_train.suite import blind as B
-
-    evaluate = B.evaluate_objective
-    out: dict[str, Any] = {"search_seed": args.search_seed, "eval_seed": args.seed, "tasks": {}}
-    if args.json and Path(args.json).exists():
-        out = json.loads(Path(args.json).read_text())  # add to an earlier run's tasks
-    for name in args.tasks:
-        env_id = name if name.startswith("planetnav/") else f"planetnav/{name}"
-        if env_id not in ENV_IDS:
-            raise ConfigError(f"blind-search: unknown task {name!r}; the ids are {sorted(ENV_IDS)}")
-        cfg = EnvConfig.from_dict({**ENV_IDS[env_id], **dict(args.option or [])}, noise_streams="per_step")
-        t0 = time.perf_counter()
-        res = B.search_blind(
-            cfg, evaluate, args.search_seed, args.search_episodes,
-            progress=None if args.no_progress else lambda s, j: print(f"  {s:48s} {j:10.2f}", flush=True),
-            finalists=args.finalists, final_episodes=args.final_episodes,
-        )  # fmt: skip
-        refs, privileged = B.default_references(cfg)
-        refs = tuple(args.references) if args.references is not None else refs
-        privileged = tuple(args.privileged) if args.privileged is not None else privileged
-        rec = B.measure_task(cfg, res, refs, privileged, evaluate, args.seed, args.episodes, args.agents)
-        rec["options"] = dict(args.option or [])
-        rec["wall_s"] = time.perf_counter() - t0
-        rec["provenance"] = provenance(wall_s=rec["wall_s"])
-        g = rec["closed_loop_gap"]
-        print(f"{env_id}: blind {rec['blind_winner']} {rec['J_blind']:.2f} km "
-              f"(search {res.winner_mean:.2f}), "
-              f"best {rec['best_reference']} {rec['J_best']:.2f} km; closed-loop gap {100 * g['gap']:.1f} % "
-              f"[{100 * g['gap_lo']:.1f}, {100 * g['gap_hi']:.1f}]")  # fmt: skip
-        for spec, row in rec["agents"].items():
-            print(f"  {row['role']:10s} {spec:48s} {row['mean']:9.2f} [{row['lo']:.2f}, {row['hi']:.2f}] km  "
-                  f"score {row['score']:+.2f} [{row['score_lo']:+.2f}, {row['score_hi']:+.2f}]")  # fmt: skip
-        key = env_id.split("/", 1)[1] + "".join(f" {k}={v}" for k, v in sorted(rec["options"].items()))
-        out["tasks"][key] = rec
-        if args.json:
-            _write_json(args.json, out)
-    return 0
-
-
-#: The events ``regime-map`` sweeps: the option's value at a strength (0 = the v1 physics), the axis label.
-REGIME_EVENTS: dict[str, tuple[Callable[[float], float], str]] = {
-    "image_success_min": (lambda s: 1.0 - s, "1 - image_success_min (largest failure probability)"),
-    "centroid_bias_max": (lambda s: s, "centroid_bias_max (largest bias scale)"),
-    "pulsar_frequency_error_max": (lambda s: s, "pulsar_frequency_error_max (largest delta nu / nu)"),
-}
-
-
-def cmd_regime_map(args: argparse.Namespace) -> int:
-    """``regime-map``: an event's strength swept from 0 (the v1 physics) upward; at each point the best blind
-    schedule of the candidates, the nominal, adaptive and oracle rules and any trained agent, with 95 %
-    intervals; JSON and one figure (:func:`planetnav_train.suite.blind.regime_map`)."""
-    from planetnav_env.envs.registration import ENV_IDS
-    from planetnav_train.suite import blind as B
-
-    env_id = args.task if args.task.startswith("planetnav/") else f"planetnav/{args.task}"
-    if env_id not in ENV_IDS:
-        raise ConfigError(f"regime-map: unknown task {args.task!r}; the ids are {sorted(ENV_IDS)}")
-    if args.event not in REGIME_EVENTS:
-        raise ConfigError(f"regime-map: --event must be one of {sorted(REGIME_EVENTS)}, got {args.event!r}")
-    option_of, xlabel = REGIME_EVENTS[args.event]
-
-    def cfg_for(strength: float) -> EnvConfig:
-        return EnvConfig.from_dict(
-            {**ENV_IDS[env_id], **dict(args.option or []), args.event: option_of(strength)},
-            noise_streams="per_step",
-        )
-
-    evaluate = B.evaluate_objective
-    t0 = time.perf_counter()
-    data = B.regime_map(
-        cfg_for, args.strengths, args.agents, args.candidates, evaluate, args.search_seed,
-        args.search_episodes, args.seed, args.episodes, args.finalists, args.final_episodes,
-    )  # fmt: skip
-    wall_s = time.perf_counter() - t0
-    data.update(task=env_id, event=args.event, options=dict(args.option or []), wall_s=wall_s,
-                provenance=provenance(wall_s=wall_s))  # fmt: skip
-    for p in data["points"]:
-        print(f"strength {p['strength']:.3g}: blind {p['blind']}")
-        for spec, row in p["agents"].items():
-            print(f"  {spec:40s} {row['mean']:9.2f} [{row['lo']:.2f}, {row['hi']:.2f}] km")
-    if args.json:
-        _write_json(args.json, data)
-    if args.plot:
-        B.plot_regime_map(data, f"{env_id.split('/')[1]}: {args.event}", xlabel, args.plot)
-        print(f"wrote {args.plot}")
-    return 0
-
-
-def _option_pair(text: str) -> tuple[str, Any]:
-    """``KEY=VALUE`` of ``--option``: the value as YAML reads it (``0.5``, ``true``, ``[a, b]``)."""
-    import yaml
-
-    key, sep, value = text.partition("=")
-    if not sep or not key:
-        raise argparse.ArgumentTypeError(f"--option takes KEY=VALUE, got {text!r}")
-    return key, yaml.safe_load(value)
 
 
 def _positive(flag: str, value: int | None) -> None:
@@ -595,6 +373,25 @@ def cmd_suite_sizes(args: argparse.Namespace) -> int:
     return 0
 
 
+def add_evaluation_arguments(sp: argparse.ArgumentParser) -> None:
+    """The environment and evaluation options of ``evaluate`` and ``compare`` (and of the research
+    commands that evaluate): ``--episodes``, ``--seed``, ``--config``, ``--episode-steps``,
+    ``--noise-streams``, ``--json``; :func:`eval_env_config` reads them."""
+    sp.add_argument(
+        "--episodes", type=int, help="episodes per agent (default: the config's eval.episodes)"
+    )
+    sp.add_argument("--seed", type=int, help=f"first held-out seed (default {EVAL_SEED})")
+    sp.add_argument("--config", help="YAML whose env (and eval) sections define the environment")
+    sp.add_argument("--episode-steps", type=int, help="override the episode length")
+    sp.add_argument(
+        "--noise-streams",
+        choices=NOISE_STREAMS,
+        help="override the env's noise_streams: per_step gives every agent the same sensor noise "
+        "wherever it makes the same measurement (common random numbers)",
+    )
+    sp.add_argument("--json", help="write the metrics as JSON here")
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The command line of ``train.py``: one sub-command per ``cmd_*`` function."""
     p = argparse.ArgumentParser(
@@ -634,26 +431,11 @@ def build_parser() -> argparse.ArgumentParser:
     tn.add_argument("--num-cpus", type=int, help="CPUs of the local Ray (default: all)")
     tn.set_defaults(func=cmd_tune)
 
-    def common(sp: argparse.ArgumentParser) -> None:
-        sp.add_argument(
-            "--episodes", type=int, help="episodes per agent (default: the config's eval.episodes)"
-        )
-        sp.add_argument("--seed", type=int, help=f"first held-out seed (default {EVAL_SEED})")
-        sp.add_argument("--config", help="YAML whose env (and eval) sections define the environment")
-        sp.add_argument("--episode-steps", type=int, help="override the episode length")
-        sp.add_argument(
-            "--noise-streams",
-            choices=NOISE_STREAMS,
-            help="override the env's noise_streams: per_step gives every agent the same sensor noise "
-            "wherever it makes the same measurement (common random numbers)",
-        )
-        sp.add_argument("--json", help="write the metrics as JSON here")
-
     e = sub.add_parser("evaluate", help="evaluate one agent (name or SB3 model path)")
     e.add_argument(
         "--agent", required=True, help="planner, greedy, periodic:period=60,cycle=0-1-2, ... or a model path"
     )
-    common(e)
+    add_evaluation_arguments(e)
     e.set_defaults(func=cmd_evaluate)
 
     c = sub.add_parser("compare", help="evaluate several agents on the same seeds and print one table")
@@ -664,90 +446,8 @@ def build_parser() -> argparse.ArgumentParser:
     )
     c.add_argument("--report", help="also write report.md, plots and eval.json into this directory")
     c.add_argument("--reference", help=f"paired differences against this agent (default {REFERENCE})")
-    common(c)
+    add_evaluation_arguments(c)
     c.set_defaults(func=cmd_compare)
-
-    pr = sub.add_parser(
-        "paired", help="paired difference of two evaluation JSONs on the same seeds (e.g. two action modes)"
-    )
-    pr.add_argument("--a", required=True, help="FILE:AGENT, e.g. runs/x/eval.json:ppo:x")
-    pr.add_argument("--b", required=True, help="FILE:AGENT, subtracted from --a")
-    pr.add_argument(
-        "--metric",
-        choices=("pos_err", "objective"),
-        default="pos_err",
-        help="per-episode value paired: the mean position error (default) or the scenario objective J [km]",
-    )
-    pr.set_defaults(func=cmd_paired)
-
-    ag = sub.add_parser(
-        "agreement", help="how often a trained policy picks another planet than a teacher, on its own states"
-    )
-    ag.add_argument("--student", required=True, help="a train.py run directory or model .zip")
-    ag.add_argument("--teacher", required=True, help="an agent spec or another run (it labels the states)")
-    common(ag)
-    ag.set_defaults(func=cmd_agreement)
-
-    w = sub.add_parser(
-        "sweep-periodic",
-        help=f"every periodic schedule of a grid on seeds {SWEEP_SEED}.. (not the evaluation seeds)",
-    )
-    w.add_argument(
-        "--periods", nargs="+", type=int, default=list(DEFAULT_SWEEP_PERIODS), help="steps per planet"
-    )
-    w.add_argument(
-        "--cycles", nargs="+", default=list(DEFAULT_SWEEP_CYCLES), help="planet cycles, e.g. 0-1-2"
-    )
-    common(w)
-    w.set_defaults(func=cmd_sweep_periodic)
-
-    from planetnav_train.suite import blind as _blind
-
-    bs = sub.add_parser(
-        "blind-search",
-        help=f"the best blind policy of each task (search seeds {_blind.BLIND_SEARCH_SEED}..), then the "
-        "closed-loop gap and blind-zero scores on the evaluation seeds",
-    )
-    bs.add_argument("--tasks", nargs="+", required=True, help="task ids, e.g. Cruise-Target-v2")
-    bs.add_argument("--search-seed", type=int, default=_blind.BLIND_SEARCH_SEED)
-    bs.add_argument("--search-episodes", type=int, default=_blind.BLIND_SEARCH_EPISODES)
-    bs.add_argument("--finalists", type=int, default=_blind.FINALISTS)
-    bs.add_argument("--final-episodes", type=int, default=_blind.FINAL_EPISODES,
-                    help="second-stage seeds for the finalists (0: one stage)")  # fmt: skip
-    bs.add_argument("--seed", type=int, default=50_000, help="first evaluation seed (the suite's)")
-    bs.add_argument("--episodes", type=int, default=100, help="evaluation episodes")
-    bs.add_argument("--references", nargs="+",
-                    help="non-privileged references (the best is the score's 1); default: the task's "
-                    "(nominal and adaptive greedy where an event is drawn, the suite's references on the "
-                    "torque and operations tasks)")  # fmt: skip
-    bs.add_argument("--privileged", nargs="*", help="oracles (reported only); default: the event's oracle")
-    bs.add_argument("--agents", nargs="*", default=[], help="more agents to score (e.g. a trained model)")
-    bs.add_argument("--option", action="append", type=_option_pair, metavar="KEY=VALUE",
-                    help="an option over the id's (image_success_min=0.5), repeatable")  # fmt: skip
-    bs.add_argument("--json", help="write (or add to) this JSON")
-    bs.add_argument("--no-progress", action="store_true")
-    bs.set_defaults(func=cmd_blind_search)
-
-    rm = sub.add_parser(
-        "regime-map",
-        help="sweep an event's strength: best blind schedule, nominal, adaptive and oracle rules per point",
-    )
-    rm.add_argument("--task", required=True, help="task id, e.g. Cruise-Target-v2")
-    rm.add_argument("--event", default="image_success_min", help=", ".join(REGIME_EVENTS))
-    rm.add_argument("--strengths", nargs="+", type=float, default=[0.0, 0.25, 0.5, 0.75, 1.0],
-                    help="0 = the v1 physics; image failures: 1 - image_success_min")  # fmt: skip
-    rm.add_argument("--agents", nargs="+", required=True, help="agents to score at every point")
-    rm.add_argument("--candidates", nargs="+", required=True, help="blind schedules searched at every point")
-    rm.add_argument("--search-seed", type=int, default=_blind.BLIND_SEARCH_SEED)
-    rm.add_argument("--search-episodes", type=int, default=20)
-    rm.add_argument("--finalists", type=int, default=3)
-    rm.add_argument("--final-episodes", type=int, default=60, help="second-stage seeds (0: one stage)")
-    rm.add_argument("--seed", type=int, default=50_000)
-    rm.add_argument("--episodes", type=int, default=30)
-    rm.add_argument("--option", action="append", type=_option_pair, metavar="KEY=VALUE")
-    rm.add_argument("--json", help="write the points here")
-    rm.add_argument("--plot", help="write the figure here (PNG)")
-    rm.set_defaults(func=cmd_regime_map)
 
     sp_ = sub.add_parser(
         "spread",
@@ -761,7 +461,7 @@ def build_parser() -> argparse.ArgumentParser:
     sp_.add_argument("--episodes", type=int, help="evaluation episodes (default: the config's eval.episodes)")
     sp_.set_defaults(func=cmd_spread)
 
-    for sp in (t, e, c, w, tn, sp_):
+    for sp in (t, e, c, tn, sp_):
         sp.add_argument("--no-progress", action="store_true", help="no progress bars")
 
     su = sub.add_parser("suite", help="benchmark suite: train, evaluate, score, aggregate (docs/suite.md)")

@@ -128,9 +128,9 @@ def _episode_record(
 
 def episode_objective(final_info: dict[str, Any], pos_err_km: np.ndarray) -> float:
     """The scenario objective J of one episode [km], lower is better: ``info["objective"]`` at the
-    episode's end on an operations scenario (research/operations_log.md §3.2: sum of the deadline terms plus
-    w x dv lost); on scenarios without operations, the episode's mean position error [km] (the same number
-    as ``per_episode_mean_pos_err_km``), so that every evaluation has the objective fields."""
+    episode's end on an operations scenario (the sum of the deadline terms plus w x dv lost); on scenarios
+    without operations, the episode's mean position error [km] (the same number as
+    ``per_episode_mean_pos_err_km``), so that every evaluation has the objective fields."""
     if "objective" in final_info:
         return float(final_info["objective"])
     return float(np.mean(pos_err_km))
@@ -505,7 +505,7 @@ def evaluate_agent(
     final = np.array([r["pos_err"][-1] for r in runs])
     per_episode = np.array([np.mean(r["pos_err"]) for r in runs])
     # The filter's own 1-sigma varies far less from seed to seed than the error drawn around it, so
-    # paired differences of it resolve what the error's cannot (research/training_log.md, 100-seed checks).
+    # paired differences of it resolve what the error's cannot.
     per_episode_sigma = [float(np.mean(r["pos_sigma"])) for r in runs]
     ci = mean_ci(per_episode)
     objective = np.array([r["objective"] for r in runs])

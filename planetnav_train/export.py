@@ -12,7 +12,7 @@ and shape, the dropped ones included), and its deterministic actions must equal 
 :data:`CHECK_ROWS` observations sampled from the observation space (a recurrent policy: over
 :data:`CHECK_STEPS` steps carrying its state, with episode starts).
 
-Sizes (``bytes``): see ``tests/train/test_export.py`` and research/suite/history.md "Model sizes".
+Sizes (``bytes``): ``python train.py suite-sizes`` prints them; ``tests/train/test_export.py`` bounds them.
 """
 
 from __future__ import annotations

@@ -157,8 +157,8 @@ class PerTargetScorer(nn.Module):
     by every target, scores target ``k`` from its own columns, the shared columns and a one-hot of ``k``
     (action 0 keeps the current target, so it may score differently from a slew). Greedy rules are of this
     form (one score per candidate). With ``contrast`` each target also reads its columns standardized
-    across the targets; on RandomCruise-Target-v1 that, not the weight sharing alone, is what brought PPO
-    near greedy (research/suite/history.md, "Why RandomCruise stops short of 0.9")."""
+    across the targets (on RandomCruise-Target-v1 the contrast, not the weight sharing alone, brings PPO
+    near greedy)."""
 
     def __init__(
         self, own: np.ndarray, shared: np.ndarray, hidden: list[int], activation: type[nn.Module],

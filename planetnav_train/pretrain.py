@@ -6,7 +6,7 @@ agent spec, e.g. ``baseline``) acts for ``N`` episodes on demonstration seeds :d
 40,000.. and the suite's evaluation seeds 50,000..); the policy is then fitted to its actions by
 maximising their log-probability under the policy (``policy.evaluate_actions``), ``E`` passes over the
 data, before the RL algorithm trains as usual on the environment's reward. Why: in torque mode neither PPO
-nor SAC found the first measurement on their own (``research/training_log.md``, T1-T4); cloning the
+nor SAC found the first measurement on their own; cloning the
 baseline's PD pointing gives the RL stage a policy that measures, which it may then improve.
 
 The demonstrations are recorded in the training MDP: with ``action_repeat`` the teacher's choice at each
@@ -16,7 +16,7 @@ evaluation), and with ``relative_actions`` its absolute
 target is encoded as "stay" / "move k places" (:func:`planetnav_train.features.absolute_to_relative`).
 With the
 ``gain`` feature, a greedy teacher's decision is the argmax of an input, which a clone can fit; without
-it, the clone of a teacher that switches ~10 times a day learns "stay" (``research/training_log.md``, R2).
+it, the clone of a teacher that switches ~10 times a day learns "stay".
 """
 
 from __future__ import annotations
@@ -26,8 +26,8 @@ from typing import Any
 
 import numpy as np
 
-#: First demonstration seed. It was 50,000 until the suite's evaluation seeds moved there: clones made
-#: before then (the v1 and first v2 diagnostics) saw demonstrations of the episodes they were scored on.
+#: First demonstration seed: above every evaluation seed block, so no clone sees demonstrations of the
+#: episodes it is scored on.
 DEMO_SEED = 70_000
 
 
@@ -131,7 +131,7 @@ def clone(
     samples of its action, ``C`` the actions present), so every action weighs the same in the loss. Why: a
     teacher that images at ~3 % of the decisions (``optimum`` on ThrustArc-TCM-v0) is otherwise fitted as
     "stay" wherever its session timing is not a function of the observation, and the argmax never images
-    there (research/operations_log.md §7.4)."""
+    there."""
     import torch
 
     policy = model.policy
@@ -188,9 +188,8 @@ def dagger(
     the policy is refitted on all labels so far. Returns (observations, labels, the last fit's NLL).
 
     Why: a clone fitted on the teacher's own states only drifts off them in closed loop, and there it has
-    no labels. Distilling the target-mode policy into the target+torque Box policy, the plain clone picked
-    another planet than its teacher at 4 % of its decisions and lost ~5 km (``research/training_log.md``,
-    TT7)."""
+    no labels (distilling the target-mode policy into the target+torque Box policy, a plain clone picks
+    other planets than its teacher and loses accuracy)."""
     obs, actions = data
     nll = float("nan")
     for r in range(rounds):

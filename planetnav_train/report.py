@@ -55,7 +55,7 @@ TABLE_HEAD = (
 )
 
 
-#: Columns added after :data:`TABLE_HEAD` when the environment has operations (research/operations_log.md §3).
+#: Columns added after :data:`TABLE_HEAD` when the environment has operations (the objective J).
 OBJECTIVE_HEAD = ("J km [95% CI]", "ΔJ vs ref km [95% CI]")
 
 

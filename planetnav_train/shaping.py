@@ -17,7 +17,7 @@ environment step it adds ``Phi(s')`` of the new state (the same ``Phi`` with its
 reward for pointing the boresight at an observable planet. It changes the optimal policy (it pays for
 staring at one planet) and is reported as shaping wherever used. It exists because the potential-based
 term cannot teach the pointing loop here: its advantage signal vanishes as the critic learns ``-Phi``,
-and the navigation reward's own variance then swamps the rest (research/training_log.md, runs H7-).
+and the navigation reward's own variance then swamps the rest.
 
 Used only in training (config key ``shaping: {pointing: WEIGHT}``), on arrays over the training env's
 rows (:class:`planetnav_train.batch_wrappers.PointingShapingRows`; a single env is one row); evaluation

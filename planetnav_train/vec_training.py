@@ -1,8 +1,7 @@
 """The training VecEnv: the native vector environment with every option of the training recipe on arrays.
 
 :class:`NavTrainingVecEnv` is :class:`planetnav_train.sb3_vec.PlanetNavSB3VecEnv` (the compiled vector
-environment as a Stable-Baselines3 ``VecEnv``) with the recipe's options (``research/training_log.md``)
-stacked
+environment as a Stable-Baselines3 ``VecEnv``) with the recipe's options stacked
 over its rows by :meth:`planetnav_train.batch_wrappers.TrainingOptions.stack`: the pointing shaping, the
 observation features (``since_measured``, ``gain``, ``pd_torque``), action repeat and relative target
 actions. Those layers are the only implementation of the options; a single env runs them with N = 1

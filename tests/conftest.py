@@ -1,6 +1,28 @@
 """Shared test helpers: pytest reads this file first (fixtures used by several test files go here)."""
 
+import importlib.util
+import sys
+from pathlib import Path
+
 import pytest
+
+RESEARCH_COMMANDS = Path(__file__).resolve().parents[1] / "research" / "commands"
+
+
+@pytest.fixture
+def research_command():
+    """``research_command("paired").main(argv)``: a script of research/commands loaded from its file
+    (research/ is no package; the scripts find their shared helpers beside them)."""
+
+    def load(name: str):
+        path = RESEARCH_COMMANDS / f"{name}.py"
+        spec = importlib.util.spec_from_file_location(f"research_command_{name}", path)
+        module = importlib.util.module_from_spec(spec)
+        sys.modules[spec.name] = module
+        spec.loader.exec_module(module)
+        return module
+
+    return load
 
 
 def play_episode(agent, env, seed: int) -> dict:

@@ -385,8 +385,7 @@ def plant_substep_kernel(
     Every sub-step loop (open loop here, closed loop in :mod:`planetnav_env.attitude.pointing`) calls it,
     so the plant is written once and the controller only chooses the command. Numba inlines it into its
     callers (``inline="always"``, at numba's IR level: the arithmetic is the same): compiled as a function
-    of its own, this one extra call level per sub-step made every slewing or torque step of the core ~9 %
-    slower (bisected; numbers in research/speed_history.md)."""
+    of its own, it would add one call level to every sub-step of every slewing or torque step."""
     wheel_torque_kernel(u_cmd, h_w, dt, tau_max, h_max, u)
     rk4_substep_kernel(y, h_w, u, u_ext, dt, jm, jinv, work)
 

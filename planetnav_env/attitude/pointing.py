@@ -200,8 +200,10 @@ def pd_torque_kernel(
 
 
 @njit(cache=True)
-def _frame_batch(p: np.ndarray, x: np.ndarray, out: np.ndarray) -> int:
-    """Frames for every row; returns 1 + the first row whose direction has zero length, else 0."""
+def frame_batch(p: np.ndarray, x: np.ndarray, out: np.ndarray) -> int:
+    """:func:`frame_kernel` for every row: directions ``p`` (N, 3) and roll references ``x`` (N, 3), inertial
+    axes (any length > 0), into ``out`` (N, 3, 3); returns 1 + the first row whose direction has zero
+    length, else 0. No other check: the caller passes finite, C-contiguous float64 arrays."""
     for b in range(p.shape[0]):
         if not frame_kernel(p[b], x[b], out[b]):
             return b + 1
@@ -221,7 +223,7 @@ def _error_matrix_batch(q: np.ndarray, frame: np.ndarray, out: np.ndarray) -> in
 
 
 @njit(cache=True)
-def _pd_torque_batch(
+def pd_torque_batch(
     q: np.ndarray,
     w: np.ndarray,
     h_w: np.ndarray,
@@ -231,7 +233,11 @@ def _pd_torque_batch(
     k_w: float,
     out: np.ndarray,
 ) -> int:
-    """PD torque for every row; returns STATUS_ZERO_Q on a zero quaternion, else STATUS_OK."""
+    """:func:`pd_torque_kernel` for every row: attitudes ``q`` (N, 4, body -> inertial, scalar first, any
+    norm > 0), body rates ``w`` (N, 3) [rad/s], wheel momenta ``h_w`` (N, 3) [N m s], reference frames
+    ``frame`` (N, 3, 3) of :func:`frame_batch`, inertia ``jm`` (3, 3) [kg m^2] and gains ``k_a``, ``k_w``
+    into ``out`` (N, 3), the commanded wheel torque on the body [N m]; returns STATUS_ZERO_Q on a zero
+    quaternion, else STATUS_OK. No other check: the caller passes finite, C-contiguous float64 arrays."""
     rq = np.empty((3, 3))
     a = np.empty((3, 3))
     qn = np.empty(4)
@@ -313,8 +319,8 @@ def propagate_batch_kernel(
     is :func:`planetnav_env.attitude.plant.propagate_open_loop_batch`). Returns a status code.
 
     The gains come as scalars and the :class:`PdLoop` is built here, in compiled code: numba's dispatcher
-    types a tuple argument in Python (arrays and scalars in C), and a nested PdLoop from Python made
-    each call ~1.6 us slower (bench_core's truth step, 30.4 -> 32.0 us)."""
+    types a tuple argument in Python (arrays and scalars in C), so a PdLoop passed from Python would cost
+    every call the typing of a nested tuple."""
     if not (
         rows_finite_kernel(rows, u_bias) and all_finite_kernel(direction) and all_finite_kernel(roll_ref)
     ):
@@ -376,7 +382,7 @@ def frame_from_direction(
     require_finite("direction_inertial", p)
     require_finite("roll_ref_inertial", x)
     out = np.empty((p.shape[0], 3, 3))
-    bad = _frame_batch(p, x, out)
+    bad = frame_batch(p, x, out)
     if bad:
         raise InvalidParameterError(
             "direction_inertial has zero length (target at the spacecraft) at row "
@@ -460,7 +466,7 @@ def pd_torque(
     for name, a in (("q", qa), ("omega", wa), ("h_w", ha)):
         require_finite(name, a)
     out = np.empty_like(wa)
-    status = _pd_torque_batch(
+    status = pd_torque_batch(
         qa, wa, ha, np.ascontiguousarray(fa.reshape(-1, 3, 3)), config.inertia_matrix, k_a, k_w, out
     )
     raise_state_error(status, [("q", qa)])

@@ -43,7 +43,7 @@ from planetnav_env.errors import DegenerateGeometryError, InvalidParameterError,
 COLLINEAR_TOL = 1e-12
 
 
-def _prepare(
+def prepare_observations(
     b: np.ndarray, r: np.ndarray, weights: np.ndarray | None
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Validate, broadcast and normalise observation/reference vectors and weights."""
@@ -107,7 +107,7 @@ def paper_matrix(b: np.ndarray, r: np.ndarray, weights: np.ndarray | None = None
     ``Z = -sum a b x r``, ``t = -sum a b.r``. Equals ``-P K P^T`` with ``K`` = :func:`davenport_k` and ``P``
     the permutation scalar-first -> scalar-last.
     """
-    b, r, w = _prepare(b, r, weights)
+    b, r, w = prepare_observations(b, r, weights)
     return _paper_matrix(b, r, w)
 
 
@@ -157,7 +157,7 @@ def davenport_k(b: np.ndarray, r: np.ndarray, weights: np.ndarray | None = None)
     Its largest eigenvalue's eigenvector is the optimal ``q`` (project convention) and
     ``q^T K q = sum a_i b_i . (R(q)^T r_i)``.
     """
-    b, r, w = _prepare(b, r, weights)
+    b, r, w = prepare_observations(b, r, weights)
     wb = w[..., None] * b
     sigma = np.einsum("...ki,...ki->...", wb, r)
     outer = np.einsum("...ki,...kj->...ij", wb, r)
@@ -190,24 +190,8 @@ def q_method(b: np.ndarray, r: np.ndarray, weights: np.ndarray | None = None) ->
     DegenerateGeometryError : fewer than two pairs, a zero vector, or all weighted vectors parallel.
     NonFiniteError, InvalidParameterError : NaN/inf input, negative weights, bad shapes.
     """
-    b, r, w = _prepare(b, r, weights)
+    b, r, w = prepare_observations(b, r, weights)
     return q_method_from_profile(np.einsum("...k,...ki,...kj->...ij", w, b, r))
-
-
-def svd_method(b: np.ndarray, r: np.ndarray, weights: np.ndarray | None = None) -> np.ndarray:
-    """Markley's SVD solution of the same problem (independent cross-check of :func:`q_method`).
-
-    ``B = sum a_i b_i r_i^T = U S V^T``; ``A = U diag(1, 1, det U det V) V^T`` is the optimal
-    reference->body matrix and ``q`` (..., 4, ``q0 >= 0``) is that of ``R = A^T``.
-    """
-    b, r, w = _prepare(b, r, weights)
-    bmat = np.einsum("...k,...ki,...kj->...ij", w, b, r)
-    u, _, vt = np.linalg.svd(bmat)
-    d = np.linalg.det(u) * np.linalg.det(vt)
-    u = u.copy()
-    u[..., :, 2] *= d[..., None]
-    a = u @ vt
-    return quaternion_from_matrix(np.swapaxes(a, -1, -2))
 
 
 def quaternion_from_matrix(rot: np.ndarray) -> np.ndarray:
@@ -240,72 +224,6 @@ def quaternion_from_matrix(rot: np.ndarray) -> np.ndarray:
     q = np.choose(k[..., None], rows)
     q = q * np.where(q[..., :1] < 0.0, -1.0, 1.0)
     return q / np.linalg.norm(q, axis=-1, keepdims=True)
-
-
-def wahba_loss(q: np.ndarray, b: np.ndarray, r: np.ndarray, weights: np.ndarray | None = None) -> np.ndarray:
-    """Criterion (2), ``sum a_i |b_i - R(q)^T r_i|^2`` for unit vectors, shape (...)."""
-    b, r, w = _prepare(b, r, weights)
-    a = qt.dcm_inertial_to_body(np.asarray(q, dtype=float))
-    pred = np.einsum("...ij,...kj->...ki", a, r)
-    return np.sum(w * np.sum((b - pred) ** 2, axis=-1), axis=-1)
-
-
-def enforce_sign_continuity(q: np.ndarray) -> np.ndarray:
-    """The paper's sign rule for a time series ``q`` (..., T, 4) of quaternions known up to sign.
-
-    The paper asks for ``v0^(k) > 0`` and ``sum_i v_i^(k-1) v_i^(k) > 0``. Both cannot always hold (a
-    rotation through ``q0 = 0`` must change one of them); differentiating the series needs the second, so
-    the first sample gets ``q0 >= 0`` and every later sample the sign that makes its dot product with the
-    (already corrected) previous one non-negative.
-    """
-    q = require_finite("quaternion series", q)
-    if q.ndim < 2 or q.shape[-1] != 4:
-        raise InvalidParameterError(f"quaternion series must have shape (..., T, 4), got {q.shape}")
-    dots = np.sum(q[..., 1:, :] * q[..., :-1, :], axis=-1)
-    step = np.where(dots < 0.0, -1.0, 1.0)
-    first = np.where(q[..., :1, 0] < 0.0, -1.0, 1.0)
-    sign = np.concatenate([first, first * np.cumprod(step, axis=-1)], axis=-1)
-    return q * sign[..., None]
-
-
-def body_rate_from_quaternion_rate(q: np.ndarray, q_dot: np.ndarray) -> np.ndarray:
-    """Eq. (3) with its second line corrected (ERRATA item 2): ``omega = 2 Xi(q)^T q_dot`` [rad/s].
-
-    ``q`` (..., 4) body relative to reference, ``q_dot`` (..., 4) its time derivative [1/s]. Returns the
-    angular velocity of the body relative to the *reference* frame, in body components (..., 3). For the
-    paper's orbital reference frame this is the rate relative to the orbital frame; the absolute rate
-    the paper names needs the orbital rate added (``omega_abs = omega + R(q)^T omega_orb``).
-    """
-    q = np.asarray(q, dtype=float)
-    e = np.asarray(q_dot, dtype=float)
-    v0, v1, v2, v3 = np.moveaxis(q, -1, 0)
-    e0, e1, e2, e3 = np.moveaxis(e, -1, 0)
-    return 2.0 * np.stack(
-        [
-            v0 * e1 - v1 * e0 + v3 * e2 - v2 * e3,
-            v0 * e2 - v2 * e0 + v1 * e3 - v3 * e1,
-            v0 * e3 - v3 * e0 + v2 * e1 - v1 * e2,
-        ],
-        axis=-1,
-    )
-
-
-def rate_from_quaternions(q: np.ndarray, dt: float) -> np.ndarray:
-    """Body angular rate [rad/s] from attitude estimates ``q`` (..., T, 4) sampled every ``dt`` [s].
-
-    Applies :func:`enforce_sign_continuity` first (estimates are known up to sign), differentiates
-    numerically (second-order central differences inside, second-order one-sided at the ends when
-    ``T >= 3``, first order when ``T == 2``), then eq. (3). Returns (..., T, 3) in body components.
-    """
-    dt = float(dt)
-    if not np.isfinite(dt) or dt <= 0.0:
-        raise InvalidParameterError(f"dt must be a positive finite number of seconds, got {dt!r}")
-    q = enforce_sign_continuity(q)
-    t = q.shape[-2]
-    if t < 2:
-        raise InvalidParameterError(f"need at least 2 quaternions to differentiate, got {t}")
-    q_dot = np.gradient(q, dt, axis=-2, edge_order=2 if t >= 3 else 1)
-    return body_rate_from_quaternion_rate(q, q_dot)
 
 
 def attitude_error_angle(q_true: np.ndarray, q_est: np.ndarray) -> np.ndarray:

@@ -37,10 +37,11 @@ from planetnav_env.core.decisions import (
     since_measured_values,
 )
 from planetnav_env.core.ephemeris_table import SEGMENT_S, TableSpec, fit_table
-from planetnav_env.core.params import ARCSEC, ChannelPlan, build_params, episode_duration_s
+from planetnav_env.core.params import ARCSEC, ChannelPlan
 from planetnav_env.core.records import RowState
 from planetnav_env.dynamics.orbit import GravityModel
 from planetnav_env.errors import NonFiniteError, PlanetNavError
+from planetnav_env.kernel_params import build_params, episode_duration_s
 from planetnav_env.scenarios.episodes import Episode, approach_episode, draw_episode
 from planetnav_env.sensors.pulsar import SPEED_OF_LIGHT_KM_S
 

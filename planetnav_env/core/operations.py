@@ -1,4 +1,4 @@
-"""Operations scenarios (``EnvConfig.operations``, research/operations_log.md §3): the thrust arc's mission
+"""Operations scenarios (``EnvConfig.operations``, docs/tasks/ThrustArc-TCM.md): the thrust arc's mission
 attitude, its thrust and execution error, the delta-v lost to imaging, and the knowledge deadlines.
 
 Frames and units: the thrust direction ``u`` is a unit vector in the inertial frame (ICRF axes) of the
@@ -19,7 +19,7 @@ Model (both truth and filter, so the filter is consistent by construction):
   ``Q = f [[dt^3/3 A, dt^2/2 A], [dt^2/2 A, dt A]]`` with ``A = q_perp I + (q_par - q_perp) u u^T``
   (:func:`add_thrust_q`). The truth draws its error from exactly this Q (:func:`thrust_noise`) and the
   filter adds exactly this Q, so NEES stays chi-square. Q depends only on the attitude history, not on
-  the measured values: the covariance stays independent of the measurements (research/operations_log.md §3.2);
+  the measured values: the covariance stays independent of the measurements;
 * delta-v lost [m/s] = ``a (dt - t_on)`` per step: the thrust the engine would have given on attitude;
 * at each deadline epoch t_k (the first step end at or after it) the filter's position knowledge mapped
   to the encounter E by free flight, t_go = E - t: ``sigma_k = sqrt(coasted_position_trace(P, t_go))``

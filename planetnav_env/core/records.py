@@ -1,5 +1,5 @@
 """The records a row kernel receives: :class:`CoreParams` (shared, read-only parameters, its scalars in the
-named record :data:`SCALARS_DTYPE`), :class:`RowState` (the state arrays of the batch, each row's slices
+named record of :func:`scalars_dtype`), :class:`RowState` (the state arrays of the batch, each row's slices
 read and written only by its own row), :class:`Actions` (the decoded actions of a step) and
 :class:`Scratch` (work arrays of one chunk of rows, allocated once per call by :func:`make_scratch`; on a
 device, where every row is a thread, one row of scratch per state row: :func:`scratch_rows` allocates the
@@ -16,25 +16,23 @@ from typing import Any, NamedTuple
 import numpy as np
 from numba import njit
 
-from planetnav_env.config import EnvConfig
 from planetnav_env.core import rng as crng
 from planetnav_env.core.layout import TARGET_FEATURES
 from planetnav_env.numerics.jit import ROW_KERNEL_OPTIONS
-from planetnav_env.options import kernel_fields
 from planetnav_env.sensors.camera_kernels import (
     N_VIS_SLOTS,
 )
 from planetnav_env.sensors.star_tracker import FIX_WORK_SHAPE
 
-#: The scalar parameters, one definition each: (name, numpy type, meaning [unit]). Kernels read them by
-#: name from the one-element structured array ``CoreParams.scalars``: ``c = prm.scalars[0]``, ``c.mu``
-#: (numba compiles a field read to one load at a fixed offset, as fast as the former numbered slots, and
-#: the dispatcher types the array as cheaply as any other). Flags are int64 0/1. The scalars that copy an
-#: option come first, generated from its declaration (``option(..., kernel=<name>)`` in
-#: :class:`~planetnav_env.config.EnvConfig` and its sections); the rest, computed in
-#: :func:`~planetnav_env.core.params.build_params`, are listed here with the options they come from.
-SCALAR_FIELDS: tuple[tuple[str, str, str], ...] = (
-    *kernel_fields(EnvConfig),
+#: The scalar parameters the core computes, one definition each: (name, numpy type, meaning [unit]).
+#: Kernels read every scalar by name from the one-element structured array ``CoreParams.scalars``:
+#: ``c = prm.scalars[0]``, ``c.mu`` (numba compiles a field read to one load at a fixed offset, as fast as
+#: numbered slots, and the dispatcher types the array as cheaply as any other). Flags are int64 0/1. The
+#: record (:func:`scalars_dtype`) puts first the scalars that copy an option, whose fields the configuration
+#: layer generates from the declarations and hands in (:data:`planetnav_env.kernel_params.SCALAR_FIELDS`);
+#: these follow, computed from options in :func:`planetnav_env.kernel_params.build_params`, each listed
+#: with the options it comes from.
+CORE_SCALAR_FIELDS: tuple[tuple[str, str, str], ...] = (
     # time steps
     ("n_sub", "i8", "attitude sub-steps per step (step_s / attitude_substep_s)"),
     ("n_coarse", "i8", "coarse sub-steps per step (step_s / settled_substep_s; 0: no coarse stepping)"),
@@ -90,19 +88,25 @@ SCALAR_FIELDS: tuple[tuple[str, str, str], ...] = (
     ("ops_q_perp", "f8", "thrust acceleration PSD across the thrust [km^2/s^3] (operations.psd_km2_s3)"),
     ("ops_cos_tol", "f8", "cosine of the thrust attitude tolerance (operations.attitude_tolerance_deg)"),
 )  # fmt: skip
-#: The record of :data:`SCALAR_FIELDS` (aligned: every field at a multiple of 8 bytes).
-SCALARS_DTYPE = np.dtype([(name, kind) for name, kind, _ in SCALAR_FIELDS], align=True)
+def scalars_dtype(fields: tuple[tuple[str, str, str], ...]) -> np.dtype:
+    """The scalars' record of ``fields`` ((name, numpy type, meaning), in order; aligned: every field at a
+    multiple of 8 bytes); a name given twice is an error."""
+    names = [name for name, _, _ in fields]
+    twice = sorted({n for n in names if names.count(n) > 1})
+    if twice:
+        raise TypeError(f"scalars_dtype: fields given twice {twice}")
+    return np.dtype([(name, kind) for name, kind, _ in fields], align=True)
 
 
-def make_scalars(**values: float) -> np.ndarray:
-    """The one-element :data:`SCALARS_DTYPE` array of ``values``, given by keyword: every field exactly
-    once (a missing or unknown name is an error, so no field is left at a silent zero)."""
-    names = SCALARS_DTYPE.names
+def make_scalars(dtype: np.dtype, **values: float) -> np.ndarray:
+    """The one-element ``dtype`` array (:func:`scalars_dtype`) of ``values``, given by keyword: every field
+    exactly once (a missing or unknown name is an error, so no field is left at a silent zero)."""
+    names = dtype.names
     missing = [k for k in names if k not in values]
     unknown = sorted(set(values) - set(names))
     if missing or unknown:
         raise TypeError(f"make_scalars: missing fields {missing}, unknown fields {unknown}")
-    rec = np.zeros(1, SCALARS_DTYPE)
+    rec = np.zeros(1, dtype)
     for k in names:
         rec[k][0] = values[k]
     return rec
@@ -110,10 +114,10 @@ def make_scalars(**values: float) -> np.ndarray:
 
 class CoreParams(NamedTuple):
     """Everything a row kernel needs that is the same for every row, built once from an ``EnvConfig``
-    by :func:`planetnav_env.core.params.build_params`. Scalars sit in ``scalars``, read by name
-    (:data:`SCALAR_FIELDS`)."""
+    by :func:`planetnav_env.kernel_params.build_params`. Scalars sit in ``scalars``, read by name
+    (:data:`CORE_SCALAR_FIELDS` and the option-copied fields before them)."""
 
-    scalars: np.ndarray  # (1,) SCALARS_DTYPE
+    scalars: np.ndarray  # (1,) planetnav_env.kernel_params.SCALARS_DTYPE
     gate: np.ndarray  # (3,) chi-square gate thresholds of a 1-, 2- and 3-dimensional measurement
     ops_deadlines: np.ndarray  # (layout.MAX_DEADLINES,) deadline epochs [s from episode start] (operations)
     jm: np.ndarray  # (3, 3) inertia [kg m^2]

@@ -18,8 +18,10 @@ integrates the variational equations ``dPhi/dt = F(x(t)) Phi`` with the same RK4
 the state, which makes Phi the Jacobian of the discrete RK4 flow map to O(dt^5) instead of
 O(dt^2): the position-velocity coupling ``G dt^2 / 2`` that ``I + F dt`` drops is what lets
 the filter carry velocity information into position between measurements, and it matters for
-long steps and near a planet (``tests/env/test_orbit.py`` measures both against finite
-differences of the flow).
+long steps and near a planet. The filter's STM is compiled
+(:func:`planetnav_env.estimation.ekf_kernels.rk4_stm_kernel`); its numpy form, with the thesis's
+``I + F dt``, is :mod:`planetnav_validation.numpy_orbit` (``tests/env/test_orbit.py`` measures both
+against finite differences of the flow).
 """
 
 from __future__ import annotations
@@ -121,15 +123,16 @@ class GravityModel:
 PerturberFn = Callable[[float], np.ndarray]
 
 
-def _check_step(dt: float) -> float:
+def check_step(dt: float) -> float:
+    """``dt`` [s] if it is a positive finite step, else the named error."""
     return require_positive("step dt [s]", dt)
 
 
-def _step_inputs(
+def step_inputs(
     model: GravityModel, x: np.ndarray, t: float, dt: float, perturbers: PerturberFn | None
 ) -> tuple[float, np.ndarray, tuple[np.ndarray | None, np.ndarray | None, np.ndarray | None]]:
     """Validated step, state, and perturber positions at the RK4 stage times t, t + dt/2, t + dt."""
-    dt = _check_step(dt)
+    dt = check_step(dt)
     x = require_finite("orbit state", x)
     if not model.n_perturbers:
         return dt, x, (None, None, None)
@@ -146,78 +149,9 @@ def rk4_step(
     perturbers: PerturberFn | None = None,
 ) -> np.ndarray:
     """One RK4 step of the state ``x`` (N, 6) from ``t`` to ``t + dt`` [s] (thesis, section 2.1)."""
-    dt, x, (p0, p1, p2) = _step_inputs(model, x, t, dt, perturbers)
+    dt, x, (p0, p1, p2) = step_inputs(model, x, t, dt, perturbers)
     k1 = model.derivative(x, p0)
     k2 = model.derivative(x + 0.5 * dt * k1, p1)
     k3 = model.derivative(x + 0.5 * dt * k2, p1)
     k4 = model.derivative(x + dt * k3, p2)
     return x + (dt / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
-
-
-def rk4_step_stm(
-    model: GravityModel,
-    x: np.ndarray,
-    t: float,
-    dt: float,
-    perturbers: PerturberFn | None = None,
-) -> tuple[np.ndarray, np.ndarray]:
-    """RK4 step of the state and of the variational equations ``dPhi/dt = F Phi``, ``Phi(t) = I``.
-
-    Returns ``(x(t+dt), Phi)`` with ``Phi`` of shape (N, 6, 6). Because ``F = [[0, I], [G, 0]]``,
-    ``F @ M = [M_lower; G M_upper]`` is formed without a 6x6 product.
-    """
-    dt, x, (p0, p1, p2) = _step_inputs(model, x, t, dt, perturbers)
-    eye = np.broadcast_to(np.eye(6), x.shape[:-1] + (6, 6))
-
-    def f_phi(xs: np.ndarray, phi: np.ndarray, rp: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
-        g = model.gradient(xs[..., :3], rp)
-        dphi = np.concatenate([phi[..., 3:6, :], g @ phi[..., 0:3, :]], axis=-2)
-        return model.derivative(xs, rp), dphi
-
-    k1, m1 = f_phi(x, eye, p0)
-    k2, m2 = f_phi(x + 0.5 * dt * k1, eye + 0.5 * dt * m1, p1)
-    k3, m3 = f_phi(x + 0.5 * dt * k2, eye + 0.5 * dt * m2, p1)
-    k4, m4 = f_phi(x + dt * k3, eye + dt * m3, p2)
-    x_new = x + (dt / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
-    phi = eye + (dt / 6.0) * (m1 + 2.0 * m2 + 2.0 * m3 + m4)
-    return x_new, phi
-
-
-def euler_stm(
-    model: GravityModel, x: np.ndarray, t: float, dt: float, perturbers: PerturberFn | None = None
-) -> np.ndarray:
-    """The thesis's ``Phi = I + F(x(t)) dt`` (first order), shape (N, 6, 6)."""
-    dt = _check_step(dt)
-    rp = perturbers(t) if model.n_perturbers else None
-    return np.eye(6) + model.jacobian(np.asarray(x, float), rp) * dt
-
-
-def propagate(
-    model: GravityModel,
-    x0: np.ndarray,
-    t0: float,
-    dt: float,
-    n_steps: int,
-    perturbers: PerturberFn | None = None,
-) -> np.ndarray:
-    """RK4 trajectory: states at ``t0 + k dt`` for k = 0..n_steps, shape (n_steps+1, N, 6)."""
-    if int(n_steps) < 0:
-        raise InvalidParameterError(f"n_steps must be >= 0, got {n_steps}")
-    x = require_finite("initial state", np.atleast_2d(np.asarray(x0, float)))
-    out = np.empty((int(n_steps) + 1,) + x.shape)
-    out[0] = x
-    for k in range(int(n_steps)):
-        x = rk4_step(model, x, t0 + k * dt, dt, perturbers)
-        out[k + 1] = x
-    return out
-
-
-def specific_energy(x: np.ndarray, mu: float) -> np.ndarray:
-    """Two-body specific orbital energy ``v^2/2 - mu/r`` [km^2/s^2]."""
-    r = np.linalg.norm(x[..., :3], axis=-1)
-    return 0.5 * np.sum(x[..., 3:] ** 2, axis=-1) - mu / r
-
-
-def angular_momentum(x: np.ndarray) -> np.ndarray:
-    """Specific angular momentum ``r x v`` [km^2/s]."""
-    return np.cross(x[..., :3], x[..., 3:])

@@ -1,11 +1,10 @@
-"""Extended Kalman filter for the spacecraft's position and velocity.
+"""Extended Kalman filter settings and the front end the compiled filter shares.
 
-A batched numpy core (leading axis = independent filters, so one filter is a batch of one)
-and an adapter onto filterpy's ``ExtendedKalmanFilter`` used to cross-check it. The numpy core is the
-oracle of the compiled kernels (:mod:`planetnav_env.estimation.ekf_kernels`, the environments' filter):
-``tests/env/test_fast_ekf.py`` holds them to it, so its equations are written separately on purpose (matrix
-algebra here, scalar loops there); what both filters' front ends share that is not an equation (their
-construction and the Q cache) is written once, in :class:`EKFBase`.
+:class:`FilterConfig` (P0, Q, gating, state transition matrix, each option with its unit),
+:func:`process_noise` (the discrete Q of white acceleration noise), :func:`validate_initial` and
+:class:`EKFBase` (construction and the Q cache). The environments' filter is compiled
+(:mod:`planetnav_env.estimation.ekf_kernels`); its numpy oracle and the filterpy adapter that cross-checks
+the oracle are :mod:`planetnav_validation.numpy_ekf`.
 
 Cycle (thesis, section 2.1, with the choices below):
 
@@ -29,9 +28,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.stats import chi2
 
-from planetnav_env.dynamics.orbit import GravityModel, PerturberFn, euler_stm, rk4_step_stm
+from planetnav_env.dynamics.orbit import GravityModel, PerturberFn
 from planetnav_env.errors import InvalidParameterError, require_finite, require_positive
-from planetnav_env.estimation.measurements import wrap_angle
 from planetnav_env.options import check_options, option
 
 
@@ -81,89 +79,6 @@ def validate_initial(x0: np.ndarray, p0: np.ndarray) -> tuple[np.ndarray, np.nda
     return x, p
 
 
-def symmetrize(p: np.ndarray) -> np.ndarray:
-    return 0.5 * (p + np.swapaxes(p, -1, -2))
-
-
-def predict(
-    model: GravityModel,
-    x: np.ndarray,
-    p: np.ndarray,
-    t: float,
-    dt: float,
-    q: np.ndarray,
-    perturbers: PerturberFn | None = None,
-    stm: str = "rk4",
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Propagate estimates ``x`` (N, 6) and covariances ``p`` (N, 6, 6) from ``t`` to ``t + dt``.
-
-    Returns ``(x, P, Phi)``.
-    """
-    if stm == "rk4":
-        x_new, phi = rk4_step_stm(model, x, t, dt, perturbers)
-    elif stm == "euler":
-        phi = euler_stm(model, x, t, dt, perturbers)
-        x_new, _ = rk4_step_stm(model, x, t, dt, perturbers)
-    else:
-        raise InvalidParameterError(f"stm must be 'rk4' or 'euler', got {stm!r}")
-    p_new = symmetrize(phi @ p @ np.swapaxes(phi, -1, -2) + q)
-    return x_new, p_new, phi
-
-
-@dataclass
-class UpdateResult:
-    """Outcome of a batched update: innovation (N, m), its covariance S (N, m, m), NIS (N,), accepted (N,)."""
-
-    innovation: np.ndarray
-    s: np.ndarray
-    nis: np.ndarray
-    accepted: np.ndarray
-
-
-def update(
-    x: np.ndarray,
-    p: np.ndarray,
-    z: np.ndarray,
-    h: np.ndarray,
-    jac: np.ndarray,
-    r: np.ndarray,
-    angle_mask: np.ndarray | None = None,
-    gate_threshold: float = float("inf"),
-    active: np.ndarray | None = None,
-) -> tuple[np.ndarray, np.ndarray, UpdateResult]:
-    """Joseph-form EKF update of a batch.
-
-    ``z``, ``h`` (N, m): measured and predicted; ``jac`` (N, m, 6); ``r`` (N, m, m) or (m, m);
-    ``angle_mask`` (m,) bool: components wrapped to (-pi, pi]; ``active`` (N,) bool: filters
-    that have a measurement this step (the others pass through). Returns ``(x, P, result)``.
-    """
-    z = require_finite("measurement z", z)
-    y = z - h
-    if angle_mask is not None and np.any(angle_mask):
-        y[..., angle_mask] = wrap_angle(y[..., angle_mask])
-    pht = p @ np.swapaxes(jac, -1, -2)
-    s = jac @ pht + r
-    s_inv = np.linalg.inv(s)
-    nis = np.einsum("...i,...ij,...j->...", y, s_inv, y)
-    accepted = nis <= gate_threshold
-    if active is not None:
-        accepted &= np.asarray(active, bool)
-    k = pht @ s_inv
-    ikh = np.eye(x.shape[-1]) - k @ jac
-    x_upd = x + np.einsum("...ij,...j->...i", k, y)
-    p_upd = symmetrize(ikh @ p @ np.swapaxes(ikh, -1, -2) + k @ r @ np.swapaxes(k, -1, -2))
-    keep = accepted[..., None]
-    x_out = np.where(keep, x_upd, x)
-    p_out = np.where(keep[..., None], p_upd, p)
-    return x_out, p_out, UpdateResult(y, s, nis, accepted)
-
-
-def nees(x_est: np.ndarray, p: np.ndarray, x_true: np.ndarray) -> np.ndarray:
-    """Normalised estimation error squared ``e^T P^-1 e`` (N,)."""
-    e = np.asarray(x_est, float) - np.asarray(x_true, float)
-    return np.einsum("...i,...i->...", e, np.linalg.solve(p, e[..., None])[..., 0])
-
-
 class EKFBase:
     """What a filter front end holds: gravity model, settings, perturbers' positions function, Q per step.
 
@@ -195,118 +110,3 @@ class EKFBase:
         if dt not in self._q_cache:
             self._q_cache[dt] = process_noise(dt, self.config.accel_psd)
         return self._q_cache[dt]
-
-
-class BatchEKF(EKFBase):
-    """N independent EKFs over one gravity model, advanced in lock step.
-
-    ``x`` (N, 6) [km, km/s] and ``P`` (N, 6, 6) are public arrays. ``rejected`` counts gated
-    measurements per filter.
-    """
-
-    def _start(self, x: np.ndarray, p: np.ndarray) -> None:
-        self.x = np.atleast_2d(x)
-        self.P = np.broadcast_to(p, self.x.shape[:-1] + (6, 6)).copy()
-        self.rejected = np.zeros(self.x.shape[0], dtype=int)
-
-    @property
-    def n(self) -> int:
-        return self.x.shape[0]
-
-    def predict(self, t: float, dt: float) -> np.ndarray:
-        """Advance every filter from ``t`` to ``t + dt``; returns Phi (N, 6, 6)."""
-        self.x, self.P, phi = predict(
-            self.model, self.x, self.P, t, dt, self.q(dt), self.perturbers, self.config.stm
-        )
-        return phi
-
-    def update(
-        self,
-        z: np.ndarray,
-        h: np.ndarray,
-        jac: np.ndarray,
-        r: np.ndarray,
-        angle_mask: np.ndarray | None = None,
-        active: np.ndarray | None = None,
-    ) -> UpdateResult:
-        """Process one measurement per active filter (see :func:`update`)."""
-        m = np.shape(z)[-1]
-        self.x, self.P, res = update(
-            self.x, self.P, z, h, jac, r, angle_mask, self.config.gate_threshold(m), active
-        )
-        act = np.ones(self.n, bool) if active is None else np.asarray(active, bool)
-        self.rejected += act & ~res.accepted
-        return res
-
-
-class FilterpyEKF:
-    """The same filter on filterpy's ``ExtendedKalmanFilter`` (a reference, not a fast path).
-
-    filterpy propagates ``x`` with ``F x``; here ``predict_x`` is replaced by our RK4 and ``F``
-    is set to the RK4 state transition matrix before each covariance prediction, so both
-    filters run the same equations. filterpy's update is already in Joseph form.
-    """
-
-    def __init__(
-        self,
-        model: GravityModel,
-        x0: np.ndarray,
-        p0: np.ndarray,
-        dim_z: int,
-        config: FilterConfig | None = None,
-        perturbers: PerturberFn | None = None,
-    ) -> None:
-        from filterpy.kalman import ExtendedKalmanFilter
-
-        self.model = model
-        self.config = config or FilterConfig()
-        self.perturbers = perturbers
-        ekf = ExtendedKalmanFilter(dim_x=6, dim_z=dim_z)
-        ekf.x = np.array(x0, dtype=float).reshape(6, 1)
-        ekf.P = np.array(p0, dtype=float)
-        self._t = 0.0
-        self._dt = 1.0
-        adapter = self
-
-        def predict_x(u: object = 0) -> None:
-            x_new, _ = rk4_step_stm(
-                adapter.model, ekf.x.reshape(1, 6), adapter._t, adapter._dt, adapter.perturbers
-            )
-            ekf.x = x_new.reshape(6, 1)
-
-        ekf.predict_x = predict_x
-        self.ekf = ekf
-
-    @property
-    def x(self) -> np.ndarray:
-        return self.ekf.x.ravel()
-
-    @property
-    def P(self) -> np.ndarray:
-        return self.ekf.P
-
-    def predict(self, t: float, dt: float) -> None:
-        _, phi = rk4_step_stm(self.model, self.ekf.x.reshape(1, 6), t, dt, self.perturbers)
-        self.ekf.F = phi[0]
-        self.ekf.Q = process_noise(dt, self.config.accel_psd)
-        self._t, self._dt = t, dt
-        self.ekf.predict()
-
-    def update(
-        self, z: np.ndarray, hx, jacobian, r: np.ndarray, angle_mask: np.ndarray | None = None
-    ) -> None:
-        """``hx(x) -> (m,)`` and ``jacobian(x) -> (m, 6)`` take the flat state."""
-
-        def residual(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-            y = np.subtract(a, b)
-            if angle_mask is not None and np.any(angle_mask):
-                y[angle_mask] = wrap_angle(y[angle_mask])
-            return y
-
-        self.ekf.update(
-            np.asarray(z, float).reshape(-1, 1),
-            lambda x: jacobian(x.ravel()),
-            lambda x: np.asarray(hx(x.ravel())).reshape(-1, 1),
-            R=np.asarray(r, float),
-            residual=lambda a, b: residual(a.ravel(), b.ravel()).reshape(-1, 1),
-        )

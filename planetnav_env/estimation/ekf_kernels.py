@@ -181,7 +181,7 @@ def rk4_kernel(x, dt, orbit, x_out, w6, v6):
 
 
 @njit(inline="always", **ROW_KERNEL_OPTIONS)  # inlined into numba IR: the callers' constant sizes unroll
-def _matmul(a, b, rows, cols, inner, out):
+def matmul_kernel(a, b, rows, cols, inner, out):
     """``out[:rows, :cols] = a[:rows, :inner] @ b[:inner, :cols]``, summed in index order from 0.0 (the one
     matrix product of the predict and update kernels; loops, because BLAS on 6x6 costs more in overhead)."""
     for i in range(rows):
@@ -225,7 +225,7 @@ def covariance_predict_kernel(p, phi, q, tmp):
     ``Phi`` (planners' what-if covariances) call it rather than writing the product again.
     """
     # Hand-written loops: BLAS calls on 6x6 matrices cost more in overhead than in arithmetic.
-    _matmul(phi, p, 6, 6, 6, tmp)
+    matmul_kernel(phi, p, 6, 6, 6, tmp)
     for i in range(6):
         for j in range(i, 6):
             acc = 0.0
@@ -321,7 +321,7 @@ def update_kernel(x, p, z, h, jac, rcov, m, wrap_index, gate, uw):
             nis += y[i] * s_inv[i, j] * y[j]
     if not nis <= gate:
         return nis, False
-    _matmul(pht, s_inv, 6, m, m, kg)
+    matmul_kernel(pht, s_inv, 6, m, m, kg)
     # Joseph form: P+ = (I - K H) P (I - K H)^T + K R K^T.
     for i in range(6):
         for j in range(6):
@@ -329,8 +329,8 @@ def update_kernel(x, p, z, h, jac, rcov, m, wrap_index, gate, uw):
             for k in range(m):
                 acc += kg[i, k] * jac[k, j]
             ikh[i, j] = -acc
-    _matmul(ikh, p, 6, 6, 6, tmp)
-    _matmul(kg, rcov, 6, m, m, kr)
+    matmul_kernel(ikh, p, 6, 6, 6, tmp)
+    matmul_kernel(kg, rcov, 6, m, m, kr)
     for i in range(6):
         acc = 0.0
         for j in range(m):
@@ -381,8 +381,8 @@ def predict_arrays_kernel(x, p, dt, mu, p0, p1, p2, mus, q, euler_stm, w6, v6, p
     :class:`OrbitModel` and :class:`PredictScratch` as separate arguments; the records are built here.
 
     Kept positional on purpose: numba's dispatcher types a tuple argument in Python (arrays and scalars
-    in C), and passing the two records from Python made SingleEKF's cycle 8.6 -> 12.6 us (bench_core,
-    CPU time). Compiled callers pass the records to :func:`predict_kernel`."""
+    in C), so two records passed from Python would cost every cycle of :class:`SingleEKF` their typing.
+    Compiled callers pass the records to :func:`predict_kernel`."""
     orbit = OrbitModel(mu=mu, p0=p0, p1=p1, p2=p2, mus=mus)
     ws = PredictScratch(w6=w6, v6=v6, phi=phi, tmp=tmp)
     predict_kernel(x, p, dt, orbit, q, euler_stm, ws)
@@ -515,8 +515,8 @@ def cycle_batch_kernel(x, p, dt, mu, p0, p1, p2, mus, q, euler_stm, *update_args
     """Predict + update for N filters (leading axis): :func:`predict_batch_kernel` with the arguments up
     to ``euler_stm`` (the orbit model by its parts ``mu``, ``p0``, ``p1``, ``p2``, ``mus``: the fields of
     :class:`OrbitModel`), then :func:`update_batch_kernel` on the same ``x``, ``p`` with the rest (``z`` to
-    ``acc_out``: the fields of :class:`PlanetFixes` and :class:`FixModel`, then the outputs, in the order
-    of the former positional form, which ``tests/env/test_fast_ekf.py`` calls). The measurement and basis must
+    ``acc_out``: the fields of :class:`PlanetFixes` and :class:`FixModel`, then the outputs, in that order,
+    as ``tests/env/test_fast_ekf.py`` calls it). The measurement and basis must
     not depend on the prediction."""
     predict_batch_kernel(x, p, dt, OrbitModel(mu=mu, p0=p0, p1=p1, p2=p2, mus=mus), q, euler_stm)
     z, planet, diameter, kind, sig_dir, sig_size, basis, active, gate, nis_out, acc_out = update_args
@@ -531,7 +531,7 @@ def nees_kernel(x_est, x_true, p, lo, y):  # pragma: no cover - compiled
     ``P`` (6, 6); NaN if the factorisation fails. ``lo`` (6, 6) and ``y`` (6,) are scratch (no allocation).
 
     The one compiled implementation (the environments' core and the Monte Carlo harnesses call it;
-    ``BatchEKF.nees`` is its numpy oracle in the tests).
+    ``planetnav_validation.numpy_ekf.nees`` is its numpy oracle in the tests).
     """
     n = 6
     for i in range(n):
@@ -570,7 +570,7 @@ _EMPTY = np.zeros((0, 3))
 class SingleEKF(EKFBase):
     """One EKF on the compiled kernels (the environment's filter).
 
-    Same settings and equations as :class:`~planetnav_env.estimation.ekf.BatchEKF` (its oracle) and the
+    Same settings and equations as :class:`~planetnav_validation.numpy_ekf.BatchEKF` (its oracle) and the
     same construction (:class:`~planetnav_env.estimation.ekf.EKFBase`); ``x`` (6,) [km, km/s] and
     ``P`` (6, 6) are public.
     """

@@ -1,2 +1,1 @@
-"""Episodes: named scenarios (initial state and epoch), the Mars approach harness, and the Monte Carlo
-navigation harness."""
+"""Episodes: named scenarios (initial state and epoch) and the Mars approach's truth trajectory."""

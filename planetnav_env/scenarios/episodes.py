@@ -31,7 +31,7 @@ from planetnav_env.errors import ConfigError
 from planetnav_env.numerics.portable_math import arccos, dot3, matvec3, norm3
 
 CRUISE_EPOCH = tdb_seconds(2020, 8, 1)
-_RANDOM_EPOCHS = (tdb_seconds(2018, 1, 1), tdb_seconds(2032, 1, 1))
+RANDOM_EPOCHS = (tdb_seconds(2018, 1, 1), tdb_seconds(2032, 1, 1))
 
 
 def transfer_state(
@@ -108,7 +108,7 @@ def draw_episode(
         return Episode(CRUISE_EPOCH, cruise_state())
     if scenario == "random-cruise":
         for _ in range(1000):
-            epoch = float(rng.uniform(*_RANDOM_EPOCHS))
+            epoch = float(rng.uniform(*RANDOM_EPOCHS))
             x0 = transfer_state(
                 rng.uniform(0.70, 0.75), rng.uniform(1.45, 1.60), rng.uniform(0.0, 3.0),
                 rng.uniform(0, 360), rng.uniform(0, 360), rng.uniform(0, 360),

@@ -43,7 +43,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from planetnav_env.codes import VisibilityReason
+from planetnav_env.codes import CameraStatus, VisibilityReason
 from planetnav_env.errors import (
     InvalidParameterError,
     NonFiniteError,
@@ -58,17 +58,7 @@ from planetnav_env.sensors.camera_config import (
     CameraConfig,
 )
 from planetnav_env.sensors.camera_geometry import *  # noqa: F403 - the geometry is part of this API
-from planetnav_env.sensors.camera_kernels import (
-    _ERR_INSIDE_OCC,
-    _ERR_INSIDE_TARGET,
-    _ERR_NONFINITE,
-    _ERR_OCC_RADIUS,
-    _ERR_RADIUS,
-    _ERR_ZERO_Q,
-    _OK,
-    _measure_kernel,
-    _visibility_kernel,
-)
+from planetnav_env.sensors.camera_kernels import measure_batch_kernel, visibility_batch_kernel
 
 __all__ = [
     "ARCSEC_RAD",
@@ -260,24 +250,24 @@ def _raise_kernel_error(
 ) -> None:
     """Turn a kernel status into the specific exception, naming the input and the element."""
     where = f" at batch index {_index(index, batch)}" if index >= 0 else ""
-    if status == _ERR_NONFINITE:
+    if status == CameraStatus.NONFINITE:
         for name, a in originals.items():
             if a is not None:
                 require_finite(name, a)
         raise NonFiniteError(f"non-finite input{where}")  # pragma: no cover - require_finite raised above
-    if status == _ERR_ZERO_Q:
+    if status == CameraStatus.ZERO_Q:
         raise InvalidParameterError(f"q_body_to_inertial has zero norm{where}")
-    if status == _ERR_RADIUS:
+    if status == CameraStatus.RADIUS:
         raise InvalidParameterError(
             f"target_radius must be positive{where}, got {originals['target_radius']!r}"
         )
-    if status == _ERR_INSIDE_TARGET:
+    if status == CameraStatus.INSIDE_TARGET:
         raise InvalidParameterError(f"spacecraft is inside the target (distance <= target_radius){where}")
-    if status == _ERR_INSIDE_OCC:
+    if status == CameraStatus.INSIDE_OCC:
         raise InvalidParameterError(
             f"spacecraft is inside an occulting body (the Sun or other_body_pos){where}"
         )
-    if status == _ERR_OCC_RADIUS:
+    if status == CameraStatus.OCC_RADIUS:
         raise InvalidParameterError(
             f"other_body_radius must be positive and finite, got {originals.get('other_body_radius')!r}"
         )
@@ -297,11 +287,11 @@ def _visibility_flat(
     include_sun: bool,
 ) -> VisibilityResult:
     occ, occ_rad, per_elem = _prepare_occulters(batch, r.shape[0], other_body_pos, other_body_radius)
-    st, idx, res = _visibility_kernel(
+    st, idx, res = visibility_batch_kernel(
         r, q, t, trad, occ, occ_rad, per_elem, bool(include_sun), config._c2b, config._params
     )
     reason, fov, sun_ex, occd, small, who, alpha, ang_b, ang_t, pix = res
-    if st != _OK:
+    if st != CameraStatus.OK:
         originals = {**originals, "other_body_pos": other_body_pos, "other_body_radius": other_body_radius}
         _raise_kernel_error(st, idx, batch, originals)
     return VisibilityResult(
@@ -434,10 +424,10 @@ def measure(
                 f"{', ...' if bad.size > 4 else ''})"
             )
     z = rng.standard_normal((r.shape[0], 3))
-    st, idx, los, alpha, mm, pix, los_true, alpha_true = _measure_kernel(
+    st, idx, los, alpha, mm, pix, los_true, alpha_true = measure_batch_kernel(
         r, q, t, trad, z, config._c2b, config._params
     )
-    if st != _OK:
+    if st != CameraStatus.OK:
         _raise_kernel_error(st, idx, batch, originals)
     return CameraMeasurement(
         los_body=los.reshape((*batch, 3)),

@@ -7,7 +7,7 @@ fields, rad in the derived properties. The camera frame C has +Z along the bores
 ``C = CameraConfig.camera_to_body``.
 
 :attr:`CameraConfig._params` packs the scalars the compiled kernels read
-(:mod:`planetnav_env.sensors.camera_kernels`), at the ``_P_*`` slots defined here next to the code that
+(:mod:`planetnav_env.sensors.camera_kernels`), at the ``P_*`` slots defined here next to the code that
 fills them, so that the layout has one owner.
 """
 
@@ -36,7 +36,7 @@ DEFAULT_CAMERA_TO_BODY: tuple[tuple[float, float, float], ...] = (
 )
 
 # Slots of CameraConfig._params (filled in CameraConfig.__post_init__, read by the camera kernels).
-_P_FPX, _P_CX, _P_CY, _P_W, _P_H, _P_EXCL, _P_MINPX, _P_SDIR, _P_SALPHA, _P_FMM, _P_RSUN = range(11)
+P_FPX, P_CX, P_CY, P_W, P_H, P_EXCL, P_MINPX, P_SDIR, P_SALPHA, P_FMM, P_RSUN = range(11)
 
 
 @dataclass(frozen=True)

@@ -26,17 +26,17 @@ from planetnav_env.attitude.plant import dcm_body_to_inertial_kernel
 from planetnav_env.codes import CameraStatus, VisibilityReason
 from planetnav_env.numerics.jit import row_kernel
 from planetnav_env.sensors.camera_config import (
-    _P_CX,
-    _P_CY,
-    _P_EXCL,
-    _P_FMM,
-    _P_FPX,
-    _P_H,
-    _P_MINPX,
-    _P_RSUN,
-    _P_SALPHA,
-    _P_SDIR,
-    _P_W,
+    P_CX,
+    P_CY,
+    P_EXCL,
+    P_FMM,
+    P_FPX,
+    P_H,
+    P_MINPX,
+    P_RSUN,
+    P_SALPHA,
+    P_SDIR,
+    P_W,
 )
 
 __all__ = [
@@ -213,8 +213,8 @@ def visibility_row_kernel(
     dist, st = _target_los(r, q, t, i, rt, c2b, m, u)
     if st != _OK:
         return st
-    f_px, cx, cy, w, h = p[_P_FPX], p[_P_CX], p[_P_CY], p[_P_W], p[_P_H]
-    excl, min_px, r_sun = p[_P_EXCL], p[_P_MINPX], p[_P_RSUN]
+    f_px, cx, cy, w, h = p[P_FPX], p[P_CX], p[P_CY], p[P_W], p[P_H]
+    excl, min_px, r_sun = p[P_EXCL], p[P_MINPX], p[P_RSUN]
     a = 2.0 * math.asin(rt / dist)
     vals[V_ALPHA] = a
     # Field of view: the centre's pixel inside the closed sensor rectangle, in front of the lens.
@@ -276,7 +276,7 @@ def visibility_row_kernel(
 
 
 @njit(cache=True, nogil=True)
-def _visibility_kernel(
+def visibility_batch_kernel(
     r: np.ndarray,
     q: np.ndarray,
     t: np.ndarray,
@@ -351,8 +351,8 @@ def measure_row_kernel(
     dist, st = _target_los(r, q, t, i, rt, c2b, ws.m, u)
     if st != _OK:
         return st, 0.0, 0.0
-    f_px, cx, cy, f_mm = p[_P_FPX], p[_P_CX], p[_P_CY], p[_P_FMM]
-    s_dir, s_alpha = p[_P_SDIR], p[_P_SALPHA]
+    f_px, cx, cy, f_mm = p[P_FPX], p[P_CX], p[P_CY], p[P_FMM]
+    s_dir, s_alpha = p[P_SDIR], p[P_SALPHA]
     a = 2.0 * math.asin(rt / dist)
     ux, uy, uz = u[3], u[4], u[5]
     # Tangent basis at the true LOS: e1 = camera X projected off the LOS (camera Y when the LOS is within
@@ -422,7 +422,7 @@ def centroid_bias_kernel(los, sun_dir, cos_phase, alpha, scale) -> float:  # pra
 
 
 @njit(cache=True, nogil=True)
-def _measure_kernel(
+def measure_batch_kernel(
     r: np.ndarray,
     q: np.ndarray,
     t: np.ndarray,
@@ -454,10 +454,10 @@ def _measure_kernel(
 
 @njit(cache=True, nogil=True)
 def visibility_codes_kernel(r, q, t, trad, occ, occ_rad, include_sun, c2b, p, out) -> int:
-    """Reason codes only (into ``out`` (n,)) of :func:`_visibility_kernel` with occulters shared by the
+    """Reason codes only (into ``out`` (n,)) of :func:`visibility_batch_kernel` with occulters shared by the
     batch (``occ[0]`` (K, 3) for every element); returns its status. Unboxed: returning the full result
     tuple boxes ten arrays, which costs more than the geometry."""
-    st, _, res = _visibility_kernel(r, q, t, trad, occ, occ_rad, False, include_sun, c2b, p)
+    st, _, res = visibility_batch_kernel(r, q, t, trad, occ, occ_rad, False, include_sun, c2b, p)
     if st == _OK:
         for i in range(out.shape[0]):
             out[i] = res[0][i]
@@ -466,10 +466,10 @@ def visibility_codes_kernel(r, q, t, trad, occ, occ_rad, include_sun, c2b, p, ou
 
 @njit(cache=True, nogil=True)
 def measure_into_kernel(r, q, t, trad, z, c2b, p, los_out, alpha_out, pix_out) -> int:
-    """:func:`_measure_kernel` writing the noisy body-frame LOS ``los_out`` (n, 3), angular diameter
+    """:func:`measure_batch_kernel` writing the noisy body-frame LOS ``los_out`` (n, 3), angular diameter
     ``alpha_out`` (n,) [rad] and pixel ``pix_out`` (n, 2) of element 0..n-1 into caller arrays (no boxing);
     returns its status."""
-    st, _, los, alpha, _, pix, _, _ = _measure_kernel(r, q, t, trad, z, c2b, p)
+    st, _, los, alpha, _, pix, _, _ = measure_batch_kernel(r, q, t, trad, z, c2b, p)
     if st == _OK:
         for i in range(los.shape[0]):
             alpha_out[i] = alpha[i]

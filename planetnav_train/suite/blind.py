@@ -14,7 +14,7 @@ only a policy that reads the state can win:
 evaluation seeds (default 40,000.., 30 episodes), then :func:`measure_task` scores the winner beside the
 references on the task's evaluation seeds (50,000.., 100 episodes, per-step noise streams: every policy
 draws the same sensor noise where it makes the same measurement). Intervals are 95 % percentile bootstraps
-over the seeds, paired (the same resampled seeds for both policies). ``train.py blind-search`` runs it.
+over the seeds, paired (the same resampled seeds for both policies).
 """
 
 from __future__ import annotations

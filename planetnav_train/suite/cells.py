@@ -83,7 +83,7 @@ class Settings:
     progress: bool = False
     # evaluate_agent's exact_actions for a continuous policy. False (the suite's default): one forward pass
     # for all evaluation rows, equal to the one-episode evaluation to float rounding; on the 1-s torque
-    # tasks 8x faster than row by row, which the 8-hour table needs (research/suite/history.md, "Wall time").
+    # tasks several times faster than row by row, which the suite's wall time needs.
     # True: row by row, equal to it exactly. Recorded and in the command.
     exact_actions: bool = False
     # --resume: finished cells are skipped and a cell killed mid-training continues from its checkpoint

@@ -42,8 +42,7 @@ class Diagnosis:
             raise ValueError(f"diagnosis of {self.task}: limit {self.limit!r} is not one of {sorted(LIMITS)}")
 
 
-#: The diagnoses of the published tables' tasks below the target (research/tasks_v1/diagnostics.md has
-#: every run behind the v1 ones, docs/tasks_v2.md the v2 ones).
+#: The diagnoses of the published tables' tasks below the target (docs/tasks_v2.md has the v2 ones).
 DIAGNOSES: dict[str, Diagnosis] = {
     d.task: d
     for d in (

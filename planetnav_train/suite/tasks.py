@@ -176,11 +176,11 @@ _TARGET_REFS = ("greedy", "periodic", "planner")
 #: Mars approach: one planet (periodic's cycles are over planets, so it has no schedule to run there).
 _APPROACH_REFS = ("greedy", "planner", "baseline")
 TORQUE_REFS = ("greedy", "periodic", "planner", "baseline")
-#: Wheel torques at 1 s: greedy's choice executed by the PD law (research/training_log.md).
+#: Wheel torques at 1 s: greedy's choice executed by the PD law.
 _TORQUE_1S_REFS = ("greedy-pd",)
-#: The thrust arc (research/operations_log.md §7): the tuned periodic schedule (2-h sessions every 3 d
-#: from day 0.75), the tuned deadline-anchored periodic rule (§7.5: blocks ending at each TCM), the tuned
-#: deadline-aware greedy and the open-loop optimum (§3.5); the lower J on the task's seeds is the best.
+#: The thrust arc: the tuned periodic schedule (2-h sessions every 3 d from day 0.75), the tuned
+#: deadline-anchored periodic rule (blocks ending at each TCM), the tuned deadline-aware greedy and the
+#: open-loop optimum; the lower J on the task's seeds is the best.
 #: Another candidate is one more entry here (only it is then evaluated).
 THRUST_ARC_REFS = (
     "periodic:period=432,session=12,phase=108,cycle=0-1-2",
@@ -190,7 +190,7 @@ THRUST_ARC_REFS = (
 )
 #: Suite version 1's tasks: the ``-v1`` ids (the ``-v0`` physics posed for learners; docs/suite.md "Tasks
 #: v1"). ``budget``: the on-policy algorithms' training budget in physics steps; an algorithm's
-#: ``budget_fraction`` scaled it in version 1 (research/suite/history.md derives both).
+#: ``budget_fraction`` scaled it in version 1 (docs/suite.md).
 TASKS_V1: tuple[Task, ...] = (
     Task("planetnav/Cruise-Target-v1", "discrete", 3_000_000, _TARGET_REFS),
     Task("planetnav/RandomCruise-Target-v1", "discrete", 3_000_000, _TARGET_REFS),
@@ -202,7 +202,7 @@ TASKS_V1: tuple[Task, ...] = (
     Task("planetnav/ThrustArc-TCM-v1", "discrete", 3_000_000, THRUST_ARC_REFS, objective="operations_J_km"),
 )
 #: Suite version 2's tasks: the ``-v2`` ids (docs/tasks_v2.md). Each task's zero point is the winner of its
-#: published blind search (docs/tasks_v2_blind.json, ``train.py blind-search``; ``random`` there acts in the
+#: published blind search (docs/tasks_v2_blind.json; ``random`` there acts in the
 #: task's interface), its references the search's non-privileged ones: on the event tasks nominal and adaptive
 #: greedy (the oracle is privileged, never the 1), on the posing fixes the v1 task's.
 _V2_EVENT_REFS = ("greedy", "greedy:success=observed")
@@ -335,23 +335,20 @@ _ON_POLICY = {"n_steps": 64, "batch_size": 1024, "n_epochs": 5, "gamma": 0.95, "
 #: (value-based, discrete), RecurrentPPO (memory instead of the observation's history block), SAC
 #: (off-policy, continuous); RLlib's PPO on one task (another library's PPO on the same env).
 #: RecurrentPPO runs on the Mars approach only: every v1 observation carries its history block
-#: (``since_measured``), and the LSTM's 1,700 physics steps/s would cost the 8-hour table two hours on
-#: all four discrete tasks (research/suite/history.md, "Wall time"); the approach, with its 1,000-s pulsar
+#: (``since_measured``), and the LSTM's training speed would add hours to the suite's table on all four
+#: discrete tasks; the approach, with its 1,000-s pulsar
 #: integrations between planet images, is where memory has the most to add.
 #: ``eval_mode``: which action the protocol scores (both are recorded): ``sampled`` for the stochastic
-#: policy-gradient policies (their argmax can collapse to one action: research/training_log.md),
+#: policy-gradient policies (their argmax can collapse to one action),
 #: ``argmax`` for the value-based and the deterministic-actor ones.
 ALGOS: dict[str, Algo] = {
     a.name: a
     for a in (
-        # The Mars approach: minibatches of 256, 4x the gradient steps per update (a seed-0 ablation on
-        # seeds 10,000..10,019: sampled 3.2 km against 3.8 with 1,024; research/tasks_v1/diagnostics.md).
-        # RandomCruise: the same, the per-target blocks read in the order of the relative actions, and the
-        # reward in units of 100,000 km (seed 0 on seeds 10,000..10,099: +26 km to greedy against +77;
-        # each of the three alone leaves it at +57 or worse; research/tasks_v1/diagnostics.md section 5),
-        # and one MLP that scores every target from its own features and their contrast across the
-        # targets (planetnav_train.policies.PerTargetPolicy; the filter's 1-sigma gap to greedy +11 km
-        # against +31 with the flat MLP and +21 at five times the budget: diagnostics.md section 7).
+        # The Mars approach: minibatches of 256, 4x the gradient steps per update. RandomCruise: the same,
+        # the per-target blocks read in the order of the relative actions, the reward in units of
+        # 100,000 km, and one MLP that scores every target from its own features and their contrast across
+        # the targets (planetnav_train.policies.PerTargetPolicy): together, not each alone, they close most
+        # of the gap to greedy that the flat recipe leaves.
         Algo("ppo", ACTION_KINDS, n_envs=64, hyperparams=_ON_POLICY, eval_mode="sampled",
              task_hyperparams={
                  "MarsApproach-Tasking-v1": {"batch_size": 256},

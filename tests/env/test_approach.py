@@ -11,18 +11,10 @@ from planetnav_env.astro.bodies import body
 from planetnav_env.dynamics.orbit import GravityModel
 from planetnav_env.errors import InvalidParameterError, NotVisibleError
 from planetnav_env.estimation.ekf import FilterConfig
-from planetnav_env.reproduce import optical_pulsar
-from planetnav_env.scenarios.approach import (
-    METHODS,
-    ApproachConfig,
-    MarsApproach,
-    NavConfig,
-    _schedule,
-    hyperbolic_periapsis_state,
-    run_method,
-    run_methods,
-)
+from planetnav_env.scenarios.approach import ApproachConfig, MarsApproach, hyperbolic_periapsis_state
 from planetnav_env.sensors import pulsar as psr
+from planetnav_validation.approach_methods import METHODS, NavConfig, _schedule, run_method, run_methods
+from planetnav_validation.reproduce import optical_pulsar
 
 MU_MARS = body("mars").gm
 #: Stated bound of the fixed-step RK4 (60 s) against DOP853 (rtol 1e-12) over the 96 h approach down to

@@ -11,8 +11,8 @@ import pytest
 
 from planetnav_env.config import EnvConfig
 from planetnav_env.core.ephemeris_table import SEGMENT_S
-from planetnav_env.core.records import SCALAR_FIELDS, SCALARS_DTYPE
 from planetnav_env.errors import ConfigError, OptionError, OptionTypeError, UnknownOptionError
+from planetnav_env.kernel_params import SCALAR_FIELDS, SCALARS_DTYPE
 from planetnav_env.options import kernel_fields, kernel_values, option, option_table, replace_table, walk
 
 DOCS = Path(__file__).resolve().parents[2] / "docs" / "environment.md"

@@ -9,9 +9,10 @@ from planetnav_env.astro.ephemeris import KeplerianEphemeris, elements_to_state
 from planetnav_env.astro.timescale import tdb_seconds
 from planetnav_env.dynamics.orbit import GravityModel
 from planetnav_env.errors import InvalidParameterError, NonFiniteError
-from planetnav_env.estimation.ekf import BatchEKF, FilterConfig, FilterpyEKF, process_noise
+from planetnav_env.estimation.ekf import FilterConfig, process_noise
 from planetnav_env.estimation.measurements import MeasurementModel, h_direction, jac_direction
-from planetnav_env.scenarios.navigation import perturb_direction, simulate_navigation
+from planetnav_validation.navigation import perturb_direction, simulate_navigation
+from planetnav_validation.numpy_ekf import BatchEKF, FilterpyEKF
 
 T0 = tdb_seconds(2020, 9, 1)
 

@@ -8,10 +8,11 @@ from planetnav_env.astro.ephemeris import DEEphemeris, KeplerianEphemeris, eleme
 from planetnav_env.astro.timescale import tdb_seconds
 from planetnav_env.dynamics.orbit import GravityModel
 from planetnav_env.errors import InvalidParameterError, NonFiniteError
-from planetnav_env.estimation.ekf import BatchEKF, FilterConfig, process_noise
+from planetnav_env.estimation.ekf import FilterConfig, process_noise
 from planetnav_env.estimation.ekf_kernels import KIND_CODES, SingleEKF, cycle_batch_kernel
 from planetnav_env.estimation.measurements import MeasurementModel, los_basis
-from planetnav_env.scenarios.navigation import perturb_direction
+from planetnav_validation.navigation import perturb_direction
+from planetnav_validation.numpy_ekf import BatchEKF
 
 T0 = tdb_seconds(2021, 1, 1)
 
@@ -132,7 +133,7 @@ def test_single_ekf_bad_input():
 
 @pytest.mark.parametrize("kind", ["direction+size", "los"])
 def test_navigation_harness_engines_agree(kind):
-    from planetnav_env.scenarios.navigation import simulate_navigation
+    from planetnav_validation.navigation import simulate_navigation
 
     common = dict(
         x0=_x0(),

@@ -5,13 +5,14 @@ import pytest
 
 from planetnav_env.attitude import quaternion as qt
 from planetnav_env.attitude import wahba
-from planetnav_env.attitude.euler import (
+from planetnav_env.errors import DegenerateGeometryError, InvalidParameterError, NonFiniteError
+from planetnav_validation import body_rate, wahba_svd
+from planetnav_validation.euler import (
     euler321_differences,
     euler321_error_angles,
     euler321_from_quaternion,
     quaternion_from_euler321,
 )
-from planetnav_env.errors import DegenerateGeometryError, InvalidParameterError, NonFiniteError
 
 
 def _unit(x):
@@ -93,7 +94,7 @@ def test_exact_recovery_noiseless(n):
     r = _unit(rng.normal(size=(500, n, 3)))
     b = qt.rotate_inertial_to_body(q[:, None, :], r)  # r = R(q) b: the project convention
     w = rng.uniform(0.1, 10.0, size=(500, n))
-    for solver in (wahba.q_method, wahba.svd_method):
+    for solver in (wahba.q_method, wahba_svd.svd_method):
         est = solver(b, r, w)
         assert np.max(np.degrees(wahba.attitude_error_angle(est, q))) < 1e-9
         assert np.all(est[:, 0] >= 0.0)
@@ -119,7 +120,7 @@ def test_paper_matrix_is_minus_davenport_k_scalar_last():
     # Optimal loss: J = 2 (sum a - lambda_max(K)) (criterion (2) with unit vectors).
     q = wahba.q_method(b, r, w)
     lam = np.linalg.eigvalsh(k)[:, -1]
-    np.testing.assert_allclose(wahba.wahba_loss(q, b, r, w), 2.0 * (w.sum(-1) - lam), atol=1e-12)
+    np.testing.assert_allclose(wahba_svd.wahba_loss(q, b, r, w), 2.0 * (w.sum(-1) - lam), atol=1e-12)
 
 
 def test_solvers_agree_on_noisy_data_and_minimise_the_loss():
@@ -129,12 +130,12 @@ def test_solvers_agree_on_noisy_data_and_minimise_the_loss():
     b = _unit(qt.rotate_inertial_to_body(q[:, None, :], r) + 0.05 * rng.normal(size=(300, 5, 3)))
     w = rng.uniform(0.2, 5.0, size=(300, 5))
     q1 = wahba.q_method(b, r, w)
-    q2 = wahba.svd_method(b, r, w)
+    q2 = wahba_svd.svd_method(b, r, w)
     assert np.max(wahba.attitude_error_angle(q1, q2)) < 1e-9
-    j = wahba.wahba_loss(q1, b, r, w)
+    j = wahba_svd.wahba_loss(q1, b, r, w)
     for _ in range(5):
         dq = qt.from_axis_angle(rng.normal(size=(300, 3)), np.full(300, np.radians(0.5)))
-        assert np.all(wahba.wahba_loss(qt.multiply(q1, dq), b, r, w) >= j - 1e-12)
+        assert np.all(wahba_svd.wahba_loss(qt.multiply(q1, dq), b, r, w) >= j - 1e-12)
 
 
 def test_noise_covariance_matches_inverse_sigma_squared_weighting():
@@ -177,7 +178,7 @@ def test_degenerate_inputs_raise_clear_errors():
         wahba.q_method(par, par)
     anti = np.array([[0, 0, 1.0], [0, 0, -1.0]])
     with pytest.raises(DegenerateGeometryError, match="parallel"):
-        wahba.svd_method(anti, anti)
+        wahba_svd.svd_method(anti, anti)
     zero = np.array([[1.0, 0, 0], [0, 0, 0]])
     with pytest.raises(DegenerateGeometryError, match="zero-length"):
         wahba.q_method(zero, np.eye(3)[:2])
@@ -212,12 +213,12 @@ def test_sign_continuity_rule():
     t = np.linspace(0.0, 20.0, 400)
     q = _constant_rate_series(rng, t, np.array([0.3, -0.2, 0.25]))  # several full turns: passes q0 = 0
     flips = np.where(rng.random(t.size) < 0.5, -1.0, 1.0)
-    fixed = wahba.enforce_sign_continuity(q * flips[:, None])
+    fixed = body_rate.enforce_sign_continuity(q * flips[:, None])
     assert fixed[0, 0] >= 0.0
     assert np.all(np.sum(fixed[1:] * fixed[:-1], axis=-1) > 0.0)
     np.testing.assert_allclose(np.abs(np.sum(fixed * q, axis=-1)), 1.0, atol=1e-12)  # same rotations
     # Batched over a leading axis.
-    both = wahba.enforce_sign_continuity(np.stack([q * flips[:, None], -q]))
+    both = body_rate.enforce_sign_continuity(np.stack([q * flips[:, None], -q]))
     np.testing.assert_allclose(both[0], fixed)
 
 
@@ -228,20 +229,20 @@ def test_rate_from_quaternions_eq3_corrected():
     t = np.arange(200) * dt
     q = _constant_rate_series(rng, t, omega)
     flips = np.where(rng.random(t.size) < 0.5, -1.0, 1.0)  # estimates come with arbitrary signs
-    w = wahba.rate_from_quaternions(q * flips[:, None], dt)
+    w = body_rate.rate_from_quaternions(q * flips[:, None], dt)
     np.testing.assert_allclose(w, np.broadcast_to(omega, w.shape), atol=1e-5)  # O((omega dt)^2)
     # Exact derivative: eq. (3) recovers omega to rounding; the printed line 2 does not.
     q_dot = 0.5 * qt.multiply(q, np.concatenate([[0.0], omega]))
-    w_exact = wahba.body_rate_from_quaternion_rate(q, q_dot)
+    w_exact = body_rate.body_rate_from_quaternion_rate(q, q_dot)
     np.testing.assert_allclose(w_exact, np.broadcast_to(omega, w_exact.shape), atol=1e-15)
     v0, v1, v2, v3 = q.T
     e0, e1, e2, e3 = q_dot.T
     w2_printed = 2 * (v0 * e2 - v3 * e0 + v1 * e3 - v2 * e1)
     assert np.max(np.abs(w2_printed - omega[1])) > 1e-3
     with pytest.raises(InvalidParameterError):
-        wahba.rate_from_quaternions(q[:1], dt)
+        body_rate.rate_from_quaternions(q[:1], dt)
     with pytest.raises(InvalidParameterError):
-        wahba.rate_from_quaternions(q, 0.0)
+        body_rate.rate_from_quaternions(q, 0.0)
 
 
 def test_vectorised_shepperd_matches_project_quaternion():

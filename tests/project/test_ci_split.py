@@ -75,3 +75,12 @@ def test_tests_left_out_of_the_ray_pass_never_reach_gymnasium() -> None:
 def test_the_check_sees_a_test_that_reaches_the_environment() -> None:
     assert _offending(reached(ROOT / "tests" / "env" / "test_golden.py"))
     assert _offending(reached(ROOT / "tests" / "env" / "test_fast_ekf.py"))  # a lazy import of the env
+
+
+def test_the_validation_tests_never_reach_gymnasium() -> None:
+    """tests/validation is not in the [ray] pass's list (RAY_TESTS): like RAY_SAME, it cannot differ there."""
+    files = sorted((ROOT / "tests" / "validation").glob("test_*.py"))
+    assert files
+    for path in files:
+        bad = _offending(reached(path))
+        assert not bad, f"{path.name} reaches {bad[:5]}: add tests/validation to the Makefile's RAY_TESTS"

@@ -5,7 +5,9 @@ anywhere in a module counts, including those inside functions, since a lazy impo
 modules together. The folder ``agents/`` is the package ``planetnav_agents``. The packages are layered
 ``planetnav_env <- planetnav_agents <- planetnav_train <- planetnav_rl``: each imports only those on its
 left (:data:`ALLOWED`); the packages above the environment meet through registries filled from entry
-points (``pyproject.toml``), not imports. No package imports a top-level ``research`` package.
+points (``pyproject.toml``), not imports. ``planetnav_validation`` (reproductions, harnesses, oracles)
+imports only ``planetnav_env``, and no product package imports it. No package imports a top-level
+``research`` package.
 """
 
 from __future__ import annotations
@@ -20,6 +22,7 @@ PACKAGES = {
     "planetnav_agents": "agents",
     "planetnav_rl": "planetnav_rl",
     "planetnav_train": "planetnav_train",
+    "planetnav_validation": "planetnav_validation",
 }
 #: package -> the project packages it may import (itself aside)
 ALLOWED = {
@@ -27,6 +30,8 @@ ALLOWED = {
     "planetnav_agents": {"planetnav_env"},
     "planetnav_train": {"planetnav_env", "planetnav_agents"},
     "planetnav_rl": {"planetnav_env", "planetnav_agents", "planetnav_train"},
+    # the reproductions, harnesses and test oracles: over the environment's physics, beside the product
+    "planetnav_validation": {"planetnav_env"},
 }
 #: top-level names no package may import (research scripts live outside the packages)
 FORBIDDEN_TOP_LEVEL = {"research", "agents", "train"}
@@ -185,6 +190,10 @@ def test_the_layer_check_sees_a_planted_upward_import() -> None:
         "planetnav_agents.x imports planetnav_train.sb3"
     ]
     assert _layer_violations({"planetnav_rl.x": {"planetnav_train.sb3"}}) == []
+    assert _layer_violations({"planetnav_env.x": {"planetnav_validation.numpy_ekf"}}) == [
+        "planetnav_env.x imports planetnav_validation.numpy_ekf"
+    ]
+    assert _layer_violations({"planetnav_validation.x": {"planetnav_env.core"}}) == []
 
 
 def _layer_violations(imports: dict[str, set[str]]) -> list[str]:

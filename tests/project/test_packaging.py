@@ -57,7 +57,7 @@ def test_wheel_installs_planetnav_agents_and_no_top_level_agents(tmp_path: Path)
     )
     (wheel,) = tmp_path.glob("planetnav-*.whl")
     tops = {name.split("/")[0] for name in zipfile.ZipFile(wheel).namelist()}
-    assert "planetnav_agents" in tops and "planetnav_env" in tops
+    assert "planetnav_agents" in tops and "planetnav_env" in tops and "planetnav_validation" in tops
     assert "agents" not in tops, sorted(tops)
     names = zipfile.ZipFile(wheel).namelist()
     assert "planetnav_agents/greedy.py" in names
@@ -85,8 +85,8 @@ def test_wheel_build_warns_of_no_undeclared_package(tmp_path: Path) -> None:
 
 
 def test_tests_mirror_the_packages() -> None:
-    """One test folder per package (env, agents, train, rl) plus project-wide checks; none loose."""
+    """One test folder per package (env, agents, train, rl, validation) plus project checks; none loose."""
     tests = ROOT / "tests"
     assert not sorted(p.name for p in tests.glob("test_*.py"))
     folders = {p.name for p in tests.iterdir() if p.is_dir() and any(p.glob("test_*.py"))}
-    assert folders == {"env", "agents", "train", "rl", "project"}
+    assert folders == {"env", "agents", "train", "rl", "validation", "project"}

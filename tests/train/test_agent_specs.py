@@ -386,7 +386,7 @@ def test_dagger_records_the_students_states_with_the_teachers_labels(mode: str) 
     np.testing.assert_array_equal(all_obs[:9], obs)
 
 
-def test_agreement_of_a_policy_with_itself_and_with_another_teacher(tmp_path: Path) -> None:
+def test_agreement_of_a_policy_with_itself_and_with_another_teacher(tmp_path: Path, research_command) -> None:
     """``agreement``: a relative-action policy labelled by itself (resynchronised to the target it holds
     through ``Agent.follow``) never differs; labelled by a periodic schedule it differs at some decisions."""
     from stable_baselines3 import PPO
@@ -418,16 +418,14 @@ def test_agreement_of_a_policy_with_itself_and_with_another_teacher(tmp_path: Pa
     assert np.any(labels != model.predict(obs, deterministic=True)[0])
     other = agreement(str(run), cfg, "periodic:period=8,skip_invisible=false", 2, DEMO_SEED)
     assert 0.0 < other["different"] < 1.0
-    # The command prints and writes the same figures (JSON without NaN: target mode has no residual).
+    # The research command prints and writes the same figures (JSON without NaN: target mode has no residual).
     import json
-
-    from planetnav_train.cli import main
 
     out = tmp_path / "agreement.json"
     teacher = "periodic:period=8,skip_invisible=false"
-    args = ["agreement", "--student", str(run), "--teacher", teacher, "--episodes", "2",
+    args = ["--student", str(run), "--teacher", teacher, "--episodes", "2",
             "--seed", str(DEMO_SEED), "--episode-steps", "40", "--json", str(out)]  # fmt: skip
-    assert main(args) == 0
+    assert research_command("agreement").main(args) == 0
     written = json.loads(out.read_text())
     assert written["different"] == other["different"] and written["mean_abs_residual"] is None
     with pytest.raises(ValueError, match="planet choices"):

@@ -255,16 +255,15 @@ def test_measure_compares_the_winners_search_and_evaluation_figures():
     assert not flattered["winner_search_minus_eval"]["holds_0"]
 
 
-def test_blind_search_and_regime_map_commands_end_to_end(tmp_path, capsys):
-    """The two commands on 20-step episodes: the JSON holds the search, the winner, the gap and the roles;
-    the regime map writes its points and a figure."""
+def test_blind_search_and_regime_map_commands_end_to_end(tmp_path, capsys, research_command):
+    """The two research commands on 20-step episodes: the JSON holds the search, the winner, the gap and
+    the roles; the regime map writes its points and a figure."""
     import json
-
-    from planetnav_train.cli import main
 
     out = tmp_path / "blind.json"
     short = ["--option", "episode_steps=20"]
-    assert main(["blind-search", "--tasks", "Cruise-Target-v2", "--search-episodes", "2", "--finalists", "2",
+    blind_search, regime_map = research_command("blind_search").main, research_command("regime_map").main
+    assert blind_search(["--tasks", "Cruise-Target-v2", "--search-episodes", "2", "--finalists", "2",
                  "--final-episodes", "2", "--episodes", "3", "--references", "greedy", "--privileged",
                  "--no-progress", "--json", str(out), *short]) == 0  # fmt: skip
     rec = json.loads(out.read_text())["tasks"]["Cruise-Target-v2 episode_steps=20"]
@@ -274,7 +273,7 @@ def test_blind_search_and_regime_map_commands_end_to_end(tmp_path, capsys):
     assert rec["agents"]["greedy"]["role"] == "reference" and len(rec["agents"]["greedy"]["per_seed"]) == 3
     assert "closed-loop gap" in capsys.readouterr().out
     png, js = tmp_path / "map.png", tmp_path / "map.json"
-    assert main(["regime-map", "--task", "Cruise-Target-v2", "--strengths", "0", "1", "--agents", "greedy",
+    assert regime_map(["--task", "Cruise-Target-v2", "--strengths", "0", "1", "--agents", "greedy",
                  "--candidates", "random", "schedule:targets=0-1,steps=10", "--search-episodes", "2",
                  "--final-episodes", "0", "--episodes", "2", "--json", str(js), "--plot", str(png),
                  *short]) == 0  # fmt: skip

@@ -224,13 +224,14 @@ def test_compare_with_per_step_noise_changes_the_draw_not_the_seeds(tmp_path: Pa
 
 
 def test_paired_notes_evaluations_that_share_no_noise(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], research_command
 ) -> None:
+    paired = research_command("paired").main
     entry = {"episodes": 2, "seed": 10000, "mean_pos_err_km": 1.0, "per_episode_mean_pos_err_km": [1.0, 1.0]}
     (tmp_path / "a.json").write_text(json.dumps({"agents": {"x": {**entry, "noise_streams": "per_step"}}}))
     (tmp_path / "b.json").write_text(json.dumps({"agents": {"x": entry}}))  # written before the key
     (tmp_path / "c.json").write_text(json.dumps({"agents": {"x": {**entry, "noise_streams": "per_step"}}}))
-    assert main(["paired", "--a", f"{tmp_path / 'a.json'}:x", "--b", f"{tmp_path / 'b.json'}:x"]) == 0
+    assert paired(["--a", f"{tmp_path / 'a.json'}:x", "--b", f"{tmp_path / 'b.json'}:x"]) == 0
     assert "share no sensor noise" in capsys.readouterr().out
-    assert main(["paired", "--a", f"{tmp_path / 'a.json'}:x", "--b", f"{tmp_path / 'c.json'}:x"]) == 0
+    assert paired(["--a", f"{tmp_path / 'a.json'}:x", "--b", f"{tmp_path / 'c.json'}:x"]) == 0
     assert "share no sensor noise" not in capsys.readouterr().out

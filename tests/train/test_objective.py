@@ -1,7 +1,7 @@
 """The scenario objective in the evaluation (``planetnav_train.evaluate``): ``objective_mean``,
 ``objective_ci95`` and ``per_episode_objective`` [km] equal the env's ``info["objective"]`` at the episode's
-end on an operations scenario and the mean position error elsewhere; paired, tabled and ``train.py paired
---metric objective``."""
+end on an operations scenario and the mean position error elsewhere; paired, tabled and paired by
+``research/commands/paired.py --metric objective``."""
 
 from __future__ import annotations
 
@@ -17,7 +17,6 @@ from planetnav_agents import make_agent
 from planetnav_env.config import EnvConfig
 from planetnav_env.envs.env import PlanetNavEnv
 from planetnav_env.envs.registration import ENV_IDS
-from planetnav_train.cli import main
 from planetnav_train.evaluate import add_paired, evaluate_agent, results_json
 from planetnav_train.report import markdown_table
 from planetnav_train.stats import mean_ci, paired_difference
@@ -69,8 +68,8 @@ def test_objective_is_the_mean_position_error_without_operations() -> None:
     assert m["objective_ci95"] == pytest.approx(m["mean_pos_err_ci95_km"], rel=1e-12)
 
 
-def test_objective_is_paired_tabled_and_paired_by_the_cli(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+def test_objective_is_paired_tabled_and_paired_by_the_research_command(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], research_command
 ) -> None:
     cfg = _ops_cfg()
     results = [evaluate_agent(s, cfg, EPISODES, SEED, progress=False) for s in ("idle", "random")]
@@ -85,7 +84,8 @@ def test_objective_is_paired_tabled_and_paired_by_the_cli(
     assert f"{rnd.metrics['objective_mean']:.1f} [" in table
     path = tmp_path / "eval.json"
     path.write_text(json.dumps(results_json(results)))
-    assert main(["paired", "--a", f"{path}:random", "--b", f"{path}:idle", "--metric", "objective"]) == 0
+    paired = research_command("paired").main
+    assert paired(["--a", f"{path}:random", "--b", f"{path}:idle", "--metric", "objective"]) == 0
     out = capsys.readouterr().out
     assert f"objective J: random: {rnd.metrics['objective_mean']:.1f} km" in out
     assert f"paired difference (first - second) {d.format('{:+.1f}')} km" in out

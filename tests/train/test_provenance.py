@@ -140,15 +140,14 @@ def test_compare_json_and_report_carry_provenance(tmp_path) -> None:
     assert ev["agents"] == data["agents"]
 
 
-def test_blind_search_task_entries_and_regime_map_carry_provenance(tmp_path) -> None:
+def test_blind_search_task_entries_and_regime_map_carry_provenance(tmp_path, research_command) -> None:
     """Each task entry of blind-search's JSON has its own provenance (an entry of an earlier run, added
     to, keeps what it had); regime-map's JSON has one."""
-    from planetnav_train.cli import main
-
     out = tmp_path / "blind.json"
     out.write_text(json.dumps({"search_seed": 0, "eval_seed": 0, "tasks": {"Old-v0": {"wall_s": 9.0}}}))
     short = ["--option", "episode_steps=20"]
-    assert main(["blind-search", "--tasks", "Cruise-Target-v2", "--search-episodes", "2", "--finalists", "2",
+    blind_search, regime_map = research_command("blind_search").main, research_command("regime_map").main
+    assert blind_search(["--tasks", "Cruise-Target-v2", "--search-episodes", "2", "--finalists", "2",
                  "--final-episodes", "2", "--episodes", "3", "--references", "greedy", "--no-progress",
                  "--json", str(out), *short]) == 0  # fmt: skip
     tasks = json.loads(out.read_text())["tasks"]
@@ -156,7 +155,7 @@ def test_blind_search_task_entries_and_regime_map_carry_provenance(tmp_path) -> 
     rec = tasks["Cruise-Target-v2 episode_steps=20"]
     _check(rec["provenance"], rec["wall_s"])
     js = tmp_path / "map.json"
-    assert main(["regime-map", "--task", "Cruise-Target-v2", "--strengths", "0", "--agents", "greedy",
+    assert regime_map(["--task", "Cruise-Target-v2", "--strengths", "0", "--agents", "greedy",
                  "--candidates", "random", "--search-episodes", "2", "--final-episodes", "0",
                  "--episodes", "2", "--json", str(js), *short]) == 0  # fmt: skip
     data = json.loads(js.read_text())

@@ -192,10 +192,12 @@ def test_compare_pairs_with_greedy_and_skips_what_does_not_apply(
         assert low <= vs["mean_sigma_diff_km"] <= high or name == "greedy"
 
 
-def test_sweep_periodic_prints_the_best(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_sweep_periodic_prints_the_best(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], research_command
+) -> None:
     out = tmp_path / "sweep.json"
-    rc = main(
-        ["sweep-periodic", "--periods", "2", "5", "--cycles", "0-1", "0-1-2", "--episodes", "2",
+    rc = research_command("sweep_periodic").main(
+        ["--periods", "2", "5", "--cycles", "0-1", "0-1-2", "--episodes", "2",
          "--episode-steps", "12", "--json", str(out), "--no-progress"]
     )  # fmt: skip
     assert rc == 0
@@ -317,8 +319,10 @@ def test_seed_override(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> No
     assert "--seed must be >= 0, got -1" in capsys.readouterr().err
 
 
-def test_paired_pairs_two_evaluation_files(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    """``train.py paired`` pairs agents of two evaluation JSONs seed by seed and refuses other seeds."""
+def test_paired_pairs_two_evaluation_files(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], research_command
+) -> None:
+    """``research/commands/paired.py`` pairs two evaluation JSONs' agents seed by seed; other seeds fail."""
 
     def write(name: str, agent: str, errors: list[float], seed: int = 10000) -> str:
         sigmas = [2 * e for e in errors]
@@ -328,9 +332,10 @@ def test_paired_pairs_two_evaluation_files(tmp_path: Path, capsys: pytest.Captur
         (tmp_path / name).write_text(json.dumps({"agents": {agent: entry}, "skipped": {}}))
         return str(tmp_path / name)
 
+    main = research_command("paired").main
     a = write("a.json", "ppo:x", [10.0, 20.0, 30.0])
     b = write("b.json", "periodic:period=10", [9.0, 18.0, 27.0])
-    assert main(["paired", "--a", f"{a}:ppo:x", "--b", f"{b}:periodic:period=10"]) == 0
+    assert main(["--a", f"{a}:ppo:x", "--b", f"{b}:periodic:period=10"]) == 0
     out = capsys.readouterr().out
     # differences 1, 2, 3: mean 2, t(0.975, 2) = 4.303 x sd 1 / sqrt(3) = 2.48
     assert "paired difference (first - second) +2.0 [-0.5, +4.5] km on 3 seeds from 10000" in out
@@ -338,9 +343,9 @@ def test_paired_pairs_two_evaluation_files(tmp_path: Path, capsys: pytest.Captur
     # sigma differences 2, 4, 6: mean 4, half-width 4.303 x 2 / sqrt(3) = 4.97
     assert "1-sigma (mean over the day): 40.0 km vs 36.0 km; paired difference +4.0 [-1.0, +9.0] km" in out
     c = write("c.json", "greedy", [1.0, 2.0, 3.0], seed=20000)
-    assert main(["paired", "--a", f"{a}:ppo:x", "--b", f"{c}:greedy"]) == 2
+    assert main(["--a", f"{a}:ppo:x", "--b", f"{c}:greedy"]) == 2
     assert "different seeds" in capsys.readouterr().err
-    assert main(["paired", "--a", f"{a}:nope", "--b", f"{c}:greedy"]) == 2
+    assert main(["--a", f"{a}:nope", "--b", f"{c}:greedy"]) == 2
     assert "no agent 'nope'" in capsys.readouterr().err
-    assert main(["paired", "--a", "missing.json:greedy", "--b", f"{c}:greedy"]) == 2
+    assert main(["--a", "missing.json:greedy", "--b", f"{c}:greedy"]) == 2
     assert "FILE:AGENT" in capsys.readouterr().err

@@ -1,6 +1,6 @@
 """Reproduction of the thesis (000): navigation by direction and angular size of planets.
 
-``python -m planetnav_env.reproduce angular-size [--quick] [--runs N] [--json PATH] [--plots DIR]``
+``python -m planetnav_validation.reproduce angular-size [--quick] [--runs N] [--json PATH] [--plots DIR]``
 
 Experiments (thesis, chapter 3):
 
@@ -34,8 +34,8 @@ from planetnav_env.astro.ephemeris import Ephemeris, make_ephemeris
 from planetnav_env.estimation.ekf import FilterConfig
 from planetnav_env.estimation.measurements import MeasurementModel
 from planetnav_env.scenarios.episodes import CRUISE_EPOCH, cruise_state
-from planetnav_env.scenarios.navigation import NavigationResult, simulate_navigation
 from planetnav_env.sensors.camera_config import CameraConfig
+from planetnav_validation.navigation import NavigationResult, simulate_navigation
 
 EPOCH = CRUISE_EPOCH
 MODELS = ("direction", "direction+size")
@@ -188,7 +188,8 @@ def plot_angular_sizes(eph: Ephemeris, camera: CameraConfig, days: float, out: P
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from planetnav_env.dynamics.orbit import GravityModel, propagate
+    from planetnav_env.dynamics.orbit import GravityModel
+    from planetnav_validation.numpy_orbit import propagate
 
     step = 3600.0
     n = int(days * 86400 / step)
@@ -232,7 +233,7 @@ def _table(rows: list[dict]) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(
-        prog="python -m planetnav_env.reproduce angular-size", description=__doc__.split("\n")[1]
+        prog="python -m planetnav_validation.reproduce angular-size", description=__doc__.split("\n")[1]
     )
     ap.add_argument("--quick", action="store_true", help="10 runs and a 30-day switching arc (< 60 s)")
     ap.add_argument(

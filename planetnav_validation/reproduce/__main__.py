@@ -1,4 +1,4 @@
-"""``python -m planetnav_env.reproduce NAME [options]``: reproduce one source paper.
+"""``python -m planetnav_validation.reproduce NAME [options]``: reproduce one source paper.
 
 Each NAME maps to a module of this package with a ``main(argv) -> int``.
 """
@@ -9,9 +9,9 @@ import importlib
 import sys
 
 EXPERIMENTS = {
-    "angular-size": "planetnav_env.reproduce.angular_size",
-    "optical-pulsar": "planetnav_env.reproduce.optical_pulsar",
-    "gnss-magnetometer": "planetnav_env.reproduce.gnss_magnetometer",
+    "angular-size": "planetnav_validation.reproduce.angular_size",
+    "optical-pulsar": "planetnav_validation.reproduce.optical_pulsar",
+    "gnss-magnetometer": "planetnav_validation.reproduce.gnss_magnetometer",
 }
 
 

@@ -5,7 +5,9 @@ import pytest
 
 from planetnav_env.attitude import quaternion as qt
 from planetnav_env.errors import InvalidParameterError, NonFiniteError, NotVisibleError
-from planetnav_env.estimation.image_plane import (
+from planetnav_env.sensors import camera
+from planetnav_env.sensors.camera import CameraConfig
+from planetnav_validation.image_plane import (
     boresight_attitude,
     boresight_camera_to_inertial,
     camera_to_inertial_matrix,
@@ -13,8 +15,6 @@ from planetnav_env.estimation.image_plane import (
     image_plane_jacobian,
     image_plane_sigma_mm,
 )
-from planetnav_env.sensors import camera
-from planetnav_env.sensors.camera import CameraConfig
 
 RNG = np.random.default_rng(3)
 

@@ -1,6 +1,6 @@
 """Reproduce patent 003: hybrid optical + X-ray pulsar navigation (OPHN) on approach to Mars.
 
-``python -m planetnav_env.reproduce optical-pulsar [--quick] [--runs N] [--json PATH] [--plots DIR]``
+``python -m planetnav_validation.reproduce optical-pulsar [--quick] [--runs N] [--json PATH] [--plots DIR]``
 
 Runs optical-only (OPN), single-pulsar (PN) and the hybrid (OPHN) on the same Mars approach
 (:mod:`planetnav_env.scenarios.approach`: 96 h to closest approach on 2021-02-10 12:00 TDB, Mars-centred
@@ -26,16 +26,10 @@ import numpy as np
 
 from planetnav_env.errors import PlanetNavError
 from planetnav_env.estimation.ekf import FilterConfig
-from planetnav_env.estimation.image_plane import image_plane_sigma_mm
-from planetnav_env.scenarios.approach import (
-    METHODS,
-    ApproachConfig,
-    ApproachResult,
-    MarsApproach,
-    NavConfig,
-    run_methods,
-)
+from planetnav_env.scenarios.approach import ApproachConfig, MarsApproach
 from planetnav_env.sensors import pulsar as psr
+from planetnav_validation.approach_methods import METHODS, ApproachResult, NavConfig, run_methods
+from planetnav_validation.image_plane import image_plane_sigma_mm
 
 DEFAULT_RUNS = 20
 QUICK_RUNS = 5
@@ -189,7 +183,7 @@ def _plots(results: dict[str, ApproachResult], summary: dict, out_dir: Path) -> 
 
 def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
-        prog="python -m planetnav_env.reproduce optical-pulsar", description=__doc__.split("\n")[0]
+        prog="python -m planetnav_validation.reproduce optical-pulsar", description=__doc__.split("\n")[0]
     )
     parser.add_argument("--quick", action="store_true", help=f"{QUICK_RUNS} runs per method (a smoke run)")
     parser.add_argument(

@@ -4,7 +4,7 @@ Used by the thesis reproduction and the consistency tests. The camera is assumed
 stabilised on the scheduled planet (the thesis's assumption in chapter 3), so a measurement
 is the true line of sight perturbed by the camera's isotropic angular noise and, with the
 size models, the true apparent diameter plus Gaussian noise. Runs are independent filters of
-one :class:`~planetnav_env.estimation.ekf.BatchEKF` (leading axis = run).
+one :class:`~planetnav_validation.numpy_ekf.BatchEKF` (leading axis = run).
 """
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ from planetnav_env.astro.bodies import body
 from planetnav_env.astro.ephemeris import Ephemeris
 from planetnav_env.dynamics.orbit import GravityModel, rk4_step
 from planetnav_env.errors import InvalidParameterError, require_positive
-from planetnav_env.estimation.ekf import BatchEKF, FilterConfig, nees, process_noise
+from planetnav_env.estimation.ekf import FilterConfig, process_noise
 from planetnav_env.estimation.ekf_kernels import (
     KIND_CODES,
     FixModel,
@@ -29,6 +29,7 @@ from planetnav_env.estimation.ekf_kernels import (
     update_batch_kernel,
 )
 from planetnav_env.estimation.measurements import MeasurementModel, los_basis
+from planetnav_validation.numpy_ekf import BatchEKF, nees
 
 _NONE = np.zeros((0, 3))
 _NO_MU = np.zeros(0)

@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 from scipy.optimize import minimize
 
-from planetnav_env.attitude import gnss_visibility as gv
 from planetnav_env.attitude import quaternion as qt
 from planetnav_env.errors import DegenerateGeometryError, InvalidParameterError, NonFiniteError
-from planetnav_env.reproduce import gnss_magnetometer as gm
+from planetnav_validation import gnss_visibility as gv
+from planetnav_validation.reproduce import gnss_magnetometer as gm
 
 
 def _unit(x):

@@ -9,9 +9,9 @@ from planetnav_env.astro.ephemeris import KeplerianEphemeris
 from planetnav_env.errors import InvalidParameterError
 from planetnav_env.estimation.ekf import FilterConfig
 from planetnav_env.estimation.measurements import MeasurementModel
-from planetnav_env.reproduce.__main__ import main as dispatch
-from planetnav_env.reproduce.angular_size import EPOCH, initial_state
-from planetnav_env.scenarios.navigation import simulate_navigation
+from planetnav_validation.navigation import simulate_navigation
+from planetnav_validation.reproduce.__main__ import main as dispatch
+from planetnav_validation.reproduce.angular_size import EPOCH, initial_state
 
 
 def test_cli_quick_writes_json_and_plots(tmp_path):

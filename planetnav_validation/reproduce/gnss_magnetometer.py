@@ -1,12 +1,12 @@
 """Reproduce Belokonov & Kramlikh (2007): attitude from a magnetometer and GNSS satellite visibility.
 
-``python -m planetnav_env.reproduce gnss-magnetometer [--runs N] [--s S] [--json PATH] [--plots DIR]``
+``python -m planetnav_validation.reproduce gnss-magnetometer [--runs N] [--s S] [--json PATH] [--plots DIR]``
 
 The paper's model task (stage 1-3), vectorised over realisations:
 
 1. circular orbit at 300 and 1000 km, inclination 63 deg, argument of latitude and RAAN uniform in
    [0, 360) deg; frozen GPS + GLONASS constellation (48 satellites, see
-   ``planetnav_env.attitude.gnss_visibility``) at a random epoch (each system turned about the Earth's
+   ``planetnav_validation.gnss_visibility``) at a random epoch (each system turned about the Earth's
    axis and along its orbits by independent uniform angles);
 2. attitude: yaw, pitch, roll each uniform in [0, 360) deg, as the paper states (``--attitude so3`` draws
    uniformly on SO(3) instead, a sensitivity check);
@@ -33,11 +33,11 @@ from pathlib import Path
 
 import numpy as np
 
-from planetnav_env.attitude import gnss_visibility as gv
 from planetnav_env.attitude import quaternion as qt
-from planetnav_env.attitude.euler import euler321_differences, euler321_error_angles, quaternion_from_euler321
 from planetnav_env.attitude.wahba import attitude_error_angle, q_method
 from planetnav_env.errors import InvalidParameterError
+from planetnav_validation import gnss_visibility as gv
+from planetnav_validation.euler import euler321_differences, euler321_error_angles, quaternion_from_euler321
 
 ALTITUDES_KM = (300.0, 1000.0)
 INCLINATION_DEG = 63.0
@@ -345,7 +345,7 @@ def _plots(summary: dict, sims: dict[str, dict[str, np.ndarray]], sweeps: dict, 
 
 def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
-        prog="python -m planetnav_env.reproduce gnss-magnetometer", description=__doc__.split("\n")[0]
+        prog="python -m planetnav_validation.reproduce gnss-magnetometer", description=__doc__.split("\n")[0]
     )
     parser.add_argument("--runs", type=int, default=DEFAULT_RUNS, help="realisations per altitude (100000)")
     parser.add_argument("--s", type=float, default=DEFAULT_S, help="weight ratio magnetometer:antenna (10)")
