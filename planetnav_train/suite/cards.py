@@ -31,7 +31,7 @@ from planetnav_train.suite.tasks import ALGOS, INTERFACE_RANDOM, OBJECTIVES, SUI
 CARDS = ROOT / "docs" / "tasks"
 #: The published table of each suite version: its ``references`` hold every reference's objective.
 PUBLISHED: dict[int, Path] = {1: ROOT / "docs" / "benchmark_v1.json", 2: ROOT / "docs" / "benchmark.json"}
-#: The published blind search of suite version 2 (``research/commands/blind_search.py``): each zero's closed-loop gap.
+#: The published blind search of suite version 2 (the search docs/suite.md describes): each zero's closed-loop gap.
 BLIND = ROOT / "docs" / "tasks_v2_blind.json"
 
 
@@ -90,7 +90,7 @@ def zero_text(task: Task | None) -> str:
     headline = "in the headline set (25 % or more)" if task.headline else "below the headline set's 25 %"
     return (
         "the best blind policy, the winner of the published search over policies that ignore the "
-        "observation ([tasks_v2_blind.json](../tasks_v2_blind.json), `python research/commands/blind_search.py`): "
+        "observation ([tasks_v2_blind.json](../tasks_v2_blind.json); its protocol: [suite.md](../suite.md)): "
         f"{text}; closed-loop gap (J_blind − J_best) / J_blind {100 * gap['gap']:.1f} % "
         f"[{100 * gap['gap_lo']:.1f}, {100 * gap['gap_hi']:.1f}], {headline}"
     )
