@@ -77,16 +77,20 @@ def _sidecar(model_path: Path) -> dict[str, Any]:
 
 def _check_sidecar(model_path: Path, sidecar: dict[str, Any]) -> None:
     """A :class:`~planetnav_env.errors.ConfigError` naming the env option when the run's ``config.yaml``
-    uses a training-side decision option (a run trained before the decision interface moved to the env)."""
-    features = sidecar.get("features") or []
-    if "since_measured" in features:
-        raise moved_option_error("since_measured").__class__(
-            f"{model_path.parent / 'config.yaml'}: {moved_option_error('since_measured')}"
-        )
-    for name in MOVED_OPTIONS:
-        if name in sidecar and sidecar[name] not in (1, False):
-            err = moved_option_error(name, sidecar[name])
-            raise type(err)(f"{model_path.parent / 'config.yaml'}: {err}")
+    uses a training-side decision option (a run trained before the decision interface moved to the env);
+    the no-op values an old ``config.yaml`` always holds (``action_repeat: 1``, ``relative_actions:
+    false``) pass."""
+    noop = {"action_repeat": 1, "relative_actions": False}
+    moved = [
+        (name, sidecar[name])
+        for name in MOVED_OPTIONS
+        if name in sidecar and not (type(sidecar[name]) is type(noop[name]) and sidecar[name] == noop[name])
+    ]
+    if "since_measured" in (sidecar.get("features") or []):
+        moved.insert(0, ("since_measured", None))
+    if moved:
+        err = moved_option_error(*moved[0])
+        raise type(err)(f"{model_path.parent / 'config.yaml'}: {err}")
 
 
 def _trained_relative(sidecar: dict[str, Any]) -> bool:

@@ -253,6 +253,15 @@ def test_sb3_agent_acts_in_the_envs_decision_interface(tmp_path: Path) -> None:
     with pytest.raises(ConfigError, match="action_repeat is no longer a training option: set env option "
                        "decision_steps=3"):  # fmt: skip
         make_agent(str(run), env)
+    (run / "config.yaml").write_text(yaml.safe_dump({"algo": "ppo", "relative_actions": True}))
+    with pytest.raises(ConfigError, match="set env option target_actions='relative'"):
+        make_agent(str(run), env)
+    # The no-op values every older config.yaml holds pass: the model acts as before.
+    (run / "config.yaml").write_text(
+        yaml.safe_dump({"algo": "ppo", "action_repeat": 1, "relative_actions": False, "features": []})
+    )
+    obs, info = env.reset(seed=1)
+    assert make_agent(str(run), env).act(obs, info) == int(model.predict(obs, deterministic=True)[0])
 
 
 def test_relative_target_actions(tmp_path: Path) -> None:
