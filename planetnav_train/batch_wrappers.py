@@ -300,6 +300,8 @@ def options(**kwargs: Any) -> TrainingOptions:
     for name in MOVED_OPTIONS:
         if name in kwargs:
             raise moved_option_error(name, kwargs[name])
+    if "since_measured" in (kwargs.get("features") or ()):
+        raise moved_option_error("since_measured")
     return TrainingOptions(**kwargs)
 
 

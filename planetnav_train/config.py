@@ -20,7 +20,7 @@ from planetnav_env.config import NOISE_STREAMS, EnvConfig
 from planetnav_env.envs.registration import ENV_IDS
 from planetnav_env.errors import ConfigError, with_prefix
 from planetnav_train.features import check_features
-from planetnav_train.moved_options import MOVED_OPTIONS, moved_option_error
+from planetnav_train.moved_options import NO_OP_VALUES, moved_option_error, moved_options_in
 from planetnav_train.sb3 import ALGORITHMS, algorithm_class
 from planetnav_train.shaping import SHAPINGS
 
@@ -191,21 +191,25 @@ def parse_config(data: Mapping[str, Any] | None, name: str = "run") -> TrainConf
     return tc
 
 
-def _check_moved_options(data: Mapping[str, Any]) -> None:
+def _check_moved_options(data: dict[str, Any]) -> None:
     """A :class:`ConfigError` naming the env option for a training-side decision option of ``data``
-    (``action_repeat``, ``relative_actions``, ``features: [since_measured]``), before anything else."""
-    features = data.get("features")
-    if isinstance(features, list | tuple) and "since_measured" in features:
-        raise with_prefix(moved_option_error("since_measured"), "config: features")
-    for name in MOVED_OPTIONS:
-        if name in data:
-            base = 1
-            env_id, env = data.get("env_id"), data.get("env")
-            if isinstance(env, Mapping) and isinstance(env.get("decision_steps"), int):
-                base = env["decision_steps"]
-            elif env_id in ENV_IDS:
-                base = int(ENV_IDS[env_id].get("decision_steps", 1))
-            raise with_prefix(moved_option_error(name, data[name], base), "config")
+    (``action_repeat``, ``relative_actions``, ``features: [since_measured]``), before anything else; their
+    no-op values (``action_repeat: 1``, ``relative_actions: false``, in every older run's ``config.yaml``)
+    are dropped from ``data``."""
+    moved = moved_options_in(data)
+    if moved:
+        name, value = moved[0]
+        if name == "since_measured":
+            raise with_prefix(moved_option_error(name), "config: features")
+        base = 1
+        env_id, env = data.get("env_id"), data.get("env")
+        if isinstance(env, Mapping) and isinstance(env.get("decision_steps"), int):
+            base = env["decision_steps"]
+        elif env_id in ENV_IDS:
+            base = int(ENV_IDS[env_id].get("decision_steps", 1))
+        raise with_prefix(moved_option_error(name, value, base), "config")
+    for name in NO_OP_VALUES:
+        data.pop(name, None)
 
 
 def resolve_config_path(path: str | Path) -> Path:

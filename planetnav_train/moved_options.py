@@ -20,6 +20,29 @@ MOVED_OPTIONS = {
     "relative_actions": "target_actions",
     "since_measured": "observe_since_measured",
 }
+#: The values of the former keys that changed nothing, which every older run's ``config.yaml`` holds.
+NO_OP_VALUES = {"action_repeat": 1, "relative_actions": False}
+
+
+def is_no_op(name: str, value: Any) -> bool:
+    """Whether ``value`` of the former key ``name`` is its no-op value (``action_repeat: 1``,
+    ``relative_actions: false``; the type checked too: ``True == 1`` in Python)."""
+    noop = NO_OP_VALUES.get(name)
+    return noop is not None and type(value) is type(noop) and value == noop
+
+
+def moved_options_in(data: Any) -> list[tuple[str, Any]]:
+    """The former decision options a configuration mapping ``data`` uses, as (name, value), in the order
+    of :data:`MOVED_OPTIONS`; their no-op values do not count (an older run's ``config.yaml`` reads)."""
+    if not hasattr(data, "get"):
+        return []
+    found = [
+        (n, data[n]) for n in ("action_repeat", "relative_actions") if n in data and not is_no_op(n, data[n])
+    ]
+    features = data.get("features")
+    if isinstance(features, list | tuple) and "since_measured" in features:
+        found.append(("since_measured", None))
+    return found
 
 
 def moved_option_error(name: str, value: Any = None, base_decision_steps: int = 1) -> ConfigError:
@@ -35,7 +58,9 @@ def moved_option_error(name: str, value: Any = None, base_decision_steps: int = 
         )
         what = "a training option"
     elif name == "relative_actions":
-        setting = "target_actions='relative'" if value is True else "target_actions='absolute' (the default)"
+        setting = {True: "target_actions='relative'", False: "target_actions='absolute' (the default)"}.get(
+            value if isinstance(value, bool) else None, "target_actions ('absolute' or 'relative')"
+        )
         what = "a training option"
     elif name == "since_measured":
         setting, what = "observe_since_measured=true", "a training feature"

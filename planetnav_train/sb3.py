@@ -17,7 +17,7 @@ import numpy as np
 from planetnav_agents.base import Agent, NotApplicableError, target_torque_action
 from planetnav_env.core.decisions import relative_to_absolute
 from planetnav_train.features import FeatureBatch
-from planetnav_train.moved_options import MOVED_OPTIONS, moved_option_error
+from planetnav_train.moved_options import moved_option_error, moved_options_in
 
 #: Lower-case names -> SB3 classes (imported lazily: SB3 and torch take seconds to import).
 ALGORITHMS = ("ppo", "a2c", "dqn", "sac", "td3", "ddpg", "recurrent_ppo", "maskable_ppo", "tqc")
@@ -78,16 +78,9 @@ def _sidecar(model_path: Path) -> dict[str, Any]:
 def _check_sidecar(model_path: Path, sidecar: dict[str, Any]) -> None:
     """A :class:`~planetnav_env.errors.ConfigError` naming the env option when the run's ``config.yaml``
     uses a training-side decision option (a run trained before the decision interface moved to the env);
-    the no-op values an old ``config.yaml`` always holds (``action_repeat: 1``, ``relative_actions:
-    false``) pass."""
-    noop = {"action_repeat": 1, "relative_actions": False}
-    moved = [
-        (name, sidecar[name])
-        for name in MOVED_OPTIONS
-        if name in sidecar and not (type(sidecar[name]) is type(noop[name]) and sidecar[name] == noop[name])
-    ]
-    if "since_measured" in (sidecar.get("features") or []):
-        moved.insert(0, ("since_measured", None))
+    the no-op values an older ``config.yaml`` always holds pass
+    (:func:`planetnav_train.moved_options.moved_options_in`)."""
+    moved = moved_options_in(sidecar)
     if moved:
         err = moved_option_error(*moved[0])
         raise type(err)(f"{model_path.parent / 'config.yaml'}: {err}")

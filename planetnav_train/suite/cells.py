@@ -19,7 +19,7 @@ import yaml
 
 from planetnav_env.errors import ConfigError, with_prefix
 from planetnav_train.config import TrainConfig, is_rllib_algo, parse_config
-from planetnav_train.moved_options import MOVED_OPTIONS, moved_option_error
+from planetnav_train.moved_options import moved_option_error, moved_options_in
 from planetnav_train.suite.tasks import (
     ALGOS,
     DEFAULT_ASSISTS,
@@ -49,12 +49,9 @@ def load_assists(path: str | Path = DEFAULT_ASSISTS) -> dict[str, Any]:
     data = yaml.safe_load(p.read_text()) or {}
     assists, tasks = data.get("assists") or {}, data.get("tasks") or {}
     for name, frag in assists.items():
-        moved = [k for k in MOVED_OPTIONS if isinstance(frag, Mapping) and k in frag]
-        if isinstance(frag, Mapping) and "since_measured" in (frag.get("features") or []):
-            moved.insert(0, "since_measured")
+        moved = moved_options_in(frag) if isinstance(frag, Mapping) else []
         if moved:
-            value = frag.get(moved[0]) if moved[0] in frag else None
-            raise with_prefix(moved_option_error(moved[0], value), f"{p}: assist {name!r}")
+            raise with_prefix(moved_option_error(*moved[0]), f"{p}: assist {name!r}")
         if not isinstance(frag, Mapping) or not set(frag) <= ASSIST_KEYS:
             raise ConfigError(f"{p}: assist {name!r} must be a mapping of keys from {sorted(ASSIST_KEYS)}")
     for task, names in tasks.items():

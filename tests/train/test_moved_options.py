@@ -24,7 +24,7 @@ CASES = [
     ("action_repeat: 0\n", "set env option decision_steps (an integer >= 1)"),
     ("relative_actions: true\n",
      "config: relative_actions is no longer a training option: set env option target_actions='relative'"),
-    ("relative_actions: false\n", "set env option target_actions='absolute' (the default)"),
+    ("relative_actions: 1\n", "set env option target_actions ('absolute' or 'relative')"),
     ("features: [gain, since_measured]\n",
      "config: features: since_measured is no longer a training feature: set env option "
      "observe_since_measured=true"),
@@ -44,6 +44,21 @@ def test_a_training_side_decision_key_names_the_env_option(
     assert main(["train", "--config", str(cfg), "--no-progress", "--run-dir", str(tmp_path / "run")]) == 2
     assert named in capsys.readouterr().err
     assert not (tmp_path / "run").exists()
+
+
+def test_an_older_runs_config_with_the_no_op_values_loads(tmp_path: Path) -> None:
+    """Every run trained before the move wrote ``action_repeat: 1`` and ``relative_actions: false`` (the
+    defaults) into its config.yaml: those changed nothing and are dropped, so the run can be evaluated and
+    resumed; any other value is refused as above."""
+    cfg = tmp_path / "config.yaml"
+    cfg.write_text(
+        "env_id: planetnav/Cruise-Torque-v0\naction_repeat: 1\nrelative_actions: false\nfeatures: []\n"
+    )
+    tc = load_config(cfg)
+    assert tc.env_config().decision_steps == 1 and "action_repeat" not in tc.to_dict()
+    cfg.write_text("action_repeat: true\n")  # True == 1 in Python: not the no-op value
+    with pytest.raises(ConfigError, match="decision_steps \\(an integer >= 1\\)"):
+        load_config(cfg)
 
 
 def test_the_env_options_give_the_environment_the_old_keys_described() -> None:
