@@ -34,7 +34,7 @@ def rate(tc: TrainConfig, vec_env: str, decisions: int) -> float:
     model.learn(total_timesteps=decisions)
     elapsed = time.perf_counter() - t
     venv.close()
-    return model.num_timesteps * tc.action_repeat / elapsed
+    return model.num_timesteps * tc.env_config().decision_steps / elapsed
 
 
 def main() -> None:
@@ -45,13 +45,14 @@ def main() -> None:
     tc = load_config(args.config)
     per_update = int(tc.hyperparams.get("n_steps", 2048)) * tc.n_envs
     decisions = args.updates * per_update
+    k = tc.env_config().decision_steps
     # Warm-up: compile the kernels and build torch's graph caches outside the timing.
     rate(load_config(args.config), "native", per_update)
     native = rate(load_config(args.config), "native", decisions)
     dummy = rate(load_config(args.config), "dummy", decisions)
     print(
-        f"{args.config}: {tc.n_envs} envs, action_repeat {tc.action_repeat}, {decisions} decisions "
-        f"({decisions * tc.action_repeat} env steps) per path"
+        f"{args.config}: {tc.n_envs} envs, decision_steps {k}, {decisions} decisions "
+        f"({decisions * k} physics steps) per path"
     )
     print("| training env | env steps/s (env + learning) | ratio |")
     print("|---|---|---|")

@@ -17,7 +17,7 @@ Both paths run the same option layers (``planetnav_train.batch_wrappers``: the t
 the native path steps all rows in one compiled loop with the options on arrays; the DummyVecEnv path
 (``vec_env: dummy``, what torque modes trained on before: a Python env object per row, options computed
 one row at a time) runs them with N = 1 per env. The target is >= 20,000 env steps/s of torque-mode PPO
-training on the native path. The rate counts environment steps (decisions x ``action_repeat``).
+training on the native path. The rate counts physics steps (decisions x the env's ``decision_steps``).
 """
 
 from __future__ import annotations
@@ -47,7 +47,7 @@ def env_rate(tc: TrainConfig, vec_env: str, decisions: int) -> float:
         venv.step(actions)
     elapsed = time.perf_counter() - t
     venv.close()
-    return steps * venv.num_envs * tc.action_repeat / elapsed
+    return steps * venv.num_envs * tc.env_config().decision_steps / elapsed
 
 
 def config(path: str, n_envs: int | None, quick: bool) -> TrainConfig:
@@ -95,7 +95,7 @@ def profile(tc: TrainConfig, decisions: int) -> dict[str, float]:
     prof.disable()
     venv.close()
     cum = {f"{Path(k[0]).name}:{k[2]}": v[3] for k, v in pstats.Stats(prof).stats.items()}  # type: ignore[attr-defined]
-    steps = model.num_timesteps * tc.action_repeat
+    steps = model.num_timesteps * tc.env_config().decision_steps
     rollout, env = cum["on_policy_algorithm.py:collect_rollouts"], cum["base_vec_env.py:step"]
     return {
         "environment stack": 1e6 * env / steps,

@@ -6,8 +6,9 @@ Modules, by what they hold:
   :func:`~planetnav_train.config.load_config` / :func:`~planetnav_train.config.parse_config`, which
   algorithms a configuration may name (SB3 or RLlib);
 - :mod:`planetnav_train.algorithms`: the SB3 constructor arguments from ``hyperparams``;
-- the training env: :mod:`~planetnav_train.batch_wrappers` (features, action repeat, relative actions,
-  shaping over N rows), :mod:`~planetnav_train.features`, :mod:`~planetnav_train.shaping`,
+- the training env: :mod:`~planetnav_train.batch_wrappers` (features and shaping
+  over N rows, over the env's decision interface; :mod:`~planetnav_train.moved_options` names the former
+  training-side decision keys), :mod:`~planetnav_train.features`, :mod:`~planetnav_train.shaping`,
   :mod:`~planetnav_train.masking`, :mod:`~planetnav_train.vec_training` (the native SB3 ``VecEnv``),
   :mod:`~planetnav_train.sb3_vec` (the SB3 ``VecEnv`` adapter of the vector env),
   :mod:`~planetnav_train.envs` (:func:`~planetnav_train.envs.make_training_env`);

@@ -46,7 +46,7 @@ def algo_kwargs(tc: TrainConfig) -> dict[str, Any]:
     if "features_extractor" in pk:  # a name of planetnav_train.policies, laid out for this run's env
         from planetnav_train.policies import extractor_kwargs
 
-        pk.update(extractor_kwargs(pk.pop("features_extractor"), tc.env_config(), tc.relative_actions))
+        pk.update(extractor_kwargs(pk.pop("features_extractor"), tc.env_config()))
     if pk:
         kw["policy_kwargs"] = pk
     return kw

@@ -13,31 +13,33 @@ class                                  what it does to the rows
                                        (:class:`planetnav_train.shaping.PointingPotential`)
 :class:`PointingBonusRows`             adds the per-step pointing bonus ``Phi(s')`` (not potential-based)
 :class:`FeatureRows`                   appends the observation features (:class:`planetnav_train.
-                                       features.FeatureBatch`: ``since_measured``, ``gain``, ``pd_torque``)
-:class:`ActionRepeatRows`              holds each decision ``repeat`` steps, rewards summed
-:class:`RelativeTargetRows`            "stay" / "move k places" target actions
+                                       features.FeatureBatch`: ``gain``, ``pd_torque``)
 ====================================== ===================================================================
 
-:func:`training_rows` stacks them in the recipe's order (shaping innermost: it reads the raw
-observation; the relative choice outermost: made once per decision). Two adapters expose a stack:
-:class:`planetnav_train.vec_training.NavTrainingVecEnv` as an SB3 ``VecEnv`` over N rows (training), and
-:class:`RowsEnv` as a Gymnasium env over one row (:func:`single_training_env`, and the deprecated
-single-env wrappers at the end of this module). Both run the same code, so a row
-of the batch equals the single env seeded alike, bit for bit (``tests/train/test_vec_training.py``).
+The decision interface is the environment's, under these layers: one step of a row is one decision of
+the env (``EnvConfig.decision_steps`` physics steps, rewards summed), in the env's target actions
+(``target_actions``), with its observation (``observe_since_measured``); ``docs/environment.md``. So
+the pointing shaping, a difference of potentials between steps, is taken between decisions, whose
+discount ``gamma`` is, and the pointing bonus is added once a decision.
 
-Conventions of a :class:`Rows` (why: a held decision steps only the rows still running, and an episode
-that ends inside it must not be stepped again before its reset):
+:func:`training_rows` stacks the layers in the recipe's order (the pointing bonus innermost: it reads the
+raw observation). Two adapters expose a stack: :class:`planetnav_train.vec_training.NavTrainingVecEnv` as
+an SB3 ``VecEnv`` over N rows (training), and :class:`RowsEnv` as a Gymnasium env over one row
+(:func:`single_training_env`). Both run the same code, so a row of the batch equals the single env seeded
+alike, bit for bit (``tests/train/test_vec_training.py``).
 
-* ``step_rows(actions, active)`` advances only the ``active`` rows (bool (N,)) by one step of this layer
-  and returns ``(reward (N,) float64, terminated (N,) bool, truncated (N,) bool)``, zero / False for the
+Conventions of a :class:`Rows` (why: the adapters reset finished rows themselves, and a row that has
+ended must not be stepped again before its reset):
+
+* ``step_rows(actions, active)`` advances only the ``active`` rows (bool (N,)) by one decision and
+  returns ``(reward (N,) float64, terminated (N,) bool, truncated (N,) bool)``, zero / False for the
   others; it never resets a row. ``actions`` holds N actions (an array, or a sequence for N = 1).
 * ``reset_rows(mask, seed, options)`` resets the rows of ``mask``.
-* ``observations()``, ``measured()``, ``targets()``, ``filter_state()`` read the rows as they are now.
+* ``observations()`` and ``filter_state()`` read the rows as they are now.
 """
 
 from __future__ import annotations
 
-import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -48,13 +50,8 @@ from gymnasium import spaces
 
 from planetnav_agents.base import unwrapped_config
 from planetnav_env.config import EnvConfig
-from planetnav_train.features import (
-    FeatureBatch,
-    check_action_repeat,
-    check_relative_config,
-    relative_actions_batch,
-    step_columns,
-)
+from planetnav_train.features import FeatureBatch, filter_columns
+from planetnav_train.moved_options import MOVED_OPTIONS, moved_option_error
 from planetnav_train.shaping import PointingPotential, check_shaping
 
 
@@ -95,14 +92,6 @@ class Rows:
         """(N, D) observations as the layer returns them."""
         raise NotImplementedError
 
-    def measured(self) -> np.ndarray:
-        """(N,) bool: the last environment step of each row gave an accepted measurement."""
-        raise NotImplementedError
-
-    def targets(self) -> np.ndarray:
-        """(N,) int: each row's current target index (planets, then pulsars), -1 for none."""
-        raise NotImplementedError
-
     def filter_state(self) -> tuple[np.ndarray, np.ndarray]:
         """Each row's filter estimate (N, 6) [km, km/s] and covariance (N, 6, 6) [km^2, km^2/s, km^2/s^2]."""
         raise NotImplementedError
@@ -129,12 +118,6 @@ class RowsWrapper(Rows):
 
     def observations(self) -> Any:
         return self.inner.observations()
-
-    def measured(self) -> np.ndarray:
-        return self.inner.measured()
-
-    def targets(self) -> np.ndarray:
-        return self.inner.targets()
 
     def filter_state(self) -> tuple[np.ndarray, np.ndarray]:
         return self.inner.filter_state()
@@ -167,12 +150,6 @@ class VectorRows(RowsWrapper):
         else:
             self.venv.reset(seed=seed, options={**(options or {}), "reset_mask": mask})
 
-    def measured(self) -> np.ndarray:
-        return self.venv.measured_flags()
-
-    def targets(self) -> np.ndarray:
-        return self.venv.current_targets()
-
     def row_info(self, row: int) -> dict[str, Any]:
         return self.venv.info_row(row)
 
@@ -202,14 +179,8 @@ class SingleEnvRows(Rows):
     def observations(self) -> Any:
         return [self._obs]  # a list: a dict observation passes through unchanged
 
-    def measured(self) -> np.ndarray:
-        return step_columns(self._info, self.config.planets)[0]
-
-    def targets(self) -> np.ndarray:
-        return step_columns(self._info, self.config.planets)[1]
-
     def filter_state(self) -> tuple[np.ndarray, np.ndarray]:
-        return step_columns(self._info, self.config.planets)[2:]
+        return filter_columns(self._info)
 
     def row_info(self, row: int) -> dict[str, Any]:
         return self._info
@@ -277,26 +248,12 @@ class PointingBonusRows(RowsWrapper):
 
 
 class FeatureRows(RowsWrapper):
-    """Appends :class:`planetnav_train.features.FeatureBatch`'s features to the rows' box observations;
-    every environment step of a row advances its feature state (``since_measured`` counts steps)."""
+    """Appends :class:`planetnav_train.features.FeatureBatch`'s features to the rows' box observations."""
 
     def __init__(self, inner: Rows, features: Sequence[str]) -> None:
         super().__init__(inner)
         self.batch = FeatureBatch(self.config, self.core_params, features, self.num_rows)
         self.observation_space = self.batch.observation_space(inner.observation_space)
-
-    def _advance(self, rows: np.ndarray) -> None:
-        self.batch.advance(self.inner.measured(), self.inner.targets(), rows)
-
-    def reset_rows(self, mask: np.ndarray, seed: Any = None, options: dict | None = None) -> None:
-        self.inner.reset_rows(mask, seed, options)
-        self.batch.reset(mask)
-        self._advance(np.asarray(mask, dtype=bool))  # the first observation counts as a step seen
-
-    def step_rows(self, actions: Any, active: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        out = self.inner.step_rows(actions, active)
-        self._advance(np.asarray(active, dtype=bool))
-        return out
 
     def observations(self) -> np.ndarray:
         obs = self.inner.observations()
@@ -304,96 +261,53 @@ class FeatureRows(RowsWrapper):
         return self.batch.augment(np.asarray(obs, dtype=np.float32), x, p)
 
 
-class ActionRepeatRows(RowsWrapper):
-    """Holds each action for ``repeat`` environment steps, rewards summed (:func:`planetnav_train.features.
-    check_action_repeat` says why); a row whose episode ends inside the hold stops there."""
-
-    def __init__(self, inner: Rows, repeat: int) -> None:
-        super().__init__(inner)
-        self.repeat = check_action_repeat(repeat)
-
-    def step_rows(self, actions: Any, active: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        n = self.num_rows
-        total = np.zeros(n)
-        running = np.array(active, dtype=bool, copy=True)
-        terminated = np.zeros(n, dtype=bool)
-        truncated = np.zeros(n, dtype=bool)
-        for _ in range(self.repeat):
-            reward, term, trunc = self.inner.step_rows(actions, running)
-            total += reward
-            terminated |= term
-            truncated |= trunc
-            running &= ~(term | trunc)
-            if not running.any():
-                break
-        return total, terminated, truncated
-
-
-class RelativeTargetRows(RowsWrapper):
-    """Target choice with relative actions (:func:`planetnav_train.features.relative_actions_batch`):
-    "stay" or "move k places" from each row's last choice (-1 after a reset)."""
-
-    def __init__(self, inner: Rows) -> None:
-        super().__init__(inner)
-        check_relative_config(self.config)
-        self.n_planets = self.config.n_planets
-        self._current = np.full(self.num_rows, -1, dtype=np.int64)
-
-    def reset_rows(self, mask: np.ndarray, seed: Any = None, options: dict | None = None) -> None:
-        self.inner.reset_rows(mask, seed, options)
-        self._current[np.asarray(mask, dtype=bool)] = -1
-
-    def step_rows(self, actions: Any, active: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        env_actions, targets = relative_actions_batch(np.asarray(actions), self._current, self.n_planets)
-        active = np.asarray(active, dtype=bool)
-        self._current[active] = targets[active]
-        return self.inner.step_rows(env_actions, active)
-
-
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class TrainingOptions:
     """The training recipe's options over the environment (``research/training_log.md``): the one list of
-    them, whose fields (positionally in this order, or by keyword) are the options of :func:`training_rows`,
-    :func:`single_training_env` and :class:`planetnav_train.vec_training.NavTrainingVecEnv`.
+    them, whose fields (by keyword) are the options of :func:`training_rows`, :func:`single_training_env`
+    and :class:`planetnav_train.vec_training.NavTrainingVecEnv`.
 
-    ``features``: observation features appended (``since_measured``, ``gain``, ``pd_torque``);
-    ``action_repeat``: environment steps per decision; ``relative_actions``: "stay" / "move k places"
-    target actions; ``pointing``: the pointing shaping's weight [reward units] (None / 0: none);
-    ``gamma``: its discount (the algorithm's); ``pointing_bonus``: the per-step pointing bonus's weight
-    [reward units] (None / 0: none; not potential-based). The layers validate them.
+    ``features``: observation features appended (``gain``, ``pd_torque``); ``pointing``: the pointing
+    shaping's weight [reward units] (None / 0: none); ``gamma``: its discount (the algorithm's, per
+    decision); ``pointing_bonus``: the per-decision pointing bonus's weight [reward units] (None / 0: none;
+    not potential-based). The layers validate them. The decision interface is the env's
+    (:func:`options`, :mod:`planetnav_train.moved_options`).
     """
 
     features: Sequence[str] = ()
-    action_repeat: int = 1
-    relative_actions: bool = False
     pointing: float | None = None
     gamma: float = 0.99
     pointing_bonus: float | None = None
 
     def stack(self, inner: Rows) -> Rows:
-        """``inner`` with these options in the recipe's order: the pointing bonus, the features, action
-        repeat, the pointing shaping, relative target actions.
-
-        The shaping sits above the repeat so that ``F = gamma * Phi(s') - Phi(s)`` is taken between
-        decisions, whose discount ``gamma`` is: below it, the per-step terms summed over a decision of
-        ``k`` steps leave ``(gamma - 1) * (Phi(s_1) + ... + Phi(s_{k-1}))``, which is not potential-based
-        and penalises pointing (``Phi`` reads only the env's own observation blocks, not the appended
+        """``inner`` with these options in the recipe's order: the pointing bonus, the features, the
+        pointing shaping (``Phi`` reads only the env's own observation blocks, not the appended
         features)."""
         rows = inner
         if self.pointing_bonus:
             rows = PointingBonusRows(rows, check_shaping(self.pointing_bonus, 1.0)[0])
         if self.features:
             rows = FeatureRows(rows, self.features)
-        if check_action_repeat(self.action_repeat) > 1:
-            rows = ActionRepeatRows(rows, self.action_repeat)
         if self.pointing:
             rows = PointingShapingRows(rows, self.pointing, self.gamma)
-        return RelativeTargetRows(rows) if self.relative_actions else rows
+        return rows
 
 
-def training_rows(inner: Rows, *args: Any, **kwargs: Any) -> Rows:
+def options(**kwargs: Any) -> TrainingOptions:
+    """:class:`TrainingOptions` of ``kwargs``; a training-side decision option (``action_repeat``,
+    ``relative_actions``) raises the :class:`~planetnav_env.errors.ConfigError` that names the env option
+    replacing it."""
+    for name in MOVED_OPTIONS:
+        if name in kwargs:
+            raise moved_option_error(name, kwargs[name])
+    if "since_measured" in (kwargs.get("features") or ()):
+        raise moved_option_error("since_measured")
+    return TrainingOptions(**kwargs)
+
+
+def training_rows(inner: Rows, **kwargs: Any) -> Rows:
     """``inner`` with the recipe's options (:class:`TrainingOptions`' fields) stacked in their order."""
-    return TrainingOptions(*args, **kwargs).stack(inner)
+    return options(**kwargs).stack(inner)
 
 
 class RowsEnv(gym.Wrapper):
@@ -422,61 +336,8 @@ class RowsEnv(gym.Wrapper):
         return obs, float(reward[0]), bool(terminated[0]), bool(truncated[0]), self.rows.row_info(0)
 
 
-def single_training_env(env: gym.Env, *args: Any, **kwargs: Any) -> RowsEnv:
+def single_training_env(env: gym.Env, **kwargs: Any) -> RowsEnv:
     """A single planetnav env with the recipe's options (:class:`TrainingOptions`' fields; the stack of
     :func:`training_rows` with N = 1): what each env of SB3's ``DummyVecEnv`` path runs
     (``vec_env: dummy``)."""
-    return RowsEnv(env, TrainingOptions(*args, **kwargs).stack)
-
-
-# ------------------------------------------------------------------------------------------------
-# Deprecated single-env wrappers: each is the N = 1 stack of its layer, with the old constructor and
-# attributes.
-# ------------------------------------------------------------------------------------------------
-def _deprecated(old: str, new: str) -> None:
-    warnings.warn(
-        f"planetnav_train.batch_wrappers.{old} is deprecated; use planetnav_train.batch_wrappers.{new}",
-        DeprecationWarning,
-        stacklevel=3,
-    )
-
-
-class NavFeatures(RowsEnv):
-    """Deprecated: :class:`FeatureRows` on one env (``single_training_env(env, features=...)``)."""
-
-    def __init__(self, env: gym.Env, features: Sequence[str]) -> None:
-        _deprecated("NavFeatures", "single_training_env(env, features=...)")
-        super().__init__(env, lambda rows: FeatureRows(rows, features))
-
-
-class ActionRepeat(RowsEnv):
-    """Deprecated: :class:`ActionRepeatRows` on one env (``single_training_env(env, action_repeat=...)``)."""
-
-    def __init__(self, env: gym.Env, repeat: int) -> None:
-        _deprecated("ActionRepeat", "single_training_env(env, action_repeat=...)")
-        super().__init__(env, lambda rows: ActionRepeatRows(rows, repeat))
-        self.repeat = int(repeat)
-
-
-class RelativeTargets(RowsEnv):
-    """Deprecated: :class:`RelativeTargetRows` on one env (``single_training_env(env,
-    relative_actions=True)``)."""
-
-    def __init__(self, env: gym.Env) -> None:
-        _deprecated("RelativeTargets", "single_training_env(env, relative_actions=True)")
-        super().__init__(env, RelativeTargetRows)
-        self.n_planets = self.rows.n_planets
-
-
-class PointingShaping(RowsEnv):
-    """Deprecated: :class:`PointingShapingRows` on one env (``single_training_env(env, pointing=weight,
-    gamma=gamma)``); ``info["shaping"]`` holds the term added at each step."""
-
-    def __init__(self, env: gym.Env, weight: float, gamma: float) -> None:
-        _deprecated("PointingShaping", "single_training_env(env, pointing=..., gamma=...)")
-        super().__init__(env, lambda rows: PointingShapingRows(rows, weight, gamma))
-        self.weight, self.gamma = float(weight), float(gamma)
-
-    def potential(self, observation: Any) -> float:
-        """``Phi(s)`` of one observation (:class:`planetnav_train.shaping.PointingPotential`)."""
-        return float(self.rows.potential(np.reshape(observation, (1, -1)))[0])
+    return RowsEnv(env, options(**kwargs).stack)

@@ -20,6 +20,7 @@ from planetnav_env.config import NOISE_STREAMS, EnvConfig
 from planetnav_env.envs.registration import ENV_IDS
 from planetnav_env.errors import ConfigError, with_prefix
 from planetnav_train.features import check_features
+from planetnav_train.moved_options import NO_OP_VALUES, moved_option_error, moved_options_in
 from planetnav_train.sb3 import ALGORITHMS, algorithm_class
 from planetnav_train.shaping import SHAPINGS
 
@@ -66,11 +67,10 @@ class TrainConfig:
     hyperparams: dict[str, Any] = field(default_factory=dict)
     env: dict[str, Any] = field(default_factory=dict)
     eval: EvalSettings = field(default_factory=EvalSettings)
-    features: list[str] = field(default_factory=list)  # extra observation features (planetnav_train.features)
+    # Extra observation features (planetnav_train.features). The decision interface (the hold, relative
+    # targets, since_measured) is the env's: options of the ``env`` section (planetnav_train.moved_options).
+    features: list[str] = field(default_factory=list)
     shaping: dict[str, float] = field(default_factory=dict)  # potential-based, training only (agents/shaping)
-    action_repeat: int = 1  # environment steps per policy decision (planetnav_train.features.ActionRepeat)
-    # target mode: "stay" / "move k places" (planetnav_train.features.RelativeTargets)
-    relative_actions: bool = False
     # Decisions between checkpoints in RUN_DIR/resume/ (train.py train --resume RUN_DIR continues a killed run
     # from the last one; planetnav_train.checkpoint); 0: none.
     checkpoint_every: int = 50_000
@@ -113,6 +113,7 @@ def _check_keys(data: Mapping[str, Any], known: set[str], where: str) -> None:
 def parse_config(data: Mapping[str, Any] | None, name: str = "run") -> TrainConfig:
     """Validate a configuration mapping (unknown keys raise :class:`ConfigError` naming them)."""
     data = dict(data or {})
+    _check_moved_options(data)
     _check_keys(data, _TOP_KEYS, "config")
     ev = data.pop("eval", None) or {}
     if not isinstance(ev, Mapping):
@@ -130,7 +131,7 @@ def parse_config(data: Mapping[str, Any] | None, name: str = "run") -> TrainConf
     tc.algo = str(tc.algo).lower()
     if tc.algo not in ALGORITHMS and not is_rllib_algo(tc.algo):
         raise ConfigError(f"config: algo {tc.algo!r} is not one of {[*ALGORITHMS, *RLLIB_ALGOS]}")
-    for key in ("n_timesteps", "n_envs", "torch_threads", "action_repeat"):
+    for key in ("n_timesteps", "n_envs", "torch_threads"):
         value = getattr(tc, key)
         if not isinstance(value, int) or isinstance(value, bool) or value < 1:
             raise ConfigError(f"config: {key} must be a positive integer, got {value!r}")
@@ -154,8 +155,6 @@ def parse_config(data: Mapping[str, Any] | None, name: str = "run") -> TrainConf
         tc.features = list(check_features(tc.features or []))
     except ValueError as exc:
         raise ConfigError(f"config: features: {exc}") from None
-    if not isinstance(tc.relative_actions, bool):
-        raise ConfigError(f"config: relative_actions must be true or false, got {tc.relative_actions!r}")
     tc.pretrain = dict(tc.pretrain or {})
     if tc.pretrain:
         _check_keys(
@@ -190,6 +189,27 @@ def parse_config(data: Mapping[str, Any] | None, name: str = "run") -> TrainConf
         if isinstance(weight, bool) or not isinstance(weight, int | float) or not weight > 0:
             raise ConfigError(f"config.shaping: {key} must be a positive weight, got {weight!r}")
     return tc
+
+
+def _check_moved_options(data: dict[str, Any]) -> None:
+    """A :class:`ConfigError` naming the env option for a training-side decision option of ``data``
+    (``action_repeat``, ``relative_actions``, ``features: [since_measured]``), before anything else; their
+    no-op values (``action_repeat: 1``, ``relative_actions: false``, in every older run's ``config.yaml``)
+    are dropped from ``data``."""
+    moved = moved_options_in(data)
+    if moved:
+        name, value = moved[0]
+        if name == "since_measured":
+            raise with_prefix(moved_option_error(name), "config: features")
+        base = 1
+        env_id, env = data.get("env_id"), data.get("env")
+        if isinstance(env, Mapping) and isinstance(env.get("decision_steps"), int):
+            base = env["decision_steps"]
+        elif env_id in ENV_IDS:
+            base = int(ENV_IDS[env_id].get("decision_steps", 1))
+        raise with_prefix(moved_option_error(name, value, base), "config")
+    for name in NO_OP_VALUES:
+        data.pop(name, None)
 
 
 def resolve_config_path(path: str | Path) -> Path:

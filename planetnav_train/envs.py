@@ -13,8 +13,9 @@ from planetnav_train.config import TrainConfig
 def make_training_env(tc: TrainConfig, monitor_dir: Path | None) -> Any:
     """The training VecEnv: ``n_envs`` rows of the native vector env (one compiled step for all rows)
     under SB3's ``VecMonitor``, with the recipe's options on arrays
-    (:class:`planetnav_train.vec_training.NavTrainingVecEnv`): the pointing shaping, the features
-    (``since_measured``, ``gain``, ``pd_torque``), action repeat and relative actions, in every action mode.
+    (:class:`planetnav_train.vec_training.NavTrainingVecEnv`): the pointing shaping and bonus and the
+    features (``gain``, ``pd_torque``), in every action mode. The decision interface (the hold, relative
+    targets, ``since_measured``) is the env's, in ``tc.env_config()``.
 
     ``vec_env: dummy`` builds ``n_envs`` single environments, each running the same option layers with one
     row (:func:`planetnav_train.batch_wrappers.single_training_env`), in SB3's ``DummyVecEnv``: the same
@@ -30,8 +31,6 @@ def make_training_env(tc: TrainConfig, monitor_dir: Path | None) -> Any:
     env_cfg = tc.env_config()
     options = {
         "features": tuple(tc.features),
-        "action_repeat": tc.action_repeat,
-        "relative_actions": tc.relative_actions,
         "pointing": tc.shaping.get("pointing"),
         "gamma": float(tc.hyperparams.get("gamma", 0.99)),  # the shaping's discount is the algorithm's
         "pointing_bonus": tc.shaping.get("pointing_bonus"),  # per-step, not potential-based

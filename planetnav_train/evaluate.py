@@ -4,22 +4,23 @@ agent (:func:`add_paired`), the JSON written by the commands (:func:`results_jso
 schedule sweep (:func:`sweep_periodic`).
 
 A saved SB3 model is evaluated with its seeds as rows of the native vector env (:func:`batch_reason` says
-when it cannot be): one batched ``model.predict`` per decision for all rows, through the training
-recipe's layers (:class:`planetnav_train.batch_wrappers.TrainingOptions`: features, action repeat,
-relative actions) over :class:`~planetnav_env.envs.vector_env.PlanetNavVectorEnv`, each row one episode from
-its own seed. Row ``i`` of the vector env is the single env seeded alike, bit for bit, and the layers are
-the same code, so the per-episode results equal the one-episode-at-a-time path's given the same actions
-(``tests/train/test_eval_batched.py``). The one difference can be the policy's forward pass: a batched float32
-matrix product rounds differently from the 1-row product (another BLAS blocking), in the last bits. A
-discrete policy's argmax does not see it, so discrete (and multi-discrete) policies predict all rows in
-one call. A continuous action is those bits, and an episode amplifies them (a measurement accepted in
-one and rejected in the other: 1.5 % on one Cruise-Torque seed's J, ``benchmarks/bench_eval.py``), so by
-default (``exact_actions=True``) a continuous policy predicts row by row, each row the very call the
-single-env path makes, while the env steps stay batched; ``exact_actions=False`` batches its predict
-too (faster; results equal only to float rounding on short episodes). Sampled actions (``PATH@sampled``)
-batch as well: the single path seeds torch's global generator with each episode's seed, and each row
-draws from its own copy of that state (:func:`_sample_rows`), so the draws are the single path's.
-``benchmarks/bench_eval.py`` measures the speed-ups."""
+when it cannot be): one batched ``model.predict`` per decision for all rows, through the training recipe's
+layers (:class:`planetnav_train.batch_wrappers.TrainingOptions`: the features) over
+:class:`~planetnav_env.envs.vector_env.PlanetNavVectorEnv` in the env's decision interface, each row one
+episode from its own seed. Row ``i`` of the vector env is the single env seeded alike, bit for bit, and
+the layers are the same code, so the per-episode results equal the one-episode-at-a-time path's given the
+same actions (``tests/train/test_eval_batched.py``). The one difference can be the policy's forward pass:
+a batched float32 matrix product rounds differently from the 1-row product (another BLAS blocking), in the
+last bits. A discrete policy's argmax does not see it, so discrete (and multi-discrete) policies predict
+all rows in one call. A continuous action is those bits, and an episode amplifies them (a measurement
+accepted in one and rejected in the other: 1.5 % on one Cruise-Torque seed's J,
+``benchmarks/bench_eval.py``), so by default (``exact_actions=True``) a continuous policy predicts row by
+row, each row the very call the single-env path makes, while the env steps stay batched;
+``exact_actions=False`` batches its predict too (faster; results equal only to float rounding on short
+episodes). Sampled actions (``PATH@sampled``) batch as well: the single path seeds torch's global
+generator with each episode's seed, and each row draws from its own copy of that state
+(:func:`_sample_rows`), so the draws are the single path's. ``benchmarks/bench_eval.py`` measures the
+speed-ups."""
 
 from __future__ import annotations
 
@@ -238,8 +239,8 @@ def _batched_episodes(
 ) -> list[dict[str, Any]]:
     """One episode per seed of the SB3 model behind ``agent`` (:func:`batch_reason` is None), the seeds
     as rows of one :class:`~planetnav_env.envs.vector_env.PlanetNavVectorEnv`: one ``model.predict`` per
-    decision for all rows, the training recipe's layers (the model's features, action repeat, relative
-    actions) over the rows, as :func:`planetnav_train.envs.make_training_env` stacks them (without the
+    decision for all rows, the training recipe's layers (the model's features) over the rows, in the
+    env's decision interface, as :func:`planetnav_train.envs.make_training_env` stacks them (without the
     pointing shaping: evaluation reports the environment's own reward, as the single-env path does).
     ``exact_actions``: a continuous policy predicts row by row (module docstring).
     Returns :func:`_episode`'s dicts; ``seconds`` is the batch's wall time over its rows."""
@@ -248,11 +249,7 @@ def _batched_episodes(
     n = len(seeds)
     venv = PlanetNavVectorEnv(n, env_cfg)  # stepped by step_rows only: no autoreset happens
     rec = _RecordingRows(VectorRows(venv), env_cfg.episode_steps, on_steps)
-    options = TrainingOptions(
-        features=agent.features.features if agent.features is not None else (),
-        action_repeat=agent.action_repeat,
-        relative_actions=agent.relative,
-    )
+    options = TrainingOptions(features=agent.features.features if agent.features is not None else ())
     rows = options.stack(rec)
     model = agent.model
     import torch

@@ -276,17 +276,15 @@ class PerTargetQPolicy(_PerTargetHead, DQNPolicy):
         return q
 
 
-def extractor_kwargs(name: str, cfg: EnvConfig, relative_actions: bool = False) -> dict[str, Any]:
+def extractor_kwargs(name: str, cfg: EnvConfig) -> dict[str, Any]:
     """``features_extractor_class`` and ``features_extractor_kwargs`` of the extractor ``name`` for an
-    environment of configuration ``cfg``; ``relative_actions``: the training recipe's relative-action
-    layer (:mod:`planetnav_train.features`) over an env of absolute targets, which decodes actions the same
-    way. :class:`~planetnav_env.errors.ConfigError` naming the value for an unknown name, relative actions
-    off, or a dict observation."""
+    environment of configuration ``cfg``. :class:`~planetnav_env.errors.ConfigError` naming the value for
+    an unknown name, absolute target actions (``cfg.target_actions``), or a dict observation."""
     if name not in FEATURES_EXTRACTORS:
         raise ConfigError(
             f"policy_kwargs.features_extractor {name!r} is not one of {list(FEATURES_EXTRACTORS)}"
         )
-    if cfg.target_actions != "relative" and not relative_actions:
+    if cfg.target_actions != "relative":
         raise ConfigError(
             f"policy_kwargs.features_extractor {name!r} needs relative target actions, "
             f"got target_actions={cfg.target_actions!r}"

@@ -9,12 +9,14 @@ data, before the RL algorithm trains as usual on the environment's reward. Why: 
 nor SAC found the first measurement on their own; cloning the
 baseline's PD pointing gives the RL stage a policy that measures, which it may then improve.
 
-The demonstrations are recorded in the training MDP: with ``action_repeat`` the teacher's choice at each
-decision point is recorded and held for the decision, as the policy's will be (the teacher still sees
-every step, so a teacher with its own features or decision clock, e.g. a saved policy, runs as in
-evaluation), and with ``relative_actions`` its absolute
-target is encoded as "stay" / "move k places" (:func:`planetnav_train.features.absolute_to_relative`).
-With the
+The demonstrations are recorded in the training MDP, the environment's decision interface
+(``decision_steps``, ``target_actions``, ``observe_since_measured``): the observations are the training
+env's, one per decision. A rule teacher acts at the physics step (:meth:`EnvConfig.at_physics_step`, as in
+evaluation) in a second env seeded alike and stepped in lockstep with the training env: it sees every
+physics step, its choice at each decision is recorded and held for the decision, as the policy's will be,
+and with relative target actions its absolute target is encoded as "stay" / "move k places" from the
+training env's current target (:func:`relative_label`). Any other teacher (a saved policy, ``random``)
+acts in the training env itself, once per decision. With the
 ``gain`` feature, a greedy teacher's decision is the argmax of an input, which a clone can fit; without
 it, the clone of a teacher that switches ~10 times a day learns "stay".
 """
@@ -31,82 +33,103 @@ import numpy as np
 DEMO_SEED = 70_000
 
 
+def relative_label(target: int, current: int, n_targets: int) -> int:
+    """The relative target action that picks the absolute ``target`` from ``current`` (-1: none, counted
+    from target 0): the inverse of :func:`planetnav_env.core.decisions.relative_to_absolute`, for labels
+    of a teacher that acts in absolute targets. ``ValueError`` naming a target outside ``0 .. n - 1``."""
+    if not 0 <= int(target) < n_targets:
+        raise ValueError(f"absolute target must be in [0, {n_targets}), got {target!r}")
+    return (int(target) - max(int(current), 0)) % n_targets
+
+
+def _target_index(info: dict[str, Any], targets: Sequence[str]) -> int:
+    """The current target of a step's ``info`` as an index into ``targets`` (planets, then pulsars); -1
+    for none."""
+    target = info.get("target")
+    return targets.index(target) if target in targets else -1
+
+
 def demonstrations(
     env_config: Any,
     teacher: str,
     episodes: int,
     features: Sequence[str],
-    action_repeat: int = 1,
-    relative_actions: bool = False,
     student: Any = None,
     first_seed: int = DEMO_SEED,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """(observations with ``features`` appended, teacher actions as the policy emits them) at each
-    decision of ``episodes`` demonstration episodes (seeds ``first_seed`` ..).
+    """(observations of the training env ``env_config`` with ``features`` appended, teacher actions as the
+    policy emits them) at each decision of ``episodes`` demonstration episodes (seeds ``first_seed`` ..).
 
     ``student``: an SB3 model whose deterministic decisions drive the episodes instead of the teacher's,
-    which only labels the states the student visits (DAgger's data collection, :func:`dagger`). The teacher
-    is told the target the student holds (:meth:`planetnav_agents.base.Agent.follow`) before each decision."""
-    from planetnav_agents import make_agent
+    which only labels the states the student visits (DAgger's data collection, :func:`dagger`). A rule
+    teacher is told the target the student holds (:meth:`planetnav_agents.base.Agent.follow`) before each
+    decision. A rule teacher's env is checked against the training env at every decision (the same
+    filter error, bit for bit): ``RuntimeError`` if the lockstep ever parts."""
+    from planetnav_agents import acts_at_physics_step, make_agent
     from planetnav_env.envs.env import PlanetNavEnv
-    from planetnav_train.features import (
-        FeatureBatch,
-        absolute_to_relative,
-        check_action_repeat,
-        check_relative_config,
-        chosen_planet,
-        relative_action,
-    )
+    from planetnav_train.features import FeatureBatch
 
-    check_action_repeat(action_repeat)
     env = PlanetNavEnv(env_config)
-    if relative_actions:
-        check_relative_config(env.config)
-    agent = make_agent(teacher, env)
+    cfg = env.config
+    lockstep = acts_at_physics_step(str(teacher))
+    teacher_env = PlanetNavEnv(cfg.at_physics_step()) if lockstep else env
+    agent = make_agent(teacher, teacher_env)
     state = FeatureBatch.for_env(env, features) if features else None
-    n_planets = env.config.n_planets
+    targets = (*cfg.planets, *cfg.pulsars)
+    relative = cfg.target_actions == "relative"
 
     def observed(obs: Any, info: dict[str, Any]) -> np.ndarray:
-        # Every environment step advances the features (since_measured counts steps), held ones too.
         return state.augment_info(obs, info) if state is not None else np.asarray(obs, np.float32)
+
+    def label(action: Any, current: int) -> Any:
+        # A teacher acting at the physics step gives absolute targets; the training env may take relative.
+        return relative_label(int(action), current, len(targets)) if relative and lockstep else action
 
     obs_out, act_out = [], []
     for ep in range(episodes):
         seed = first_seed + ep
         agent.reset(seed=seed)
-        if state is not None:
-            state.reset()
         obs, info = env.reset(seed=seed)
-        seen = observed(obs, info)
-        current, held, k, done = -1, None, 0, False
+        t_obs, t_info = teacher_env.reset(seed=seed) if lockstep else (obs, info)
+        done = False
         while not done:
-            decision = k % action_repeat == 0
-            if decision and student is not None:
-                agent.follow(current)
-            # The teacher sees every step (its own features and decision clock advance, as in evaluation);
-            # its choice at a decision point is recorded and, without a student, held for the decision.
-            action = agent.act(obs, info)
-            if decision:
-                obs_out.append(seen)
-                if relative_actions:
-                    encoded, target = absolute_to_relative(action, current, n_planets)
-                    act_out.append(np.asarray(encoded))
-                else:
-                    target = chosen_planet(action, n_planets)
-                    act_out.append(np.asarray(action))
-                if student is None:
-                    held, current = action, target
-                else:
-                    held, _ = student.predict(seen, deterministic=True)
-                    if relative_actions:
-                        held, current = relative_action(held, current, n_planets)
-                    else:
-                        current = chosen_planet(held, n_planets)
-            obs, _, terminated, truncated, info = env.step(held)
             seen = observed(obs, info)
-            k += 1
+            current = _target_index(info, targets)
+            if student is not None:
+                agent.follow(current)
+            action = agent.act(t_obs, t_info)  # the teacher's choice at this decision
+            obs_out.append(seen)
+            act_out.append(np.asarray(label(action, current)))
+            if student is None:
+                held = label(action, current)
+            else:
+                held, _ = student.predict(seen, deterministic=True)
+                if np.ndim(held) == 0 or getattr(student.action_space, "n", None) is not None:
+                    held = int(np.asarray(held).reshape(-1)[0])
+            obs, _, terminated, truncated, info = env.step(held)
             done = terminated or truncated
+            if not lockstep:
+                t_obs, t_info = obs, info
+            else:
+                # The teacher's env holds the absolute target (or the Box / torque action) the training
+                # env decoded, for the decision's physics steps, the teacher seeing each one.
+                absolute = _target_index(info, targets) if cfg.action_mode == "target" else held
+                if cfg.action_mode == "target" and absolute < 0:
+                    absolute = cfg.n_targets  # idle ("camera off"): the last discrete action
+                for k in range(cfg.decision_steps):
+                    t_obs, _, t_term, t_trunc, t_info = teacher_env.step(absolute)
+                    if t_term or t_trunc:
+                        break
+                    if k + 1 < cfg.decision_steps:
+                        agent.act(t_obs, t_info)  # the teacher sees every physics step of the hold
+                if t_info["pos_err_km"] != info["pos_err_km"] or (t_term or t_trunc) != done:
+                    raise RuntimeError(
+                        f"demonstrations: the teacher's physics-step env parted from the training env at "
+                        f"seed {seed} (position error {t_info['pos_err_km']!r} vs {info['pos_err_km']!r} km)"
+                    )
     env.close()
+    if lockstep:
+        teacher_env.close()
     return np.asarray(obs_out, dtype=np.float32), np.asarray(act_out)
 
 
@@ -178,8 +201,6 @@ def dagger(
     epochs: int,
     features: Sequence[str],
     data: tuple[np.ndarray, np.ndarray],
-    action_repeat: int = 1,
-    relative_actions: bool = False,
     keep_std: bool = False,
     balance: bool = False,
 ) -> tuple[np.ndarray, np.ndarray, float]:
@@ -194,8 +215,8 @@ def dagger(
     nll = float("nan")
     for r in range(rounds):
         new_obs, new_actions = demonstrations(
-            env_config, teacher, episodes, features, action_repeat=action_repeat,
-            relative_actions=relative_actions, student=model, first_seed=DEMO_SEED + (r + 1) * episodes,
+            env_config, teacher, episodes, features, student=model,
+            first_seed=DEMO_SEED + (r + 1) * episodes,
         )  # fmt: skip
         obs = np.concatenate([obs, new_obs])
         actions = np.concatenate([actions, new_actions])
@@ -219,9 +240,8 @@ def agreement(
     loaded = SB3Agent(student_path, PlanetNavEnv(env_config))
     features = list(loaded.features.features) if loaded.features is not None else []
     obs, labels = demonstrations(
-        env_config, teacher, episodes, features, action_repeat=loaded.action_repeat,
-        relative_actions=loaded.relative, student=loaded.model, first_seed=first_seed,
-    )  # fmt: skip
+        env_config, teacher, episodes, features, student=loaded.model, first_seed=first_seed
+    )
     actions, _ = loaded.model.predict(obs, deterministic=True)
     n_planets = env_config.n_planets
     if np.ndim(labels) == 1:

@@ -256,7 +256,7 @@ def write_report(
     if train_stats and tc:
         lines += [
             f"Training: {tc.algo.upper()} `{tc.policy}`, {train_stats['timesteps']} decisions "
-            f"({train_stats['env_steps']} environment steps, action_repeat {tc.action_repeat}) on "
+            f"({train_stats['env_steps']} physics steps, decision_steps {tc.env_config().decision_steps}) on "
             f"{tc.n_envs} envs in {train_stats['seconds']:.0f} s "
             f"({train_stats['steps_per_s']:.0f} env steps/s, environment + learning), seed {tc.seed}; "
             f"features {tc.features or 'none'}; shaping "

@@ -15,7 +15,9 @@ import gymnasium as gym
 import numpy as np
 
 from planetnav_agents.base import Agent, NotApplicableError, target_torque_action
-from planetnav_train.features import FeatureBatch, relative_action
+from planetnav_env.core.decisions import relative_to_absolute
+from planetnav_train.features import FeatureBatch
+from planetnav_train.moved_options import moved_option_error, moved_options_in
 
 #: Lower-case names -> SB3 classes (imported lazily: SB3 and torch take seconds to import).
 ALGORITHMS = ("ppo", "a2c", "dqn", "sac", "td3", "ddpg", "recurrent_ppo", "maskable_ppo", "tqc")
@@ -73,6 +75,27 @@ def _sidecar(model_path: Path) -> dict[str, Any]:
     return data if isinstance(data, dict) else {}
 
 
+def _check_sidecar(model_path: Path, sidecar: dict[str, Any]) -> None:
+    """A :class:`~planetnav_env.errors.ConfigError` naming the env option when the run's ``config.yaml``
+    uses a training-side decision option (a run trained before the decision interface moved to the env);
+    the no-op values an older ``config.yaml`` always holds pass
+    (:func:`planetnav_train.moved_options.moved_options_in`)."""
+    moved = moved_options_in(sidecar)
+    if moved:
+        err = moved_option_error(*moved[0])
+        raise type(err)(f"{model_path.parent / 'config.yaml'}: {err}")
+
+
+def _trained_relative(sidecar: dict[str, Any]) -> bool:
+    """Whether the run's ``config.yaml`` trained on relative target actions (``env.target_actions``, or
+    its ``env_id``'s)."""
+    from planetnav_env.envs.registration import ENV_IDS
+
+    env = sidecar.get("env") or {}
+    base = ENV_IDS.get(sidecar.get("env_id"), {})
+    return env.get("target_actions", base.get("target_actions", "absolute")) == "relative"
+
+
 def _algo_from_sidecar(model_path: Path) -> str | None:
     algo = _sidecar(model_path).get("algo")
     return str(algo).lower() if algo else None
@@ -96,6 +119,12 @@ def load_model(path: str | Path, algo: str | None = None) -> Any:
 class SB3Agent(Agent):
     """Actions of a saved SB3 model (deterministic by default); checks the spaces match the environment's.
 
+    The model acts once per step of ``env``, in ``env``'s decision interface (the one it was trained in:
+    ``decision_steps``, ``observe_since_measured``). One translation: a target-choice model trained on
+    relative target actions that acts in an environment of absolute ones (a ``target+torque`` env, a
+    distillation's student) has its "stay" / "move k places" applied to the environment's current target
+    (``info["target"]``, :func:`planetnav_env.core.decisions.relative_to_absolute`).
+
     ``deterministic=False`` samples the policy instead (analysis only: with ``reset(seed)`` the sampling
     is seeded through torch's global generator).
     """
@@ -109,7 +138,6 @@ class SB3Agent(Agent):
         algo: str | None = None,
         deterministic: bool = True,
         features: list[str] | None = None,
-        action_repeat: int | None = None,
         model: Any | None = None,
     ) -> None:
         self.path = resolve_model_path(path)
@@ -124,20 +152,19 @@ class SB3Agent(Agent):
         # Observation features the policy was trained with (config key ``features``), rebuilt here so the
         # policy sees the same inputs; ``features`` overrides the run's config.yaml.
         sidecar = _sidecar(self.path)
+        _check_sidecar(self.path, sidecar)
         names = features if features is not None else sidecar.get("features") or []
-        # One decision per ``action_repeat`` steps, as in training (batch_wrappers.ActionRepeatRows).
-        self.action_repeat = (
-            int(sidecar.get("action_repeat") or 1) if action_repeat is None else action_repeat
-        )
-        if self.action_repeat < 1:
-            raise ValueError(f"action_repeat must be >= 1, got {self.action_repeat!r}")
-        self._k = 0
         self._lstm: Any = None  # a recurrent policy's LSTM state (RecurrentPPO), reset with the episode
-        self._held: Any = None
-        # Relative target actions ("stay" / "move k places"), as in training (RelativeTargetRows).
-        self.relative = bool(sidecar.get("relative_actions", False))
-        self._current = -1
-        self._n_planets = env.unwrapped.config.n_planets if env is not None else 0
+        cfg = env.unwrapped.config if env is not None else None
+        self._n_planets = cfg.n_planets if cfg is not None else 0
+        # Relative choices of the model applied to the env's current target (class docstring).
+        self._targets = (*cfg.planets, *cfg.pulsars) if cfg is not None else ()
+        self._to_absolute = (
+            cfg is not None
+            and cfg.target_actions != "relative"
+            and _trained_relative(sidecar)
+            and getattr(self.model.action_space, "n", None) is not None
+        )
         self.features = FeatureBatch.for_env(env, names) if (names and env is not None) else None
         if names and env is None:
             raise ValueError(f"{self.path}: a policy with observation features needs the environment")
@@ -168,31 +195,23 @@ class SB3Agent(Agent):
                 )
 
     def reset(self, seed: int | None = None) -> None:
-        self._k = 0
         self._lstm = None
-        self._current = -1
-        if self.features is not None:
-            self.features.reset()
         if not self.deterministic and seed is not None:
             import torch
 
             torch.manual_seed(seed)
 
-    def follow(self, target: int) -> None:
-        self._current = int(target)
-
     def act(self, observation: Any, info: dict[str, Any]) -> Any:
         if self.features is not None:
-            observation = self.features.augment_info(observation, info)  # every step: features count steps
-        k, self._k = self._k, self._k + 1
-        if k % self.action_repeat:
-            return self._held
-        self._held = self._decide(observation)
-        if self.relative:
-            self._held, self._current = relative_action(self._held, self._current, self._n_planets)
+            observation = self.features.augment_info(observation, info)
+        action = self._decide(observation)
+        if self._to_absolute:
+            target = info.get("target")
+            current = self._targets.index(target) if target in self._targets else -1
+            action = relative_to_absolute(int(action), current, len(self._targets))
         if self._as_target_torque:
-            self._held = target_torque_action(int(self._held), self._n_planets)
-        return self._held
+            action = target_torque_action(int(action), self._n_planets)
+        return action
 
     def _decide(self, observation: Any) -> Any:
         if hasattr(self.model.policy, "lstm_actor"):  # RecurrentPPO: carry the LSTM state over the episode

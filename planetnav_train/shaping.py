@@ -1,7 +1,8 @@
 """Potential-based reward shaping for training in torque modes (reported as shaping wherever used).
 
-The environment's reward (navigation error, truth or covariance) is kept; :class:`PointingShaping` adds
-``F = gamma * Phi(s') - Phi(s)`` (Ng, Harada & Russell 1999), which leaves the optimal policies unchanged:
+The environment's reward (navigation error, truth or covariance) is kept;
+:class:`planetnav_train.batch_wrappers.PointingShapingRows` adds ``F = gamma * Phi(s') - Phi(s)`` (Ng,
+Harada & Russell 1999), which leaves the optimal policies unchanged:
 over an episode it sums to ``gamma^T Phi(s_T) - Phi(s_0)`` and only shifts the values. It is there
 to make the first measurement discoverable: random wheel torques measure ~1 % of the steps, so the
 navigation reward alone gives almost no gradient toward pointing the camera.
@@ -13,16 +14,16 @@ observable. ``weight`` is in reward units (the navigation reward is ``-error / r
 step, ~-0.1..-1.7 in cruise).
 
 ``pointing_bonus`` (config key ``shaping: {pointing_bonus: WEIGHT}``) is **not** potential-based: every
-environment step it adds ``Phi(s')`` of the new state (the same ``Phi`` with its own weight), a per-step
-reward for pointing the boresight at an observable planet. It changes the optimal policy (it pays for
-staring at one planet) and is reported as shaping wherever used. It exists because the potential-based
-term cannot teach the pointing loop here: its advantage signal vanishes as the critic learns ``-Phi``,
-and the navigation reward's own variance then swamps the rest.
+environment step (one decision: ``EnvConfig.decision_steps`` physics steps) it adds ``Phi(s')`` of the new
+state (the same ``Phi`` with its own weight), a per-decision reward for pointing the boresight at an
+observable planet. It changes the optimal policy (it pays for staring at one planet) and is reported as
+shaping wherever used. It exists because the potential-based term cannot teach the pointing loop here:
+its advantage signal vanishes as the critic learns ``-Phi``, and the navigation reward's own variance then
+swamps the rest.
 
 Used only in training (config key ``shaping: {pointing: WEIGHT}``), on arrays over the training env's
 rows (:class:`planetnav_train.batch_wrappers.PointingShapingRows`; a single env is one row); evaluation
-reports the unshaped navigation metrics. The deprecated single-env wrapper of that layer (N = 1) is
-:class:`planetnav_train.batch_wrappers.PointingShaping`.
+reports the unshaped navigation metrics.
 """
 
 from __future__ import annotations

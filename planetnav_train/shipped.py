@@ -13,8 +13,8 @@ came from, the form, the file's size in bytes and its sha256 (a policy-only entr
 ``source_bytes`` and ``source_sha256``). The manifest is written by
 ``train.py suite-publish --baselines planetnav_train/baselines``
 (:func:`planetnav_train.suite.publish.ship_baselines`), which refuses a model whose shipped form would be
-1 MB or more. A shipped policy is a raw-track one: the env's own observation and actions, no features, no
-action repeat, no relative actions.
+1 MB or more. A shipped policy is a raw-track one: the env's own observation, actions and decision
+interface, no features.
 
 This module reads the folder; SB3 (:mod:`planetnav_train.sb3`) is imported when an agent is built.
 """
@@ -109,9 +109,9 @@ def form_of(entry: dict[str, Any]) -> str:
 
 def make_shipped_agent(spec: str, env: Any = None, **kwargs: Any) -> Any:
     """The :class:`planetnav_train.sb3.SB3Agent` of the shipped baseline named ``spec``
-    (``suite:<task>``), with the manifest's algorithm, no features and no action repeat (a raw-track
-    policy) acting in the protocol's evaluation mode (the manifest's ``eval_mode``); ``kwargs`` go to
-    :class:`SB3Agent` (``deterministic`` overrides the mode). A
+    (``suite:<task>``), with the manifest's algorithm and no features (a raw-track policy,
+    in the id's own decision interface) acting in the protocol's evaluation mode (the manifest's
+    ``eval_mode``); ``kwargs`` go to :class:`SB3Agent` (``deterministic`` overrides the mode). A
     policy-only baseline's model is its :class:`~planetnav_train.policy_only.PolicyOnlyModel`, which
     acts through the same ``predict`` and ``policy`` as the full model, so evaluation takes the same path.
     """
@@ -122,7 +122,7 @@ def make_shipped_agent(spec: str, env: Any = None, **kwargs: Any) -> Any:
     # The action the suite's protocol scored (its record's eval_mode): sampled for the policy-gradient ones.
     kwargs.setdefault("deterministic", entry.get("eval_mode", "argmax") != "sampled")
     if form_of(entry) == "full":
-        agent = SB3Agent(path, env, features=[], action_repeat=1, **kwargs)
+        agent = SB3Agent(path, env, features=[], **kwargs)
     else:
         from planetnav_train.policy_only import load_policy_only
 
@@ -132,7 +132,7 @@ def make_shipped_agent(spec: str, env: Any = None, **kwargs: Any) -> Any:
                 f"shipped baseline of {task_of(spec)!r}: {path} holds a {model.algorithm} policy, the "
                 f"manifest says {entry['algorithm']}"
             )
-        agent = _agent_over(model, path, env, features=[], action_repeat=1, **kwargs)
+        agent = _agent_over(model, path, env, features=[], **kwargs)
     agent.name = str(spec) + ("" if agent.deterministic else ":stochastic")
     return agent
 

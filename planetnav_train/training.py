@@ -82,10 +82,7 @@ def _pretrain(tc: TrainConfig, model: Any, run_dir: Path, progress: bool, resume
         teacher_path, teacher_stats = train(teacher_tc, run_dir / "teacher", progress=progress, resume=resume)
         teacher = str(teacher_path)
         stats["teacher"] = {k: teacher_stats[k] for k in ("timesteps", "env_steps", "seconds")}
-    obs, actions = demonstrations(
-        tc.env_config(), teacher, tc.pretrain["episodes"], tc.features,
-        action_repeat=tc.action_repeat, relative_actions=tc.relative_actions,
-    )  # fmt: skip
+    obs, actions = demonstrations(tc.env_config(), teacher, tc.pretrain["episodes"], tc.features)
     nll = clone(
         model, obs, actions, tc.pretrain["epochs"], keep_std=tc.pretrain["keep_std"],
         balance=tc.pretrain.get("balance", False),
@@ -93,8 +90,7 @@ def _pretrain(tc: TrainConfig, model: Any, run_dir: Path, progress: bool, resume
     if tc.pretrain["dagger_rounds"]:
         obs, actions, nll = dagger(
             model, tc.env_config(), teacher, tc.pretrain["dagger_rounds"], tc.pretrain["episodes"],
-            tc.pretrain["epochs"], tc.features, (obs, actions), action_repeat=tc.action_repeat,
-            relative_actions=tc.relative_actions, keep_std=tc.pretrain["keep_std"],
+            tc.pretrain["epochs"], tc.features, (obs, actions), keep_std=tc.pretrain["keep_std"],
             balance=tc.pretrain.get("balance", False),
         )  # fmt: skip
     stats.update(samples=len(obs), nll=nll, seconds=time.perf_counter() - t0)
@@ -196,8 +192,8 @@ def train(
     model_path = run_dir / "model.zip"
     model.save(model_path)
     venv.close()
-    # SB3's timesteps are decisions; each ran action_repeat x the env's decision_steps physics steps.
-    env_steps = int(model.num_timesteps) * tc.action_repeat * tc.env_config().decision_steps
+    # SB3's timesteps are decisions; each ran the env's decision_steps physics steps.
+    env_steps = int(model.num_timesteps) * tc.env_config().decision_steps
     # A teacher trained by this run (pretrain.teacher_config) is part of its time and its steps.
     teacher_steps = int(pretrain_stats.get("teacher", {}).get("env_steps", 0))
     stats = {

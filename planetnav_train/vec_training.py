@@ -1,16 +1,17 @@
 """The training VecEnv: the native vector environment with every option of the training recipe on arrays.
 
 :class:`NavTrainingVecEnv` is :class:`planetnav_train.sb3_vec.PlanetNavSB3VecEnv` (the compiled vector
-environment as a Stable-Baselines3 ``VecEnv``) with the recipe's options stacked
-over its rows by :meth:`planetnav_train.batch_wrappers.TrainingOptions.stack`: the pointing shaping, the
-observation features (``since_measured``, ``gain``, ``pd_torque``), action repeat and relative target
-actions. Those layers are the only implementation of the options; a single env runs them with N = 1
-(:func:`planetnav_train.batch_wrappers.single_training_env`), so row ``i`` here equals that single env
-seeded ``seed + i``, bit for bit (``tests/train/test_vec_training.py``). Every action mode and every option
-trains on this path: no per-env Python objects, no SB3 ``DummyVecEnv``.
+environment as a Stable-Baselines3 ``VecEnv``) with the recipe's options stacked over its rows by
+:meth:`planetnav_train.batch_wrappers.TrainingOptions.stack`: the pointing shaping and bonus and the
+observation features (``gain``, ``pd_torque``). Those layers are the only implementation of the options; a
+single env runs them with N = 1 (:func:`planetnav_train.batch_wrappers.single_training_env`), so row ``i``
+here equals that single env seeded ``seed + i``, bit for bit (``tests/train/test_vec_training.py``). Every
+action mode and every option trains on this path: no per-env Python objects, no SB3 ``DummyVecEnv``.
 
-A row whose episode ends inside a held decision stops there and is reset at the end of the decision;
-its last observation travels in ``infos[i]["terminal_observation"]`` (SB3's convention).
+The decision interface is the env's (``config``: ``decision_steps``, ``target_actions``,
+``observe_since_measured``): one SB3 step is one decision of the env. A row whose episode ends inside a
+held decision stops there and is reset at the end of the decision; its last observation travels in
+``infos[i]["terminal_observation"]`` (SB3's convention).
 """
 
 from __future__ import annotations
@@ -20,22 +21,17 @@ from typing import Any
 import numpy as np
 
 from planetnav_env.config import EnvConfig
-from planetnav_train.batch_wrappers import TrainingOptions, VectorRows
-from planetnav_train.features import FEATURES
+from planetnav_train.batch_wrappers import VectorRows, options
 from planetnav_train.sb3_vec import INFO_KEYS, PlanetNavSB3VecEnv
-
-#: Observation features the vector training env computes on arrays: all of them (kept for importers).
-NATIVE_FEATURES = FEATURES
 
 
 class NavTrainingVecEnv(PlanetNavSB3VecEnv):
     """``num_envs`` rows of the compiled vector env with the recipe's options (module docstring).
 
     After ``num_envs``, ``config`` and ``seed``: the recipe's options, the fields of
-    :class:`planetnav_train.batch_wrappers.TrainingOptions` (``features``, ``action_repeat``,
-    ``relative_actions``: as the config keys of the same names; ``pointing``: the pointing shaping's weight
-    [reward units], None: no shaping; ``gamma``: its discount, the algorithm's), positionally or by keyword;
-    ``options`` holds them.
+    :class:`planetnav_train.batch_wrappers.TrainingOptions` by keyword (``features``: as the config key;
+    ``pointing``: the pointing shaping's weight [reward units], None: no shaping; ``gamma``: its discount,
+    the algorithm's; ``pointing_bonus``); ``options`` holds them.
 
     Wrap it in SB3's ``VecMonitor``: episode lengths and returns are then counted in decisions, as
     ``Monitor`` counts them on single envs.
@@ -46,15 +42,12 @@ class NavTrainingVecEnv(PlanetNavSB3VecEnv):
         num_envs: int,
         config: EnvConfig | dict | None = None,
         seed: int | None = None,
-        *args: Any,
         **kwargs: Any,
     ) -> None:
+        self.options = options(**kwargs)
         super().__init__(num_envs, config, seed=seed)
-        self.options = TrainingOptions(*args, **kwargs)
         self.rows = self.options.stack(VectorRows(self.venv))
         self.features = tuple(self.options.features)
-        self.action_repeat = int(self.options.action_repeat)
-        self.relative_actions = bool(self.options.relative_actions)
         self.pointing = self.options.pointing
         self.observation_space = self.rows.observation_space
         self._all = np.ones(self.num_envs, dtype=bool)

@@ -1,8 +1,9 @@
 """The suite's grid: tracks, assists, cells (task x algorithm x track x training seed), the published grid
 and its coverage, and the training configuration and re-run command of one cell.
 
-Tracks: ``raw`` trains on the environment as registered (its own observation and reward, no cloning, no
-features, no action repeat); ``assisted`` adds the named assists of ``configs/suite/assisted.yaml``.
+Tracks: ``raw`` trains on the environment as registered (its own observation, reward and decision
+interface, no cloning, no features); ``assisted`` adds the named assists of
+``configs/suite/assisted.yaml``.
 """
 
 from __future__ import annotations
@@ -16,8 +17,9 @@ from typing import Any
 
 import yaml
 
-from planetnav_env.errors import ConfigError
+from planetnav_env.errors import ConfigError, with_prefix
 from planetnav_train.config import TrainConfig, is_rllib_algo, parse_config
+from planetnav_train.moved_options import moved_option_error, moved_options_in
 from planetnav_train.suite.tasks import (
     ALGOS,
     DEFAULT_ASSISTS,
@@ -34,8 +36,8 @@ from planetnav_train.suite.tasks import (
 # Tracks and cells
 # ---------------------------------------------------------------------------------------------------------
 
-#: Keys an assist may set: every one is a training-side option of a training config.
-ASSIST_KEYS = {"env", "features", "action_repeat", "relative_actions", "shaping", "pretrain", "hyperparams"}
+#: Keys an assist may set: every one is an option of a training config (the decision interface is in ``env``).
+ASSIST_KEYS = {"env", "features", "shaping", "pretrain", "hyperparams"}
 
 
 def load_assists(path: str | Path = DEFAULT_ASSISTS) -> dict[str, Any]:
@@ -47,6 +49,9 @@ def load_assists(path: str | Path = DEFAULT_ASSISTS) -> dict[str, Any]:
     data = yaml.safe_load(p.read_text()) or {}
     assists, tasks = data.get("assists") or {}, data.get("tasks") or {}
     for name, frag in assists.items():
+        moved = moved_options_in(frag) if isinstance(frag, Mapping) else []
+        if moved:
+            raise with_prefix(moved_option_error(*moved[0]), f"{p}: assist {name!r}")
         if not isinstance(frag, Mapping) or not set(frag) <= ASSIST_KEYS:
             raise ConfigError(f"{p}: assist {name!r} must be a mapping of keys from {sorted(ASSIST_KEYS)}")
     for task, names in tasks.items():
@@ -252,8 +257,9 @@ def cell_config(
         names = list(conf["tasks"].get(cell.task, []))
         for name in names:
             data = _merge(data, conf["assists"][name])
-    # The budget counts physics steps; a decision is decision_steps of them (the id's), times any repeat.
-    per_decision = int(data.get("action_repeat", 1)) * task.env_config().decision_steps
+    # The budget counts physics steps; a decision is the cell's decision_steps of them (the id's, or an
+    # assist's env option).
+    per_decision = TrainConfig(env_id=task.env_id, env=data["env"]).env_config().decision_steps
     decisions = max(1, round(algo.budget(task) * settings.budget_scale) // per_decision)
     data["n_timesteps"] = decisions
     if not is_rllib_algo(algo.name):

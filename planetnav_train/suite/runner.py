@@ -254,7 +254,7 @@ def run_cell(cell: Cell, settings: Settings, references: Mapping[str, Any]) -> d
     t0 = time.perf_counter()
     run_dir = settings.out / "models" / cell.key
     callbacks = []
-    per_decision = tc.action_repeat * tc.env_config().decision_steps
+    per_decision = tc.env_config().decision_steps
     if not is_rllib_algo(cell.algo):
         callbacks.append(learning_curve_callback(
             task, settings, references, run_dir, tc.n_timesteps, algo.eval_mode, per_decision))  # fmt: skip

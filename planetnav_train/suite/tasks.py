@@ -94,7 +94,7 @@ class Task:
 
     env_id: str  # registered id, e.g. "planetnav/Cruise-Target-v0"
     action_kind: str  # "discrete" (target choice) or "continuous" (torque, target+torque)
-    budget: int  # on-policy training budget in physics steps (decisions x decision_steps x action_repeat)
+    budget: int  # on-policy training budget in physics steps (decisions x decision_steps)
     references: tuple[str, ...]  # candidates for the best non-learned reference (agent specs)
     objective: str = "mean_pos_err_km"
     random: str = "random"

@@ -32,7 +32,6 @@ def main(model_path: str, seed: int) -> None:
         "optimum",
         1,
         list(tc.features),
-        action_repeat=tc.action_repeat,
         student=model,
         first_seed=seed,
     )
@@ -50,8 +49,9 @@ def main(model_path: str, seed: int) -> None:
         "disagree",
         float((acts != labels).mean()),
     )
+    per_decision = tc.env_config().decision_steps
     for k in np.where((labels != stay) | (acts != stay))[0]:
-        print(k * tc.action_repeat, "teacher", labels[k], "student", acts[k], np.round(probs[k], 2))
+        print(k * per_decision, "teacher", labels[k], "student", acts[k], np.round(probs[k], 2))
 
 
 if __name__ == "__main__":

@@ -8,13 +8,13 @@ decisions whose last env step measured, the policy's mean std and decisions/s. R
 research/training_log.md (issue 18) were made with it::
 
     python research/probes/probe_torque_control.py configs/torque_control.yaml --steps 3e6 \\
-        --set action_repeat=4 hyperparams.n_epochs=10 "shaping={}" --dense 0.2
+        --set env.decision_steps=4 hyperparams.n_epochs=10 "shaping={}" --dense 0.2
 
 ``--set KEY=YAML`` overrides a config entry (dotted keys: ``env.reward_scale_km=1e5``). Two
 probe-only rewards, both NOT potential-based (reported as shaping): ``--bonus B`` adds B [reward units]
 per decision whose last env step measured; ``--dense C`` adds C x max cos(boresight, observable planet)
 of each decision's new observation (the shipped ``shaping: {pointing_bonus: W}`` adds it every env
-step, so C = W x action_repeat). ``--dense-final C1`` anneals C linearly to C1 over the run.
+step, so C = W x decision_steps). ``--dense-final C1`` anneals C linearly to C1 over the run.
 ``--save DIR`` keeps the model and its config for ``train.py compare --agents DIR``.
 """
 
@@ -155,7 +155,7 @@ def main() -> None:
         out = Path(a.save)
         out.mkdir(parents=True, exist_ok=True)
         model.save(out / "model.zip")
-        with open(out / "config.yaml", "w") as fh:  # SB3Agent reads action_repeat from it
+        with open(out / "config.yaml", "w") as fh:  # SB3Agent reads the run's env and features from it
             yaml.safe_dump(tc.to_dict(), fh, sort_keys=False)
 
 

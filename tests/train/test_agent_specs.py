@@ -21,9 +21,11 @@ from planetnav_agents import (
 from planetnav_agents.base import with_planet_choice
 from planetnav_agents.periodic import parse_cycle
 from planetnav_env.config import EnvConfig
+from planetnav_env.core.decisions import relative_to_absolute
 from planetnav_env.envs.env import PlanetNavEnv
-from planetnav_train.batch_wrappers import NavFeatures, PointingShaping
-from planetnav_train.features import FeatureState, check_features
+from planetnav_env.errors import ConfigError
+from planetnav_train.batch_wrappers import PointingShapingRows, SingleEnvRows, single_training_env
+from planetnav_train.features import FeatureBatch, check_features
 
 
 def _run(agent, env: PlanetNavEnv, seed: int) -> tuple[list[str | None], list[float], list[float]]:
@@ -124,11 +126,15 @@ def test_planner_parameters_are_validated() -> None:
     assert make_agent("greedy", env).name == "greedy"
 
 
-def test_features_state_and_wrapper() -> None:
-    assert check_features(["since_measured"]) == ("since_measured",)
+def test_features_and_the_since_measured_block() -> None:
+    """The ``gain`` feature appended after the env's ``since_measured`` block; ``since_measured`` as a
+    feature names the env option."""
+    assert check_features(["gain"]) == ("gain",)
     with pytest.raises(ValueError, match="'since'"):
         check_features(["since"])
-    env = NavFeatures(PlanetNavEnv(episode_steps=20), ["since_measured", "gain"])
+    with pytest.raises(ConfigError, match="set env option observe_since_measured=true"):
+        check_features(["since_measured"])
+    env = single_training_env(PlanetNavEnv(episode_steps=20, observe_since_measured=True), features=["gain"])
     obs, _ = env.reset(seed=0)
     assert obs.shape == env.observation_space.shape == (PlanetNavEnv().observation_space.shape[0] + 6,)
     assert np.all(obs[-6:-3] == 1.0)  # nothing measured yet
@@ -147,8 +153,8 @@ def test_features_state_and_wrapper() -> None:
 def test_sb3_agent_rebuilds_the_features_of_its_run(tmp_path: Path) -> None:
     from stable_baselines3 import PPO
 
-    features = ["since_measured"]
-    train_env = NavFeatures(PlanetNavEnv(episode_steps=20), features)
+    features = ["gain"]
+    train_env = single_training_env(PlanetNavEnv(episode_steps=20), features=features)
     model = PPO("MlpPolicy", train_env, n_steps=32, batch_size=32, n_epochs=1, seed=0, device="cpu")
     model.learn(32)
     run = tmp_path / "run"
@@ -157,11 +163,11 @@ def test_sb3_agent_rebuilds_the_features_of_its_run(tmp_path: Path) -> None:
     (run / "config.yaml").write_text(yaml.safe_dump({"algo": "ppo", "features": features}))
     env = PlanetNavEnv(episode_steps=20)
     agent = make_agent(str(run), env)
-    state = FeatureState(env, features)
+    state = FeatureBatch.for_env(env, features)
     agent.reset(seed=4)
     obs, info = env.reset(seed=4)
     for _ in range(6):
-        expected, _ = model.predict(state.augment(obs, info), deterministic=True)
+        expected, _ = model.predict(state.augment_info(obs, info), deterministic=True)
         action = agent.act(obs, info)
         assert action == int(expected)
         obs, _, _, _, info = env.step(action)
@@ -173,9 +179,13 @@ def test_sb3_agent_rebuilds_the_features_of_its_run(tmp_path: Path) -> None:
 def test_pointing_shaping_is_potential_based() -> None:
     """The shaping terms telescope: their discounted sum is gamma^T Phi(s_T) - Phi(s_0)."""
     gamma = 0.9
-    env = PointingShaping(PlanetNavEnv(episode_steps=15, action_mode="torque"), weight=1.0, gamma=gamma)
+    env = single_training_env(PlanetNavEnv(episode_steps=15, action_mode="torque"), pointing=1.0, gamma=gamma)
+
+    def potential(o: np.ndarray) -> float:
+        return float(env.rows.potential(np.asarray(o)[None])[0])
+
     obs, _ = env.reset(seed=2)
-    phi0 = env.potential(obs)
+    phi0 = potential(obs)
     rng = np.random.default_rng(0)
     total, t = 0.0, 0
     done = False
@@ -184,23 +194,21 @@ def test_pointing_shaping_is_potential_based() -> None:
         total += gamma**t * info["shaping"]
         t += 1
         done = terminated or truncated
-    assert total == pytest.approx(gamma**t * env.potential(obs) - phi0, abs=1e-12)
+    assert total == pytest.approx(gamma**t * potential(obs) - phi0, abs=1e-12)
     assert -1.0 <= phi0 <= 1.0
     with pytest.raises(ValueError, match="weight"):
-        PointingShaping(PlanetNavEnv(episode_steps=5), weight=0.0, gamma=0.9)
+        PointingShapingRows(SingleEnvRows(PlanetNavEnv(episode_steps=5)), 0.0, 0.9)
 
 
-def test_pointing_shaping_is_potential_based_between_decisions_under_action_repeat() -> None:
-    """With ``action_repeat`` k the shaping is taken between decisions (discounted by the decision's
-    gamma): the decision-level terms telescope, and each equals gamma Phi(s') - Phi(s) of the observations
-    the agent sees. (Taken per env step below the repeat, a decision's sum would carry
-    (gamma - 1)(Phi(s_1) + ... + Phi(s_{k-1})), which is not potential-based.)"""
-    from planetnav_train.batch_wrappers import single_training_env
+def test_pointing_shaping_is_potential_based_between_decisions_under_the_hold() -> None:
+    """With the env's hold of k physics steps the shaping is taken between decisions (discounted by the
+    decision's gamma): the decision-level terms telescope, and each equals gamma Phi(s') - Phi(s) of the
+    observations the agent sees."""
     from planetnav_train.shaping import PointingPotential
 
     gamma = 0.9
-    raw = PlanetNavEnv(episode_steps=20, action_mode="torque")
-    env = single_training_env(raw, features=("pd_torque",), action_repeat=4, pointing=1.0, gamma=gamma)
+    raw = PlanetNavEnv(episode_steps=20, action_mode="torque", decision_steps=4)
+    env = single_training_env(raw, features=("pd_torque",), pointing=1.0, gamma=gamma)
     potential = PointingPotential(raw.config, 1.0)
 
     def phi(o: np.ndarray) -> float:
@@ -216,80 +224,83 @@ def test_pointing_shaping_is_potential_based_between_decisions_under_action_repe
         assert info["shaping"] == pytest.approx(gamma * now - previous, abs=1e-12)
         total += gamma**t * info["shaping"]
         previous, t, done = now, t + 1, terminated or truncated
-    assert t == 5  # 20 env steps, 4 per decision
+    assert t == 5  # 20 physics steps, 4 per decision
     assert total == pytest.approx(gamma**t * previous - phi0, abs=1e-12)
 
 
-def test_sb3_agent_holds_its_action_like_training(tmp_path: Path) -> None:
-    """``action_repeat`` in the run's config: one decision per 3 steps, as the training wrapper did."""
+def test_sb3_agent_acts_in_the_envs_decision_interface(tmp_path: Path) -> None:
+    """A model trained on an env that holds decisions 3 physics steps acts once per step of that env; a run
+    whose config.yaml still holds the training-side action_repeat names the env option."""
     from stable_baselines3 import PPO
 
-    from planetnav_train.batch_wrappers import ActionRepeat
-
-    train_env = ActionRepeat(PlanetNavEnv(episode_steps=30), 3)
-    model = PPO("MlpPolicy", train_env, n_steps=32, batch_size=32, n_epochs=1, seed=0, device="cpu")
+    model = PPO("MlpPolicy", PlanetNavEnv(episode_steps=30, decision_steps=3), n_steps=32, batch_size=32,
+                n_epochs=1, seed=0, device="cpu")  # fmt: skip
     model.learn(32)
     run = tmp_path / "run"
     run.mkdir()
     model.save(run / "model.zip")
-    (run / "config.yaml").write_text(yaml.safe_dump({"algo": "ppo", "action_repeat": 3}))
-    env = PlanetNavEnv(episode_steps=30)
+    (run / "config.yaml").write_text(yaml.safe_dump({"algo": "ppo", "env": {"decision_steps": 3}}))
+    env = PlanetNavEnv(episode_steps=30, decision_steps=3)
     agent = make_agent(str(run), env)
     agent.reset(seed=1)
     obs, info = env.reset(seed=1)
-    for k in range(9):
+    for _ in range(10):
         action = agent.act(obs, info)
-        if k % 3 == 0:
-            decided = int(model.predict(obs, deterministic=True)[0])
-        assert action == decided
-        obs, _, _, _, info = env.step(action)
-    with pytest.raises(ValueError, match="action_repeat"):
-        ActionRepeat(env, 0)
+        assert action == int(model.predict(obs, deterministic=True)[0])
+        obs, _, _, truncated, info = env.step(action)
+    assert truncated  # 10 decisions of 3 steps: the 30-step episode
+    (run / "config.yaml").write_text(yaml.safe_dump({"algo": "ppo", "action_repeat": 3}))
+    with pytest.raises(ConfigError, match="action_repeat is no longer a training option: set env option "
+                       "decision_steps=3"):  # fmt: skip
+        make_agent(str(run), env)
+    (run / "config.yaml").write_text(yaml.safe_dump({"algo": "ppo", "relative_actions": True}))
+    with pytest.raises(ConfigError, match="set env option target_actions='relative'"):
+        make_agent(str(run), env)
+    # The no-op values every older config.yaml holds pass: the model acts as before.
+    (run / "config.yaml").write_text(
+        yaml.safe_dump({"algo": "ppo", "action_repeat": 1, "relative_actions": False, "features": []})
+    )
+    obs, info = env.reset(seed=1)
+    assert make_agent(str(run), env).act(obs, info) == int(model.predict(obs, deterministic=True)[0])
 
 
 def test_relative_target_actions(tmp_path: Path) -> None:
+    """The env's relative targets count from its current target (from target 0 after a reset); a model
+    trained on them acts in a target+torque env (absolute targets) on that env's current target."""
     from stable_baselines3 import PPO
-
-    from planetnav_train.batch_wrappers import ActionRepeat, RelativeTargets
-    from planetnav_train.features import relative_action, relative_to_absolute
 
     assert [relative_to_absolute(a, -1, 3) for a in range(3)] == [0, 1, 2]
     assert relative_to_absolute(2, 1, 3) == 0 and relative_to_absolute(0, 2, 3) == 2
     with pytest.raises(ValueError, match="relative action"):
         relative_to_absolute(3, 0, 3)
-    env = RelativeTargets(PlanetNavEnv(episode_steps=10))
+    env = PlanetNavEnv(episode_steps=10, target_actions="relative")
     env.reset(seed=0)
     assert [env.step(a)[-1]["target"] for a in (1, 0, 2, 1)] == ["mars", "mars", "venus", "mars"]
-    with pytest.raises(ValueError, match="action_mode 'target'"):
-        RelativeTargets(PlanetNavEnv(episode_steps=5, action_mode="torque"))
-    # target+torque: the argmax of the first entries is the relative choice; the residual torque is kept.
-    box, target = relative_action(np.array([0.1, 0.9, 0.0, 0.2, -0.3, 0.4]), 2, 3)
-    assert target == 0 and box.tolist() == pytest.approx([1.0, -1.0, -1.0, 0.2, -0.3, 0.4])
-    tt = RelativeTargets(PlanetNavEnv(episode_steps=5, action_mode="target+torque"))
-    tt.reset(seed=0)
-    assert tt.step(np.array([0, 1, 0, 0, 0, 0], dtype=np.float32))[-1]["target"] == "mars"
-    # A saved relative policy with a repeat acts, at evaluation, exactly as its training wrapper.
-    train_env = RelativeTargets(ActionRepeat(PlanetNavEnv(episode_steps=30), 2))
+    with pytest.raises(ConfigError, match="target_actions 'relative' needs action_mode 'target'"):
+        PlanetNavEnv(episode_steps=5, action_mode="torque", target_actions="relative")
+    rel = {"episode_steps": 30, "decision_steps": 2, "target_actions": "relative"}
+    train_env = PlanetNavEnv(**rel)
     model = PPO("MlpPolicy", train_env, n_steps=32, batch_size=32, n_epochs=1, seed=0, device="cpu")
     model.learn(32)
     run = tmp_path / "run"
     run.mkdir()
     model.save(run / "model.zip")
-    (run / "config.yaml").write_text(
-        yaml.safe_dump({"algo": "ppo", "action_repeat": 2, "relative_actions": True})
-    )
-    agent = make_agent(str(run), PlanetNavEnv(episode_steps=30))
+    (run / "config.yaml").write_text(yaml.safe_dump({"algo": "ppo", "env": rel}))
+    tt = PlanetNavEnv(episode_steps=30, decision_steps=2, action_mode="target+torque")
+    agent = make_agent(str(run), tt)
     agent.reset(seed=6)
     obs_e, _ = train_env.reset(seed=6)
-    ref = PlanetNavEnv(episode_steps=30)
-    obs, info = ref.reset(seed=6)
-    for _ in range(4):  # decisions
-        rel = int(model.predict(obs_e, deterministic=True)[0])
-        obs_e, _, _, _, info_e = train_env.step(rel)
-        for _ in range(2):
-            obs, _, _, _, info = ref.step(agent.act(obs, info))
-        assert info["target"] == info_e["target"]
-        np.testing.assert_array_equal(obs, obs_e)
+    obs, info = tt.reset(seed=6)
+    targets = set()
+    for _ in range(15):  # decisions
+        rel_action = int(model.predict(obs_e, deterministic=True)[0])
+        obs_e, _, _, _, info_e = train_env.step(rel_action)
+        action = agent.act(obs, info)
+        assert action.shape == (6,) and np.all(action[3:] == 0.0)
+        obs, _, _, _, info = tt.step(action)
+        assert info["target"] == info_e["target"] and info["pos_err_km"] == info_e["pos_err_km"]
+        targets.add(info["target"])
+    assert len(targets) >= 2  # the translation was exercised through switches
 
 
 def test_behaviour_cloning_copies_the_teacher() -> None:
@@ -301,7 +312,7 @@ def test_behaviour_cloning_copies_the_teacher() -> None:
     cfg = EnvConfig.from_dict({"action_mode": "torque", "episode_steps": 60})
     obs, actions = demonstrations(cfg, "baseline", 2, ["pd_torque"])
     assert obs.shape == (120, PlanetNavEnv(cfg).observation_space.shape[0] + 9) and actions.shape == (120, 3)
-    env = NavFeatures(PlanetNavEnv(cfg), ["pd_torque"])
+    env = single_training_env(PlanetNavEnv(cfg), features=["pd_torque"])
     model = PPO("MlpPolicy", env, n_steps=64, batch_size=64, seed=0, device="cpu")
     before = np.abs(model.predict(obs, deterministic=True)[0] - actions).mean()
     nll = clone(model, obs, actions, epochs=200)
@@ -310,110 +321,110 @@ def test_behaviour_cloning_copies_the_teacher() -> None:
     assert np.isfinite(nll) and after < 0.5 * before
 
 
+def _decision_config(mode: str, **more) -> EnvConfig:
+    """The training env of the demonstration tests: 25 physics steps in holds of 3, since_measured, and
+    relative targets in target mode."""
+    relative = {"target_actions": "relative"} if mode == "target" else {}
+    return EnvConfig.from_dict(
+        {"action_mode": mode, "episode_steps": 25, "decision_steps": 3, "observe_since_measured": True,
+         **relative, **more}
+    )  # fmt: skip
+
+
 @pytest.mark.parametrize("mode", ["target", "target+torque"])
 def test_demonstrations_are_recorded_in_the_training_mdp(mode: str) -> None:
-    """With action_repeat and relative actions, the recorded (observation, action) pairs replay exactly in
-    the training wrappers: feeding the recorded actions to NavFeatures + ActionRepeat + RelativeTargets
-    reproduces the recorded observations bit for bit, and the teacher's targets are the ones chosen."""
-    from planetnav_train.batch_wrappers import ActionRepeat, RelativeTargets
-    from planetnav_train.features import absolute_to_relative, relative_action
-    from planetnav_train.pretrain import DEMO_SEED, demonstrations
+    """The recorded (observation, action) pairs replay exactly in the training env (the env's hold,
+    relative targets and since_measured, the gain feature on top): feeding the recorded actions reproduces
+    the recorded observations bit for bit; the physics-step teacher's choices are encoded relative."""
+    from planetnav_train.pretrain import DEMO_SEED, demonstrations, relative_label
 
-    cfg = EnvConfig.from_dict({"action_mode": mode, "episode_steps": 25})
-    features = ["since_measured", "gain"]
-    obs, actions = demonstrations(
-        cfg, "periodic:period=4", 1, features, action_repeat=3, relative_actions=True
-    )
+    cfg = _decision_config(mode)
+    features = ["gain"]
+    obs, actions = demonstrations(cfg, "periodic:period=4", 1, features)
     assert len(obs) == 9  # ceil(25 / 3) decisions
-    env = RelativeTargets(ActionRepeat(NavFeatures(PlanetNavEnv(cfg), features), 3))
+    env = single_training_env(PlanetNavEnv(cfg), features=features)
     o, _ = env.reset(seed=DEMO_SEED)
     for k in range(len(obs)):
         np.testing.assert_array_equal(o, obs[k])
         o, _, terminated, truncated, _ = env.step(actions[k])
     assert terminated or truncated
-    # Relative encodings: stay (0) and switches both appear for a periodic teacher.
-    rel = actions if mode == "target" else np.argmax(actions[:, :3], axis=1)
-    assert 0 in rel and np.any(rel > 0)
-    # absolute_to_relative inverts relative_action from every current target, including none (-1).
+    choice = actions if mode == "target" else np.argmax(actions[:, :3], axis=1)
+    if mode == "target":  # relative encodings: stay (0) and switches both appear for a periodic teacher
+        assert 0 in choice and np.any(choice > 0)
+    else:
+        assert len(set(choice.tolist())) >= 2
+    # relative_label inverts the env's relative_to_absolute from every current target, including none.
     for current in (-1, 0, 1, 2):
         for target in range(3):
-            enc, t = absolute_to_relative(target, current, 3)
-            assert t == target and relative_action(enc, current, 3)[1] == target
+            assert relative_to_absolute(relative_label(target, current, 3), current, 3) == target
     with pytest.raises(ValueError, match="absolute target must be in"):
-        absolute_to_relative(3, 0, 3)
+        relative_label(3, 0, 3)
 
 
 @pytest.mark.parametrize("mode", ["target", "target+torque"])
 def test_dagger_records_the_students_states_with_the_teachers_labels(mode: str) -> None:
-    """With a ``student``, the student's decisions drive the episode (replaying them in the training wrappers
-    reproduces the recorded observations) and each label is the teacher's target, encoded relative to the
-    target the student holds; ``dagger`` aggregates the rounds and refits."""
+    """With a ``student``, the student's decisions drive the episode (replaying them in the training env
+    reproduces the recorded observations) and each label is the teacher's target at the decision's first
+    physics step (the teacher sees every physics step), encoded relative to the target the student holds;
+    ``dagger`` aggregates the rounds and refits."""
     from stable_baselines3 import PPO
 
-    from planetnav_train.batch_wrappers import ActionRepeat, RelativeTargets
-    from planetnav_train.features import absolute_to_relative, relative_action
-    from planetnav_train.pretrain import DEMO_SEED, dagger, demonstrations
+    from planetnav_train.pretrain import DEMO_SEED, dagger, demonstrations, relative_label
 
-    cfg = EnvConfig.from_dict({"action_mode": mode, "episode_steps": 25})
-    features = ["since_measured"]
-    env = RelativeTargets(ActionRepeat(NavFeatures(PlanetNavEnv(cfg), features), 3))
+    cfg = _decision_config(mode)
+    env = PlanetNavEnv(cfg)
     student = PPO("MlpPolicy", env, n_steps=32, batch_size=32, n_epochs=1, seed=3, device="cpu")
     teacher = "periodic:period=4,skip_invisible=false"  # its choice depends on the step count only
-    obs, labels = demonstrations(
-        cfg, teacher, 1, features, action_repeat=3, relative_actions=True, student=student
-    )
+    obs, labels = demonstrations(cfg, teacher, 1, [], student=student)
     assert len(obs) == len(labels) == 9
-    periodic = make_agent(teacher, PlanetNavEnv(cfg))
-    o, _ = env.reset(seed=DEMO_SEED)
-    current = -1
+    periodic = make_agent(teacher, PlanetNavEnv(cfg.at_physics_step()))
+    o, info = env.reset(seed=DEMO_SEED)
     for k in range(len(obs)):
         np.testing.assert_array_equal(o, obs[k])
         chosen = periodic.cycle[periodic.scheduled(3 * k)]
-        expected, _ = absolute_to_relative(chosen, current, 3)
-        if mode == "target+torque":
-            expected = with_planet_choice(np.zeros((1, 6)), np.array([expected]), 3)[0]
+        current = cfg.planets.index(info["target"]) if info["target"] in cfg.planets else -1
+        if mode == "target":
+            expected = relative_label(chosen, current, 3)
+        else:
+            expected = with_planet_choice(np.zeros((1, 6)), np.array([chosen]), 3)[0]
         np.testing.assert_array_equal(labels[k], expected)
         action = student.predict(o, deterministic=True)[0]
-        _, current = relative_action(action, current, 3)
-        o, _, terminated, truncated, _ = env.step(action)
+        o, _, terminated, truncated, info = env.step(action)
     assert terminated or truncated
     # The student's first decision is its own: it does not follow the teacher's.
-    assert not np.array_equal(obs, demonstrations(cfg, teacher, 1, features, 3, True)[0])
-    all_obs, all_labels, nll = dagger(
-        student, cfg, teacher, 2, 1, 5, features, (obs, labels), action_repeat=3, relative_actions=True
-    )
+    assert not np.array_equal(obs, demonstrations(cfg, teacher, 1, [])[0])
+    all_obs, all_labels, nll = dagger(student, cfg, teacher, 2, 1, 5, [], (obs, labels))
     assert len(all_obs) == len(all_labels) == 27 and np.isfinite(nll)
     np.testing.assert_array_equal(all_obs[:9], obs)
 
 
 def test_agreement_of_a_policy_with_itself_and_with_another_teacher(tmp_path: Path, research_command) -> None:
-    """``agreement``: a relative-action policy labelled by itself (resynchronised to the target it holds
-    through ``Agent.follow``) never differs; labelled by a periodic schedule it differs at some decisions."""
+    """``agreement``: a relative-action policy labelled by itself (it acts in the training env, on the
+    target the driver holds) never differs; labelled by a periodic schedule it differs at some decisions."""
     from stable_baselines3 import PPO
 
-    from planetnav_train.batch_wrappers import ActionRepeat, RelativeTargets
     from planetnav_train.pretrain import DEMO_SEED, agreement, demonstrations
 
-    cfg = EnvConfig.from_dict({"episode_steps": 40})
-    env = RelativeTargets(ActionRepeat(NavFeatures(PlanetNavEnv(cfg), ["since_measured"]), 4))
+    options = {"episode_steps": 40, "decision_steps": 4, "target_actions": "relative",
+               "observe_since_measured": True}  # fmt: skip
+    cfg = EnvConfig.from_dict(options)
+    env = PlanetNavEnv(cfg)
     model = PPO("MlpPolicy", env, n_steps=32, batch_size=32, n_epochs=1, seed=1, device="cpu")
     run = tmp_path / "run"
     run.mkdir()
     model.save(run / "model.zip")
-    sidecar = {"algo": "ppo", "features": ["since_measured"], "action_repeat": 4, "relative_actions": True}
+    sidecar = {"algo": "ppo", "env": options}
     (run / "config.yaml").write_text(yaml.safe_dump(sidecar))
     itself = agreement(str(run), cfg, str(run), 2, DEMO_SEED)
     assert itself["decisions"] == 20 and itself["different"] == 0.0
-    # Another policy labels the first one's states with its own relative choice there: it is told the
-    # target the driver holds, so its "move k places" counts from that target, not from its own last one.
+    # Another policy labels the first one's states with its own relative choice there, counted from the
+    # target the driver holds (the env's current target).
     other_model = PPO("MlpPolicy", env, n_steps=32, batch_size=32, n_epochs=1, seed=2, device="cpu")
     run2 = tmp_path / "run2"
     run2.mkdir()
     other_model.save(run2 / "model.zip")
     (run2 / "config.yaml").write_text(yaml.safe_dump(sidecar))
-    obs, labels = demonstrations(
-        cfg, str(run2), 3, ["since_measured"], action_repeat=4, relative_actions=True, student=model
-    )
+    obs, labels = demonstrations(cfg, str(run2), 3, [], student=model)
     np.testing.assert_array_equal(labels, other_model.predict(obs, deterministic=True)[0])
     assert np.any(labels != model.predict(obs, deterministic=True)[0])
     other = agreement(str(run), cfg, "periodic:period=8,skip_invisible=false", 2, DEMO_SEED)

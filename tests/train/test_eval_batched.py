@@ -34,17 +34,19 @@ EPISODES = 3
 TIMING_KEYS = {"seconds_per_episode", "batched", "batch_fallback", "exact_actions"}
 
 
-def _cfg(env_id: str, steps: int) -> EnvConfig:
-    # per_step: the suite's noise streams (each row's noise depends only on its seed and step).
-    return EnvConfig.from_dict(ENV_IDS[env_id], episode_steps=steps, noise_streams="per_step")
+def _cfg(env_id: str, steps: int, env: dict[str, Any] | None = None) -> EnvConfig:
+    # per_step: the suite's noise streams (each row's noise depends only on its seed and step); ``env``:
+    # the case's env options (its decision interface).
+    return EnvConfig.from_dict(ENV_IDS[env_id], episode_steps=steps, noise_streams="per_step", **(env or {}))
 
 
 def _save_model(tmp_path: Path, algo: str, cfg: EnvConfig, options: dict[str, Any]) -> Path:
     """A randomly initialised policy (no training: equality does not depend on what it learned) saved as
-    ``train.py`` saves a run: ``model.zip`` with a ``config.yaml`` naming its recipe options."""
+    ``train.py`` saves a run: ``model.zip`` with a ``config.yaml`` naming its recipe options (``env``:
+    the env options, in ``cfg`` already)."""
     from planetnav_train.sb3 import algorithm_class
 
-    venv = NavTrainingVecEnv(2, cfg, seed=0, **options)
+    venv = NavTrainingVecEnv(2, cfg, seed=0, **{k: v for k, v in options.items() if k != "env"})
     kwargs: dict[str, Any] = {"n_steps": 8, "batch_size": 8, "policy_kwargs": {"net_arch": [16]}}
     if algo in ("sac", "dqn"):
         kwargs = {"buffer_size": 100, "policy_kwargs": {"net_arch": [16]}}
@@ -84,11 +86,15 @@ def _assert_same(single: Any, batched: Any, exact: bool) -> None:
 
 
 CASES = [
-    # Discrete target choice with every layer of the recipe on the rows.
+    # Discrete target choice with the recipe's feature on the rows, in the env's hold, relative targets and
+    # since_measured.
     (
         "planetnav/Cruise-Target-v0",
         "ppo",
-        {"features": ["since_measured", "gain"], "action_repeat": 3, "relative_actions": True},
+        {
+            "features": ["gain"],
+            "env": {"decision_steps": 3, "target_actions": "relative", "observe_since_measured": True},
+        },
         40,
     ),
     # Continuous wheel torques (Box actions): clipped (PPO) and squashed (SAC) actions.
@@ -97,7 +103,7 @@ CASES = [
     # An operations scenario: the objective J is info["objective"] at each row's end.
     ("planetnav/ThrustArc-TCM-v0", "ppo", {}, 30),
     # A recurrent policy: one LSTM state per row.
-    ("planetnav/Cruise-Target-v0", "recurrent_ppo", {"action_repeat": 2}, 30),
+    ("planetnav/Cruise-Target-v0", "recurrent_ppo", {"env": {"decision_steps": 2}}, 30),
     # MaskablePPO: the mask is read from each row's observation in predict.
     ("planetnav/Cruise-Target-v0", "maskable_ppo", {}, 30),
 ]
@@ -107,7 +113,7 @@ CASES = [
 def test_batched_equals_single_env_evaluation(
     tmp_path: Path, env_id: str, algo: str, options: dict[str, Any], steps: int
 ) -> None:
-    cfg = _cfg(env_id, steps)
+    cfg = _cfg(env_id, steps, options.get("env"))
     run = _save_model(tmp_path, algo, cfg, options)
     single = evaluate_agent(str(run), cfg, EPISODES, SEED, progress=False, batched=False)
     # batch_rows=2: the 3 seeds as a batch of 2 rows and one of 1 (the chunking joins them in seed order).
@@ -146,7 +152,7 @@ def test_batched_sampled_actions_equal_single_env_evaluation(
     (a learning curve scored during training leaves the trainer's draws unchanged)."""
     import torch
 
-    cfg = _cfg(env_id, steps)
+    cfg = _cfg(env_id, steps, options.get("env"))
     run = _save_model(tmp_path, algo, cfg, options)
     spec = f"{run}@sampled"
     torch.manual_seed(123)

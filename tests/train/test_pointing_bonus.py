@@ -24,24 +24,26 @@ def _cfg(steps: int = 60) -> dict:
 
 def test_bonus_is_the_new_states_potential_on_every_row() -> None:
     """Two training envs on the same seeds and actions differ by exactly ``W * max cos`` of the new
-    observation, row by row, every step; with action repeat, by the sum over the held steps."""
+    observation, row by row, every decision; with the env's hold of k physics steps, the potential of the
+    state the decision ends in (one physics step at a time, k steps on)."""
     weight, n = 0.05, 4
     rng = np.random.default_rng(3)
     actions = np.clip(rng.normal(0.0, 0.5, (12, n, 3)), -1.0, 1.0)  # 36 steps at most: inside an episode
-    for repeat in (1, 3):
-        plain = NavTrainingVecEnv(n, _cfg(), seed=7, action_repeat=repeat)
-        bonus = NavTrainingVecEnv(n, _cfg(), seed=7, action_repeat=repeat, pointing_bonus=weight)
-        inner = NavTrainingVecEnv(n, _cfg(), seed=7)  # one env step at a time: the potential of each state
+    for hold in (1, 3):
+        held = {**_cfg(), "decision_steps": hold}
+        plain = NavTrainingVecEnv(n, held, seed=7)
+        bonus = NavTrainingVecEnv(n, held, seed=7, pointing_bonus=weight)
+        inner = NavTrainingVecEnv(n, _cfg(), seed=7)  # one physics step at a time
         potential = PointingPotential(inner.venv.config, weight)
         plain.reset(), bonus.reset(), inner.reset()
         seen = 0.0
         for a in actions:
             o1, r1, d1, _ = plain.step(a)
             o2, r2, d2, _ = bonus.step(a)
-            expected = np.zeros(n)
-            for _ in range(repeat):
+            for _ in range(hold):
                 obs, _, _, _ = inner.step(a)
-                expected += potential(obs)
+            np.testing.assert_array_equal(o1, obs)  # the decision is the k physics steps
+            expected = potential(obs)
             np.testing.assert_array_equal(o1, o2)
             np.testing.assert_allclose(r2 - r1, expected, rtol=1e-5, atol=1e-6)
             seen = max(seen, float(np.max(expected)))

@@ -100,11 +100,9 @@ def test_named_errors() -> None:
         extractor_kwargs(
             "relative_order", EnvConfig.from_dict(id_options("planetnav/RandomCruise-Target-v0"))
         )
-    # The training recipe's relative-action layer over v0 decodes actions as v1 does: accepted.
-    v0 = EnvConfig.from_dict(id_options("planetnav/RandomCruise-Target-v0"))
-    assert extractor_kwargs("relative_order", v0, relative_actions=True)["features_extractor_kwargs"][
-        "n_planets"
-    ] == 3
+    # The env's relative targets over the v0 physics decode actions as v1 does: accepted.
+    v0 = EnvConfig.from_dict({**id_options("planetnav/RandomCruise-Target-v0"), "target_actions": "relative"})
+    assert extractor_kwargs("relative_order", v0)["features_extractor_kwargs"]["n_planets"] == 3
     with pytest.raises(ConfigError, match="4 appended columns"):
         relative_order_index(L.ObservationLayout.for_config(cruise), tail=4)
     with pytest.raises(ConfigError, match="shape"):
@@ -142,7 +140,8 @@ def test_ppo_with_the_extractor_trains_saves_and_evaluates(tmp_path: Path, extra
     assert type(model.policy.features_extractor).__name__ == "RelativeTargetOrder"
     assert type(model.policy).__name__ == policy
     assert yaml.safe_load((run / "config.yaml").read_text())["hyperparams"]["policy_kwargs"] == {
-        "features_extractor": "relative_order", **extra
+        "features_extractor": "relative_order",
+        **extra,
     }
     data = json.loads((run / "eval.json").read_text())
     assert all(np.isfinite(m["mean_pos_err_km"]) for m in data["agents"].values())

@@ -60,7 +60,8 @@ CASES = {
             "hyperparams": {"buffer_size": 1000, "learning_starts": 20, "train_freq": 4, "batch_size": 16,
                             "policy_kwargs": {"net_arch": [16]}}},
     # A DAgger warm start (one round): checkpointed after it, so the resumed run does not clone again.
-    "ppo_dagger": {"algo": "ppo", "n_timesteps": 192, "checkpoint_every": 64, "features": ["since_measured"],
+    "ppo_dagger": {"algo": "ppo", "n_timesteps": 192, "checkpoint_every": 64,
+                   "env": {"episode_steps": 40, "observe_since_measured": True},
                    "pretrain": {"teacher": "greedy", "episodes": 1, "epochs": 1, "dagger_rounds": 1},
                    "hyperparams": {"n_steps": 32, "batch_size": 32, "n_epochs": 1,
                                    "policy_kwargs": {"net_arch": [16]}}},

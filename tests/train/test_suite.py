@@ -233,7 +233,7 @@ def test_cells_and_bad_values() -> None:
 def test_raw_and_assisted_configs(tmp_path) -> None:
     settings = suite.Settings(out=tmp_path)
     raw, names = suite.cell_config(suite.Cell("Cruise-Target-v1", "ppo", "raw", 3), settings)
-    assert names == [] and raw.features == [] and raw.action_repeat == 1 and not raw.pretrain
+    assert names == [] and raw.features == [] and not raw.pretrain
     # The budget counts physics steps: the v1 id holds each decision 10 of them.
     task = suite.get_task("Cruise-Target-v1")
     assert raw.env == {} and raw.seed == 3 and raw.n_timesteps * 10 == task.budget
@@ -267,6 +267,63 @@ def test_raw_and_assisted_configs(tmp_path) -> None:
         suite.Cell("RandomCruise-Target-v1", "ppo", "raw", 3), suite.Settings(out=tmp_path, episode_steps=40)
     )
     assert smoke.env == {"reward_scale_km": 100_000.0, "episode_steps": 40}
+
+
+def test_budget_counts_the_physics_steps_of_the_cells_own_hold(tmp_path) -> None:
+    """A cell's budget is physics steps, counted once: decisions = budget // the cell's decision_steps (its
+    id's, or an assist's env option), so every published cell trains the physics steps it did when an
+    assist's hold was a training option multiplied by the id's (no shipped assist sets a hold)."""
+    settings = suite.Settings(out=tmp_path)
+    checked = 0
+    installed = []
+    for name in suite.ALGOS:
+        try:
+            suite.get_algo(name).check_installed()
+            installed.append(name)
+        except ConfigError:  # an extra not installed here (RLlib): its cells are built by its own venv
+            pass
+    for tasks in suite.SUITES.values():
+        names = [t.id for t in tasks]
+        for track in ("raw", "assisted"):
+            algos = ["ppo"] if track == "assisted" else installed
+            for cell in suite.make_cells(names, algos, [0], track, table_only=True):
+                tc, _ = suite.cell_config(cell, settings)
+                task, algo = suite.get_task(cell.task), suite.get_algo(cell.algo)
+                hold = tc.env_config().decision_steps
+                assert hold == task.env_config().decision_steps, cell.key  # the id's hold
+                assert tc.n_timesteps == max(1, round(algo.budget(task)) // hold), cell.key
+                checked += 1
+    assert checked >= 20
+    # An assist's hold replaces the id's (10 physics steps on Cruise-Target-v1): the physics steps stay.
+    assists = {
+        "assists": {"hold_20": {"env": {"decision_steps": 20}}},
+        "tasks": {"Cruise-Target-v1": ["hold_20"]},
+    }
+    task = suite.get_task("Cruise-Target-v1")
+    held, names = suite.cell_config(suite.Cell(task.id, "ppo", "assisted", 0), settings, assists)
+    assert names == ["hold_20"] and held.env_config().decision_steps == 20
+    assert held.n_timesteps == round(suite.get_algo("ppo").budget(task)) // 20
+
+
+def test_an_assist_with_a_training_side_decision_option_names_the_env_option(tmp_path) -> None:
+    path = tmp_path / "assists.yaml"
+    for frag, named in (
+        (
+            "action_repeat: 10",
+            "action_repeat is no longer a training option: set env option decision_steps=10",
+        ),
+        (
+            "relative_actions: true",
+            "relative_actions is no longer a training option: set env option target_actions='relative'",
+        ),
+        (
+            "features: [since_measured]",
+            "since_measured is no longer a training feature: set env option observe_since_measured=true",
+        ),
+    ):
+        path.write_text(f"assists:\n  old:\n    {frag}\ntasks: {{}}\n")
+        with pytest.raises(ConfigError, match=f"assist 'old': {named}"):
+            suite.load_assists(path)
 
 
 def test_exact_actions_reaches_the_evaluation_the_record_and_the_command(tmp_path, monkeypatch) -> None:

@@ -1,7 +1,8 @@
 """The training options written once over a batch (planetnav_train.batch_wrappers): the native training
 VecEnv's rows equal single environments running the same layers with N = 1 (in SB3's DummyVecEnv), for
-every feature, the shaping, action repeat and relative actions, in every action mode; the deprecated
-single-env wrappers still work and warn; the agent-side formulas equal their one-row forms."""
+every feature and the shaping, over the env's decision interface (the hold, relative targets,
+since_measured), in every action mode; the agent-side formulas equal their one-row forms; a training-side
+decision option is refused with the env option's name."""
 
 from __future__ import annotations
 
@@ -13,8 +14,9 @@ from stable_baselines3.common.vec_env import DummyVecEnv
 
 from planetnav_env.config import EnvConfig
 from planetnav_env.envs.env import PlanetNavEnv
+from planetnav_env.errors import ConfigError
 from planetnav_train.batch_wrappers import single_training_env
-from planetnav_train.features import FeatureBatch, relative_actions_batch
+from planetnav_train.features import FeatureBatch
 from planetnav_train.vec_training import NavTrainingVecEnv
 
 
@@ -22,43 +24,40 @@ def _dummy(cfg: EnvConfig, n: int, **options) -> DummyVecEnv:
     return DummyVecEnv([lambda: single_training_env(PlanetNavEnv(cfg), **options) for _ in range(n)])
 
 
-def _deprecated_stack(cfg: EnvConfig, features, repeat: int, relative: bool, pointing, gamma):
-    """The old way of building a training env: the deprecated single-env wrappers, nested."""
-    from planetnav_train.batch_wrappers import ActionRepeat, NavFeatures, PointingShaping, RelativeTargets
-
-    env = PlanetNavEnv(cfg)
-    if features:
-        env = NavFeatures(env, features)
-    if repeat > 1:
-        env = ActionRepeat(env, repeat)
-    if pointing:  # above the repeat: the shaping is taken between decisions (TrainingOptions.stack)
-        env = PointingShaping(env, pointing, gamma)
-    return RelativeTargets(env) if relative else env
+#: The env's decision options of a case: (decision_steps, relative targets, since_measured).
+def _decision(steps: int, relative: bool, since: bool) -> dict:
+    return {"decision_steps": steps, "target_actions": "relative" if relative else "absolute",
+            "observe_since_measured": since}  # fmt: skip
 
 
 CASES = [
-    # mode, features, repeat, relative, pointing weight, gamma
-    ("target", ["since_measured"], 3, True, None, 0.99),  # the default recipe; 3 does not divide 20
-    ("target", [], 1, False, None, 0.99),
-    ("target+torque", ["since_measured", "pd_torque"], 2, True, None, 0.99),
-    ("torque", ["pd_torque"], 1, False, 1.0, 0.99),  # the torque recipe (configs/torque.yaml)
-    ("torque", ["since_measured", "gain", "pd_torque"], 4, False, 0.5, 0.9),
-    ("target", ["gain", "since_measured"], 3, True, None, 0.99),  # the random-cruise recipe
-    ("target", ["gain"], 1, False, 2.0, 1.0),
+    # mode, features, env decision options, pointing weight, gamma
+    ("target", [], _decision(3, True, True), None, 0.99),  # the default recipe; 3 does not divide 20
+    ("target", [], _decision(1, False, False), None, 0.99),
+    ("target+torque", ["pd_torque"], _decision(2, False, True), None, 0.99),
+    (
+        "torque",
+        ["pd_torque"],
+        _decision(1, False, False),
+        1.0,
+        0.99,
+    ),  # the torque recipe (configs/torque.yaml)
+    ("torque", ["gain", "pd_torque"], _decision(4, False, True), 0.5, 0.9),
+    ("target", ["gain"], _decision(3, True, True), None, 0.99),  # the random-cruise recipe
+    ("target", ["gain"], _decision(1, False, False), 2.0, 1.0),
 ]
 
 
-@pytest.mark.parametrize(("mode", "features", "repeat", "relative", "pointing", "gamma"), CASES)
+@pytest.mark.parametrize(("mode", "features", "decision", "pointing", "gamma"), CASES)
 @pytest.mark.parametrize("scenario", ["cruise", "random-cruise"])
 def test_native_training_env_rows_equal_single_env_adapters(
-    mode, features, repeat, relative, pointing, gamma, scenario
+    mode, features, decision, pointing, gamma, scenario
 ):
     if scenario == "random-cruise" and "gain" not in features and "pd_torque" not in features:
         pytest.skip("the recipes without gain or pd_torque are covered on the fixed cruise")
     n, seed, decisions = 3, 11, 40
-    cfg = EnvConfig(action_mode=mode, episode_steps=20, scenario=scenario)
-    options = {"features": features, "action_repeat": repeat, "relative_actions": relative,
-               "pointing": pointing, "gamma": gamma}  # fmt: skip
+    cfg = EnvConfig(action_mode=mode, episode_steps=20, scenario=scenario, **decision)
+    options = {"features": features, "pointing": pointing, "gamma": gamma}
     native = NavTrainingVecEnv(n, cfg, seed=seed, **options)
     dummy = _dummy(cfg, n, **options)
     dummy.seed(seed)
@@ -85,47 +84,6 @@ def test_native_training_env_rows_equal_single_env_adapters(
                 assert "terminal_observation" not in a
         dones_seen += int(d_nat.sum())
     assert dones_seen >= n  # the comparison went through episode ends inside a held decision
-
-
-@pytest.mark.parametrize(("mode", "features", "repeat", "relative", "pointing", "gamma"), CASES[2:5])
-def test_deprecated_wrappers_warn_and_equal_the_single_env_adapter(
-    mode, features, repeat, relative, pointing, gamma
-):
-    cfg = EnvConfig(action_mode=mode, episode_steps=12)
-    with pytest.warns(DeprecationWarning, match="is deprecated; use planetnav_train.batch_wrappers"):
-        old = _deprecated_stack(cfg, features, repeat, relative, pointing, gamma)
-    new = single_training_env(
-        PlanetNavEnv(cfg), features, repeat, relative_actions=relative, pointing=pointing, gamma=gamma
-    )
-    o_old, i_old = old.reset(seed=5)
-    o_new, i_new = new.reset(seed=5)
-    np.testing.assert_array_equal(o_old, o_new)
-    new.action_space.seed(1)
-    done = False
-    while not done:
-        a = new.action_space.sample()
-        o_old, r_old, t_old, u_old, i_old = old.step(a)
-        o_new, r_new, t_new, u_new, i_new = new.step(a)
-        np.testing.assert_array_equal(o_old, o_new)
-        assert (r_old, t_old, u_old) == (r_new, t_new, u_new)
-        assert i_old["pos_err_km"] == i_new["pos_err_km"]
-        if pointing:
-            assert i_old["shaping"] == i_new["shaping"] and np.isfinite(i_new["shaping"])
-        done = t_new or u_new
-
-
-def test_deprecated_feature_state_warns_and_equals_feature_batch():
-    env = PlanetNavEnv(episode_steps=6, action_mode="torque")
-    features = ["since_measured", "gain", "pd_torque"]
-    with pytest.warns(DeprecationWarning, match="FeatureState is deprecated"):
-        from planetnav_train.features import FeatureState
-
-        old = FeatureState(env, features)
-    new = FeatureBatch.for_env(env, features)
-    obs, info = env.reset(seed=2)
-    for _ in range(6):
-        np.testing.assert_array_equal(old.augment(obs, info), new.augment_info(obs, info))
-        obs, _, _, _, info = env.step(np.array([0.3, -0.2, 0.1], dtype=np.float32))
 
 
 def test_pd_torque_feature_is_the_agents_pd_law_per_planet():
@@ -158,10 +116,6 @@ def test_pd_torque_feature_is_the_agents_pd_law_per_planet():
 def test_native_training_env_rejects_bad_options():
     with pytest.raises(ValueError, match="unknown observation feature 'clock'"):
         NavTrainingVecEnv(2, EnvConfig(), features=["clock"])
-    with pytest.raises(ValueError, match="relative target actions"):
-        NavTrainingVecEnv(2, EnvConfig(action_mode="torque"), relative_actions=True)
-    with pytest.raises(ValueError, match="action_repeat must be an integer >= 1, got 0"):
-        NavTrainingVecEnv(2, EnvConfig(), action_repeat=0)
     with pytest.raises(ValueError, match=r"shaping weight must be > 0, got -1\.0"):
         NavTrainingVecEnv(2, EnvConfig(), pointing=-1.0)
     with pytest.raises(ValueError, match=r"shaping gamma must be in \(0, 1\], got 1.5"):
@@ -170,19 +124,36 @@ def test_native_training_env_rejects_bad_options():
         NavTrainingVecEnv(2, EnvConfig(observation="dict"), features=["gain"])
 
 
+@pytest.mark.parametrize(
+    ("options", "named"),
+    [
+        ({"action_repeat": 3}, "action_repeat is no longer a training option: set env option "
+         "decision_steps=3"),
+        ({"relative_actions": True}, "set env option target_actions='relative'"),
+        ({"features": ["since_measured"]}, "since_measured is no longer a training feature: set env option "
+         "observe_since_measured=true"),
+    ],
+)  # fmt: skip
+def test_training_side_decision_options_name_the_env_option(options, named):
+    """The hold, relative targets and since_measured are the env's: the training layers refuse their old
+    names with the env option to set, on both adapters."""
+    with pytest.raises(ConfigError, match=named):
+        NavTrainingVecEnv(2, EnvConfig(), **options)
+    with pytest.raises(ConfigError, match=named):
+        single_training_env(PlanetNavEnv(episode_steps=4), **options)
+
+
 def test_relative_actions_name_the_bad_row():
-    with pytest.raises(ValueError, match=r"row 1 must be an integer in \[0, 3\), got 5"):
-        relative_actions_batch(np.array([0, 5]), np.array([0, 0]), 3)
-    env = NavTrainingVecEnv(2, EnvConfig(episode_steps=5), relative_actions=True)
+    env = NavTrainingVecEnv(2, EnvConfig(episode_steps=5, target_actions="relative"))
     env.reset()
-    with pytest.raises(ValueError, match="row 0"):
+    with pytest.raises(ValueError, match=r"row 0 must be an integer in \[0, 3\), got -1"):
         env.step(np.array([-1, 0]))
 
 
 def test_single_env_adapter_adds_no_warning_and_keeps_dict_observations():
     with warnings.catch_warnings():
         warnings.simplefilter("error", DeprecationWarning)
-        env = single_training_env(PlanetNavEnv(episode_steps=4, observation="dict"), action_repeat=2)
+        env = single_training_env(PlanetNavEnv(episode_steps=4, observation="dict", decision_steps=2))
     obs, _ = env.reset(seed=0)
     assert isinstance(obs, dict) and obs["planets"].shape == (3, 7)
     obs, reward, terminated, truncated, _ = env.step(0)
