@@ -80,7 +80,7 @@ from planetnav_env.core.layout import (
     STATUS_CAMERA,
     STATUS_OK,
 )  # fmt: skip
-from planetnav_env.core.observation import camera_visibility, observe_row
+from planetnav_env.core.observation import camera_visibility, clear_counters, count_row, observe_row
 from planetnav_env.core.operations import (
     add_thrust_q,
     apply_thrust,
@@ -324,16 +324,20 @@ def reset_row(prm, st, n, sc) -> None:  # pragma: no cover - compiled
     i[n, I_TERMINATED] = 0
     i[n, I_TRUNCATED] = 0
     f[n, F_REWARD] = 0.0
+    clear_counters(prm, f, n)
+    count_row(prm, f, i, n)  # a reset's first observation counts, as a step without a measurement
     observe_row(prm, f, st.p, i, st.eph, st.obs, n, sc, False)
 
 
 @njit(inline="always", **ROW_KERNEL_OPTIONS)
 def step_active_row(prm, st, act, n, sc) -> None:  # pragma: no cover - compiled
-    """Step and observe row ``n`` if ``act`` marks it active: the body of the CPU's row loop
-    (:func:`_step_rows`) and of the device's thread (:func:`step_thread`). Inlined into both."""
+    """Step row ``n`` if ``act`` marks it active, count the step in its history counters and observe it:
+    the body of the CPU's row loop (:func:`_step_rows`) and of the device's thread (:func:`step_thread`).
+    Inlined into both."""
     if act.active[n]:
         bodies_ready = step_row(prm, st, n, act.targets[n], act.torques[n], sc)
         if st.i[n, I_STATUS] == STATUS_OK:
+            count_row(prm, st.f, st.i, n)
             observe_row(prm, st.f, st.p, st.i, st.eph, st.obs, n, sc, bodies_ready)
 
 

@@ -13,8 +13,7 @@ at least ``decision_steps`` step launches and one autoreset launch, so decisions
 launches x the time per launch). Not timed here: the C part of the dispatch, the driver's call and the
 torch operations between launches. Those are counted instead: the torch operations of a decision other
 than views (each one a kernel launch on a GPU, a few microseconds of the host's time), profiled in the host
-mode (``device="cpu"``, the same Python as on CUDA but for ``log1p`` and ``sqrt``, which the host mode
-takes from numpy: a handful of operations a decision) over 15 decisions of random target actions.
+mode (``device="cpu"``, the same Python as on CUDA) over 15 decisions of random target actions.
 
     python research/probes/launch_overhead_probe.py [--rounds 5]
 
