@@ -258,32 +258,32 @@ class BatchCore:
         active: np.ndarray | None = None,
         on_step: Callable[[np.ndarray], None] | None = None,
     ) -> None:
-        """One decision: :meth:`step` ``config.decision_steps`` times with the same decoded actions, the
-        rewards summed into the reward column; a row whose episode ends inside the hold stops there (its
-        flags stay as that step set them). ``on_step(stepped)``, when given, runs after every physics step
-        with the bool (N,) mask of the rows it advanced (evaluation records each physics step)."""
-        k = self.config.decision_steps
-        if k == 1:
+        """One decision, :meth:`step`; with ``on_step(stepped)``, the same decision one physics step a call
+        of the compiled rule, ``on_step`` running after every physics step with the bool (N,) mask of the
+        rows it advanced (evaluation records each physics step)."""
+        if on_step is None:
             self.step(targets, torques, active)
-            if on_step is not None:
-                on_step(self._all if active is None else active)
             return
-        running = np.array(self._all if active is None else active, dtype=bool, copy=True)
-        started = running.copy()
-        total = np.zeros(self.num_rows)
-        for _ in range(k):
-            self.step(targets, torques, running)
-            total[running] += self.f[running, L.F_REWARD]
-            if on_step is not None:
-                on_step(running)
-            running &= (self.i[:, L.I_TERMINATED] == 0) & (self.i[:, L.I_TRUNCATED] == 0)
-            if not running.any():
+        for s in range(self.config.decision_steps):
+            before = self.i[:, L.I_K].copy()
+            self._run(targets, torques, active, s == 0, 1)
+            stepped = self.i[:, L.I_K] != before
+            if s > 0 and not stepped.any():
                 break
-        self.f[started, L.F_REWARD] = total[started]
+            on_step(stepped)
 
     def step(self, targets: np.ndarray, torques: np.ndarray, active: np.ndarray | None = None) -> None:
-        """Advance the ``active`` rows (all by default) by one step with decoded actions: ``targets``
-        (N,) int64 (-1: none) and ``torques`` (N, 3) float64 fractions of the wheel limit in [-1, 1]."""
+        """Advance the ``active`` rows (all by default) by one decision with decoded actions: ``targets``
+        (N,) int64 (-1: none) and ``torques`` (N, 3) float64 fractions of the wheel limit in [-1, 1]. The
+        decision rule is compiled (:func:`~planetnav_env.core.kernels.decide_row`): ``decision_steps``
+        physics steps with the same actions, the rewards summed into the reward column, a row whose
+        episode ends inside the hold stopping there (its flags stay as that step set them)."""
+        self._run(targets, torques, active, True, self.config.decision_steps)
+
+    def _run(self, targets: np.ndarray, torques: np.ndarray, active: np.ndarray | None, first: bool,
+             steps: int) -> None:  # fmt: skip
+        """``steps`` physics steps of the decision rule (``first``: they start the decision), then the
+        rows' status codes as named errors."""
         # Plain arrays, not the RowState/Actions records: typing a record passed from Python costs
         # several µs a call (K.step_range_arrays builds them in compiled code).
         active = self._all if active is None else active
@@ -295,12 +295,13 @@ class BatchCore:
                 self._pool = ThreadPoolExecutor(self.threads, thread_name_prefix="planetnav-core")
             c = self.threads
             jobs = [
-                self._pool.submit(K.step_range_arrays, *args, j * n // c, (j + 1) * n // c) for j in range(c)
+                self._pool.submit(K.step_range_arrays, *args, j * n // c, (j + 1) * n // c, first, steps)
+                for j in range(c)
             ]
             for job in jobs:
                 job.result()
         else:
-            K.step_range_arrays(*args, 0, n)
+            K.step_range_arrays(*args, 0, n, first, steps)
         status = self.i[:, L.I_STATUS]
         if status.any():
             bad = np.flatnonzero(status)

@@ -47,6 +47,7 @@ _F_FIELDS = (
     ("REWARD", 1),
     ("NIS", 1),
     ("PIX", 2),  # pixel of the last planet image
+    ("HOLD_REWARD", 1),  # the rewards of the decision's physics steps so far (decision_steps > 1)
     # operations scenarios (EnvConfig.operations; zero / NaN otherwise)
     ("DV_STEP", 1),  # delta-v lost in the last step [m/s]
     ("DV_LOST", 1),  # delta-v lost in the episode [m/s]
@@ -84,7 +85,7 @@ F_ATT_ERR, F_WM, F_T0, F_INTEGRATED = (F_OFFSETS[k][0] for k in ("ATT_ERR", "WM"
 F_POS_ERR, F_VEL_ERR, F_NEES, F_POS_SIGMA = (
     F_OFFSETS[k][0] for k in ("POS_ERR", "VEL_ERR", "NEES", "POS_SIGMA")
 )
-F_REWARD, F_NIS, F_PIX = (F_OFFSETS[k][0] for k in ("REWARD", "NIS", "PIX"))
+F_REWARD, F_NIS, F_PIX, F_HOLD_REWARD = (F_OFFSETS[k][0] for k in ("REWARD", "NIS", "PIX", "HOLD_REWARD"))
 F_DV_STEP, F_DV_LOST, F_OBJECTIVE, F_THRUSTING, F_DL_SIGMA, F_DL_ERR = (
     F_OFFSETS[k][0] for k in ("DV_STEP", "DV_LOST", "OBJECTIVE", "THRUSTING", "DL_SIGMA", "DL_ERR")
 )

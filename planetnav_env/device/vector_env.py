@@ -15,8 +15,9 @@ observations in ``info["final_obs"]``).
 
 Where things run. On the device: the physics step and the compiled part of the reset
 (:mod:`planetnav_env.core.cuda_entry`, :mod:`planetnav_env.device.cuda_kernels`, one thread per row), the
-autoreset (a bank row copied in, then the compiled reset, for the rows a mask marks), the decision's
-physics steps (``decision_steps``) with their reward sum, the action decoding and the float32 observation
+autoreset (a bank row copied in, then the compiled reset, for the rows a mask marks), the decision (one
+launch: each thread runs the CPU's compiled decision rule over ``decision_steps`` physics steps and sums
+their rewards), the action decoding and the float32 observation
 (every block written by the compiled kernels, :mod:`planetnav_env.core.observation`, as on the CPU). On
 the host, once per ``reset(seed=...)``: the episode bank (:mod:`planetnav_env.device.bank`), and on a host
 thread its refill (:mod:`planetnav_env.device.refill`). A step copies nothing between host and device but the
@@ -418,25 +419,14 @@ class DeviceVectorEnv:
             self._targets.copy_(torch.argmax(a[:, :p_], dim=1))
             self._torques.copy_(a[:, p_:])
 
-    def _physics_step(self, active: torch.Tensor) -> None:
+    def _advance(self, active: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+        """One decision of the ``active`` rows: one launch of the step kernel, whose threads run the
+        compiled decision rule (``kernels.decide_row``, the CPU's own: the hold of ``decision_steps``
+        physics steps, the reward sum, a row that ends inside the hold stopping there); (reward,
+        terminated, truncated)."""
+        f, i = self.f, self.i
         self._active.copy_(active)
         self.backend.step(self._prm, self._state, self._act, self._scratch)
-
-    def _advance(self, active: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
-        """One decision of the ``active`` rows (``BatchCore.step_decision``'s rule, every physics step run:
-        a row that ends inside the hold stops there); (reward, terminated, truncated)."""
-        f, i = self.f, self.i
-        k = self.config.decision_steps
-        if k == 1:
-            self._physics_step(active)
-        else:
-            running = active.clone()
-            total = torch.zeros(self.num_envs, dtype=torch.float64, device=self.device)
-            for _ in range(k):
-                self._physics_step(running)
-                total += torch.where(running, f[:, L.F_REWARD], 0.0)
-                running &= (i[:, L.I_TERMINATED] | i[:, L.I_TRUNCATED]) == 0
-            f[:, L.F_REWARD] = torch.where(active, total, f[:, L.F_REWARD])
         reward = torch.where(active, f[:, L.F_REWARD], 0.0)
         terminated = (i[:, L.I_TERMINATED] != 0) & active
         truncated = (i[:, L.I_TRUNCATED] != 0) & active

@@ -99,7 +99,8 @@ def test_history_blocks_equal_numpy_oracles_bit_for_bit() -> None:
     # Image failures (image_log), pulsars (residual log with one degree of freedom), every history block.
     cfg = EnvConfig.from_dict(
         {**id_options("planetnav/MarsApproach-Tasking-v2"), "observe_since_measured": True,
-         "observe_residual_log": True, "observe_position_correlation": True, "episode_steps": 40}
+         "observe_residual_log": True, "observe_position_correlation": True, "episode_steps": 40,
+         "decision_steps": 1}  # core.step: one physics step
     )  # fmt: skip
     n = 4
     core = BatchCore(cfg, n)
