@@ -6,7 +6,7 @@ one, :class:`~planetnav_env.envs.vector_env.PlanetNavVectorEnv` a batch of ``num
 initial error, from the row's ``numpy`` generator), fitting the row's ephemeris table, choosing the
 serial or the threaded loop, and turning row statuses into named errors.
 
-Memory per row (default cruise, 3 planets, 1 day): state 165 floats (47 of them the counters of the
+Memory per row (default cruise, 3 planets, 1 day): state 166 floats (47 of them the counters of the
 observation's history blocks) + 13 ints, covariance 36 floats, observation 47 floats, random state 32
 bytes, ephemeris table 936 bytes: about 3.1 kB
 (:meth:`BatchCore.bytes_per_row` computes it for any configuration).
