@@ -242,6 +242,7 @@ class EnvConfig:
         1,
         ge=1,
         unit="steps",
+        kernel="decision_steps",
         doc="physics steps per environment step: the action is held that long and the rewards summed, so one "
         "decision spans ``decision_steps * step_s`` seconds while the physics step stays ``step_s``. An "
         "episode that ends inside a decision ends it; ``episode_steps`` still counts physics steps (the "

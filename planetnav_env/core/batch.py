@@ -6,8 +6,9 @@ one, :class:`~planetnav_env.envs.vector_env.PlanetNavVectorEnv` a batch of ``num
 initial error, from the row's ``numpy`` generator), fitting the row's ephemeris table, choosing the
 serial or the threaded loop, and turning row statuses into named errors.
 
-Memory per row (default cruise, 3 planets, 1 day): state 104 floats + 13 ints, covariance 36 floats,
-observation 47 floats, random state 32 bytes, ephemeris table 936 bytes: about 2.5 kB
+Memory per row (default cruise, 3 planets, 1 day): state 166 floats (47 of them the counters of the
+observation's history blocks) + 13 ints, covariance 36 floats, observation 47 floats, random state 32
+bytes, ephemeris table 936 bytes: about 3.1 kB
 (:meth:`BatchCore.bytes_per_row` computes it for any configuration).
 """
 
@@ -28,14 +29,6 @@ from planetnav_env.config import EnvConfig
 from planetnav_env.core import kernels as K
 from planetnav_env.core import layout as L
 from planetnav_env.core import rng as crng
-from planetnav_env.core.decisions import (
-    advance_image_log,
-    advance_residual_log,
-    advance_since_measured,
-    image_log_values,
-    residual_log_values,
-    since_measured_values,
-)
 from planetnav_env.core.ephemeris_table import SEGMENT_S, TableSpec, fit_table
 from planetnav_env.core.params import ARCSEC, ChannelPlan
 from planetnav_env.core.records import RowState
@@ -133,21 +126,6 @@ class BatchCore:
         self.rng = np.zeros((n, crng.STATE_WORDS), dtype=np.uint64)
         self.eph = np.zeros((n, *self.table_spec.shape))
         self.obs = np.zeros((n, self.layout.size))
-        # Physics steps since each target was last measured (observe_since_measured; core/decisions.py).
-        self.since = np.full((n, cfg.n_targets), np.inf) if self.layout.since_measured else None
-        # Images of each planet in view and the fixes they gave this episode (observe_image_log).
-        self.image_log = np.zeros((n, 2, cfg.n_planets)) if self.layout.image_log else None
-        # Fixes of each planet and the sum of their normalized NIS this episode (observe_residual_log).
-        self.residual_log = np.zeros((n, 2, cfg.n_targets)) if self.layout.residual_log else None
-        # The blocks written here after the compiled step (the rest of the observation is the kernel's).
-        lay = self.layout
-        self._python_blocks = any(
-            (lay.since_measured, lay.image_log, lay.residual_log, lay.position_correlation)
-        )
-        # Degrees of freedom of a fix of each target: a planet image (2 or 3), a pulsar phase (1).
-        self._fix_dof = np.array(
-            [3.0 if cfg.measurement_model.endswith("+size") else 2.0] * cfg.n_planets + [1.0] * cfg.n_pulsars
-        )
         self.episodes: list[RowEpisode | None] = [None] * n
         self._ephemeris = DEEphemeris()
         self._table_cache: tuple[float, np.ndarray] | None = None
@@ -199,17 +177,6 @@ class BatchCore:
         for r, gen in zip(rows, generators, strict=True):
             self.episodes[r] = self.draw_row(gen, self.f[r], self.p[r], self.rng[r], self.eph[r])
         K.reset_rows(self.params, self.state, rows)
-        if self.since is not None:
-            self.since[rows] = np.inf
-            self._observe_since(rows)
-        if self.image_log is not None:
-            self.image_log[rows] = 0.0
-            self._observe_image_log(rows)
-        if self.residual_log is not None:
-            self.residual_log[rows] = 0.0
-            self._observe_residual_log(rows)
-        if self.layout.position_correlation:
-            self._observe_position_correlation(rows)
 
     def draw_row(
         self, gen: np.random.Generator, f: np.ndarray, p: np.ndarray, rng: np.ndarray, eph: np.ndarray
@@ -246,46 +213,6 @@ class BatchCore:
         if cfg.prior_long_sigma_km > 0.0:
             self._elongate_prior(gen, f, p)
         return RowEpisode(ep.epoch, ep.central, tuple(ep.perturbers))
-
-    def _observe_since(self, rows: np.ndarray) -> None:
-        """Count one physics step seen by ``rows`` (indices; a reset's first observation counts, as a step
-        without a measurement) and write their ``since_measured`` observation block."""
-        since = self.since[rows]
-        advance_since_measured(since, self.i[rows, L.I_MEASURED] != 0, self.i[rows, L.I_TARGET])
-        self.since[rows] = since
-        lay = self.layout
-        self.obs[rows, lay.since_measured_start : lay.image_log_start] = since_measured_values(since)
-
-    def _observe_image_log(self, rows: np.ndarray) -> None:
-        """Count the last physics step's image of ``rows`` (indices) in their image log, and write their
-        ``image_log`` observation block."""
-        log = self.image_log[rows]
-        i = self.i[rows]
-        advance_image_log(log, i[:, L.I_SENSOR] == L.SENSOR_CAMERA, i[:, L.I_REASON] == L.REASON_IMAGE_FAILED,
-                          i[:, L.I_TARGET])  # fmt: skip
-        self.image_log[rows] = log
-        lay = self.layout
-        values = image_log_values(log).reshape(len(rows), 2 * self.config.n_planets)
-        self.obs[rows, lay.image_log_start : lay.residual_log_start] = values
-
-    def _observe_residual_log(self, rows: np.ndarray) -> None:
-        """Add the last physics step's fix of ``rows`` (its normalized NIS) to their residual log, and write
-        their ``residual_log`` observation block."""
-        log = self.residual_log[rows]
-        i = self.i[rows]
-        target = i[:, L.I_TARGET]
-        dof = self._fix_dof[np.clip(target, 0, len(self._fix_dof) - 1)]
-        advance_residual_log(log, i[:, L.I_SENSOR] != L.SENSOR_NONE, self.f[rows, L.F_NIS] / dof, target)
-        self.residual_log[rows] = log
-        self.obs[rows, self.layout.residual_log_start :] = residual_log_values(log)
-
-    def _observe_position_correlation(self, rows: np.ndarray) -> None:
-        """Write the ``position_correlation`` block of ``rows``: rho_xy, rho_xz, rho_yz of ``P_rr``."""
-        p = self.p[rows, :3, :3]
-        sigma = np.sqrt(np.einsum("nii->ni", p))
-        rho = p / (sigma[:, :, None] * sigma[:, None, :])
-        values = np.stack([rho[:, 0, 1], rho[:, 0, 2], rho[:, 1, 2]], axis=1)
-        self.obs[rows, self.layout.position_correlation_start :] = np.clip(values, -1.0, 1.0)
 
     def true_image_success(self) -> np.ndarray:
         """(N, P) each row's probability that an image of planet p in view yields a fix this episode (1
@@ -332,32 +259,32 @@ class BatchCore:
         active: np.ndarray | None = None,
         on_step: Callable[[np.ndarray], None] | None = None,
     ) -> None:
-        """One decision: :meth:`step` ``config.decision_steps`` times with the same decoded actions, the
-        rewards summed into the reward column; a row whose episode ends inside the hold stops there (its
-        flags stay as that step set them). ``on_step(stepped)``, when given, runs after every physics step
-        with the bool (N,) mask of the rows it advanced (evaluation records each physics step)."""
-        k = self.config.decision_steps
-        if k == 1:
+        """One decision, :meth:`step`; with ``on_step(stepped)``, the same decision one physics step a call
+        of the compiled rule, ``on_step`` running after every physics step with the bool (N,) mask of the
+        rows it advanced (evaluation records each physics step)."""
+        if on_step is None:
             self.step(targets, torques, active)
-            if on_step is not None:
-                on_step(self._all if active is None else active)
             return
-        running = np.array(self._all if active is None else active, dtype=bool, copy=True)
-        started = running.copy()
-        total = np.zeros(self.num_rows)
-        for _ in range(k):
-            self.step(targets, torques, running)
-            total[running] += self.f[running, L.F_REWARD]
-            if on_step is not None:
-                on_step(running)
-            running &= (self.i[:, L.I_TERMINATED] == 0) & (self.i[:, L.I_TRUNCATED] == 0)
-            if not running.any():
+        for s in range(self.config.decision_steps):
+            before = self.i[:, L.I_K].copy()
+            self._run(targets, torques, active, s == 0, 1)
+            stepped = self.i[:, L.I_K] != before
+            if s > 0 and not stepped.any():
                 break
-        self.f[started, L.F_REWARD] = total[started]
+            on_step(stepped)
 
     def step(self, targets: np.ndarray, torques: np.ndarray, active: np.ndarray | None = None) -> None:
-        """Advance the ``active`` rows (all by default) by one step with decoded actions: ``targets``
-        (N,) int64 (-1: none) and ``torques`` (N, 3) float64 fractions of the wheel limit in [-1, 1]."""
+        """Advance the ``active`` rows (all by default) by one decision with decoded actions: ``targets``
+        (N,) int64 (-1: none) and ``torques`` (N, 3) float64 fractions of the wheel limit in [-1, 1]. The
+        decision rule is compiled (:func:`~planetnav_env.core.kernels.decide_row`): ``decision_steps``
+        physics steps with the same actions, the rewards summed into the reward column, a row whose
+        episode ends inside the hold stopping there (its flags stay as that step set them)."""
+        self._run(targets, torques, active, True, self.config.decision_steps)
+
+    def _run(self, targets: np.ndarray, torques: np.ndarray, active: np.ndarray | None, first: bool,
+             steps: int) -> None:  # fmt: skip
+        """``steps`` physics steps of the decision rule (``first``: they start the decision), then the
+        rows' status codes as named errors."""
         # Plain arrays, not the RowState/Actions records: typing a record passed from Python costs
         # several µs a call (K.step_range_arrays builds them in compiled code).
         active = self._all if active is None else active
@@ -369,12 +296,13 @@ class BatchCore:
                 self._pool = ThreadPoolExecutor(self.threads, thread_name_prefix="planetnav-core")
             c = self.threads
             jobs = [
-                self._pool.submit(K.step_range_arrays, *args, j * n // c, (j + 1) * n // c) for j in range(c)
+                self._pool.submit(K.step_range_arrays, *args, j * n // c, (j + 1) * n // c, first, steps)
+                for j in range(c)
             ]
             for job in jobs:
                 job.result()
         else:
-            K.step_range_arrays(*args, 0, n)
+            K.step_range_arrays(*args, 0, n, first, steps)
         status = self.i[:, L.I_STATUS]
         if status.any():
             bad = np.flatnonzero(status)
@@ -387,16 +315,6 @@ class BatchCore:
                 f"row {r} (of rows {bad.tolist()}) at step {int(self.i[r, L.I_K])}: {what}; "
                 f"q={self.f[r, L.F_Q : L.F_Q + 4]}, omega={self.f[r, L.F_W : L.F_W + 3]}"
             )
-        if self._python_blocks:
-            stepped = np.flatnonzero(active)
-            if self.since is not None:
-                self._observe_since(stepped)
-            if self.image_log is not None:
-                self._observe_image_log(stepped)
-            if self.residual_log is not None:
-                self._observe_residual_log(stepped)
-            if self.layout.position_correlation:
-                self._observe_position_correlation(stepped)
 
     # ------------------------------------------------------------------------------------------
     def time_s(self, row: int) -> float:

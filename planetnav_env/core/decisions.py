@@ -1,10 +1,11 @@
-"""The decision interface over the physics step: relative target actions and the time since each
-target was last measured, over N rows.
+"""The decision interface over the physics step: relative target actions, over N rows, and the
+since-measured values for the training recipe's feature layer.
 
-One implementation: the environments apply these when their config asks for them
-(``EnvConfig.target_actions = "relative"``, ``observe_since_measured``; the ``-v1`` ids), and the
-training recipe's layers (:mod:`planetnav_train.features`, :mod:`planetnav_train.batch_wrappers`) call the
-same functions for the options they add over a ``-v0`` id.
+The environments decode relative actions here (``EnvConfig.target_actions = "relative"``); their
+``since_measured`` observation block is the compiled kernel's (:mod:`planetnav_env.core.observation`).
+The training recipe's layers (:mod:`planetnav_train.features`, :mod:`planetnav_train.batch_wrappers`) call
+:func:`advance_since_measured` and :func:`since_measured_values` for the feature they add over a ``-v0``
+id; ``tests/env/test_events.py`` holds the kernel's block to them.
 
 Why these exist (research/training_log.md, E2 and E3; docs/suite.md "Tasks v1"): the base observation is a
 snapshot of the filter, so a feed-forward policy cannot tell how long it has dwelt on a target; and with
@@ -14,17 +15,19 @@ the single action 0.
 
 from __future__ import annotations
 
+__all__ = [
+    "RESIDUAL_CAP", "SINCE_SCALE_STEPS", "advance_since_measured", "relative_targets", "relative_to_absolute",
+    "since_measured_values",
+]  # fmt: skip
+
 import math
 
 import numpy as np
 
+from planetnav_env.core.layout import RESIDUAL_CAP, SINCE_SCALE_STEPS
 from planetnav_env.errors import InvalidParameterError
 from planetnav_env.numerics.portable_math import log1p
 
-#: Scale of the ``since_measured`` values [steps]: a constant (one cruise day of 60-s steps), not the
-#: episode length, so that a policy evaluated on shorter episodes than it was trained on sees the same
-#: values.
-SINCE_SCALE_STEPS = 1440
 _SINCE_LOG_SCALE = math.log1p(SINCE_SCALE_STEPS)
 
 
@@ -50,67 +53,6 @@ def since_measured_values(since: np.ndarray) -> np.ndarray:
     finite = np.isfinite(since)
     scaled = log1p(np.where(finite, since, 0.0)) / _SINCE_LOG_SCALE
     return np.where(finite, np.minimum(scaled, 1.0), 1.0).astype(np.float32)
-
-
-def advance_image_log(
-    log: np.ndarray, fixed: np.ndarray, failed: np.ndarray, target_index: np.ndarray
-) -> None:
-    """Count one physics step's image in the image log, in place.
-
-    log: (N, 2, P) counts, ``log[:, 0]`` images of each planet in view, ``log[:, 1]`` the fixes they gave.
-    fixed: (N,) bool, the camera measured its target this step (``info["sensor"] == "camera"``); failed:
-    (N,) bool, the image of a planet in view yielded no fix (``info["visibility"] == "image_failed"``);
-    target_index: (N,) int, the planet imaged. Rows with neither (no image, or the planet out of view)
-    count nothing.
-    """
-    n_planets = log.shape[2]
-    target_index = np.asarray(target_index)
-    on_planet = (target_index >= 0) & (target_index < n_planets)
-    for flag, add_fix in ((np.asarray(fixed, dtype=bool), 1.0), (np.asarray(failed, dtype=bool), 0.0)):
-        rows = np.flatnonzero(flag & on_planet)
-        log[rows, 0, target_index[rows]] += 1.0
-        log[rows, 1, target_index[rows]] += add_fix
-
-
-def image_log_values(log: np.ndarray) -> np.ndarray:
-    """The ``image_log`` observation (N, 2, P) float32 from the counts (N, 2, P): row 0 ``(fixes + 1) /
-    (images + 2)`` (the mean of a Beta(1, 1) prior updated by the counts), row 1 ``log1p(images) /
-    log1p(SINCE_SCALE_STEPS)`` capped at 1 (one value per planet per row, so each row is a per-target
-    vector like ``since_measured``)."""
-    images, fixes = log[:, 0], log[:, 1]
-    mean = (fixes + 1.0) / (images + 2.0)
-    scaled = np.minimum(log1p(images) / _SINCE_LOG_SCALE, 1.0)
-    return np.stack([mean, scaled], axis=1).astype(np.float32)
-
-
-#: Cap of the residual log's normalized NIS (the observation is its value / the cap).
-RESIDUAL_CAP = 10.0
-
-
-def advance_residual_log(
-    log: np.ndarray, fixed: np.ndarray, nis_norm: np.ndarray, target_index: np.ndarray
-) -> None:
-    """Add one physics step's fix to the residual log, in place.
-
-    log: (N, 2, T), ``log[:, 0]`` fixes of each target (planets, then pulsars), ``log[:, 1]`` the sum of
-    their NIS divided by the measurement's degrees of freedom. fixed: (N,) bool, a sensor measured the
-    target this step (an image or a pulsar phase); nis_norm: (N,) that fix's NIS / dof (the filter's, gated
-    fixes included); target_index: (N,) the target.
-    """
-    n_targets = log.shape[2]
-    target_index = np.asarray(target_index)
-    ok = np.asarray(fixed, dtype=bool) & (target_index >= 0) & (target_index < n_targets)
-    ok &= np.isfinite(nis_norm)
-    rows = np.flatnonzero(ok)
-    log[rows, 0, target_index[rows]] += 1.0
-    log[rows, 1, target_index[rows]] += np.asarray(nis_norm)[rows]
-
-
-def residual_log_values(log: np.ndarray) -> np.ndarray:
-    """The ``residual_log`` observation (N, T) float32: ``(sum + 2) / (fixes + 2)`` (the mean normalized
-    NIS with a prior of two consistent fixes), capped at :data:`RESIDUAL_CAP`, divided by it."""
-    mean = (log[:, 1] + 2.0) / (log[:, 0] + 2.0)
-    return (np.minimum(mean, RESIDUAL_CAP) / RESIDUAL_CAP).astype(np.float32)
 
 
 def relative_targets(actions: np.ndarray, current: np.ndarray, n_targets: int) -> np.ndarray:

@@ -1,6 +1,7 @@
 """The compiled step of the batch core: one row kernel per stage, one loop over the rows.
 
-Every environment row ``n`` is advanced by :func:`step_row` and observed by :func:`observe_row`; the
+Every environment row ``n`` is advanced one decision at a time by :func:`decide_row` (the decision
+rule: ``decision_steps`` physics steps of :func:`step_row`, each observed by :func:`observe_row`); the
 batch functions loop over a range of rows; :class:`~planetnav_env.core.batch.BatchCore` runs chunks of
 rows on Python threads (the kernels release the GIL). A row reads and writes
 only its own slices of the state arrays (the record ``st``, :class:`~planetnav_env.core.records.RowState`:
@@ -41,6 +42,7 @@ from planetnav_env.attitude.pointing import (
 from planetnav_env.core.layout import (
     F_DV_LOST,
     F_DV_STEP,
+    F_HOLD_REWARD,
     F_HW,
     F_IMG_P,
     F_INTEGRATED,
@@ -80,7 +82,7 @@ from planetnav_env.core.layout import (
     STATUS_CAMERA,
     STATUS_OK,
 )  # fmt: skip
-from planetnav_env.core.observation import camera_visibility, observe_row
+from planetnav_env.core.observation import camera_visibility, clear_counters, count_row, observe_row
 from planetnav_env.core.operations import (
     add_thrust_q,
     apply_thrust,
@@ -324,51 +326,80 @@ def reset_row(prm, st, n, sc) -> None:  # pragma: no cover - compiled
     i[n, I_TERMINATED] = 0
     i[n, I_TRUNCATED] = 0
     f[n, F_REWARD] = 0.0
+    clear_counters(prm, f, n)
+    count_row(prm, f, i, n)  # a reset's first observation counts, as a step without a measurement
     observe_row(prm, f, st.p, i, st.eph, st.obs, n, sc, False)
 
 
 @njit(inline="always", **ROW_KERNEL_OPTIONS)
 def step_active_row(prm, st, act, n, sc) -> None:  # pragma: no cover - compiled
-    """Step and observe row ``n`` if ``act`` marks it active: the body of the CPU's row loop
-    (:func:`_step_rows`) and of the device's thread (:func:`step_thread`). Inlined into both."""
+    """One physics step of row ``n`` if ``act`` marks it active, counted in its history counters and
+    observed: each step of :func:`decide_row`, into which it is inlined."""
     if act.active[n]:
         bodies_ready = step_row(prm, st, n, act.targets[n], act.torques[n], sc)
         if st.i[n, I_STATUS] == STATUS_OK:
+            count_row(prm, st.f, st.i, n)
             observe_row(prm, st.f, st.p, st.i, st.eph, st.obs, n, sc, bodies_ready)
 
 
+@njit(inline="always", **ROW_KERNEL_OPTIONS)
+def decide_row(prm, st, act, n, sc, first, steps) -> None:  # pragma: no cover - compiled
+    """The decision rule of row ``n`` (if ``act`` marks it active): ``steps`` physics steps of its
+    decision (:func:`step_active_row` each) with the same decoded action, stopping once the episode ends
+    (terminated or truncated) inside the hold; with ``decision_steps`` > 1 the reward column holds the
+    sum of the decision's rewards so far (from 0.0, in step order). ``first``: the call starts the
+    decision (its first physics step runs whatever the flags, and the sum starts). A whole decision is
+    ``first=True, steps=decision_steps``; the CPU's per-physics-step callback runs it one step a call.
+    Inlined into the CPU's row loop and the device's thread."""
+    if not act.active[n]:
+        return
+    f, i = st.f, st.i
+    hold = prm.scalars[0].decision_steps > 1
+    for s in range(steps):
+        start = first and s == 0
+        if not start and (i[n, I_TERMINATED] != 0 or i[n, I_TRUNCATED] != 0):
+            return
+        step_active_row(prm, st, act, n, sc)
+        if hold:
+            total = (0.0 if start else f[n, F_HOLD_REWARD]) + f[n, F_REWARD]
+            f[n, F_HOLD_REWARD] = total
+            f[n, F_REWARD] = total
+
+
 @row_kernel
-def _step_rows(prm, st, act, lo, hi, sc) -> None:  # pragma: no cover - compiled
+def _step_rows(prm, st, act, lo, hi, first, steps, sc) -> None:  # pragma: no cover - compiled
     # The row loop itself is a row kernel: with reference counting, taking the view torques[n] would
     # touch the count of the torques array, shared by every thread, twice per row.
     for n in range(lo, hi):
-        step_active_row(prm, st, act, n, sc)
+        decide_row(prm, st, act, n, sc, first, steps)
 
 
 @njit(cache=True, nogil=True)
 def step_range(prm, st, act, lo, hi) -> None:  # pragma: no cover - compiled
-    """Step the rows ``lo .. hi - 1`` of the state ``st`` (:class:`~planetnav_env.core.records.RowState`)
-    that ``act`` (:class:`~planetnav_env.core.records.Actions`) marks active (releases the GIL: chunks
-    run on Python threads)."""
-    _step_rows(prm, st, act, lo, hi, make_scratch(prm))
+    """One decision (:func:`decide_row`, ``decision_steps`` physics steps) of the rows ``lo .. hi - 1``
+    of the state ``st`` (:class:`~planetnav_env.core.records.RowState`) that ``act``
+    (:class:`~planetnav_env.core.records.Actions`) marks active (releases the GIL: chunks run on Python
+    threads)."""
+    _step_rows(prm, st, act, lo, hi, True, prm.scalars[0].decision_steps, make_scratch(prm))
 
 
 @njit(cache=True, nogil=True)
 def step_batch(prm, st, act) -> None:  # pragma: no cover - compiled
-    """Step every active row on the calling thread."""
+    """One decision of every active row on the calling thread."""
     step_range(prm, st, act, 0, st.f.shape[0])
 
 
 @njit(cache=True, nogil=True)
 def step_range_arrays(
-    prm, f, p, i, rng, eph, obs, targets, torques, active, lo, hi
+    prm, f, p, i, rng, eph, obs, targets, torques, active, lo, hi, first, steps
 ) -> None:  # pragma: no cover
-    """:func:`step_range` for callers in Python: the state and the actions as plain arrays, the records
+    """:func:`decide_row` of the rows ``lo .. hi - 1`` for callers in Python (``first``, ``steps``: a
+    whole decision is ``True, decision_steps``): the state and the actions as plain arrays, the records
     built here. Numba types a named-tuple argument from Python far more slowly than arrays (several µs
     per call, most of a one-row step), so the Python-facing entry takes the arrays."""
     st = RowState(f=f, p=p, i=i, rng=rng, eph=eph, obs=obs)
     act = Actions(targets=targets, torques=torques, active=active)
-    step_range(prm, st, act, lo, hi)
+    _step_rows(prm, st, act, lo, hi, first, steps, make_scratch(prm))
 
 
 @njit(cache=True, nogil=True)
@@ -387,9 +418,10 @@ def reset_rows(prm, st, rows) -> None:  # pragma: no cover - compiled
 
 @row_kernel
 def step_thread(prm, st, act, rows, n) -> None:  # pragma: no cover - compiled
-    """:func:`step_active_row` of row ``n`` with its own scratch, ``rows``' slices ``n``
-    (:func:`~planetnav_env.core.records.scratch_rows`, one row of scratch per state row)."""
-    step_active_row(prm, st, act, n, scratch_row(rows, n))
+    """One decision (:func:`decide_row`, ``decision_steps`` physics steps) of row ``n`` with its own
+    scratch, ``rows``' slices ``n`` (:func:`~planetnav_env.core.records.scratch_rows`, one row of scratch
+    per state row)."""
+    decide_row(prm, st, act, n, scratch_row(rows, n), True, prm.scalars[0].decision_steps)
 
 
 @row_kernel

@@ -47,6 +47,7 @@ _F_FIELDS = (
     ("REWARD", 1),
     ("NIS", 1),
     ("PIX", 2),  # pixel of the last planet image
+    ("HOLD_REWARD", 1),  # the rewards of the decision's physics steps so far (decision_steps > 1)
     # operations scenarios (EnvConfig.operations; zero / NaN otherwise)
     ("DV_STEP", 1),  # delta-v lost in the last step [m/s]
     ("DV_LOST", 1),  # delta-v lost in the episode [m/s]
@@ -64,6 +65,12 @@ _F_FIELDS = (
     # pulsar timing-model error (EnvConfig.pulsar_frequency_error_max > 0; unused, 0, otherwise): per
     # pulsar, the range drift c * delta [km/s] of its phases, drawn at reset (every catalogue pulsar fits)
     ("PSR_DRIFT", 4),
+    # counters of the observation blocks that keep a history (ObservationLayout; written by
+    # core/observation.py's count kernels, cleared at reset); unused otherwise. Widths: MAX_TARGETS = 7
+    # planets + 4 pulsars.
+    ("SINCE", 11),  # per target: physics steps since it was last measured (inf: not this episode)
+    ("IMG_LOG", 14),  # per planet: images of it in view, then (at + MAX_PLANETS) the fixes they gave
+    ("RES_LOG", 22),  # per target: fixes of it, then (at + MAX_TARGETS) the sum of their NIS / dof
 )
 F_OFFSETS: dict[str, tuple[int, int]] = {}
 _o = 0
@@ -78,19 +85,24 @@ F_ATT_ERR, F_WM, F_T0, F_INTEGRATED = (F_OFFSETS[k][0] for k in ("ATT_ERR", "WM"
 F_POS_ERR, F_VEL_ERR, F_NEES, F_POS_SIGMA = (
     F_OFFSETS[k][0] for k in ("POS_ERR", "VEL_ERR", "NEES", "POS_SIGMA")
 )
-F_REWARD, F_NIS, F_PIX = (F_OFFSETS[k][0] for k in ("REWARD", "NIS", "PIX"))
+F_REWARD, F_NIS, F_PIX, F_HOLD_REWARD = (F_OFFSETS[k][0] for k in ("REWARD", "NIS", "PIX", "HOLD_REWARD"))
 F_DV_STEP, F_DV_LOST, F_OBJECTIVE, F_THRUSTING, F_DL_SIGMA, F_DL_ERR = (
     F_OFFSETS[k][0] for k in ("DV_STEP", "DV_LOST", "OBJECTIVE", "THRUSTING", "DL_SIGMA", "DL_ERR")
 )
 F_IMG_P = F_OFFSETS["IMG_P"][0]
 F_COB, F_COB_LAST = F_OFFSETS["COB"][0], F_OFFSETS["COB_LAST"][0]
 F_PSR_DRIFT = F_OFFSETS["PSR_DRIFT"][0]
+F_SINCE, F_IMG_LOG, F_RES_LOG = (F_OFFSETS[k][0] for k in ("SINCE", "IMG_LOG", "RES_LOG"))
 #: Pulsar slots of PSR_DRIFT.
 MAX_PULSARS = F_OFFSETS["PSR_DRIFT"][1]
 #: Planet slots of IMG_P: every body a camera may target (``astro.bodies.BODIES`` but the Sun).
 MAX_PLANETS = F_OFFSETS["IMG_P"][1]
 #: Deadline slots of the state (``config.MAX_DEADLINES``; the width of DL_SIGMA and DL_ERR).
 MAX_DEADLINES = F_OFFSETS["DL_SIGMA"][1]
+#: Target slots of the per-target counters (planets, then pulsars).
+MAX_TARGETS = F_OFFSETS["SINCE"][1]
+assert MAX_TARGETS == MAX_PLANETS + MAX_PULSARS
+assert F_OFFSETS["IMG_LOG"][1] == 2 * MAX_PLANETS and F_OFFSETS["RES_LOG"][1] == 2 * MAX_TARGETS
 
 # ------------------------------------------------------------------------------------------------
 # Per-row integer state (BatchState.i)
@@ -205,87 +217,127 @@ OPERATIONS_TEXT = (
 )
 
 
-IN_FIELD_TEXT = (
-    "in field (with EnvConfig.observe_in_field), one per planet: 1 if the camera's visibility rule "
-    "(field of view, occultation, Sun exclusion, size) passes for that planet at the star-tracker attitude "
-    "and the estimated position now, and its disk fits the field; the camera measures the one of them "
-    "nearest the boresight"
-)
+#: Scale of the per-target history counts [steps]: a constant (one cruise day of 60-s steps), not the
+#: episode length, so that a policy evaluated on shorter episodes than it was trained on sees the same
+#: values (``since_measured``, the image counts of ``image_log``: log1p(count) / log1p(SINCE_SCALE_STEPS)).
+SINCE_SCALE_STEPS = 1440
+#: Cap of the residual log's mean normalized NIS (the observation is its value / the cap).
+RESIDUAL_CAP = 10.0
 
 
-RESIDUAL_LOG_TEXT = (
-    "residual log (with EnvConfig.observe_residual_log), one per target (planets, then pulsars): the mean "
-    "over this episode's fixes of it of the filter's NIS divided by its degrees of freedom (a phase has "
-    "one), with a prior of two consistent "
-    "fixes (1: consistent with the filter's noise model), capped at 10, / 10"
-)
+@dataclass(frozen=True)
+class ObservationBlock:
+    """An optional block of the observation, after the fixed ones: present when the option
+    ``observe_<name>`` of :class:`~planetnav_env.config.EnvConfig` is on, written by its kernel in
+    :mod:`planetnav_env.core.observation` at ``CoreParams.obs_blocks[code]`` (its place in
+    :data:`OBSERVATION_BLOCKS`). Everything else (offsets, spaces, the dict observation, decoding, the
+    documentation table, the kernels' offsets) is derived from this declaration.
+
+    Width ``per_planet * P + per_target * T + fixed`` values; ``rows`` > 1 gives the dict observation the
+    shape ``(rows, width // rows)``."""
+
+    name: str
+    per_planet: int
+    per_target: int
+    fixed: int
+    text: str  #: what the values are (the documentation table's content column)
+    index: str  #: the documentation table's index column
+    scale: str  #: the documentation table's scale column
+    bounds: tuple[float, float]  #: bounds of the dict observation's Box
+    rows: int = 1
+    flags: bool = False  #: decoded as booleans (value > 0.5) by ``spaces.decode_observation``
+
+    @property
+    def option(self) -> str:
+        """The ``EnvConfig`` option that switches the block on."""
+        return f"observe_{self.name}"
+
+    def width(self, n_planets: int, n_pulsars: int) -> int:
+        return self.per_planet * n_planets + self.per_target * (n_planets + n_pulsars) + self.fixed
+
+    def shape(self, n_planets: int, n_pulsars: int) -> tuple[int, ...]:
+        w = self.width(n_planets, n_pulsars)
+        return (w,) if self.rows == 1 else (self.rows, w // self.rows)
 
 
-POSITION_CORRELATION_TEXT = (
-    "position correlation (with EnvConfig.observe_position_correlation): the correlation coefficients "
-    "rho_xy, rho_xz, rho_yz of the filter's position covariance P_rr (with log_sigma's diagonal they give "
-    "the whole P_rr: which way the position error lies)"
-)
-
-
-IMAGE_LOG_TEXT = (
-    "image log (with EnvConfig.observe_image_log), two rows of one per planet: (fixes + 1) / (images + 2), "
-    "the mean of the planet's image success rate under a uniform prior, then log1p(images) / log1p(1440) "
-    "capped at 1, "
-    "over this episode's images of it in view (an image that yields no fix counts; one out of view or behind "
-    "the Sun does not)"
-)
-
-
-SINCE_MEASURED_TEXT = (
-    "since measured (with EnvConfig.observe_since_measured), one per target: log1p(physics steps since it "
-    "was last measured) / log1p(1440), capped at 1; 1 when not measured this episode"
-)
+#: The optional blocks, in the order they follow the fixed blocks (and ``operations``).
+OBSERVATION_BLOCKS: tuple[ObservationBlock, ...] = (
+    ObservationBlock(
+        "in_field", 1, 0, 0,
+        "in field (with EnvConfig.observe_in_field), one per planet: 1 if the camera's visibility rule "
+        "(field of view, occultation, Sun exclusion, size) passes for that planet at the star-tracker "
+        "attitude and the estimated position now, and its disk fits the field; the camera measures the "
+        "one of them nearest the boresight",
+        "..+P", "0/1", (0.0, 1.0), flags=True,
+    ),
+    ObservationBlock(
+        "since_measured", 0, 1, 0,
+        "since measured (with EnvConfig.observe_since_measured), one per target: log1p(physics steps "
+        "since it was last measured) / log1p(1440), capped at 1; 1 when not measured this episode",
+        "..+T", "0..1", (0.0, 1.0),
+    ),
+    ObservationBlock(
+        "image_log", 2, 0, 0,
+        "image log (with EnvConfig.observe_image_log), two rows of one per planet: (fixes + 1) / (images "
+        "+ 2), the mean of the planet's image success rate under a uniform prior, then log1p(images) / "
+        "log1p(1440) capped at 1, over this episode's images of it in view (an image that yields no fix "
+        "counts; one out of view or behind the Sun does not)",
+        "..+2P", "0..1", (0.0, 1.0), rows=2,
+    ),
+    ObservationBlock(
+        "residual_log", 0, 1, 0,
+        "residual log (with EnvConfig.observe_residual_log), one per target (planets, then pulsars): the "
+        "mean over this episode's fixes of it of the filter's NIS divided by its degrees of freedom (a "
+        "phase has one), with a prior of two consistent fixes (1: consistent with the filter's noise "
+        "model), capped at 10, / 10",
+        "..+T", "0..1", (0.0, 1.0),
+    ),
+    ObservationBlock(
+        "position_correlation", 0, 0, 3,
+        "position correlation (with EnvConfig.observe_position_correlation): the correlation "
+        "coefficients rho_xy, rho_xz, rho_yz of the filter's position covariance P_rr (with log_sigma's "
+        "diagonal they give the whole P_rr: which way the position error lies)",
+        "last 3", "-1..1", (-1.0, 1.0),
+    ),
+)  # fmt: skip
+#: Index of each optional block in :data:`OBSERVATION_BLOCKS` (and in ``CoreParams.obs_blocks``).
+BLOCK_CODES = {b.name: k for k, b in enumerate(OBSERVATION_BLOCKS)}
+#: The codes the kernels index ``CoreParams.obs_blocks`` with (numba folds int globals into constants).
+OB_IN_FIELD = BLOCK_CODES["in_field"]
+OB_SINCE_MEASURED = BLOCK_CODES["since_measured"]
+OB_IMAGE_LOG = BLOCK_CODES["image_log"]
+OB_RESIDUAL_LOG = BLOCK_CODES["residual_log"]
+OB_POSITION_CORRELATION = BLOCK_CODES["position_correlation"]
 
 
 @dataclass(frozen=True)
 class ObservationLayout:
     """Offsets of every block of the flat observation for ``n_planets`` planets and ``n_pulsars`` pulsars,
     and, with ``n_deadlines`` set (an operations scenario), the ``operations`` block of ``n_deadlines + 2``
-    values after ``elapsed``.
+    values after ``elapsed``; then each optional block of :data:`OBSERVATION_BLOCKS` whose flag (a field
+    of the block's name) is set, in that order.
 
     ``blocks`` lists ``(name, start, stop, shape)``; the ``dict`` observation uses the same names and
     shapes, so one table serves the builders, the spaces, :func:`decode` and the documentation.
+    ``<name>_start`` (e.g. ``image_log_start``) is :meth:`start` of an optional block.
     """
 
     n_planets: int
     n_pulsars: int
     n_deadlines: int | None = None
-    #: The ``in_field`` block (P values, 0/1) after the others (``EnvConfig.observe_in_field``; text:
-    #: IN_FIELD_TEXT).
+    # One flag per optional block (OBSERVATION_BLOCKS), in its order.
     in_field: bool = False
-    #: The ``since_measured`` block (T values) last (``EnvConfig.observe_since_measured``; text:
-    #: SINCE_MEASURED_TEXT). Written by :class:`planetnav_env.core.batch.BatchCore`, not the compiled builder.
     since_measured: bool = False
-    #: The ``image_log`` block (2 x P values: the rate means, then the scaled image counts) after
-    #: ``since_measured`` (``EnvConfig.observe_image_log``; text: IMAGE_LOG_TEXT). Written by
-    #: :class:`planetnav_env.core.batch.BatchCore`.
     image_log: bool = False
-    #: The ``residual_log`` block (T values) after ``image_log`` (``EnvConfig.observe_residual_log``; text:
-    #: RESIDUAL_LOG_TEXT). Written by :class:`planetnav_env.core.batch.BatchCore`.
     residual_log: bool = False
-    #: The ``position_correlation`` block (3 values) after ``residual_log``
-    #: (``EnvConfig.observe_position_correlation``; text: POSITION_CORRELATION_TEXT). Written by
-    #: :class:`planetnav_env.core.batch.BatchCore`.
     position_correlation: bool = False
 
     @classmethod
     def for_config(cls, cfg) -> ObservationLayout:
         """The layout of an :class:`~planetnav_env.config.EnvConfig`."""
         ops = getattr(cfg, "operations", None)
-        return cls(
-            cfg.n_planets, cfg.n_pulsars, None if ops is None else len(ops.deadlines_s),
-            bool(getattr(cfg, "observe_in_field", False)),
-            bool(getattr(cfg, "observe_since_measured", False)),
-            bool(getattr(cfg, "observe_image_log", False)),
-            bool(getattr(cfg, "observe_residual_log", False)),
-            bool(getattr(cfg, "observe_position_correlation", False)),
-        )  # fmt: skip
+        flags = {b.name: bool(getattr(cfg, b.option, False)) for b in OBSERVATION_BLOCKS}
+        return cls(cfg.n_planets, cfg.n_pulsars, None if ops is None else len(ops.deadlines_s), **flags)
 
     @property
     def n_targets(self) -> int:
@@ -312,34 +364,35 @@ class ObservationLayout:
         """First index of the operations block (== size without one)."""
         return self.elapsed_index + 1
 
-    @property
-    def in_field_start(self) -> int:
-        """First index of the in-field block (== size without one)."""
-        return self.operations_start + (0 if self.n_deadlines is None else self.n_deadlines + 2)
+    def has(self, name: str) -> bool:
+        """Whether the optional block ``name`` is present."""
+        return bool(getattr(self, OBSERVATION_BLOCKS[BLOCK_CODES[name]].name))
 
-    @property
-    def since_measured_start(self) -> int:
-        """First index of the since-measured block (== size without one)."""
-        return self.in_field_start + (self.n_planets if self.in_field else 0)
+    def start(self, name: str) -> int:
+        """First index of the optional block ``name`` (where it would start, when absent)."""
+        i = self.operations_start + (0 if self.n_deadlines is None else self.n_deadlines + 2)
+        for b in OBSERVATION_BLOCKS[: BLOCK_CODES[name]]:
+            i += b.width(self.n_planets, self.n_pulsars) if getattr(self, b.name) else 0
+        return i
 
-    @property
-    def image_log_start(self) -> int:
-        """First index of the image-log block (== size without one)."""
-        return self.since_measured_start + (self.n_targets if self.since_measured else 0)
+    def __getattr__(self, attr: str) -> int:
+        # <name>_start of an optional block (called only for names the class does not define).
+        name = attr.removesuffix("_start")
+        if attr.endswith("_start") and name in BLOCK_CODES:
+            return self.start(name)
+        raise AttributeError(f"{type(self).__name__!r} object has no attribute {attr!r}")
 
-    @property
-    def residual_log_start(self) -> int:
-        """First index of the residual-log block (== size without one)."""
-        return self.image_log_start + (2 * self.n_planets if self.image_log else 0)
-
-    @property
-    def position_correlation_start(self) -> int:
-        """First index of the position-correlation block (== size without one)."""
-        return self.residual_log_start + (self.n_targets if self.residual_log else 0)
+    def block_starts(self) -> np.ndarray:
+        """(len(OBSERVATION_BLOCKS),) int64: each optional block's first index, -1 when absent (the
+        kernels' ``CoreParams.obs_blocks``)."""
+        return np.array([self.start(b.name) if getattr(self, b.name) else -1 for b in OBSERVATION_BLOCKS],
+                        dtype=np.int64)  # fmt: skip
 
     @property
     def size(self) -> int:
-        return self.position_correlation_start + (3 if self.position_correlation else 0)
+        last = OBSERVATION_BLOCKS[-1]
+        width = last.width(self.n_planets, self.n_pulsars) if self.has(last.name) else 0
+        return self.start(last.name) + width
 
     @property
     def blocks(self) -> tuple[tuple[str, int, int, tuple[int, ...]], ...]:
@@ -354,18 +407,13 @@ class ObservationLayout:
         out.append(("target", self.target_start, self.elapsed_index, (self.n_targets,)))
         out.append(("elapsed", self.elapsed_index, self.operations_start, (1,)))
         if self.n_deadlines is not None:
-            out.append(("operations", self.operations_start, self.in_field_start, (self.n_deadlines + 2,)))
-        if self.in_field:
-            out.append(("in_field", self.in_field_start, self.since_measured_start, (self.n_planets,)))
-        if self.since_measured:
-            out.append(("since_measured", self.since_measured_start, self.image_log_start, (self.n_targets,)))
-        if self.image_log:
-            out.append(("image_log", self.image_log_start, self.residual_log_start, (2, self.n_planets)))
-        if self.residual_log:
-            stop = self.position_correlation_start
-            out.append(("residual_log", self.residual_log_start, stop, (self.n_targets,)))
-        if self.position_correlation:
-            out.append(("position_correlation", self.position_correlation_start, self.size, (3,)))
+            stop = self.operations_start + self.n_deadlines + 2
+            out.append(("operations", self.operations_start, stop, (self.n_deadlines + 2,)))
+        for b in OBSERVATION_BLOCKS:
+            if getattr(self, b.name):
+                a = self.start(b.name)
+                out.append((b.name, a, a + b.width(self.n_planets, self.n_pulsars),
+                            b.shape(self.n_planets, self.n_pulsars)))  # fmt: skip
         return tuple(out)
 
     def to_dict(self, flat: np.ndarray) -> dict[str, np.ndarray]:
@@ -394,11 +442,7 @@ class ObservationLayout:
         rows.append(("22+7T..", "current target, one-hot (T = P + Q)", "0/1"))
         rows.append(("22+8T", "elapsed fraction of the episode", "0..1"))
         rows.append(("..+D+2", OPERATIONS_TEXT, f"/ {OPS_DAYS_SCALE:g} d, / {OPS_DV_SCALE:g} m/s, 0/1"))
-        rows.append(("..+P", IN_FIELD_TEXT, "0/1"))
-        rows.append(("..+T", SINCE_MEASURED_TEXT, "0..1"))
-        rows.append(("..+2P", IMAGE_LOG_TEXT, "0..1"))
-        rows.append(("..+T", RESIDUAL_LOG_TEXT, "0..1"))
-        rows.append(("last 3", POSITION_CORRELATION_TEXT, "-1..1"))
+        rows += [(b.index, b.text, b.scale) for b in OBSERVATION_BLOCKS]
         w0 = max(len(r[0]) for r in rows)
         w1 = max(len(r[1]) for r in rows)
         w2 = max(len(r[2]) for r in rows)

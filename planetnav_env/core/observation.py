@@ -1,34 +1,62 @@
 """The observation of one row (layout: :class:`planetnav_env.core.layout.ObservationLayout`), built from
 what the spacecraft knows: the filter's estimate and covariance, the star tracker, the reported rates,
-the wheels and the ephemerides. Target-block columns are the ``TF_*`` constants of the layout."""
+the wheels, the ephemerides and the row's own history of measurements. Target-block columns are the
+``TF_*`` constants of the layout.
+
+Every block is written here, by compiled row kernels, for every environment (the single env, the CPU
+vector env and the device env run the same code). :func:`observe_row` writes the observation;
+:func:`count_row` advances, after each physics step and at reset, the counters of the optional blocks
+that keep a history (state columns ``F_SINCE``, ``F_IMG_LOG``, ``F_RES_LOG``), which
+:func:`clear_counters` clears at reset. An optional block (``layout.OBSERVATION_BLOCKS``) is written at
+``prm.obs_blocks[OB_<NAME>]``, -1 when the configuration leaves it out.
+"""
 
 from __future__ import annotations
 
 import math
 
-from numba import njit
+from numba import float32, njit
 
 from planetnav_env.astro.bodies import AU_KM
 from planetnav_env.attitude.plant import dcm_body_to_inertial_kernel
 from planetnav_env.core.layout import (
     F_DV_LOST,
     F_HW,
+    F_IMG_LOG,
     F_INTEGRATED,
+    F_NIS,
     F_QE,
+    F_RES_LOG,
+    F_SINCE,
     F_THRUSTING,
     F_WM,
     F_XE,
     I_K,
+    I_MEASURED,
+    I_REASON,
+    I_SENSOR,
     I_TARGET,
+    MAX_PLANETS,
+    MAX_TARGETS,
+    OB_IMAGE_LOG,
+    OB_IN_FIELD,
+    OB_POSITION_CORRELATION,
+    OB_RESIDUAL_LOG,
+    OB_SINCE_MEASURED,
     OPS_DAYS_SCALE,
     OPS_DV_SCALE,
+    REASON_IMAGE_FAILED,
     REASON_VISIBLE,
+    RESIDUAL_CAP,
     SC_ATTITUDE,
     SC_LOG_SIGMA,
     SC_POSITION,
     SC_RATES,
     SC_VELOCITY,
     SC_WHEEL_MOMENTUM,
+    SENSOR_CAMERA,
+    SENSOR_NONE,
+    SINCE_SCALE_STEPS,
     TARGET_FEATURES,
     TF_DIR,
     TF_LOG_DISTANCE,
@@ -51,6 +79,9 @@ from planetnav_env.sensors.camera_kernels import (
 from planetnav_env.sensors.pulsar import (
     pulsar_visibility_row,
 )
+
+#: log1p(SINCE_SCALE_STEPS), the divisor of the scaled counts (computed once, by the C library's log1p).
+_SINCE_LOG_SCALE = math.log1p(SINCE_SCALE_STEPS)
 
 
 @row_kernel
@@ -94,8 +125,6 @@ def observe_row(prm, f, p, i, eph, obs, n, sc, bodies_ready) -> None:  # pragma:
     if i[n, I_TARGET] >= 0:
         o[base + i[n, I_TARGET]] = 1.0
     o[ps.obs_elapsed] = i[n, I_K] / ps.episode_steps
-    if ps.obs_in_field >= 0:
-        _in_field(prm, sc.dirv, qe, sc, o, ps.obs_in_field)
     if ps.ops:
         # Operations block: time to each deadline [d] (0 once reached), delta-v lost [m/s], thrusting.
         base = ps.obs_ops
@@ -105,6 +134,151 @@ def observe_row(prm, f, p, i, eph, obs, n, sc, bodies_ready) -> None:  # pragma:
             o[base + d] = max(prm.ops_deadlines[d] - elapsed, 0.0) / 86400.0 / OPS_DAYS_SCALE
         o[base + n_dl] = f[n, F_DV_LOST] / OPS_DV_SCALE
         o[base + n_dl + 1] = f[n, F_THRUSTING]
+    # The optional blocks (layout.OBSERVATION_BLOCKS), each at its start (-1: not in this observation).
+    blocks = prm.obs_blocks
+    if blocks[OB_IN_FIELD] >= 0:
+        _in_field(prm, sc.dirv, qe, sc, o, blocks[OB_IN_FIELD])
+    if blocks[OB_SINCE_MEASURED] >= 0:
+        _since_measured(prm, f, n, o, blocks[OB_SINCE_MEASURED])
+    if blocks[OB_IMAGE_LOG] >= 0:
+        _image_log(prm, f, n, o, blocks[OB_IMAGE_LOG])
+    if blocks[OB_RESIDUAL_LOG] >= 0:
+        _residual_log(prm, f, n, o, blocks[OB_RESIDUAL_LOG])
+    if blocks[OB_POSITION_CORRELATION] >= 0:
+        _position_correlation(pm, o, blocks[OB_POSITION_CORRELATION])
+
+
+@row_kernel
+def clear_counters(prm, f, n) -> None:  # pragma: no cover - compiled
+    """Start row ``n``'s history counters of a new episode: no target measured (inf steps), no image, no
+    fix (every counter slot, whichever blocks are on: the columns are the row's own)."""
+    for j in range(MAX_TARGETS):
+        f[n, F_SINCE + j] = math.inf
+    for j in range(2 * MAX_PLANETS):
+        f[n, F_IMG_LOG + j] = 0.0
+    for j in range(2 * MAX_TARGETS):
+        f[n, F_RES_LOG + j] = 0.0
+
+
+@row_kernel
+def count_row(prm, f, i, n) -> None:  # pragma: no cover - compiled
+    """Count row ``n``'s last physics step (or its reset, as a step without a measurement) in the counters
+    of the optional blocks that keep a history, from the step's outcome in ``i`` (target, measured, sensor,
+    reason) and ``f`` (the fix's NIS)."""
+    blocks = prm.obs_blocks
+    if blocks[OB_SINCE_MEASURED] >= 0:
+        _count_since_measured(prm, f, i, n)
+    if blocks[OB_IMAGE_LOG] >= 0:
+        _count_image_log(prm, f, i, n)
+    if blocks[OB_RESIDUAL_LOG] >= 0:
+        _count_residual_log(prm, f, i, n)
+
+
+@row_kernel
+def _scaled_count(count) -> float:  # pragma: no cover - compiled
+    """A count [steps] as ``log1p(count) / log1p(SINCE_SCALE_STEPS)``, capped at 1."""
+    return min(math.log1p(count) / _SINCE_LOG_SCALE, 1.0)
+
+
+@row_kernel
+def _count_since_measured(prm, f, i, n) -> None:  # pragma: no cover - compiled
+    """One more physics step since each target was measured; 0 for the one measured now."""
+    n_t = prm.scalars[0].n_targets
+    for j in range(n_t):
+        f[n, F_SINCE + j] += 1.0
+    t = i[n, I_TARGET]
+    if i[n, I_MEASURED] != 0 and 0 <= t < n_t:
+        f[n, F_SINCE + t] = 0.0
+
+
+@row_kernel
+def _since_measured(prm, f, n, o, base) -> None:  # pragma: no cover - compiled
+    """The ``since_measured`` block (float32 values): per target the scaled steps since it was last
+    measured, 1 when not measured this episode."""
+    for j in range(prm.scalars[0].n_targets):
+        s = f[n, F_SINCE + j]
+        o[base + j] = float32(_scaled_count(s) if math.isfinite(s) else 1.0)
+
+
+@row_kernel
+def _count_image_log(prm, f, i, n) -> None:  # pragma: no cover - compiled
+    """Count the step's image of a planet in view: a fix (the camera measured it) or a failed image
+    (``REASON_IMAGE_FAILED``); anything else (no image, the planet out of view) counts nothing."""
+    t = i[n, I_TARGET]
+    if 0 <= t < prm.scalars[0].n_planets:
+        if i[n, I_SENSOR] == SENSOR_CAMERA:
+            f[n, F_IMG_LOG + t] += 1.0
+            f[n, F_IMG_LOG + MAX_PLANETS + t] += 1.0
+        if i[n, I_REASON] == REASON_IMAGE_FAILED:
+            f[n, F_IMG_LOG + t] += 1.0
+
+
+@row_kernel
+def _image_log(prm, f, n, o, base) -> None:  # pragma: no cover - compiled
+    """The ``image_log`` block (float32 values), two rows of one per planet: ``(fixes + 1) / (images + 2)``
+    (the mean of a Beta(1, 1) prior updated by the counts), then the scaled image count."""
+    n_p = prm.scalars[0].n_planets
+    for a in range(n_p):
+        images = f[n, F_IMG_LOG + a]
+        fixes = f[n, F_IMG_LOG + MAX_PLANETS + a]
+        o[base + a] = float32((fixes + 1.0) / (images + 2.0))
+        o[base + n_p + a] = float32(_scaled_count(images))
+
+
+@row_kernel
+def _count_residual_log(prm, f, i, n) -> None:  # pragma: no cover - compiled
+    """Add the step's fix of its target (an image or a pulsar phase, gated fixes included) to the residual
+    log: one more fix, and its NIS divided by the measurement's degrees of freedom (a planet image 3 with
+    the apparent size, else 2; a pulsar phase 1)."""
+    ps = prm.scalars[0]
+    t = i[n, I_TARGET]
+    if i[n, I_SENSOR] == SENSOR_NONE or not 0 <= t < ps.n_targets:
+        return
+    dof = 1.0 if t >= ps.n_planets else (3.0 if ps.kind % 2 == 1 else 2.0)  # kinds 1, 3: "+size"
+    nis_norm = f[n, F_NIS] / dof
+    if math.isfinite(nis_norm):
+        f[n, F_RES_LOG + t] += 1.0
+        f[n, F_RES_LOG + MAX_TARGETS + t] += nis_norm
+
+
+@row_kernel
+def _residual_log(prm, f, n, o, base) -> None:  # pragma: no cover - compiled
+    """The ``residual_log`` block (float32 values), per target: ``(sum + 2) / (fixes + 2)`` (the mean
+    normalized NIS with a prior of two consistent fixes), capped at RESIDUAL_CAP, divided by it."""
+    for j in range(prm.scalars[0].n_targets):
+        mean = (f[n, F_RES_LOG + MAX_TARGETS + j] + 2.0) / (f[n, F_RES_LOG + j] + 2.0)
+        o[base + j] = float32(min(mean, RESIDUAL_CAP) / RESIDUAL_CAP)
+
+
+@row_kernel
+def _position_correlation(pm, o, base) -> None:  # pragma: no cover - compiled
+    """The ``position_correlation`` block: rho_xy, rho_xz, rho_yz of the position covariance ``pm[:3, :3]``,
+    clipped to [-1, 1] (NaN kept)."""
+    s0, s1, s2 = math.sqrt(pm[0, 0]), math.sqrt(pm[1, 1]), math.sqrt(pm[2, 2])
+    o[base] = _clip_unit(_ratio(pm[0, 1], s0 * s1))
+    o[base + 1] = _clip_unit(_ratio(pm[0, 2], s0 * s2))
+    o[base + 2] = _clip_unit(_ratio(pm[1, 2], s1 * s2))
+
+
+@row_kernel
+def _ratio(a, b) -> float:  # pragma: no cover - compiled
+    """``a / b`` with IEEE semantics for ``b == 0`` (inf of the quotient's sign, NaN for 0 / 0), on both
+    targets: numba's CPU error model would raise there."""
+    if b == 0.0:
+        if a == 0.0 or math.isnan(a):
+            return math.nan
+        return math.copysign(math.inf, a) * math.copysign(1.0, b)
+    return a / b
+
+
+@row_kernel
+def _clip_unit(x) -> float:  # pragma: no cover - compiled
+    """``np.clip(x, -1, 1)`` of a float: NaN stays NaN."""
+    if x < -1.0:
+        return -1.0
+    if x > 1.0:
+        return 1.0
+    return x
 
 
 @row_kernel

@@ -78,7 +78,6 @@ CORE_SCALAR_FIELDS: tuple[tuple[str, str, str], ...] = (
     ("obs_pulsars", "i8", "first index of the observation's pulsar block"),
     ("obs_target", "i8", "first index of the observation's target block"),
     ("obs_elapsed", "i8", "index of the observation's elapsed fraction"),
-    ("obs_in_field", "i8", "first index of the observation's in-field block (-1: none; observe_in_field)"),
     ("obs_ops", "i8", "first index of the observation's operations block"),
     # operations (EnvConfig.operations; zero without)
     ("ops", "i8", "1: an operations scenario"),
@@ -133,6 +132,7 @@ class CoreParams(NamedTuple):
     qproc: np.ndarray  # (6, 6) process noise over one step
     stars: tuple  # star_tracker.StarFixTables
     q_bias: np.ndarray  # (4,) fixed star-tracker misalignment composed with every fix (identity: none)
+    obs_blocks: np.ndarray  # (len(OBSERVATION_BLOCKS),) int64 first index of each optional block (-1: off)
 
 
 class RowState(NamedTuple):

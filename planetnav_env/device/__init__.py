@@ -10,9 +10,6 @@ device (torch tensors, stepped by the CUDA entry points of :mod:`planetnav_env.c
   draw the bank's episodes in parallel, each for its own rows;
 * :mod:`planetnav_env.device.rows`: the autoreset thread function (copy a bank row into a state row, then
   the compiled reset), and the row loops that run the thread functions on the CPU;
-* :mod:`planetnav_env.device.blocks`: the observation blocks the CPU computes in Python after the compiled
-  step (``since_measured``, ``image_log``, ``residual_log``, ``position_correlation``), as masked torch
-  operations;
 * :mod:`planetnav_env.device.vector_env`: :class:`~planetnav_env.device.vector_env.DeviceVectorEnv`;
 * :mod:`planetnav_env.device.cuda_kernels`: the autoreset kernel, and the process's one dispatcher of each
   kernel;

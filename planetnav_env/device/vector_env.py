@@ -15,11 +15,12 @@ observations in ``info["final_obs"]``).
 
 Where things run. On the device: the physics step and the compiled part of the reset
 (:mod:`planetnav_env.core.cuda_entry`, :mod:`planetnav_env.device.cuda_kernels`, one thread per row), the
-autoreset (a bank row copied in, then the compiled reset, for the rows a mask marks), the decision's
-physics steps (``decision_steps``) with their reward sum, the Python-side observation blocks
-(:mod:`planetnav_env.device.blocks`), the action decoding and the float32 observation. On the host, once
-per ``reset(seed=...)``: the episode bank (:mod:`planetnav_env.device.bank`), and on a host thread its
-refill (:mod:`planetnav_env.device.refill`). A step copies nothing between host and device but the
+autoreset (a bank row copied in, then the compiled reset, for the rows a mask marks), the decision (one
+launch: each thread runs the CPU's compiled decision rule over ``decision_steps`` physics steps and sums
+their rewards), the action decoding and the float32 observation
+(every block written by the compiled kernels, :mod:`planetnav_env.core.observation`, as on the CPU). On
+the host, once per ``reset(seed=...)``: the episode bank (:mod:`planetnav_env.device.bank`), and on a host
+thread its refill (:mod:`planetnav_env.device.refill`). A step copies nothing between host and device but the
 refill's asynchronous writes and its asynchronous read of the episode counts, and nothing waits on the
 device: the state, the buffers and the bank are torch tensors, and numba-cuda reads them without a copy
 (``numba.cuda.as_cuda_array``, the ``__cuda_array_interface__``).
@@ -69,14 +70,12 @@ from planetnav_env.core.batch import BatchCore
 from planetnav_env.core.records import Actions, CoreParams, RowState, make_scratch, map_arrays, scratch_rows
 from planetnav_env.device import rows as R
 from planetnav_env.device.bank import BankRows, EpisodeBank, global_episode
-from planetnav_env.device.blocks import ObservationBlocks
 from planetnav_env.device.draw_pool import DrawPool
 from planetnav_env.device.occupancy import SM_90
 from planetnav_env.device.refill import DEFAULT_CHUNK, BankRefill, check_refill
 from planetnav_env.envs.env import check_reset_options, resolve_config
 from planetnav_env.envs.spaces import action_space, observation_space
 from planetnav_env.errors import InvalidParameterError, require_count
-from planetnav_env.numerics import portable_math as pm
 
 #: ``autoreset_mode`` choices.
 AUTORESET_MODES = ("next_step", "same_step")
@@ -140,13 +139,6 @@ class _Host:
     def scratch(self, prm: CoreParams, n: int) -> Any:
         return scratch_rows(prm, n)
 
-    def log1p(self, t: torch.Tensor) -> torch.Tensor:
-        return torch.from_numpy(pm.log1p(t.numpy()))
-
-    def sqrt(self, t: torch.Tensor) -> torch.Tensor:
-        # numpy's, not torch's: torch's float64 sqrt is not correctly rounded on AVX-512 CPUs.
-        return torch.from_numpy(np.sqrt(t.numpy()))
-
     def step(self, prm, st, act, scratch) -> None:
         R.step_rows(prm, st, act, scratch)
 
@@ -206,12 +198,6 @@ class _Cuda:
         return type(one)(
             **{k: self.cuda.device_array((n, *a.shape), a.dtype) for k, a in one._asdict().items()}
         )
-
-    def log1p(self, t: torch.Tensor) -> torch.Tensor:
-        return torch.log1p(t)
-
-    def sqrt(self, t: torch.Tensor) -> torch.Tensor:
-        return torch.sqrt(t)
 
     def _grid(self, n: int) -> tuple[int, int]:
         return (n + self.tpb - 1) // self.tpb, self.tpb
@@ -312,7 +298,6 @@ class DeviceVectorEnv:
             be.zeros((n, *a.shape[1:]), a.dtype) for a in (core.rng, core.eph, core.obs)
         )
         self._state = RowState(f=f, p=p, i=i, rng=rng, eph=eph, obs=obs)
-        self.blocks = ObservationBlocks(core, n, self.device, be)
         dev_ = self.device
         self.obs = torch.zeros((n, self.layout.size), dtype=torch.float32, device=dev_)
         self.final_obs = torch.zeros_like(self.obs) if autoreset_mode == "same_step" else None
@@ -406,8 +391,6 @@ class DeviceVectorEnv:
             self._prm, self._state, self._bank, self._slots_view, self._mask_view, self._scratch
         )
         self.episode_count += mask
-        if self.blocks.any:
-            self.blocks.after_reset(self.f, self.p, self.i, self._obs64, mask)
 
     def _decode(self, actions: torch.Tensor) -> None:
         """Actions (a tensor on the env's device) into the target and torque buffers (the rules of
@@ -436,29 +419,14 @@ class DeviceVectorEnv:
             self._targets.copy_(torch.argmax(a[:, :p_], dim=1))
             self._torques.copy_(a[:, p_:])
 
-    def _physics_step(self, active: torch.Tensor) -> None:
+    def _advance(self, active: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+        """One decision of the ``active`` rows: one launch of the step kernel, whose threads run the
+        compiled decision rule (``kernels.decide_row``, the CPU's own: the hold of ``decision_steps``
+        physics steps, the reward sum, a row that ends inside the hold stopping there); (reward,
+        terminated, truncated)."""
+        f, i = self.f, self.i
         self._active.copy_(active)
         self.backend.step(self._prm, self._state, self._act, self._scratch)
-        if self.blocks.any:
-            self.blocks.count(self.f, self.i, active)
-
-    def _advance(self, active: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
-        """One decision of the ``active`` rows (``BatchCore.step_decision``'s rule, every physics step run:
-        a row that ends inside the hold stops there); (reward, terminated, truncated)."""
-        f, i = self.f, self.i
-        k = self.config.decision_steps
-        if k == 1:
-            self._physics_step(active)
-        else:
-            running = active.clone()
-            total = torch.zeros(self.num_envs, dtype=torch.float64, device=self.device)
-            for _ in range(k):
-                self._physics_step(running)
-                total += torch.where(running, f[:, L.F_REWARD], 0.0)
-                running &= (i[:, L.I_TERMINATED] | i[:, L.I_TRUNCATED]) == 0
-            f[:, L.F_REWARD] = torch.where(active, total, f[:, L.F_REWARD])
-        if self.blocks.any:
-            self.blocks.write(self.p, self._obs64, active)
         reward = torch.where(active, f[:, L.F_REWARD], 0.0)
         terminated = (i[:, L.I_TERMINATED] != 0) & active
         truncated = (i[:, L.I_TRUNCATED] != 0) & active

@@ -9,7 +9,12 @@ import numpy as np
 from gymnasium import spaces
 
 from planetnav_env.config import EnvConfig
-from planetnav_env.core.layout import TARGET_FEATURES, ObservationLayout, observation_scales
+from planetnav_env.core.layout import (
+    OBSERVATION_BLOCKS,
+    TARGET_FEATURES,
+    ObservationLayout,
+    observation_scales,
+)
 from planetnav_env.errors import InvalidParameterError, NonFiniteError
 
 _DEG = np.pi / 180.0
@@ -37,11 +42,7 @@ def observation_space(cfg: EnvConfig, layout: ObservationLayout) -> spaces.Space
         "wheel_momentum": (-1.0, 1.0),
         "target": (0.0, 1.0),
         "elapsed": (0.0, 1.0),
-        "in_field": (0.0, 1.0),
-        "since_measured": (0.0, 1.0),
-        "image_log": (0.0, 1.0),
-        "residual_log": (0.0, 1.0),
-        "position_correlation": (-1.0, 1.0),
+        **{b.name: b.bounds for b in OBSERVATION_BLOCKS},
     }
     return spaces.Dict(
         {
@@ -181,11 +182,9 @@ def decode_observation(cfg: EnvConfig, layout: ObservationLayout, observation: A
     """Named arrays in physical units from one ``box`` or ``dict`` observation: position_km,
     velocity_km_s (relative to the central body), log_sigma (6,), q (star tracker), rates_rad_s,
     wheel_fraction, planets (P, 7) and pulsars (Q, 7) as in the layout, target (index or -1), elapsed,
-    with ``observe_in_field`` in_field (P,) bool (the planets the camera's visibility rule passes now), and
-    with ``observe_since_measured`` since_measured (T,) (the observation's scaled values), and with
-    ``observe_image_log`` image_log (2, P) (the observation's values: success-rate means, scaled images), and
-    with ``observe_residual_log`` residual_log (T,) (the observation's values), and with
-    ``observe_position_correlation`` position_correlation (3,) (rho_xy, rho_xz, rho_yz of P_rr)."""
+    and each optional block the layout has (``core.layout.OBSERVATION_BLOCKS``, e.g. ``in_field`` with
+    ``observe_in_field``) under its name, as the observation holds it (a block of flags, such as
+    ``in_field``, as bool)."""
     if isinstance(observation, dict):
         try:
             flat = layout.from_dict(observation)
@@ -202,15 +201,8 @@ def decode_observation(cfg: EnvConfig, layout: ObservationLayout, observation: A
     b = layout.to_dict(flat)
     pos_scale, vel_scale = observation_scales(cfg.scenario)
     target_vec = b["target"]
-    extra = {"in_field": b["in_field"] > 0.5} if "in_field" in b else {}
-    if "since_measured" in b:
-        extra["since_measured"] = b["since_measured"]
-    if "image_log" in b:
-        extra["image_log"] = b["image_log"]
-    if "residual_log" in b:
-        extra["residual_log"] = b["residual_log"]
-    if "position_correlation" in b:
-        extra["position_correlation"] = b["position_correlation"]
+    extra = {blk.name: (b[blk.name] > 0.5 if blk.flags else b[blk.name]) for blk in OBSERVATION_BLOCKS
+             if blk.name in b}  # fmt: skip
     return {
         **extra,
         "position_km": b["position"] * pos_scale,

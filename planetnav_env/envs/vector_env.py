@@ -196,10 +196,7 @@ class PlanetNavVectorEnv(EpisodeLengthSpec, VectorEnv):
         """Step the ``active`` rows (all when None) by one decision with decoded actions; (reward,
         terminated, truncated), zero / False for the rows not stepped."""
         core = self.core
-        if self.config.decision_steps == 1 and on_step is None:
-            core.step(targets, torques, active)
-        else:
-            core.step_decision(targets, torques, active, on_step)
+        core.step_decision(targets, torques, active, on_step)
         reward = core.f[:, L.F_REWARD].copy()
         terminated = core.i[:, L.I_TERMINATED] != 0
         truncated = core.i[:, L.I_TRUNCATED] != 0

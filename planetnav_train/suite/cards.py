@@ -31,7 +31,7 @@ from planetnav_train.suite.tasks import ALGOS, INTERFACE_RANDOM, OBJECTIVES, SUI
 CARDS = ROOT / "docs" / "tasks"
 #: The published table of each suite version: its ``references`` hold every reference's objective.
 PUBLISHED: dict[int, Path] = {1: ROOT / "docs" / "benchmark_v1.json", 2: ROOT / "docs" / "benchmark.json"}
-#: The published blind search of suite version 2 (the search docs/suite.md describes): each zero's closed-loop gap.
+#: The published blind search of suite version 2 (docs/suite.md describes it): each zero's closed-loop gap.
 BLIND = ROOT / "docs" / "tasks_v2_blind.json"
 
 

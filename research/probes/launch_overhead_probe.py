@@ -1,7 +1,8 @@
 """What one kernel launch of the device env costs on the host in numba-cuda, measured without a GPU.
 
-The device env launches its step kernel once per physics step (``decision_steps`` a decision) and its
-autoreset kernel once per decision. Each launch, numba-cuda 0.30 types the arguments
+The device env launches its step kernel once a decision (each thread runs the decision's
+``decision_steps`` physics steps, the compiled decision rule) and its autoreset kernel once a decision.
+Each launch, numba-cuda 0.30 types the arguments
 (``numba.cuda.typing.typeof``: the dispatcher picks the compiled overload), flattens them into the
 kernel's parameters (``_Kernel._prepare_args``: each array becomes meminfo, parent, size, itemsize,
 pointer, shape and strides) and packs those for the driver (cuda.core's ``ParamHolder``); only then does it
@@ -9,12 +10,11 @@ call ``cuLaunchKernel``. The records are named tuples of some hundred arrays, so
 launch whatever the number of rows. This probe times those three parts on numba-cuda's own code, with
 ``DeviceNDArray`` stand-ins for the device env's arrays (same shapes, strides and dtypes; the memory a
 stand-in: nothing reads it), and prints the bound they put on the env's rate: a decision of N rows takes
-at least ``decision_steps`` step launches and one autoreset launch, so decisions/s <= N / (that many
-launches x the time per launch). Not timed here: the C part of the dispatch, the driver's call and the
+one step launch and one autoreset launch, so decisions/s <= N / (the two launches' time). Not timed
+here: the C part of the dispatch, the driver's call and the
 torch operations between launches. Those are counted instead: the torch operations of a decision other
 than views (each one a kernel launch on a GPU, a few microseconds of the host's time), profiled in the host
-mode (``device="cpu"``, the same Python as on CUDA but for ``log1p`` and ``sqrt``, which the host mode
-takes from numpy: a handful of operations a decision) over 15 decisions of random target actions.
+mode (``device="cpu"``, the same Python as on CUDA) over 15 decisions of random target actions.
 
     python research/probes/launch_overhead_probe.py [--rounds 5]
 
@@ -164,7 +164,7 @@ def main(argv: list[str] | None = None) -> None:
             "autoreset": launch_costs((core.params, core.state, bank, slots, mask, rows), args.rounds),
         }
         k_steps = cfg.decision_steps
-        per_decision = k_steps * kernels["step"]["per_launch_s"] + kernels["autoreset"]["per_launch_s"]
+        per_decision = kernels["step"]["per_launch_s"] + kernels["autoreset"]["per_launch_s"]
         ops = torch_ops_per_decision(env_id)
         out[env_id] = {
             "decision_steps": k_steps,
@@ -178,7 +178,7 @@ def main(argv: list[str] | None = None) -> None:
             f"{env_id}: step {s['parameters']} parameters ({s['parameter_bytes']} bytes), "
             f"{s['per_launch_s'] * 1e6:.0f} us a launch (typeof {s['typeof_s'] * 1e6:.0f}, flatten "
             f"{s['flatten_s'] * 1e6:.0f}, pack {s['pack_s'] * 1e6:.0f}); autoreset "
-            f"{kernels['autoreset']['per_launch_s'] * 1e6:.0f} us; {k_steps} + 1 launches a decision: "
+            f"{kernels['autoreset']['per_launch_s'] * 1e6:.0f} us; 1 + 1 launches a decision: "
             + ", ".join(f"N={r}: <= {r / per_decision / 1e6:.2f}M decisions/s" for r in ROWS)
             + f"; and {ops:.0f} torch operations a decision",
             flush=True,

@@ -152,7 +152,7 @@ def test_thread_functions_equal_the_chunked_step_bit_for_bit(env_id: str, monkey
         active[k % ROWS] = k % 5 != 0  # an inactive row now and then
         K.step_range_arrays(
             chunked.params, chunked.f, chunked.p, chunked.i, chunked.rng, chunked.eph, chunked.obs,
-            targets, torques, active, 0, ROWS,
+            targets, torques, active, 0, ROWS, True, cfg.decision_steps,
         )  # fmt: skip
         act = Actions(targets=targets, torques=torques, active=active)
         _step_threads(threads.params, threads.state, act, rows)
