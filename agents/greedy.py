@@ -217,11 +217,11 @@ class GreedyAgent(TargetAgent):
             return None
         w = np.ones(self.n_planets)
         if self.success == "observed":
-            w *= np.asarray(obs.image_log[0], dtype=float)
+            w *= np.asarray(obs.block("image_log")[0], dtype=float)
         elif self.success == "oracle":
             w *= self.env.unwrapped.core.true_image_success()[0]
         if self.bias == "observed":
-            w /= _mean_nis_at_least_one(obs.residual_log[: self.n_planets])
+            w /= _mean_nis_at_least_one(obs.block("residual_log")[: self.n_planets])
         elif self.bias in ("oracle", "expected"):
             scale = (
                 self.env.unwrapped.core.true_centroid_bias()[0] if self.bias == "oracle"
@@ -236,7 +236,7 @@ class GreedyAgent(TargetAgent):
         if self.timing == "nominal":
             return None
         if self.timing == "observed":
-            return 1.0 / _mean_nis_at_least_one(obs.residual_log[self.n_planets :])
+            return 1.0 / _mean_nis_at_least_one(obs.block("residual_log")[self.n_planets :])
         core = self.env.unwrapped.core
         elapsed_s = float(core.i[0, L.I_K]) * self.config.step_s
         psr = self._params.psr

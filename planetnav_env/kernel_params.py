@@ -96,7 +96,6 @@ def build_params(cfg: EnvConfig, plan: ChannelPlan, mu_central: float, mus: np.n
         obs_pulsars=layout.pulsars_start,
         obs_target=layout.target_start,
         obs_elapsed=layout.elapsed_index,
-        obs_in_field=layout.in_field_start if layout.in_field else -1,
         obs_ops=layout.operations_start if ops is not None else 0,
         ops=ops is not None,
         ops_n_dl=len(ops.deadlines_s) if ops is not None else 0,
@@ -135,4 +134,5 @@ def build_params(cfg: EnvConfig, plan: ChannelPlan, mu_central: float, mus: np.n
         qproc=process_noise(cfg.step_s, cfg.filter.accel_psd),
         stars=tables,
         q_bias=bias_quaternion(cfg.star_tracker_bias_arcsec),
+        obs_blocks=layout.block_starts(),
     )

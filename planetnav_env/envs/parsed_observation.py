@@ -12,7 +12,8 @@ frames are given per field; the per-target blocks keep the layout's columns (``p
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Mapping
+from dataclasses import dataclass, field
 from typing import Any
 
 import gymnasium as gym
@@ -23,6 +24,8 @@ from planetnav_env.attitude import quaternion as qt
 from planetnav_env.core import layout as L
 
 __all__ = ["ParsedObservation"]
+
+_OPTIONAL = frozenset(b.name for b in L.OBSERVATION_BLOCKS)
 
 
 @dataclass(frozen=True)
@@ -38,8 +41,8 @@ class ParsedObservation:
       log10 position 1-sigma);
     * target: index of the current target (planets first, then pulsars) or -1; elapsed: fraction of the
       episode;
-    * the optional blocks, None unless the environment observes them (their ``EnvConfig.observe_*``
-      option), and on an operations scenario: deadline_time_d (D,) the time to each deadline [d] (0 once
+    * blocks: the optional blocks the environment observes (:meth:`block`), and on an operations
+      scenario: deadline_time_d (D,) the time to each deadline [d] (0 once
       reached), dv_lost_m_s the delta-v lost so far [m/s], thrusting whether the engine fires.
     """
 
@@ -53,25 +56,28 @@ class ParsedObservation:
     target: int
     elapsed: float
     log_sigma: np.ndarray | None = None
-    #: (P,) bool: the planets the camera's visibility rule passes now (``observe_in_field``).
-    in_field: np.ndarray | None = None
-    #: (T,) steps since each target was last measured, as observed (``observe_since_measured``).
-    since_measured: np.ndarray | None = None
-    #: (2, P) the image log (``observe_image_log``): per planet the mean of its image success rate
-    #: (Beta(1, 1) prior updated by this episode's images), then the scaled image counts.
-    image_log: np.ndarray | None = None
-    #: (T,) the residual log (``observe_residual_log``): mean normalized NIS per target / 10.
-    residual_log: np.ndarray | None = None
-    #: (3,) rho_xy, rho_xz, rho_yz of the position covariance (``observe_position_correlation``).
-    position_correlation: np.ndarray | None = None
+    #: The optional blocks the environment observes (each on with its ``EnvConfig.observe_<name>`` option),
+    #: by name, as :data:`planetnav_env.core.layout.OBSERVATION_BLOCKS` declares them (their shapes and
+    #: meanings are in that declaration and in docs/environment.md); read one with :meth:`block`.
+    blocks: Mapping[str, np.ndarray] = field(default_factory=dict)
     deadline_time_d: np.ndarray | None = None
     dv_lost_m_s: float | None = None
     thrusting: bool | None = None
 
     @classmethod
     def from_decoded(cls, decoded: dict[str, Any]) -> ParsedObservation:
-        """The record of a decoder's dict (:func:`planetnav_env.envs.spaces.decode_observation`)."""
-        return cls(**decoded)
+        """The record of a decoder's dict (:func:`planetnav_env.envs.spaces.decode_observation`): its
+        optional blocks go to :attr:`blocks`."""
+        fields = {k: v for k, v in decoded.items() if k not in _OPTIONAL}
+        blocks = {k: v for k, v in decoded.items() if k in _OPTIONAL and v is not None}
+        return cls(**fields, blocks=blocks)
+
+    def block(self, name: str) -> np.ndarray | None:
+        """The optional block ``name`` (``"image_log"``, ...), or None when the environment does not observe
+        it; an unknown name raises a ``KeyError`` naming the known ones."""
+        if name not in _OPTIONAL:
+            raise KeyError(f"unknown observation block {name!r}; the optional blocks are {sorted(_OPTIONAL)}")
+        return self.blocks.get(name)
 
     @classmethod
     def from_observation(cls, observation: Any, env: gym.Env) -> ParsedObservation:

@@ -24,6 +24,7 @@ from planetnav_env.config import (
     EnvConfig,
     OperationsSettings,
 )
+from planetnav_env.core.layout import OBSERVATION_BLOCKS
 from planetnav_env.errors import ConfigError
 from planetnav_env.estimation.ekf import FilterConfig
 
@@ -32,8 +33,9 @@ NAMESPACE = "planetnav"
 
 #: Optional observation blocks a layout may add after the fixed ones, each switched by the option
 #: ``observe_<name>`` (``since_measured`` belongs to the decision :class:`Interface`, the
-#: ``operations`` block to the scenario's :attr:`Params.operations`).
-BLOCKS = ("in_field", "image_log", "position_correlation")
+#: ``operations`` block to the scenario's :attr:`Params.operations`): every block that
+#: :data:`planetnav_env.core.layout.OBSERVATION_BLOCKS` declares, so a new block needs no line here.
+BLOCKS = tuple(b.name for b in OBSERVATION_BLOCKS if b.name != "since_measured")
 
 
 def _choice(name: str, value: Any, choices: tuple[str, ...]) -> None:
