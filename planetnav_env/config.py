@@ -35,6 +35,7 @@ from planetnav_env.scenarios.approach import DEFAULT_CLOSEST_APPROACH_TDB
 from planetnav_env.scenarios.episodes import CRUISE_EPOCH, RANDOM_EPOCHS
 from planetnav_env.sensors.camera_config import CameraConfig
 from planetnav_env.sensors.pulsar import XrayDetector, pulsar
+from planetnav_env.world import WorldConfig
 
 SCENARIOS = ("cruise", "random-cruise", "mars-approach")
 ACTION_MODES = ("target", "torque", "target+torque", "hybrid")
@@ -385,8 +386,15 @@ class EnvConfig:
         doc="thrust arc and knowledge deadlines (the ThrustArc-TCM-v0 scenario), or None: no mission "
         "attitude, the reward above. Needs action_mode ``target``, idle_action true and no pulsars",
     )
+    world: WorldConfig = section(
+        WorldConfig,
+        doc="the world the truth is simulated in, apart from the onboard model (planetnav_env.world, "
+        "docs/flight_world.md): a preset and its effects. ``world: flight`` (a preset's name) is shorthand "
+        "for ``world: {preset: flight}``",
+    )
 
     def __post_init__(self) -> None:
+        object.__setattr__(self, "world", WorldConfig.coerce(self.world))  # a preset's name is shorthand
         check_options(self, "")
         planets = tuple(p.lower() for p in self.planets)
         for p in planets:

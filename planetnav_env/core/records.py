@@ -55,6 +55,11 @@ CORE_SCALAR_FIELDS: tuple[tuple[str, str, str], ...] = (
     ("alpha_max", "f8", "largest apparent diameter the camera measures [rad] (camera field of view)"),
     ("sigma_alpha", "f8", "apparent-diameter sigma, the observation's size scale [rad] (as sig_size)"),
     ("ideal_star", "i8", "1: the star tracker returns the true attitude (star_tracker 'ideal')"),
+    # the truth's world (EnvConfig.world, resolved from its preset)
+    ("world_lt", "i8", "1: light time in the truth's planet directions (world.light_time_on)"),
+    ("world_ab", "i8", "1: aberration in the truth's planet and star directions (world.aberration_on)"),
+    ("onboard_lt", "i8", "1: the filter models the light-time position (world.light_time_corrected)"),
+    ("onboard_ab", "i8", "1: the filter aberrates its prediction and stars (world.aberration_corrected)"),
     # pulsars
     ("det_half_fov", "f8", "detector half field of view [rad] (detector_fov_deg / 2)"),
     ("sun_avoid", "f8", "detector Sun-avoidance angle [rad] (detector.sun_avoidance_deg)"),
@@ -202,6 +207,7 @@ class Scratch(NamedTuple):
     star_work: np.ndarray  # FIX_WORK_SHAPE
     q_fix: np.ndarray  # (4,)
     sub: np.ndarray  # (4,) uint64: a per-step noise stream (noise_streams "per_step")
+    light: np.ndarray  # (5, 3) light path (core.light_path.LIGHT_ROWS): velocities, direction, estimate
 
 
 @njit(cache=True)
@@ -223,7 +229,7 @@ def make_scratch(prm: CoreParams) -> Scratch:  # pragma: no cover - compiled
         r_tile=np.empty((n_p, 3)), q_tile=np.empty((n_p, 4)), feat=np.empty((n_p, TARGET_FEATURES)),
         noise3=np.empty(3), sub=np.empty(crng.STATE_WORDS, np.uint64),
         star_idx=np.empty(n_s, np.int64), star_noise=np.empty((n_s, 3)), star_work=np.empty(FIX_WORK_SHAPE),
-        q_fix=np.empty(4),
+        q_fix=np.empty(4), light=np.empty((5, 3)),
     )  # fmt: skip
 
 
@@ -260,4 +266,5 @@ def scratch_row(rows: Scratch, n: int) -> Scratch:  # pragma: no cover - compile
         roll=rows.roll[n], pert=rows.pert[n], planets=rows.planets[n], r_tile=rows.r_tile[n],
         q_tile=rows.q_tile[n], feat=rows.feat[n], noise3=rows.noise3[n], star_idx=rows.star_idx[n],
         star_noise=rows.star_noise[n], star_work=rows.star_work[n], q_fix=rows.q_fix[n], sub=rows.sub[n],
+        light=rows.light[n],
     )  # fmt: skip

@@ -33,7 +33,17 @@ from planetnav_env.core.layout import (
     REASON_OUT_OF_FOV,
     REASON_VISIBLE,
 )  # fmt: skip
-from planetnav_env.core.row_ephemeris import eval_channel
+from planetnav_env.core.light_path import (
+    DIRECTION,
+    R_EST,
+    V_EST,
+    V_TARGET,
+    V_TRUE,
+    apparent_point,
+    channel_velocity,
+    heliocentric_velocity,
+)
+from planetnav_env.core.row_ephemeris import eval_channel, row_time
 from planetnav_env.core.row_noise import (
     NOISE_CAMERA,
     NOISE_PULSAR0,
@@ -60,7 +70,7 @@ from planetnav_env.sensors.pulsar import (
     pulsar_visibility_row,
     resolve_cycle,
 )
-from planetnav_env.sensors.star_tracker import error_angle_kernel, select_stars, star_fix
+from planetnav_env.sensors.star_tracker import error_angle_kernel, select_stars, star_fix, star_fix_apparent
 
 
 @row_kernel
@@ -88,7 +98,19 @@ def star_fix_stage(prm, st, n, sc):  # pragma: no cover - compiled
     for a in range(n_stars):  # row-major, as rng.normal(size=(n, 3)) draws them
         for c in range(3):
             sc.star_noise[a, c] = tables.sigma_rad * next_normal(prm, rng, n, sc)
-    err, ok = star_fix(tables, q, sc.rq, sc.star_idx, n_stars, sc.star_noise, sc.star_work, sc.q_fix)
+    ps = prm.scalars[0]
+    if ps.world_ab:
+        # The stars' apparent directions (true velocity); on board, the catalogue aberrated by the
+        # estimated velocity when the filter corrects it.
+        t = row_time(prm, f, i, n)
+        heliocentric_velocity(prm, st.eph, f, n, t, f[n, F_X : F_X + 6], sc.light[V_TRUE])
+        heliocentric_velocity(prm, st.eph, f, n, t, f[n, F_XE : F_XE + 6], sc.light[V_EST])
+        err, ok = star_fix_apparent(
+            tables, q, sc.rq, sc.star_idx, n_stars, sc.star_noise, sc.light[V_TRUE], sc.light[V_EST],
+            ps.onboard_ab != 0, sc.star_work, sc.q_fix,
+        )  # fmt: skip
+    else:
+        err, ok = star_fix(tables, q, sc.rq, sc.star_idx, n_stars, sc.star_noise, sc.star_work, sc.q_fix)
     if ok:
         f[n, F_ATT_ERR] = _apply_bias(prm, q, sc.q_fix, qe, err)
     else:
@@ -154,6 +176,8 @@ def measure_planet(prm, st, n, idx, sc):  # pragma: no cover - compiled
     for j in range(3):
         sc.noise3[j] = next_normal(prm, rng, n, sc)
     # visibility_row_kernel validated this geometry a moment ago: the status is OK.
+    if ps.world_lt or ps.world_ab:
+        _truth_apparent(prm, st, n, idx, sc)  # the camera sees the planet's apparent direction
     camera = CameraModel(c2b=prm.c2b, params=prm.cam)
     ws = CameraScratch(m=sc.m, u=sc.u6)
     out = CameraFix(los=sc.los, los_true=sc.los_true, mm=sc.mm, pix=sc.pix)
@@ -169,6 +193,8 @@ def measure_planet(prm, st, n, idx, sc):  # pragma: no cover - compiled
     kind = ps.kind
     for j in range(3):
         sc.dirv[j] = sc.planets[idx, j] - sc.central[j]  # the planet in the filter's frame
+    if ps.onboard_lt or ps.onboard_ab:
+        _onboard_apparent(prm, st, n, idx, sc)  # the filter's model: its corrections from its estimate
     m = measurement_vector_kernel(
         sc.los, alpha, f[n, F_QE : F_QE + 4], sc.dirv, xe, kind, sc.z, sc.basis, sc.rq
     )
@@ -181,6 +207,43 @@ def measure_planet(prm, st, n, idx, sc):  # pragma: no cover - compiled
     )
     f[n, F_NIS] = nis
     return True, not ok
+
+
+@row_kernel
+def _truth_apparent(prm, st, n, idx, sc) -> None:  # pragma: no cover - compiled
+    """The truth's target point ``sc.t1[0]`` of planet ``idx`` seen from row ``n``'s true position
+    ``sc.r1[0]``: at the geometric range in the apparent direction, with the world's light time and
+    aberration by the true heliocentric velocity (:func:`~planetnav_env.core.light_path.apparent_point`).
+    Leaves the planet's velocity in ``sc.light[V_TARGET]`` for :func:`_onboard_apparent`."""
+    f, ps, lp = st.f, prm.scalars[0], sc.light
+    t = row_time(prm, f, st.i, n)
+    channel_velocity(prm, st.eph, f, n, t, ps.ch_planet0 + idx, lp[V_TARGET])
+    heliocentric_velocity(prm, st.eph, f, n, t, f[n, F_X : F_X + 6], lp[V_TRUE])
+    apparent_point(
+        sc.r1[0], lp[V_TRUE], sc.planets[idx], lp[V_TARGET], ps.world_lt != 0, ps.world_ab != 0,
+        lp[DIRECTION], sc.t1[0],
+    )  # fmt: skip
+
+
+@row_kernel
+def _onboard_apparent(prm, st, n, idx, sc) -> None:  # pragma: no cover - compiled
+    """The filter's target point ``sc.dirv`` (central-body frame) of planet ``idx``: the apparent point
+    computed from row ``n``'s *estimated* position and velocity, so the corrections' error follows the
+    estimate's. Aberrating the prediction is the inverse of de-aberrating the measurement (exactly, where
+    aberrating the measurement by ``-v`` inverts it only to ``(v/c)^2``). Needs ``sc.light[V_TARGET]``
+    from :func:`_truth_apparent` (an onboard correction is on only with its effect)."""
+    f, ps, lp = st.f, prm.scalars[0], sc.light
+    xe = f[n, F_XE : F_XE + 6]
+    t = row_time(prm, f, st.i, n)
+    heliocentric_velocity(prm, st.eph, f, n, t, xe, lp[V_EST])
+    for j in range(3):
+        lp[R_EST, j] = xe[j] + sc.central[j]
+    apparent_point(
+        lp[R_EST], lp[V_EST], sc.planets[idx], lp[V_TARGET], ps.onboard_lt != 0, ps.onboard_ab != 0,
+        lp[DIRECTION], sc.dirv,
+    )  # fmt: skip
+    for j in range(3):
+        sc.dirv[j] -= sc.central[j]
 
 
 @row_kernel

@@ -54,6 +54,7 @@ from typing import NamedTuple
 import numba
 import numpy as np
 
+from planetnav_env.astro.apparent import aberrate
 from planetnav_env.attitude import quaternion as qt
 from planetnav_env.attitude.plant import dcm_body_to_inertial_kernel
 from planetnav_env.attitude.wahba import attitude_error_angle, q_method
@@ -589,6 +590,7 @@ def sym_eig4_kernel(a, v):  # pragma: no cover - compiled
 @numba.njit(**ROW_KERNEL_OPTIONS, error_model=_ERROR_MODEL)
 def fix_kernel(q, rot, dirs, idx, n, noise, work, q_out):  # pragma: no cover - compiled
     """q-method attitude fix from the ``n`` stars ``dirs[idx[:n]]``; returns ``(error_angle_rad, ok)``.
+    The stars' directions are geometric (no aberration): :func:`fix_apparent_kernel` without it.
 
     q: (4,) true attitude (body relative to inertial, scalar first); rot: (3, 3) its ``R(q)`` (body ->
     inertial, as written by :func:`select_stars_kernel`). dirs: (M, 3) catalogue, inertial.
@@ -608,6 +610,19 @@ def fix_kernel(q, rot, dirs, idx, n, noise, work, q_out):  # pragma: no cover - 
     includes ``n < 2``; q_out and the angle are then finite but meaningless. ``n`` beyond the rows of
     ``idx`` or ``noise`` returns ``(nan, False)`` and NaN in ``q_out`` instead of reading out of bounds.
     """
+    return fix_apparent_kernel(q, rot, dirs, idx, n, noise, rot[0], rot[0], False, False, work, q_out)
+
+
+@numba.njit(**ROW_KERNEL_OPTIONS, error_model=_ERROR_MODEL)
+def fix_apparent_kernel(
+    q, rot, dirs, idx, n, noise, v_true, v_ref, aberrated, corrected, work, q_out
+):  # pragma: no cover - compiled
+    """:func:`fix_kernel` with stellar aberration: with ``aberrated`` the measured stars are their
+    apparent directions, each catalogue direction aberrated by the spacecraft's true velocity ``v_true``
+    [km/s, heliocentric] (:func:`planetnav_env.astro.apparent.aberrate`); with ``corrected`` the q-method's
+    references are the catalogue aberrated by the estimated velocity ``v_ref`` (the onboard correction),
+    else the catalogue itself. Both False is :func:`fix_kernel` (the same operations, bit for bit).
+    Which stars are in the field is decided on the catalogue (a star at the edge moves by ~20")."""
     if n > idx.shape[0] or n > noise.shape[0]:
         for i in range(4):
             q_out[i] = math.nan
@@ -625,10 +640,17 @@ def fix_kernel(q, rot, dirs, idx, n, noise, work, q_out):  # pragma: no cover - 
         r0 = dirs[r, 0]
         r1 = dirs[r, 1]
         r2 = dirs[r, 2]
+        a0, a1, a2 = r0, r1, r2  # the star's direction as the camera sees it
+        if aberrated:
+            aberrate(dirs[r], v_true, m[0])  # m (work[0]) is free until the matrix (6) is built
+            a0, a1, a2 = m[0, 0], m[0, 1], m[0, 2]
+        if corrected:
+            aberrate(dirs[r], v_ref, m[0])
+            r0, r1, r2 = m[0, 0], m[0, 1], m[0, 2]
         # Exact body vector R^T s, then the noise's tangential part, renormalised.
-        x0 = rot[0, 0] * r0 + rot[1, 0] * r1 + rot[2, 0] * r2
-        x1 = rot[0, 1] * r0 + rot[1, 1] * r1 + rot[2, 1] * r2
-        x2 = rot[0, 2] * r0 + rot[1, 2] * r1 + rot[2, 2] * r2
+        x0 = rot[0, 0] * a0 + rot[1, 0] * a1 + rot[2, 0] * a2
+        x1 = rot[0, 1] * a0 + rot[1, 1] * a1 + rot[2, 1] * a2
+        x2 = rot[0, 2] * a0 + rot[1, 2] * a1 + rot[2, 2] * a2
         nb = noise[k, 0] * x0 + noise[k, 1] * x1 + noise[k, 2] * x2
         x0 += noise[k, 0] - nb * x0
         x1 += noise[k, 1] - nb * x1
@@ -724,6 +746,16 @@ def star_fix(tables, q, rot, idx, n, noise, work, q_out):  # pragma: no cover - 
     normals times ``tables.sigma_rad`` between :func:`select_stars` and this call.
     """
     return fix_kernel(q, rot, tables.dirs, idx, n, noise, work, q_out)
+
+
+@numba.njit(**ROW_KERNEL_OPTIONS, error_model=_ERROR_MODEL)
+def star_fix_apparent(
+    tables, q, rot, idx, n, noise, v_true, v_ref, corrected, work, q_out
+):  # pragma: no cover - compiled
+    """:func:`star_fix` with the stars aberrated by ``v_true`` and, with ``corrected``, the references by
+    ``v_ref`` (:func:`fix_apparent_kernel`); returns ``(error_rad, ok)``."""
+    dirs = tables.dirs
+    return fix_apparent_kernel(q, rot, dirs, idx, n, noise, v_true, v_ref, True, corrected, work, q_out)
 
 
 def body_to_inertial_with_estimate(q_est: np.ndarray, d_body: np.ndarray) -> np.ndarray:

@@ -27,6 +27,7 @@ from planetnav_env.config import (
 from planetnav_env.core.layout import OBSERVATION_BLOCKS
 from planetnav_env.errors import ConfigError
 from planetnav_env.estimation.ekf import FilterConfig
+from planetnav_env.world import WorldConfig
 
 #: The namespace of every planetnav id.
 NAMESPACE = "planetnav"
@@ -90,8 +91,9 @@ class Params:
     filter: the navigation filter's settings (None: FilterConfig's defaults). image_success_min and
     prior_long_sigma_km: the per-episode image failures and the prior's long axis [km] (None: neither).
     operations: the thrust arc and its knowledge deadlines (None: no operations scenario).
-    world: the flight world the truth is simulated in, apart from the onboard model; None, the only value
-    today, simulates the truth with the onboard model's own physics.
+    world: the world the truth is simulated in, apart from the onboard model (a
+    :class:`~planetnav_env.world.WorldConfig`, or a preset's name, ``"matched"`` or ``"flight"``); None
+    leaves EnvConfig's default, the matched world, in which the truth is the onboard model's own physics.
     """
 
     step_s: float
@@ -103,11 +105,11 @@ class Params:
     image_success_min: float | None = None
     prior_long_sigma_km: float | None = None
     operations: OperationsSettings | None = None
-    world: None = None
+    world: WorldConfig | None = None
 
     def __post_init__(self) -> None:
         if self.world is not None:
-            raise ConfigError(f"params.world: no flight world is available yet (None), got {self.world!r}")
+            object.__setattr__(self, "world", WorldConfig.coerce(self.world))  # names 'world' when bad
 
     def options(self) -> dict[str, Any]:
         """The environment options of these parameters (the unset ones left to EnvConfig's defaults)."""
@@ -117,7 +119,7 @@ class Params:
             value = getattr(self, name)
             if value is not None:
                 out[name] = value
-        for name in ("filter", "operations"):
+        for name in ("filter", "operations", "world"):
             value = getattr(self, name)
             if value is not None:
                 out[name] = {g.name: getattr(value, g.name) for g in fields(value) if g.init}

@@ -34,6 +34,12 @@ from planetnav_env.envs.registration import ENV_IDS
 from planetnav_env.numerics import portable_math as pm
 
 PACKAGE = Path(__file__).resolve().parents[2] / "planetnav_env"
+#: Every registered id, and the flight world on a cruise and on the Mars approach (its light-path branches).
+CONFIGS = {
+    **ENV_IDS,
+    **{f"{i}+flight": {**ENV_IDS[i], "world": "flight"}
+       for i in ("planetnav/Cruise-Target-v2", "planetnav/MarsApproach-Tasking-v2")},
+}  # fmt: skip
 ROWS = 3
 STEPS = 12
 
@@ -128,10 +134,10 @@ def _state_bytes(core: BatchCore) -> list[bytes]:
     return [a.tobytes() for a in (core.f, core.p, core.i, core.rng, core.eph, core.obs)]
 
 
-@pytest.mark.parametrize("env_id", list(ENV_IDS))
+@pytest.mark.parametrize("env_id", list(CONFIGS))
 def test_thread_functions_equal_the_chunked_step_bit_for_bit(env_id: str, monkeypatch) -> None:
     """Row by row with per-row scratch slices (the device's layout) gives the CPU step's numbers."""
-    cfg = EnvConfig.from_dict(ENV_IDS[env_id])
+    cfg = EnvConfig.from_dict(CONFIGS[env_id])
     chunked, threads = BatchCore(cfg, ROWS), BatchCore(cfg, ROWS)
     rows = scratch_rows(threads.params, ROWS)
     all_rows = np.arange(ROWS, dtype=np.int64)
@@ -178,7 +184,7 @@ def ptx_by_signature():
 
     types = {
         env_id: cuda_entry.entry_argtypes(BatchCore(EnvConfig.from_dict(kw), 2))
-        for env_id, kw in ENV_IDS.items()
+        for env_id, kw in CONFIGS.items()
     }
     compiled: dict = {}
 
@@ -192,7 +198,7 @@ def ptx_by_signature():
 
 
 @pytest.mark.parametrize("entry", ["step", "reset"])
-@pytest.mark.parametrize("env_id", list(ENV_IDS))
+@pytest.mark.parametrize("env_id", list(CONFIGS))
 def test_entry_point_compiles_to_ptx(env_id: str, entry: str, ptx_by_signature) -> None:
     ptx = ptx_by_signature(env_id, entry)
     assert ".target sm_90" in ptx
@@ -231,7 +237,7 @@ def test_device_typeof_makes_every_array_writable() -> None:
     assert device_typeof(value) == numba.typeof(want)
 
 
-@pytest.mark.parametrize("env_id", list(ENV_IDS))
+@pytest.mark.parametrize("env_id", list(CONFIGS))
 def test_argument_types_are_the_launchs(env_id: str) -> None:
     """The PTX checks compile the types a launch compiles: numba-cuda's typing of the records with device
     arrays, which are writable where the host's are read-only (the star catalogue's)."""
@@ -242,7 +248,7 @@ def test_argument_types_are_the_launchs(env_id: str) -> None:
     from planetnav_env.device.bank import BankRows
     from planetnav_env.device.cuda_kernels import autoreset_argtypes
 
-    core = BatchCore(EnvConfig.from_dict(ENV_IDS[env_id]), 2)
+    core = BatchCore(EnvConfig.from_dict(CONFIGS[env_id]), 2)
     n = core.num_rows
     rows = scratch_rows(core.params, n)
     act = Actions(targets=np.zeros(n, np.int64), torques=np.zeros((n, 3)), active=np.ones(n, np.bool_))

@@ -31,10 +31,16 @@ UPDATE = os.environ.get("PLANETNAV_UPDATE_GOLDEN") == "1"
 SEED = 7
 N_VEC = 3
 
-#: (name, id, extra options): every registered id, plus the per-step noise streams on the cruise.
-CASES = [(env_id, env_id, {}) for env_id in ENV_IDS] + [
-    ("planetnav/Cruise-Target-v0+per_step", "planetnav/Cruise-Target-v0", {"noise_streams": "per_step"}),
-]
+#: The flight world on each scenario (cruise, random cruise, Mars approach, thrust arc).
+FLIGHT = ("Cruise-Target-v2", "RandomCruise-Target-v2", "MarsApproach-Tasking-v2", "ThrustArc-TCM-v2")
+
+#: (name, id, extra options): every registered id, plus the per-step noise streams on the cruise, plus the
+#: flight world on each scenario.
+CASES = (
+    [(env_id, env_id, {}) for env_id in ENV_IDS]
+    + [("planetnav/Cruise-Target-v0+per_step", "planetnav/Cruise-Target-v0", {"noise_streams": "per_step"})]
+    + [(f"planetnav/{name}+flight", f"planetnav/{name}", {"world": "flight"}) for name in FLIGHT]
+)
 
 
 class _Hashes:

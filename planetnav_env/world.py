@@ -1,0 +1,124 @@
+"""The world the truth is simulated in, apart from the onboard model the filter, the rules and the
+observation use.
+
+:class:`WorldConfig` is the ``world`` section of :class:`~planetnav_env.config.EnvConfig`. Its ``preset``
+names a world; each effect has an option of its own, ``None`` to follow the preset or a value to set that
+effect alone (a regime map's axis, or one effect's share of the flight world's error):
+
+* ``"matched"`` (the default of every registered id): the truth is the onboard model. Every line of
+  sight is geometric and instantaneous; the golden hashes of the ids are this world's.
+* ``"flight"``: a truth that the onboard model only approximates, at flight-like magnitudes. Today it
+  holds light time and stellar aberration on every line of sight (``docs/flight_world.md``); the
+  other effects of a flight world (third bodies and solar radiation pressure in truth, image-driven camera
+  errors, centre of brightness, oblate planets, a boresight drift, a newer ephemeris in truth, attitude
+  disturbances) are not modelled yet and will join as options of this section.
+
+On board, the filter applies the corrections flight optical navigation applies to each effect that is on
+in truth, computed from its *estimated* state (``onboard_corrections``, default: on); switching them
+off gives the filter that ignores the effect, the comparison that measures what it costs.
+
+``EnvConfig(world="flight")``, ``gymnasium.make(id, world="flight")`` and YAML ``world: flight`` are
+shorthand for ``world: {preset: flight}``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+from planetnav_env.errors import OptionError, OptionTypeError
+from planetnav_env.options import check_options, option
+
+#: The world presets.
+PRESETS = ("matched", "flight")
+
+#: What ``EnvConfig.world`` accepts, as an error states it.
+EXPECTED = (
+    "one of 'matched', 'flight' (str), or a WorldConfig (in EnvConfig.from_dict / YAML a mapping of its "
+    "options: preset, light_time, aberration, onboard_corrections)"
+)
+
+
+@dataclass(frozen=True)
+class WorldConfig:
+    """The truth's world: a ``preset`` and its effects, each ``None`` (the preset's) or set on its own.
+
+    The resolved switches the core reads are :attr:`light_time_on`, :attr:`aberration_on`,
+    :attr:`light_time_corrected` and :attr:`aberration_corrected`."""
+
+    preset: str = option(
+        "matched",
+        choices=PRESETS,
+        doc="``matched``: the truth is the onboard model (every line of sight geometric and instantaneous). "
+        "``flight``: a truth the onboard model only approximates: light time and stellar aberration on "
+        "every line of sight (docs/flight_world.md). ``world: flight`` is shorthand for this option",
+    )
+    light_time: bool | None = option(
+        None,
+        kind="bool",
+        doc="one-way light time in truth: the camera sees each planet where it was when the light left it "
+        "(9-18 arcsec on the cruise). None: on in ``flight``, off in ``matched``",
+    )
+    aberration: bool | None = option(
+        None,
+        kind="bool",
+        doc="stellar aberration in truth by the spacecraft's true heliocentric velocity, on the planets' and "
+        "the star tracker's stars' directions (12-23 arcsec on the cruise). None: on in ``flight``, off in "
+        "``matched``",
+    )
+    onboard_corrections: bool | None = option(
+        None,
+        kind="bool",
+        doc="the filter corrects each effect that is on in truth, from its estimated state: the planet's "
+        "light-time position from the estimated position, the predicted line of sight and the star "
+        "catalogue aberrated by the estimated velocity. False: the filter ignores the effects (their "
+        "bias). None: on",
+    )
+
+    def __post_init__(self) -> None:
+        check_options(self, "world.")
+
+    @classmethod
+    def coerce(cls, value: Any) -> WorldConfig:
+        """``value`` as a :class:`WorldConfig`: itself, or the preset a string names; else the named
+        option error of ``world``."""
+        if isinstance(value, WorldConfig):
+            return value
+        if isinstance(value, str):
+            if value not in PRESETS:
+                raise OptionError("world", EXPECTED, value)
+            return cls(preset=value)
+        raise OptionTypeError("world", EXPECTED, value)
+
+    @property
+    def flight(self) -> bool:
+        return self.preset == "flight"
+
+    @property
+    def light_time_on(self) -> bool:
+        """Light time in the truth's lines of sight."""
+        return self.flight if self.light_time is None else self.light_time
+
+    @property
+    def aberration_on(self) -> bool:
+        """Stellar aberration in the truth's lines of sight (planets and stars)."""
+        return self.flight if self.aberration is None else self.aberration
+
+    @property
+    def corrections_on(self) -> bool:
+        return True if self.onboard_corrections is None else self.onboard_corrections
+
+    @property
+    def light_time_corrected(self) -> bool:
+        """The filter's model of a planet's direction uses its light-time position."""
+        return self.light_time_on and self.corrections_on
+
+    @property
+    def aberration_corrected(self) -> bool:
+        """The filter aberrates its predicted line of sight and the star catalogue by its velocity."""
+        return self.aberration_on and self.corrections_on
+
+    @property
+    def is_matched(self) -> bool:
+        """No effect on: the truth is the onboard model (whatever the preset's name)."""
+        return not (self.light_time_on or self.aberration_on)
