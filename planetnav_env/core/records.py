@@ -161,7 +161,6 @@ class Scratch(NamedTuple):
     y: np.ndarray  # (7,)
     u_cmd: np.ndarray  # (3,)
     bias: np.ndarray  # (3,)
-    zero3: np.ndarray  # (3,)
     w6: np.ndarray  # (3, 6, 6) orbit RK4
     v6: np.ndarray  # (4, 6)
     phi: np.ndarray  # (6, 6)
@@ -208,7 +207,7 @@ def make_scratch(prm: CoreParams) -> Scratch:  # pragma: no cover - compiled
     # By keyword (a field is found by its name, not by its place among 44), a line per stage that uses them.
     return Scratch(
         work=np.empty((8, 7)), rq=np.empty((3, 3)), a=np.empty((3, 3)), frame=np.empty((3, 3)), y=np.empty(7),
-        u_cmd=np.empty(3), bias=np.empty(3), zero3=np.zeros(3), dirv=np.empty(3), roll=np.empty(3),
+        u_cmd=np.empty(3), bias=np.empty(3), dirv=np.empty(3), roll=np.empty(3),
         w6=np.empty((3, 6, 6)), v6=np.empty((4, 6)), phi=np.empty((6, 6)), tmp=np.empty((6, 6)),
         x_new=np.empty(6),
         uw=np.empty((5, 6, 6)), h=np.empty(3), jac=np.empty((3, 6)), rcov=np.empty((3, 3)), z=np.empty(3),
@@ -248,7 +247,7 @@ def scratch_row(rows: Scratch, n: int) -> Scratch:  # pragma: no cover - compile
     caller, so no record of arrays is returned across a call)."""
     return Scratch(
         work=rows.work[n], rq=rows.rq[n], a=rows.a[n], frame=rows.frame[n], y=rows.y[n],
-        u_cmd=rows.u_cmd[n], bias=rows.bias[n], zero3=rows.zero3[n], w6=rows.w6[n], v6=rows.v6[n],
+        u_cmd=rows.u_cmd[n], bias=rows.bias[n], w6=rows.w6[n], v6=rows.v6[n],
         phi=rows.phi[n], tmp=rows.tmp[n], x_new=rows.x_new[n], uw=rows.uw[n], h=rows.h[n], jac=rows.jac[n],
         rcov=rows.rcov[n], z=rows.z[n], basis=rows.basis[n], m=rows.m[n], u6=rows.u6[n], vals=rows.vals[n],
         los=rows.los[n], los_true=rows.los_true[n], mm=rows.mm[n], pix=rows.pix[n], r1=rows.r1[n],

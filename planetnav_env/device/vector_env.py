@@ -202,10 +202,15 @@ class _Cuda:
         return map_arrays(self.cuda.to_device, prm)
 
     def scratch(self, prm: CoreParams, n: int) -> Any:
+        # Zeroed as the host mode's (torch.zeros; a device_array is not): no row kernel reads scratch it
+        # has not written (tests/env/test_device_scratch.py), and zeros keep a bug of that kind repeatable.
         one = make_scratch(prm)
-        return type(one)(
-            **{k: self.cuda.device_array((n, *a.shape), a.dtype) for k, a in one._asdict().items()}
-        )
+        self._scratch_tensors = []
+        views = {}
+        for k, a in one._asdict().items():
+            t, views[k] = self.zeros((n, *a.shape), a.dtype)
+            self._scratch_tensors.append(t)  # keeps the memory alive
+        return type(one)(**views)
 
     def log1p(self, t: torch.Tensor) -> torch.Tensor:
         return torch.log1p(t)
