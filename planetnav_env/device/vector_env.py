@@ -115,6 +115,23 @@ def cuda_unavailable_reason() -> str | None:
     return None
 
 
+def launch_errors() -> tuple[type[BaseException], ...]:
+    """The exception classes a numba-cuda kernel launch raises for a driver error: numba-cuda's own
+    ``CudaAPIError`` (its driver wrapper: loading the module, context calls) and, from numba-cuda 0.30 on,
+    where the launch itself goes through ``cuda.core.launch``, cuda.core's ``CUDAError`` (a launch out of
+    resources, too many threads a block)."""
+    from numba.cuda.cudadrv.driver import CudaAPIError
+
+    errors: list[type[BaseException]] = [CudaAPIError]
+    try:  # cuda.core keeps it in a private module (re-exported by its cu12 and cu13 builds under this name)
+        from cuda.core._utils.cuda_utils import CUDAError
+    except ImportError:  # an older numba-cuda, launching through its own driver wrapper only
+        pass
+    else:
+        errors.append(CUDAError)
+    return tuple(errors)
+
+
 class _Host:
     """Host mode: numpy arrays viewed by torch CPU tensors; the thread functions looped on the CPU."""
 
@@ -172,11 +189,10 @@ class _Cuda:
                 f'{why}. Install with pip install -e ".[gpu]" on a machine with a GPU, or use device="cpu"'
             )
         from numba import cuda
-        from numba.cuda.cudadrv.driver import CudaAPIError
 
         from planetnav_env.device import cuda_kernels
 
-        self.cuda, self._api_error = cuda, CudaAPIError
+        self.cuda, self._api_error = cuda, launch_errors()
         self.device = torch.device(device)
         self.tpb = int(threads_per_block)
         self.kernels = cuda_kernels.dispatchers(max_registers)
