@@ -1,9 +1,9 @@
 """The device kernels' resources on an H100/H200 (compute capability 9.0), without a GPU: JSON on stdout.
 
-    python benchmarks/kernel_resources.py                        # step, reset, autoreset; no register cap
+    python benchmarks/kernel_resources.py                        # step and autoreset; no register cap
     python benchmarks/kernel_resources.py --max-registers 168 128 --kernels step
 
-For each entry point (the step and reset of every registered id, and the device env's autoreset) it
+For each kernel the device env launches (the step of every registered id, and the autoreset) it
 compiles the PTX numba-cuda would (:func:`planetnav_env.numerics.cuda_target.compile_ptx`), assembles it
 with ``ptxas`` (:mod:`planetnav_env.device.kernel_resources`) and prints the registers per thread, the stack
 frame and spills, and the occupancy they allow (:mod:`planetnav_env.device.occupancy`): resident warps per
@@ -37,7 +37,7 @@ from planetnav_env.device.vector_env import THREADS_PER_BLOCK
 from planetnav_env.envs.registration import ENV_IDS
 from planetnav_env.numerics.cuda_target import DEFAULT_CC, compile_ptx
 
-KERNELS = {"step": ENTRY_POINTS["step"], "reset": ENTRY_POINTS["reset"], "autoreset": autoreset_kernel}
+KERNELS = {"step": ENTRY_POINTS["step"], "autoreset": autoreset_kernel}
 
 
 def _types_by_kernel() -> dict[str, dict[tuple, list[str]]]:

@@ -148,9 +148,6 @@ class _Host:
         a = np.ascontiguousarray(a)
         return torch.from_numpy(a.view(np.int64) if a.dtype == np.uint64 else a), a
 
-    def view(self, t: torch.Tensor) -> np.ndarray:
-        return t.numpy()
-
     def params(self, prm: CoreParams) -> CoreParams:
         return prm
 
@@ -210,9 +207,6 @@ class _Cuda:
     def _as(self, t: torch.Tensor, dtype: np.dtype) -> Any:
         view = self.cuda.as_cuda_array(t)
         return view.view(np.uint64) if np.dtype(dtype) == np.uint64 else view
-
-    def view(self, t: torch.Tensor) -> Any:
-        return self.cuda.as_cuda_array(t)
 
     def params(self, prm: CoreParams) -> CoreParams:
         return map_arrays(self.cuda.to_device, prm)

@@ -114,7 +114,7 @@ def test_portable_remainder_and_rint_equal_numbas_ufuncs_bit_for_bit() -> None:
 # --- the thread functions on the CPU ---
 @njit
 def _reset_threads(prm, st, reset, rows):  # pragma: no cover - compiled
-    for j in range(reset.shape[0]):  # what thread j of cuda_entry.reset_kernel runs
+    for j in range(reset.shape[0]):  # the compiled reset as an autoreset thread runs it, after its copy
         K.reset_thread(prm, st, reset, rows, j)
 
 
@@ -191,7 +191,7 @@ def ptx_by_signature():
     return ptx
 
 
-@pytest.mark.parametrize("entry", ["step", "reset"])
+@pytest.mark.parametrize("entry", ["step"])
 @pytest.mark.parametrize("env_id", list(ENV_IDS))
 def test_entry_point_compiles_to_ptx(env_id: str, entry: str, ptx_by_signature) -> None:
     ptx = ptx_by_signature(env_id, entry)
@@ -249,7 +249,6 @@ def test_argument_types_are_the_launchs(env_id: str) -> None:
     bank = BankRows(f=core.f, p=core.p, rng=core.rng, eph=core.eph)
     launched = {
         "step": (core.params, core.state, act, rows),
-        "reset": (core.params, core.state, np.zeros(n, np.int64), rows),
         "autoreset": (core.params, core.state, bank, np.zeros(n, np.int64), np.zeros(n, np.bool_), rows),
     }
     compiled = {**cuda_entry.entry_argtypes(core), "autoreset": autoreset_argtypes(core)}
@@ -282,7 +281,7 @@ def _ptxas() -> str:
         pytest.skip(str(exc))
 
 
-@pytest.mark.parametrize("entry", ["step", "reset"])
+@pytest.mark.parametrize("entry", ["step"])
 def test_entry_point_assembles_for_sm_90(entry: str, ptx_by_signature) -> None:
     """ptxas accepts the PTX (as the driver must at the first launch), and a block of the device env's
     size launches with the registers it reports. The ids share one PTX per entry (the fixture's check)."""
@@ -296,6 +295,22 @@ def test_entry_point_assembles_for_sm_90(entry: str, ptx_by_signature) -> None:
     assert f"{entry}_kernel" in name
     assert 1 <= res.registers <= SM_90.max_regs_per_thread
     require_launchable(entry, res.registers, THREADS_PER_BLOCK, SM_90)  # the device env's default
+
+
+@pytest.mark.parametrize(
+    ("layout", "wheel"),
+    [("cuda_nvcc/bin/ptxas", "nvidia-cuda-nvcc-cu12"), ("cu13/bin/ptxas", "nvidia-cuda-nvcc 13.x")],
+)
+def test_ptxas_is_found_in_either_compiler_wheels_layout(tmp_path, layout: str, wheel: str) -> None:
+    """The wheels' file lists (pip download --no-deps, unzip -l): CUDA 12 keeps ptxas in
+    nvidia/cuda_nvcc/bin, CUDA 13 in nvidia/cu13/bin."""
+    from planetnav_env.device.kernel_resources import ptxas_in_wheels
+
+    nvidia = tmp_path / "site-packages" / "nvidia"
+    assert ptxas_in_wheels([str(nvidia)]) is None
+    (nvidia / layout).parent.mkdir(parents=True)
+    (nvidia / layout).write_text("")
+    assert ptxas_in_wheels([str(tmp_path / "elsewhere"), str(nvidia)]) == str(nvidia / layout), wheel
 
 
 def test_ptxas_rejection_is_reported() -> None:

@@ -52,7 +52,7 @@ pytestmark = pytest.mark.filterwarnings("ignore:.*is out of date.*")
 
 @njit
 def _reset_threads(prm, st, reset, rows):  # pragma: no cover - compiled
-    for j in range(reset.shape[0]):  # what thread j of cuda_entry.reset_kernel runs
+    for j in range(reset.shape[0]):  # the compiled reset as an autoreset thread runs it, after its copy
         K.reset_thread(prm, st, reset, rows, j)
 
 
