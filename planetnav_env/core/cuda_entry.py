@@ -9,7 +9,11 @@ the row kernels follow so that they compile for both targets are in :mod:`planet
 The arguments are the CPU's records (:class:`~planetnav_env.core.records.CoreParams`,
 :class:`~planetnav_env.core.records.RowState`, :class:`~planetnav_env.core.records.Actions`) with device
 arrays in place of the numpy ones, and a :class:`~planetnav_env.core.records.Scratch` of one row per
-state row (:func:`~planetnav_env.core.records.scratch_rows`: a thread cannot allocate).
+state row (:func:`~planetnav_env.core.records.scratch_rows`: a thread cannot allocate). The per-row arrays
+(state, actions, scratch) are laid out with the rows innermost in memory
+(:func:`~planetnav_env.core.records.rows_innermost`), so that a warp's 32 threads, reading the same column
+of 32 adjacent rows, read adjacent addresses; the kernels index them ``a[n, ...]`` as the CPU's, by
+strides.
 
 What is built and checked without a GPU: the PTX of the entry point for every registered id
 (``tests/env/test_cuda_ptx.py``, :func:`entry_ptx`), and the thread functions on the CPU, bit for bit
@@ -25,7 +29,7 @@ import numpy as np
 
 from planetnav_env.core.batch import BatchCore
 from planetnav_env.core.kernels import step_thread
-from planetnav_env.core.records import Actions, scratch_rows
+from planetnav_env.core.records import Actions, rows_innermost, rows_innermost_like, scratch_rows
 from planetnav_env.numerics.cuda_target import DEFAULT_CC, compile_ptx, device_typeof, require_numba_cuda
 
 __all__ = ["ENTRY_POINTS", "compile_ptx", "entry_argtypes", "entry_ptx", "step_kernel"]
@@ -47,11 +51,15 @@ ENTRY_POINTS: dict[str, Any] = {"step": step_kernel}
 
 def entry_argtypes(core: BatchCore) -> dict[str, tuple]:
     """The numba argument types of each entry point for the batch ``core``, as a launch with the records'
-    arrays on the device types them (:func:`~planetnav_env.numerics.cuda_target.device_typeof`)."""
+    arrays on the device types them (:func:`~planetnav_env.numerics.cuda_target.device_typeof`): the
+    parameters as the CPU holds them, the state, actions and scratch rows innermost
+    (:func:`~planetnav_env.core.records.rows_innermost`, the device env's layout)."""
     n = core.num_rows
-    act = Actions(targets=np.zeros(n, np.int64), torques=np.zeros((n, 3)), active=np.ones(n, np.bool_))
+    act = Actions(
+        targets=np.zeros(n, np.int64), torques=rows_innermost((n, 3), np.float64), active=np.ones(n, np.bool_)
+    )
     prm = device_typeof(core.params)
-    st = device_typeof(core.state)
+    st = device_typeof(rows_innermost_like(core.state))
     rows = device_typeof(scratch_rows(core.params, n))
     return {"step": (prm, st, device_typeof(act), rows)}
 

@@ -222,13 +222,35 @@ def make_scratch(prm: CoreParams) -> Scratch:  # pragma: no cover - compiled
     )  # fmt: skip
 
 
+def rows_innermost(shape: tuple[int, ...], dtype: Any) -> np.ndarray:
+    """Zeros of ``shape`` (rows first, indexed ``a[n, ...]`` as the row kernels index the state) with the
+    rows innermost in memory: the stride of the row axis is one element, each column's rows are
+    contiguous (a structure of arrays, by strides). The device's layout: when thread ``n`` of a warp reads
+    ``a[n, c]``, its 32 threads read 32 adjacent elements (coalesced: 8 sectors of 32 bytes for float64),
+    where rows outermost would touch a sector per thread. The arithmetic is unchanged (the same elements,
+    addressed by strides), so the numbers are bit for bit those of the rows-outermost layout."""
+    return np.moveaxis(np.zeros((*shape[1:], shape[0]), dtype), -1, 0)
+
+
+def rows_innermost_like(record: Any) -> Any:
+    """``record`` (a named tuple of arrays with rows first, or one array) copied into
+    :func:`rows_innermost` arrays (0- and 1-dimensional arrays are already so)."""
+
+    def copy(a: np.ndarray) -> np.ndarray:
+        out = rows_innermost(a.shape, a.dtype) if a.ndim > 1 else np.zeros(a.shape, a.dtype)
+        out[...] = a
+        return out
+
+    return map_arrays(copy, record)
+
+
 def scratch_rows(prm: CoreParams, rows: int) -> Scratch:
     """A :class:`Scratch` of ``rows`` rows: each field zeros of shape ``(rows, *shape)``, the shapes and
-    dtypes those of :func:`make_scratch` (the one place they are written). For one thread per row (the
-    device's layout), where a thread cannot allocate: allocated once, row ``n`` read by
-    :func:`scratch_row`."""
+    dtypes those of :func:`make_scratch` (the one place they are written), rows innermost in memory
+    (:func:`rows_innermost`). For one thread per row (the device's layout), where a thread cannot
+    allocate: allocated once, row ``n`` read by :func:`scratch_row` (views with strides)."""
     one = make_scratch(prm)
-    return Scratch(**{name: np.zeros((rows, *a.shape), a.dtype) for name, a in one._asdict().items()})
+    return Scratch(**{name: rows_innermost((rows, *a.shape), a.dtype) for name, a in one._asdict().items()})
 
 
 def map_arrays(fn: Callable[[np.ndarray], Any], record: Any) -> Any:

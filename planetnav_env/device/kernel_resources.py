@@ -142,7 +142,51 @@ def assemble(
     return found
 
 
+_MEMORY_OP = re.compile(r"^\s*(?:@!?%p\d+\s+)?(ld|st)((?:\.(?:global|local|param|const|shared|nc))*)\.", re.M)
+_LABEL = re.compile(r"^(\$L__BB\d+_\d+):", re.M)
+_BRANCH = re.compile(r"\bbra(?:\.uni)?\s+(\$L__BB\d+_\d+);")
+
+
+def memory_ops(ptx: str) -> dict[str, int]:
+    """The loads and stores of a PTX text by state space, static counts: ``ld.global``, ``ld.generic``
+    (no space named: the address resolves at run time, to global memory for the device env's arrays),
+    ``ld.local``, ``ld.param``, ... and the same for ``st``."""
+    counts: dict[str, int] = {}
+    for m in _MEMORY_OP.finditer(ptx):
+        spaces = [s for s in m.group(2).split(".") if s and s != "nc"] or ["generic"]
+        key = f"{m.group(1)}.{spaces[0]}"
+        counts[key] = counts.get(key, 0) + 1
+    return dict(sorted(counts.items()))
+
+
+def innermost_loops(ptx: str, top: int = 4) -> list[dict]:
+    """The ``top`` largest innermost loops of a PTX text (a label and a later branch back to it, with no
+    such loop inside): their instruction counts, loads and stores (:func:`memory_ops`) and float64
+    fused multiply-adds. A loop's body runs once per trip, so its counts times the trips are what the
+    loop moves; the step kernel's largest are the attitude sub-step loop (its two call sites)."""
+    lines = ptx.splitlines()
+    offsets, pos = [], 0
+    for line in lines:
+        offsets.append(pos)
+        pos += len(line) + 1
+    label_line = {m.group(1): ptx.count("\n", 0, m.start()) for m in _LABEL.finditer(ptx)}
+    spans = []
+    for i, line in enumerate(lines):
+        m = _BRANCH.search(line)
+        if m and label_line.get(m.group(1), i + 1) < i:
+            spans.append((label_line[m.group(1)], i))
+    inner = [(a, b) for a, b in spans if not any(a <= c and d <= b and (c, d) != (a, b) for c, d in spans)]
+    out = []
+    for a, b in inner:
+        body = "\n".join(lines[a : b + 1])
+        skip = ("$", "//", "{", "}", ".")
+        n = sum(1 for x in lines[a : b + 1] if x.strip() and not x.strip().startswith(skip))
+        out.append({"lines": [a + 1, b + 1], "instructions": n, **memory_ops(body),
+                    "fma_f64": body.count("fma.rn.f64")})  # fmt: skip
+    return sorted(out, key=lambda r: -r["instructions"])[:top]
+
+
 __all__ = [
-    "PTXAS_WHEEL_PATHS", "KernelResources", "assemble", "find_ptxas", "parse_ptxas_verbose",
-    "ptxas_in_wheels",
+    "PTXAS_WHEEL_PATHS", "KernelResources", "assemble", "find_ptxas", "innermost_loops", "memory_ops",
+    "parse_ptxas_verbose", "ptxas_in_wheels",
 ]  # fmt: skip

@@ -66,7 +66,15 @@ import torch
 from planetnav_env.config import EnvConfig
 from planetnav_env.core import layout as L
 from planetnav_env.core.batch import BatchCore
-from planetnav_env.core.records import Actions, CoreParams, RowState, make_scratch, map_arrays, scratch_rows
+from planetnav_env.core.records import (
+    Actions,
+    CoreParams,
+    RowState,
+    make_scratch,
+    map_arrays,
+    rows_innermost,
+    scratch_rows,
+)
 from planetnav_env.device import rows as R
 from planetnav_env.device.bank import BankRows, EpisodeBank, global_episode
 from planetnav_env.device.blocks import ObservationBlocks
@@ -141,7 +149,8 @@ class _Host:
         self.device = torch.device("cpu")
 
     def zeros(self, shape: tuple, dtype: np.dtype) -> tuple[torch.Tensor, np.ndarray]:
-        a = np.zeros(shape, dtype)
+        """Zeros of ``shape``, rows (the first axis) innermost in memory (the device's layout)."""
+        a = rows_innermost(shape, dtype)
         return torch.from_numpy(a.view(np.int64) if a.dtype == np.uint64 else a), a
 
     def upload(self, a: np.ndarray) -> tuple[torch.Tensor, np.ndarray]:
@@ -152,7 +161,7 @@ class _Host:
         return prm
 
     def scratch(self, prm: CoreParams, n: int) -> Any:
-        return scratch_rows(prm, n)
+        return scratch_rows(prm, n)  # zeros, rows innermost
 
     def log1p(self, t: torch.Tensor) -> torch.Tensor:
         return torch.from_numpy(pm.log1p(t.numpy()))
@@ -195,8 +204,10 @@ class _Cuda:
         self.kernels = cuda_kernels.dispatchers(max_registers)
 
     def zeros(self, shape: tuple, dtype: np.dtype) -> tuple[torch.Tensor, Any]:
+        """Zeros of ``shape`` on the device, rows (the first axis) innermost in memory
+        (:func:`~planetnav_env.core.records.rows_innermost`: a warp's accesses to one column coalesce)."""
         tdtype = torch.int64 if np.dtype(dtype) == np.uint64 else torch.from_numpy(np.zeros(0, dtype)).dtype
-        t = torch.zeros(shape, dtype=tdtype, device=self.device)
+        t = torch.zeros((*shape[1:], shape[0]), dtype=tdtype, device=self.device).movedim(-1, 0)
         return t, self._as(t, dtype)
 
     def upload(self, a: np.ndarray) -> tuple[torch.Tensor, Any]:

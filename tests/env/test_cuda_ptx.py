@@ -29,7 +29,7 @@ from numba import njit
 from planetnav_env.config import EnvConfig
 from planetnav_env.core import kernels as K
 from planetnav_env.core.batch import BatchCore
-from planetnav_env.core.records import Actions, map_arrays, scratch_rows
+from planetnav_env.core.records import Actions, map_arrays, rows_innermost_like, scratch_rows
 from planetnav_env.envs.registration import ENV_IDS
 from planetnav_env.numerics import portable_math as pm
 
@@ -130,7 +130,8 @@ def _state_bytes(core: BatchCore) -> list[bytes]:
 
 @pytest.mark.parametrize("env_id", list(ENV_IDS))
 def test_thread_functions_equal_the_chunked_step_bit_for_bit(env_id: str, monkeypatch) -> None:
-    """Row by row with per-row scratch slices (the device's layout) gives the CPU step's numbers."""
+    """Row by row with per-row scratch slices, state, actions and scratch rows innermost (the device's
+    layout), gives the CPU step's numbers."""
     cfg = EnvConfig.from_dict(ENV_IDS[env_id])
     chunked, threads = BatchCore(cfg, ROWS), BatchCore(cfg, ROWS)
     rows = scratch_rows(threads.params, ROWS)
@@ -141,6 +142,8 @@ def test_thread_functions_equal_the_chunked_step_bit_for_bit(env_id: str, monkey
         m.setattr(K, "reset_rows", lambda prm, st, reset: _reset_threads(prm, st, reset, rows))
         threads.reset_rows(all_rows, [np.random.default_rng(11 + r) for r in range(ROWS)])
     assert _state_bytes(threads) == _state_bytes(chunked)
+    st = rows_innermost_like(threads.state)
+    assert st.f.strides[0] == 8 and st.p.strides[0] == 8
     rng = np.random.default_rng(3)
     n_targets = cfg.n_targets
     for k in range(STEPS):
@@ -154,9 +157,9 @@ def test_thread_functions_equal_the_chunked_step_bit_for_bit(env_id: str, monkey
             chunked.params, chunked.f, chunked.p, chunked.i, chunked.rng, chunked.eph, chunked.obs,
             targets, torques, active, 0, ROWS,
         )  # fmt: skip
-        act = Actions(targets=targets, torques=torques, active=active)
-        _step_threads(threads.params, threads.state, act, rows)
-        assert _state_bytes(threads) == _state_bytes(chunked), f"step {k}"
+        act = rows_innermost_like(Actions(targets=targets, torques=torques, active=active))
+        _step_threads(threads.params, st, act, rows)
+        assert [np.ascontiguousarray(a).tobytes() for a in st] == _state_bytes(chunked), f"step {k}"
 
 
 # --- PTX (numba-cuda) ---
@@ -233,7 +236,8 @@ def test_device_typeof_makes_every_array_writable() -> None:
 
 @pytest.mark.parametrize("env_id", list(ENV_IDS))
 def test_argument_types_are_the_launchs(env_id: str) -> None:
-    """The PTX checks compile the types a launch compiles: numba-cuda's typing of the records with device
+    """The PTX checks compile the types a launch compiles: numba-cuda's typing of the records the device
+    env passes (its host mode's arrays: the same shapes, dtypes and strides, rows innermost), with device
     arrays, which are writable where the host's are read-only (the star catalogue's)."""
     _numba_cuda()
     import numba
@@ -241,15 +245,16 @@ def test_argument_types_are_the_launchs(env_id: str) -> None:
     from planetnav_env.core import cuda_entry
     from planetnav_env.device.bank import BankRows
     from planetnav_env.device.cuda_kernels import autoreset_argtypes
+    from planetnav_env.device.vector_env import DeviceVectorEnv
 
     core = BatchCore(EnvConfig.from_dict(ENV_IDS[env_id]), 2)
     n = core.num_rows
-    rows = scratch_rows(core.params, n)
-    act = Actions(targets=np.zeros(n, np.int64), torques=np.zeros((n, 3)), active=np.ones(n, np.bool_))
-    bank = BankRows(f=core.f, p=core.p, rng=core.rng, eph=core.eph)
+    dev = DeviceVectorEnv(env_id, n, device="cpu")
+    prm, st, act, rows = dev._prm, dev._state, dev._act, dev._scratch
+    bank = BankRows(f=core.f, p=core.p, rng=core.rng, eph=core.eph)  # as EpisodeBank.rows: rows outermost
     launched = {
-        "step": (core.params, core.state, act, rows),
-        "autoreset": (core.params, core.state, bank, np.zeros(n, np.int64), np.zeros(n, np.bool_), rows),
+        "step": (prm, st, act, rows),
+        "autoreset": (prm, st, bank, dev._slots_view, dev._mask_view, rows),
     }
     compiled = {**cuda_entry.entry_argtypes(core), "autoreset": autoreset_argtypes(core)}
     for entry, args in launched.items():
@@ -311,6 +316,27 @@ def test_ptxas_is_found_in_either_compiler_wheels_layout(tmp_path, layout: str, 
     (nvidia / layout).parent.mkdir(parents=True)
     (nvidia / layout).write_text("")
     assert ptxas_in_wheels([str(tmp_path / "elsewhere"), str(nvidia)]) == str(nvidia / layout), wheel
+
+
+def test_memory_operations_and_innermost_loops_are_read_from_ptx() -> None:
+    from planetnav_env.device.kernel_resources import innermost_loops, memory_ops
+
+    ptx = (
+        ".visible .entry k(\n)\n{\n"
+        "\tld.param.u64 %rd1, [k_param_0];\n"
+        "$L__BB0_1:\n"
+        "\tld.global.f64 %fd1, [%rd1];\n"
+        "$L__BB0_2:\n"
+        "\tld.f64 %fd2, [%rd2];\n\tfma.rn.f64 %fd3, %fd1, %fd2, %fd3;\n\tst.f64 [%rd2], %fd3;\n"
+        "\t@%p1 bra $L__BB0_2;\n"
+        "\tst.global.f64 [%rd1], %fd3;\n\tld.global.nc.v2.f64 {%fd4, %fd5}, [%rd3];\n"
+        "\t@%p2 bra $L__BB0_1;\n\tret;\n}\n"
+    )
+    want = {"ld.generic": 1, "ld.global": 2, "ld.param": 1, "st.generic": 1, "st.global": 1}
+    assert memory_ops(ptx) == want
+    (inner,) = innermost_loops(ptx)  # the outer loop holds the inner one: not innermost
+    assert inner["instructions"] == 4 and inner["fma_f64"] == 1
+    assert (inner["ld.generic"], inner["st.generic"]) == (1, 1) and "ld.global" not in inner
 
 
 def test_ptxas_rejection_is_reported() -> None:

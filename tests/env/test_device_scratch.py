@@ -29,7 +29,7 @@ def poison(scratch) -> int:
         if np.issubdtype(a.dtype, np.floating):
             a[...] = np.nan
         else:
-            a.view(np.uint8)[...] = 0xFF
+            a[...] = np.array(-1).astype(a.dtype)  # every bit set
         filled += 1
     return filled
 
