@@ -2,20 +2,26 @@
 # The GPU checks of docs/performance.md ("GPU") as one prepared run on a lent GPU machine.
 #
 #   here:    make device-wheels                      # what the device image lacks, as wheels in .whl/
-#   device:  sh benchmarks/device_check.sh quick     # carry .whl; results in $OUT
-#            sh benchmarks/device_check.sh ppo       # the 10^8-decision PPO run
+#   device:  sh benchmarks/device_check.sh quick     # carry .whl; results in $OUT; one 10-minute command
+#            sh benchmarks/device_check.sh ppo       # the 10^8-decision PPO run, a command of its own
 #
 # The device image has python3 with a CUDA build of torch, numba and numba-cuda, and no network: the
 # pure-Python packages planetnav adds (gymnasium, filterpy, jplephem, skyfield-data) travel as wheels and
 # install into /tmp/site; the repository itself is put on PYTHONPATH (no install, no build).
-#   quick: bench_gpu.py: GPU rows against the host mode on three ids (200 decisions), env-only rates at
-#          N = 2^10, 2^14, 2^18, the kernels' registers and occupancy, the step capped at 168 registers
-#          at 2^18, the host's bank-drawing rate, the device PPO's end-to-end rate ($OUT/bench_gpu.json;
-#          each stage's result in $OUT/bench_gpu.log as it finishes).
+#   quick: first the preflight (python -m planetnav_env.device.preflight, hard limit PREFLIGHT_S = 120 s):
+#          card, driver, MIG; numba-cuda's NVVM and libdevice (a fallback CUDA_HOME if needed); a kernel and torch
+#          on one stream; a >4 KB-parameter launch; libdevice's sin/atan2 to 1 ulp; the real kernels at
+#          256 rows; 32-row parity. A failing check stops the run with one line naming it. Then
+#          bench_gpu.py: env-only rates at N = 2^10, 2^14, 2^18, held and slewing, the CPU reference, GPU
+#          rows against the host mode on three ids (200 decisions), the device PPO's end-to-end rate
+#          (5 updates), the other ids' rates, the kernels' registers and occupancy, the step capped at 168
+#          registers at 2^18, the host's bank-drawing rate ($OUT/bench_gpu.json, rewritten after every
+#          stage; each stage's result in $OUT/bench_gpu.log as it finishes). The whole run stays inside
+#          QUICK_S = 560 s (a hard timeout; the benchmark starts no stage past its deadline) and its last
+#          line is a summary.
 #   ppo:   baselines/ppo_device.py on planetnav/Cruise-Target-v2, 10^8 decisions from 16,384 rows in 382
 #          updates of 64 minibatches (the configuration that reached the suite's score when trained on the
 #          CPU: research/probes/ppo_device_1e8_cpu.py), then the suite's evaluation on the CPU ($OUT/ppo.log).
-# A stage that has not finished when the call's limit comes leaves what it wrote so far in $OUT.
 set -eu
 OUT=${OUT:-/tmp/planetnav_device_out}
 mkdir -p "$OUT"
@@ -66,11 +72,43 @@ vec.step(np.zeros(2, np.int64))
 print(f"CPU side compiled into numba's cache in {time.perf_counter() - start:.0f} s")
 PY
 warm=$!
+start=$(date +%s)
+elapsed() { echo $(( $(date +%s) - start )); }
 case "${1:-quick}" in
 quick)
-    python3 benchmarks/bench_gpu.py --sizes 10 14 18 --max-registers 168 --ppo-updates 5 \
-        >"$OUT/bench_gpu.json" 2>"$OUT/bench_gpu.log"
-    cat "$OUT/bench_gpu.json"
+    QUICK_S=${QUICK_S:-560}
+    PREFLIGHT_S=${PREFLIGHT_S:-120}
+    rc=0
+    timeout -k 5 "$PREFLIGHT_S" python3 -m planetnav_env.device.preflight --env-file "$OUT/preflight.env" \
+        >"$OUT/preflight.jsonl" 2>"$OUT/preflight.err" || rc=$?
+    # Killed after its summary (at the interpreter's exit): the checks all finished.
+    if [ "$rc" -ne 0 ] && tail -1 "$OUT/preflight.jsonl" | grep -q '^PREFLIGHT OK'; then rc=0; fi
+    if [ "$rc" -ne 0 ]; then
+        if [ "$rc" -eq 124 ] || [ "$rc" -eq 137 ]; then
+            running=$(grep '"status": "running"' "$OUT/preflight.jsonl" | tail -1 | sed 's/.*"check": "\([^"]*\)".*/\1/')
+            echo "SUMMARY device_check quick: PREFLIGHT FAILED at ${running:-start}: over its ${PREFLIGHT_S} s limit"
+        else
+            tail -1 "$OUT/preflight.jsonl"
+            echo "SUMMARY device_check quick: $(tail -1 "$OUT/preflight.jsonl" | cut -c1-300) (exit $rc; $OUT/preflight.err)"
+        fi
+        kill "$warm" 2>/dev/null || true
+        exit 1
+    fi
+    [ -s "$OUT/preflight.env" ] && . "$OUT/preflight.env"
+    left=$(( QUICK_S - $(elapsed) ))
+    if [ "$left" -lt 120 ]; then  # (timeout 0 would mean no limit at all)
+        echo "SUMMARY device_check quick: $(tail -1 "$OUT/preflight.jsonl"); no time left for the benchmark ($left s)"
+        kill "$warm" 2>/dev/null || true
+        exit 1
+    fi
+    brc=0
+    timeout -k 10 "$left" python3 benchmarks/bench_gpu.py --sizes 10 14 18 --max-registers 168 --ppo-updates 5 \
+        --deadline-s $(( left - 90 )) --out "$OUT/bench_gpu.json" >"$OUT/bench_gpu.stdout" 2>"$OUT/bench_gpu.log" \
+        || brc=$?
+    kill "$warm" 2>/dev/null || true
+    echo "SUMMARY device_check quick ($(elapsed) s): $(tail -1 "$OUT/preflight.jsonl"); bench exit $brc;" \
+        "$(python3 benchmarks/bench_gpu.py --summarize "$OUT/bench_gpu.json" 2>&1 | tail -1)"
+    exit 0
     ;;
 ppo)
     python3 baselines/ppo_device.py --device cuda --env-id planetnav/Cruise-Target-v2 --num-envs 16384 \

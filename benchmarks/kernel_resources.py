@@ -1,9 +1,9 @@
 """The device kernels' resources on an H100/H200 (compute capability 9.0), without a GPU: JSON on stdout.
 
-    python benchmarks/kernel_resources.py                        # step, reset, autoreset; no register cap
+    python benchmarks/kernel_resources.py                        # step and autoreset; no register cap
     python benchmarks/kernel_resources.py --max-registers 168 128 --kernels step
 
-For each entry point (the step and reset of every registered id, and the device env's autoreset) it
+For each kernel the device env launches (the step of every registered id, and the autoreset) it
 compiles the PTX numba-cuda would (:func:`planetnav_env.numerics.cuda_target.compile_ptx`), assembles it
 with ``ptxas`` (:mod:`planetnav_env.device.kernel_resources`) and prints the registers per thread, the stack
 frame and spills, and the occupancy they allow (:mod:`planetnav_env.device.occupancy`): resident warps per
@@ -11,7 +11,10 @@ SM at the device env's block size and at the best one, and the register counts a
 occupancy step starts. ``--max-registers R`` assembles again with the registers capped at ``R`` (what
 ``cuda.jit(max_registers=R)`` does), to show what a higher occupancy would cost in spills. It also counts
 the PTX's fused multiply-adds (``fma.rn.f64``): NVVM contracts a multiply and an add into one rounding
-where the CPU build rounds twice, one reason the GPU's rows are not the CPU's bit for bit.
+where the CPU build rounds twice, one reason the GPU's rows are not the CPU's bit for bit; and its loads and
+stores by state space, in the whole kernel and in its largest innermost loops (the step's are the attitude
+sub-step loop at its two call sites: what a sub-step moves, the memory-bound estimate of
+docs/performance.md).
 
 The registered ids share their numba types, hence one PTX per entry point; the script checks that and
 names the ids of each PTX. These are compiler figures (numba-cuda, NVVM and ptxas of the ``[gpu]`` extra's
@@ -32,12 +35,12 @@ from planetnav_env.core.batch import BatchCore
 from planetnav_env.core.cuda_entry import ENTRY_POINTS, entry_argtypes
 from planetnav_env.device import occupancy as O
 from planetnav_env.device.cuda_kernels import autoreset_argtypes, autoreset_kernel
-from planetnav_env.device.kernel_resources import assemble, find_ptxas
+from planetnav_env.device.kernel_resources import assemble, find_ptxas, innermost_loops, memory_ops
 from planetnav_env.device.vector_env import THREADS_PER_BLOCK
 from planetnav_env.envs.registration import ENV_IDS
 from planetnav_env.numerics.cuda_target import DEFAULT_CC, compile_ptx
 
-KERNELS = {"step": ENTRY_POINTS["step"], "reset": ENTRY_POINTS["reset"], "autoreset": autoreset_kernel}
+KERNELS = {"step": ENTRY_POINTS["step"], "autoreset": autoreset_kernel}
 
 
 def _types_by_kernel() -> dict[str, dict[tuple, list[str]]]:
@@ -95,7 +98,8 @@ def main(argv: list[str] | None = None) -> int:
                     **_occupancy(res.registers, limits), "ptxas_s": round(time.perf_counter() - t, 1),
                 })  # fmt: skip
             entry = {"ids": len(ids) if len(by_types) == 1 else ids, "ptx_chars": len(ptx),
-                     "ptx_fma_f64": ptx.count("fma.rn.f64"), "nvvm_compile_s": round(compile_s, 1),
+                     "ptx_fma_f64": ptx.count("fma.rn.f64"), "memory_ops": memory_ops(ptx),
+                     "largest_innermost_loops": innermost_loops(ptx), "nvvm_compile_s": round(compile_s, 1),
                      "assembled": rows}  # fmt: skip
             out["kernels"].setdefault(kernel, []).append(entry)
             print(json.dumps({kernel: entry}), file=sys.stderr, flush=True)

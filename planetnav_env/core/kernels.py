@@ -111,6 +111,11 @@ from planetnav_env.estimation.ekf_kernels import (
 from planetnav_env.numerics.jit import ROW_KERNEL_OPTIONS, row_kernel
 from planetnav_env.sensors.camera_kernels import V_ALPHA, V_REASON
 
+#: No torque [N m] (and no torque action): the environment's external torque on the spacecraft, and the
+#: reset's torque action. A module constant, not scratch: numba freezes a global array into the compiled
+#: code (constant memory on a device), so no thread ever reads it from memory it has not written.
+NO_TORQUE = np.zeros(3)
+
 
 @row_kernel
 def _pointing_settled(prm, f, n, sc) -> bool:  # pragma: no cover - compiled
@@ -206,7 +211,7 @@ def step_row(prm, st, n, target, torque, sc) -> bool:  # pragma: no cover - comp
         # One sub-step at a time (the same loop as one call with n_sub), checking the thrust axis.
         on = False
         for j in range(n_sub):
-            substeps_kernel(sc.y, hw, use_pd, sc.frame, sc.bias, sc.zero3, 1, h_dt, loop, ws, u_out)
+            substeps_kernel(sc.y, hw, use_pd, sc.frame, sc.bias, NO_TORQUE, 1, h_dt, loop, ws, u_out)
             on = thrust_axis_on(sc.y, prm.boresight, sc.z, ps.ops_cos_tol)
             if on:
                 t_on += h_dt
@@ -216,7 +221,7 @@ def step_row(prm, st, n, target, torque, sc) -> bool:  # pragma: no cover - comp
         f[n, F_DV_STEP] = dv_step
         f[n, F_DV_LOST] += dv_step
     else:
-        substeps_kernel(sc.y, hw, use_pd, sc.frame, sc.bias, sc.zero3, n_sub, h_dt, loop, ws, u_out)
+        substeps_kernel(sc.y, hw, use_pd, sc.frame, sc.bias, NO_TORQUE, n_sub, h_dt, loop, ws, u_out)
     if not store_state_kernel(sc.y, hw, q, w, hw):
         i[n, I_STATUS] = STATUS_ATTITUDE_NONFINITE
         i[n, I_TERMINATED] = 1
@@ -322,7 +327,7 @@ def reset_row(prm, st, n, sc) -> None:  # pragma: no cover - compiled
         reset_operations(f, n)
     star_fix_stage(prm, st, n, sc)
     rate_measurement(prm, st, n, sc)
-    score_row(prm, st, n, sc.zero3, sc)
+    score_row(prm, st, n, NO_TORQUE, sc)
     i[n, I_TERMINATED] = 0
     i[n, I_TRUNCATED] = 0
     f[n, F_REWARD] = 0.0

@@ -170,7 +170,6 @@ class Scratch(NamedTuple):
     y: np.ndarray  # (7,)
     u_cmd: np.ndarray  # (3,)
     bias: np.ndarray  # (3,)
-    zero3: np.ndarray  # (3,)
     w6: np.ndarray  # (3, 6, 6) orbit RK4
     v6: np.ndarray  # (4, 6)
     phi: np.ndarray  # (6, 6)
@@ -218,7 +217,7 @@ def make_scratch(prm: CoreParams) -> Scratch:  # pragma: no cover - compiled
     # By keyword (a field is found by its name, not by its place among 44), a line per stage that uses them.
     return Scratch(
         work=np.empty((8, 7)), rq=np.empty((3, 3)), a=np.empty((3, 3)), frame=np.empty((3, 3)), y=np.empty(7),
-        u_cmd=np.empty(3), bias=np.empty(3), zero3=np.zeros(3), dirv=np.empty(3), roll=np.empty(3),
+        u_cmd=np.empty(3), bias=np.empty(3), dirv=np.empty(3), roll=np.empty(3),
         w6=np.empty((3, 6, 6)), v6=np.empty((4, 6)), phi=np.empty((6, 6)), tmp=np.empty((6, 6)),
         x_new=np.empty(6),
         uw=np.empty((5, 6, 6)), h=np.empty(3), jac=np.empty((3, 6)), rcov=np.empty((3, 3)), z=np.empty(3),
@@ -233,13 +232,35 @@ def make_scratch(prm: CoreParams) -> Scratch:  # pragma: no cover - compiled
     )  # fmt: skip
 
 
+def rows_innermost(shape: tuple[int, ...], dtype: Any) -> np.ndarray:
+    """Zeros of ``shape`` (rows first, indexed ``a[n, ...]`` as the row kernels index the state) with the
+    rows innermost in memory: the stride of the row axis is one element, each column's rows are
+    contiguous (a structure of arrays, by strides). The device's layout: when thread ``n`` of a warp reads
+    ``a[n, c]``, its 32 threads read 32 adjacent elements (coalesced: 8 sectors of 32 bytes for float64),
+    where rows outermost would touch a sector per thread. The arithmetic is unchanged (the same elements,
+    addressed by strides), so the numbers are bit for bit those of the rows-outermost layout."""
+    return np.moveaxis(np.zeros((*shape[1:], shape[0]), dtype), -1, 0)
+
+
+def rows_innermost_like(record: Any) -> Any:
+    """``record`` (a named tuple of arrays with rows first, or one array) copied into
+    :func:`rows_innermost` arrays (0- and 1-dimensional arrays are already so)."""
+
+    def copy(a: np.ndarray) -> np.ndarray:
+        out = rows_innermost(a.shape, a.dtype) if a.ndim > 1 else np.zeros(a.shape, a.dtype)
+        out[...] = a
+        return out
+
+    return map_arrays(copy, record)
+
+
 def scratch_rows(prm: CoreParams, rows: int) -> Scratch:
     """A :class:`Scratch` of ``rows`` rows: each field zeros of shape ``(rows, *shape)``, the shapes and
-    dtypes those of :func:`make_scratch` (the one place they are written). For one thread per row (the
-    device's layout), where a thread cannot allocate: allocated once, row ``n`` read by
-    :func:`scratch_row`."""
+    dtypes those of :func:`make_scratch` (the one place they are written), rows innermost in memory
+    (:func:`rows_innermost`). For one thread per row (the device's layout), where a thread cannot
+    allocate: allocated once, row ``n`` read by :func:`scratch_row` (views with strides)."""
     one = make_scratch(prm)
-    return Scratch(**{name: np.zeros((rows, *a.shape), a.dtype) for name, a in one._asdict().items()})
+    return Scratch(**{name: rows_innermost((rows, *a.shape), a.dtype) for name, a in one._asdict().items()})
 
 
 def map_arrays(fn: Callable[[np.ndarray], Any], record: Any) -> Any:
@@ -258,7 +279,7 @@ def scratch_row(rows: Scratch, n: int) -> Scratch:  # pragma: no cover - compile
     caller, so no record of arrays is returned across a call)."""
     return Scratch(
         work=rows.work[n], rq=rows.rq[n], a=rows.a[n], frame=rows.frame[n], y=rows.y[n],
-        u_cmd=rows.u_cmd[n], bias=rows.bias[n], zero3=rows.zero3[n], w6=rows.w6[n], v6=rows.v6[n],
+        u_cmd=rows.u_cmd[n], bias=rows.bias[n], w6=rows.w6[n], v6=rows.v6[n],
         phi=rows.phi[n], tmp=rows.tmp[n], x_new=rows.x_new[n], uw=rows.uw[n], h=rows.h[n], jac=rows.jac[n],
         rcov=rows.rcov[n], z=rows.z[n], basis=rows.basis[n], m=rows.m[n], u6=rows.u6[n], vals=rows.vals[n],
         los=rows.los[n], los_true=rows.los_true[n], mm=rows.mm[n], pix=rows.pix[n], r1=rows.r1[n],

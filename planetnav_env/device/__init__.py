@@ -15,7 +15,10 @@ device (torch tensors, stepped by the CUDA entry points of :mod:`planetnav_env.c
   kernel;
 * :mod:`planetnav_env.device.kernel_resources` and :mod:`planetnav_env.device.occupancy`: what the kernels
   cost a multiprocessor (registers, spills, from ``ptxas`` without a GPU) and the occupancy that allows;
-* :mod:`planetnav_env.device.parity`: the GPU-against-CPU comparison and its stated tolerance.
+* :mod:`planetnav_env.device.parity`: the GPU-against-CPU comparison, its stated tolerance and the
+  recorded runs it compares;
+* :mod:`planetnav_env.device.preflight`: the device check's first minute, a chain of checks that the
+  machine's CUDA stack runs the device env at all (host mode standing in on the CPU).
 
 Nothing here imports torch or numba-cuda at import time of the package: the modules that need them import
 them themselves (torch comes with the ``[train]`` and ``[gpu]`` extras, numba-cuda with ``[gpu]``).

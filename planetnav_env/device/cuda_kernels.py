@@ -15,7 +15,7 @@ import numpy as np
 
 from planetnav_env.core.batch import BatchCore
 from planetnav_env.core.cuda_entry import entry_argtypes
-from planetnav_env.core.records import scratch_rows
+from planetnav_env.core.records import rows_innermost_like, scratch_rows
 from planetnav_env.device.bank import BankRows
 from planetnav_env.device.rows import autoreset_thread
 from planetnav_env.numerics.cuda_target import DEFAULT_CC, compile_ptx, device_typeof, require_numba_cuda
@@ -33,14 +33,14 @@ def autoreset_kernel(prm, st, bank, slots, mask, rows) -> None:  # pragma: no co
 
 def autoreset_argtypes(core: BatchCore) -> tuple:
     """The numba argument types of :func:`autoreset_kernel` for ``core``'s configuration, as the launch types
-    them (:func:`~planetnav_env.numerics.cuda_target.device_typeof`; a bank has the state arrays' dtypes
-    and dimensions, so its record's types are those of the state's fields)."""
+    them (:func:`~planetnav_env.numerics.cuda_target.device_typeof`): the state and scratch rows innermost
+    (the device env's layout), the bank rows outermost (the host writes it a range of slots at a time)."""
     n = core.num_rows
     bank = BankRows(f=core.f, p=core.p, rng=core.rng, eph=core.eph)
     return tuple(
         device_typeof(v)
-        for v in (core.params, core.state, bank, np.zeros(n, np.int64), np.zeros(n, np.bool_),
-                  scratch_rows(core.params, n))
+        for v in (core.params, rows_innermost_like(core.state), bank, np.zeros(n, np.int64),
+                  np.zeros(n, np.bool_), scratch_rows(core.params, n))
     )  # fmt: skip
 
 

@@ -73,4 +73,61 @@ def compare_runs(gpu: dict, cpu: dict) -> dict:
     return out
 
 
-__all__ = ["PARITY_TOLERANCE", "compare_runs", "row_differences"]
+def run_actions(space, n: int, rng: np.random.Generator) -> np.ndarray:
+    """A decision's random actions of ``n`` rows for the single-row action ``space`` (targets uniform over
+    a Discrete space, Box entries uniform in [-1, 1] as float32)."""
+    import gymnasium as gym
+
+    if isinstance(space, gym.spaces.Discrete):
+        return rng.integers(0, space.n, n)
+    return rng.uniform(-1, 1, (n, *space.shape)).astype(np.float32)
+
+
+def record_run(env_id: str, n: int, steps: int, device: str) -> dict:
+    """The device env on ``device`` for ``steps`` decisions of ``n`` rows, random actions from a fixed
+    seed (:func:`run_actions`): the observations and rewards of every decision and the final state
+    (``f``, ``p``, ``i``), as :func:`compare_runs` takes them. The same arguments give the same episodes
+    and actions on any device."""
+    import torch
+
+    from planetnav_env.device.vector_env import DeviceVectorEnv
+
+    # 4 N episodes cycled without a refill: the same sequence whatever the episodes' lengths.
+    env = DeviceVectorEnv(env_id, n, device=device, bank_size=4 * n, refill="off", bank_workers=0)
+    env.reset(seed=1)
+    rng = np.random.default_rng(2)
+    obs, reward = [], []
+    for _ in range(steps):
+        a = torch.as_tensor(run_actions(env.single_action_space, n, rng)).to(env.device)
+        o, r = env.step(a)[:2]
+        obs.append(o.cpu().numpy().copy())
+        reward.append(r.cpu().numpy().copy())
+    state = env.state_arrays()
+    env.close()
+    return {"obs": np.stack(obs), "reward": np.stack(reward), **{k: state[k] for k in ("f", "p", "i")}}
+
+
+def record_cpu_vector_run(env_id: str, n: int, steps: int) -> dict:
+    """:func:`record_run`'s run on the CPU vector env (``gym.make_vec``): the same episodes (seed 1, row
+    ``n`` seeded ``1 + n``) and actions, as long as no row starts a fifth episode (``record_run``'s bank
+    then replays one)."""
+    import gymnasium as gym
+
+    env = gym.make_vec(env_id, num_envs=n)
+    env.reset(seed=1)
+    rng = np.random.default_rng(2)
+    obs, reward = [], []
+    for _ in range(steps):
+        o, r = env.step(run_actions(env.single_action_space, n, rng))[:2]
+        obs.append(np.asarray(o, np.float32).copy())
+        reward.append(np.asarray(r).copy())
+    core = env.unwrapped.core
+    out = {"obs": np.stack(obs), "reward": np.stack(reward), **{k: getattr(core, k).copy() for k in "fpi"}}
+    env.close()
+    return out
+
+
+__all__ = [
+    "PARITY_TOLERANCE", "compare_runs", "record_cpu_vector_run", "record_run", "row_differences",
+    "run_actions",
+]  # fmt: skip

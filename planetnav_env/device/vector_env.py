@@ -67,7 +67,15 @@ import torch
 from planetnav_env.config import EnvConfig
 from planetnav_env.core import layout as L
 from planetnav_env.core.batch import BatchCore
-from planetnav_env.core.records import Actions, CoreParams, RowState, make_scratch, map_arrays, scratch_rows
+from planetnav_env.core.records import (
+    Actions,
+    CoreParams,
+    RowState,
+    make_scratch,
+    map_arrays,
+    rows_innermost,
+    scratch_rows,
+)
 from planetnav_env.device import rows as R
 from planetnav_env.device.bank import BankRows, EpisodeBank, global_episode
 from planetnav_env.device.draw_pool import DrawPool
@@ -114,6 +122,23 @@ def cuda_unavailable_reason() -> str | None:
     return None
 
 
+def launch_errors() -> tuple[type[BaseException], ...]:
+    """The exception classes a numba-cuda kernel launch raises for a driver error: numba-cuda's own
+    ``CudaAPIError`` (its driver wrapper: loading the module, context calls) and, from numba-cuda 0.30 on,
+    where the launch itself goes through ``cuda.core.launch``, cuda.core's ``CUDAError`` (a launch out of
+    resources, too many threads a block)."""
+    from numba.cuda.cudadrv.driver import CudaAPIError
+
+    errors: list[type[BaseException]] = [CudaAPIError]
+    try:  # cuda.core keeps it in a private module (re-exported by its cu12 and cu13 builds under this name)
+        from cuda.core._utils.cuda_utils import CUDAError
+    except ImportError:  # an older numba-cuda, launching through its own driver wrapper only
+        pass
+    else:
+        errors.append(CUDAError)
+    return tuple(errors)
+
+
 class _Host:
     """Host mode: numpy arrays viewed by torch CPU tensors; the thread functions looped on the CPU."""
 
@@ -123,21 +148,19 @@ class _Host:
         self.device = torch.device("cpu")
 
     def zeros(self, shape: tuple, dtype: np.dtype) -> tuple[torch.Tensor, np.ndarray]:
-        a = np.zeros(shape, dtype)
+        """Zeros of ``shape``, rows (the first axis) innermost in memory (the device's layout)."""
+        a = rows_innermost(shape, dtype)
         return torch.from_numpy(a.view(np.int64) if a.dtype == np.uint64 else a), a
 
     def upload(self, a: np.ndarray) -> tuple[torch.Tensor, np.ndarray]:
         a = np.ascontiguousarray(a)
         return torch.from_numpy(a.view(np.int64) if a.dtype == np.uint64 else a), a
 
-    def view(self, t: torch.Tensor) -> np.ndarray:
-        return t.numpy()
-
     def params(self, prm: CoreParams) -> CoreParams:
         return prm
 
     def scratch(self, prm: CoreParams, n: int) -> Any:
-        return scratch_rows(prm, n)
+        return scratch_rows(prm, n)  # zeros, rows innermost
 
     def step(self, prm, st, act, scratch) -> None:
         R.step_rows(prm, st, act, scratch)
@@ -164,18 +187,19 @@ class _Cuda:
                 f'{why}. Install with pip install -e ".[gpu]" on a machine with a GPU, or use device="cpu"'
             )
         from numba import cuda
-        from numba.cuda.cudadrv.driver import CudaAPIError
 
         from planetnav_env.device import cuda_kernels
 
-        self.cuda, self._api_error = cuda, CudaAPIError
+        self.cuda, self._api_error = cuda, launch_errors()
         self.device = torch.device(device)
         self.tpb = int(threads_per_block)
         self.kernels = cuda_kernels.dispatchers(max_registers)
 
     def zeros(self, shape: tuple, dtype: np.dtype) -> tuple[torch.Tensor, Any]:
+        """Zeros of ``shape`` on the device, rows (the first axis) innermost in memory
+        (:func:`~planetnav_env.core.records.rows_innermost`: a warp's accesses to one column coalesce)."""
         tdtype = torch.int64 if np.dtype(dtype) == np.uint64 else torch.from_numpy(np.zeros(0, dtype)).dtype
-        t = torch.zeros(shape, dtype=tdtype, device=self.device)
+        t = torch.zeros((*shape[1:], shape[0]), dtype=tdtype, device=self.device).movedim(-1, 0)
         return t, self._as(t, dtype)
 
     def upload(self, a: np.ndarray) -> tuple[torch.Tensor, Any]:
@@ -187,17 +211,19 @@ class _Cuda:
         view = self.cuda.as_cuda_array(t)
         return view.view(np.uint64) if np.dtype(dtype) == np.uint64 else view
 
-    def view(self, t: torch.Tensor) -> Any:
-        return self.cuda.as_cuda_array(t)
-
     def params(self, prm: CoreParams) -> CoreParams:
         return map_arrays(self.cuda.to_device, prm)
 
     def scratch(self, prm: CoreParams, n: int) -> Any:
+        # Zeroed as the host mode's (torch.zeros; a device_array is not): no row kernel reads scratch it
+        # has not written (tests/env/test_device_scratch.py), and zeros keep a bug of that kind repeatable.
         one = make_scratch(prm)
-        return type(one)(
-            **{k: self.cuda.device_array((n, *a.shape), a.dtype) for k, a in one._asdict().items()}
-        )
+        self._scratch_tensors = []
+        views = {}
+        for k, a in one._asdict().items():
+            t, views[k] = self.zeros((n, *a.shape), a.dtype)
+            self._scratch_tensors.append(t)  # keeps the memory alive
+        return type(one)(**views)
 
     def _grid(self, n: int) -> tuple[int, int]:
         return (n + self.tpb - 1) // self.tpb, self.tpb

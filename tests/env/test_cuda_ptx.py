@@ -29,7 +29,7 @@ from numba import njit
 from planetnav_env.config import EnvConfig
 from planetnav_env.core import kernels as K
 from planetnav_env.core.batch import BatchCore
-from planetnav_env.core.records import Actions, map_arrays, scratch_rows
+from planetnav_env.core.records import Actions, map_arrays, rows_innermost_like, scratch_rows
 from planetnav_env.envs.registration import ENV_IDS
 from planetnav_env.numerics import portable_math as pm
 
@@ -120,7 +120,7 @@ def test_portable_remainder_and_rint_equal_numbas_ufuncs_bit_for_bit() -> None:
 # --- the thread functions on the CPU ---
 @njit
 def _reset_threads(prm, st, reset, rows):  # pragma: no cover - compiled
-    for j in range(reset.shape[0]):  # what thread j of cuda_entry.reset_kernel runs
+    for j in range(reset.shape[0]):  # the compiled reset as an autoreset thread runs it, after its copy
         K.reset_thread(prm, st, reset, rows, j)
 
 
@@ -136,7 +136,8 @@ def _state_bytes(core: BatchCore) -> list[bytes]:
 
 @pytest.mark.parametrize("env_id", list(CONFIGS))
 def test_thread_functions_equal_the_chunked_step_bit_for_bit(env_id: str, monkeypatch) -> None:
-    """Row by row with per-row scratch slices (the device's layout) gives the CPU step's numbers."""
+    """Row by row with per-row scratch slices, state, actions and scratch rows innermost (the device's
+    layout), gives the CPU step's numbers."""
     cfg = EnvConfig.from_dict(CONFIGS[env_id])
     chunked, threads = BatchCore(cfg, ROWS), BatchCore(cfg, ROWS)
     rows = scratch_rows(threads.params, ROWS)
@@ -147,6 +148,8 @@ def test_thread_functions_equal_the_chunked_step_bit_for_bit(env_id: str, monkey
         m.setattr(K, "reset_rows", lambda prm, st, reset: _reset_threads(prm, st, reset, rows))
         threads.reset_rows(all_rows, [np.random.default_rng(11 + r) for r in range(ROWS)])
     assert _state_bytes(threads) == _state_bytes(chunked)
+    st = rows_innermost_like(threads.state)
+    assert st.f.strides[0] == 8 and st.p.strides[0] == 8
     rng = np.random.default_rng(3)
     n_targets = cfg.n_targets
     for k in range(STEPS):
@@ -160,9 +163,9 @@ def test_thread_functions_equal_the_chunked_step_bit_for_bit(env_id: str, monkey
             chunked.params, chunked.f, chunked.p, chunked.i, chunked.rng, chunked.eph, chunked.obs,
             targets, torques, active, 0, ROWS, True, cfg.decision_steps,
         )  # fmt: skip
-        act = Actions(targets=targets, torques=torques, active=active)
-        _step_threads(threads.params, threads.state, act, rows)
-        assert _state_bytes(threads) == _state_bytes(chunked), f"step {k}"
+        act = rows_innermost_like(Actions(targets=targets, torques=torques, active=active))
+        _step_threads(threads.params, st, act, rows)
+        assert [np.ascontiguousarray(a).tobytes() for a in st] == _state_bytes(chunked), f"step {k}"
 
 
 # --- PTX (numba-cuda) ---
@@ -197,7 +200,7 @@ def ptx_by_signature():
     return ptx
 
 
-@pytest.mark.parametrize("entry", ["step", "reset"])
+@pytest.mark.parametrize("entry", ["step"])
 @pytest.mark.parametrize("env_id", list(CONFIGS))
 def test_entry_point_compiles_to_ptx(env_id: str, entry: str, ptx_by_signature) -> None:
     ptx = ptx_by_signature(env_id, entry)
@@ -239,7 +242,8 @@ def test_device_typeof_makes_every_array_writable() -> None:
 
 @pytest.mark.parametrize("env_id", list(CONFIGS))
 def test_argument_types_are_the_launchs(env_id: str) -> None:
-    """The PTX checks compile the types a launch compiles: numba-cuda's typing of the records with device
+    """The PTX checks compile the types a launch compiles: numba-cuda's typing of the records the device
+    env passes (its host mode's arrays: the same shapes, dtypes and strides, rows innermost), with device
     arrays, which are writable where the host's are read-only (the star catalogue's)."""
     _numba_cuda()
     import numba
@@ -247,16 +251,16 @@ def test_argument_types_are_the_launchs(env_id: str) -> None:
     from planetnav_env.core import cuda_entry
     from planetnav_env.device.bank import BankRows
     from planetnav_env.device.cuda_kernels import autoreset_argtypes
+    from planetnav_env.device.vector_env import DeviceVectorEnv
 
     core = BatchCore(EnvConfig.from_dict(CONFIGS[env_id]), 2)
     n = core.num_rows
-    rows = scratch_rows(core.params, n)
-    act = Actions(targets=np.zeros(n, np.int64), torques=np.zeros((n, 3)), active=np.ones(n, np.bool_))
-    bank = BankRows(f=core.f, p=core.p, rng=core.rng, eph=core.eph)
+    dev = DeviceVectorEnv(env_id, n, device="cpu")
+    prm, st, act, rows = dev._prm, dev._state, dev._act, dev._scratch
+    bank = BankRows(f=core.f, p=core.p, rng=core.rng, eph=core.eph)  # as EpisodeBank.rows: rows outermost
     launched = {
-        "step": (core.params, core.state, act, rows),
-        "reset": (core.params, core.state, np.zeros(n, np.int64), rows),
-        "autoreset": (core.params, core.state, bank, np.zeros(n, np.int64), np.zeros(n, np.bool_), rows),
+        "step": (prm, st, act, rows),
+        "autoreset": (prm, st, bank, dev._slots_view, dev._mask_view, rows),
     }
     compiled = {**cuda_entry.entry_argtypes(core), "autoreset": autoreset_argtypes(core)}
     for entry, args in launched.items():
@@ -288,7 +292,7 @@ def _ptxas() -> str:
         pytest.skip(str(exc))
 
 
-@pytest.mark.parametrize("entry", ["step", "reset"])
+@pytest.mark.parametrize("entry", ["step"])
 def test_entry_point_assembles_for_sm_90(entry: str, ptx_by_signature) -> None:
     """ptxas accepts the PTX (as the driver must at the first launch), and a block of the device env's
     size launches with the registers it reports. The ids share one PTX per entry (the fixture's check)."""
@@ -302,6 +306,43 @@ def test_entry_point_assembles_for_sm_90(entry: str, ptx_by_signature) -> None:
     assert f"{entry}_kernel" in name
     assert 1 <= res.registers <= SM_90.max_regs_per_thread
     require_launchable(entry, res.registers, THREADS_PER_BLOCK, SM_90)  # the device env's default
+
+
+@pytest.mark.parametrize(
+    ("layout", "wheel"),
+    [("cuda_nvcc/bin/ptxas", "nvidia-cuda-nvcc-cu12"), ("cu13/bin/ptxas", "nvidia-cuda-nvcc 13.x")],
+)
+def test_ptxas_is_found_in_either_compiler_wheels_layout(tmp_path, layout: str, wheel: str) -> None:
+    """The wheels' file lists (pip download --no-deps, unzip -l): CUDA 12 keeps ptxas in
+    nvidia/cuda_nvcc/bin, CUDA 13 in nvidia/cu13/bin."""
+    from planetnav_env.device.kernel_resources import ptxas_in_wheels
+
+    nvidia = tmp_path / "site-packages" / "nvidia"
+    assert ptxas_in_wheels([str(nvidia)]) is None
+    (nvidia / layout).parent.mkdir(parents=True)
+    (nvidia / layout).write_text("")
+    assert ptxas_in_wheels([str(tmp_path / "elsewhere"), str(nvidia)]) == str(nvidia / layout), wheel
+
+
+def test_memory_operations_and_innermost_loops_are_read_from_ptx() -> None:
+    from planetnav_env.device.kernel_resources import innermost_loops, memory_ops
+
+    ptx = (
+        ".visible .entry k(\n)\n{\n"
+        "\tld.param.u64 %rd1, [k_param_0];\n"
+        "$L__BB0_1:\n"
+        "\tld.global.f64 %fd1, [%rd1];\n"
+        "$L__BB0_2:\n"
+        "\tld.f64 %fd2, [%rd2];\n\tfma.rn.f64 %fd3, %fd1, %fd2, %fd3;\n\tst.f64 [%rd2], %fd3;\n"
+        "\t@%p1 bra $L__BB0_2;\n"
+        "\tst.global.f64 [%rd1], %fd3;\n\tld.global.nc.v2.f64 {%fd4, %fd5}, [%rd3];\n"
+        "\t@%p2 bra $L__BB0_1;\n\tret;\n}\n"
+    )
+    want = {"ld.generic": 1, "ld.global": 2, "ld.param": 1, "st.generic": 1, "st.global": 1}
+    assert memory_ops(ptx) == want
+    (inner,) = innermost_loops(ptx)  # the outer loop holds the inner one: not innermost
+    assert inner["instructions"] == 4 and inner["fma_f64"] == 1
+    assert (inner["ld.generic"], inner["st.generic"]) == (1, 1) and "ld.global" not in inner
 
 
 def test_ptxas_rejection_is_reported() -> None:

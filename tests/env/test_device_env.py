@@ -41,7 +41,7 @@ pytestmark = pytest.mark.filterwarnings("ignore:.*is out of date.*")
 
 @njit
 def _reset_threads(prm, st, reset, rows):  # pragma: no cover - compiled
-    for j in range(reset.shape[0]):  # what thread j of cuda_entry.reset_kernel runs
+    for j in range(reset.shape[0]):  # the compiled reset as an autoreset thread runs it, after its copy
         K.reset_thread(prm, st, reset, rows, j)
 
 
@@ -202,6 +202,10 @@ def test_host_buffers_are_views_of_one_memory() -> None:
     assert dev.f.data_ptr() == dev._state.f.ctypes.data
     assert dev._rng.dtype == torch.int64 and dev._state.rng.dtype == np.uint64
     assert dev._rng.data_ptr() == dev._state.rng.ctypes.data
+    # The device's layout: every per-row array with the rows innermost (a row axis stride of one element).
+    per_row = [*dev._state, dev._act.torques, *dev._scratch]
+    assert all(a.strides[0] == a.itemsize for a in per_row if a.size)  # (an empty array has no strides)
+    assert dev.f.stride() == (1, dev.num_envs) and dev.p.stride() == (1, 6 * dev.num_envs, dev.num_envs)
     assert dev.bytes_per_row() > 2000
     assert dev.episode_count.tolist() == [1, 1]
 
