@@ -255,7 +255,7 @@ def test_argument_types_are_the_launchs(env_id: str) -> None:
 
     core = BatchCore(EnvConfig.from_dict(CONFIGS[env_id]), 2)
     n = core.num_rows
-    dev = DeviceVectorEnv(env_id, n, device="cpu")
+    dev = DeviceVectorEnv(CONFIGS[env_id], n, device="cpu")
     prm, st, act, rows = dev._prm, dev._state, dev._act, dev._scratch
     bank = BankRows(f=core.f, p=core.p, rng=core.rng, eph=core.eph)  # as EpisodeBank.rows: rows outermost
     launched = {
