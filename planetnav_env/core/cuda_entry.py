@@ -20,13 +20,12 @@ kernel, are in :mod:`planetnav_env.device`.
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 
-from planetnav_env.core.batch import BatchCore
 from planetnav_env.core.kernels import reset_thread, step_thread
-from planetnav_env.core.records import Actions, scratch_rows
+from planetnav_env.core.records import Actions, CoreParams, RowState, scratch_rows
 from planetnav_env.numerics.cuda_target import DEFAULT_CC, compile_ptx, device_typeof, require_numba_cuda
 
 __all__ = ["ENTRY_POINTS", "compile_ptx", "entry_argtypes", "entry_ptx", "reset_kernel", "step_kernel"]
@@ -55,7 +54,20 @@ def reset_kernel(prm, st, reset, rows) -> None:  # pragma: no cover - compiled
 ENTRY_POINTS: dict[str, Any] = {"step": step_kernel, "reset": reset_kernel}
 
 
-def entry_argtypes(core: BatchCore) -> dict[str, tuple]:
+class RowBatch(Protocol):
+    """What the entry points' types are read from: the kernels' parameters and state of ``num_rows`` rows
+    (:class:`planetnav_env.batch.BatchCore` is one, built above the core from a configuration)."""
+
+    num_rows: int
+
+    @property
+    def params(self) -> CoreParams: ...
+
+    @property
+    def state(self) -> RowState: ...
+
+
+def entry_argtypes(core: RowBatch) -> dict[str, tuple]:
     """The numba argument types of each entry point for the batch ``core``, as a launch with the records'
     arrays on the device types them (:func:`~planetnav_env.numerics.cuda_target.device_typeof`)."""
     n = core.num_rows
@@ -69,7 +81,7 @@ def entry_argtypes(core: BatchCore) -> dict[str, tuple]:
     }
 
 
-def entry_ptx(core: BatchCore, names: tuple[str, ...] = ("step", "reset"), cc=DEFAULT_CC) -> dict[str, str]:
+def entry_ptx(core: RowBatch, names: tuple[str, ...] = ("step", "reset"), cc=DEFAULT_CC) -> dict[str, str]:
     """PTX of the entry points ``names`` for ``core``'s types and compute capability ``cc`` (no GPU needed:
     :func:`~planetnav_env.numerics.cuda_target.compile_ptx`)."""
     types = entry_argtypes(core)

@@ -142,7 +142,7 @@ class CoreParams(NamedTuple):
 
 class RowState(NamedTuple):
     """The state arrays of ``N`` rows (leading axis; columns in :mod:`planetnav_env.core.layout`), built by
-    keyword by :attr:`planetnav_env.core.batch.BatchCore.state`."""
+    keyword by :attr:`planetnav_env.batch.BatchCore.state`."""
 
     f: np.ndarray  # (N, NF) float state
     p: np.ndarray  # (N, 6, 6) filter covariance

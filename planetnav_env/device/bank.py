@@ -30,7 +30,7 @@ from typing import NamedTuple, Protocol
 import numpy as np
 from gymnasium.utils import seeding
 
-from planetnav_env.core.batch import BatchCore, RowEpisode
+from planetnav_env.batch import BatchCore, RowEpisode
 from planetnav_env.core.rng import STATE_WORDS
 from planetnav_env.envs.vector_env import row_seeds
 from planetnav_env.errors import InvalidParameterError, require_count

@@ -4,7 +4,9 @@ Both environments are shells over this class: :class:`~planetnav_env.envs.env.Pl
 one, :class:`~planetnav_env.envs.vector_env.PlanetNavVectorEnv` a batch of ``num_envs``. The compiled step is
 :mod:`planetnav_env.core.kernels`; here live what needs Python: drawing an episode (the scenario, the
 initial error, from the row's ``numpy`` generator), fitting the row's ephemeris table, choosing the
-serial or the threaded loop, and turning row statuses into named errors.
+serial or the threaded loop, and turning row statuses into named errors. It sits above the core: it reads
+the :class:`~planetnav_env.config.EnvConfig` and builds the kernels' parameters with
+:mod:`planetnav_env.kernel_params`, so that ``planetnav_env.core`` imports no configuration.
 
 Memory per row (default cruise, 3 planets, 1 day): state 166 floats (47 of them the counters of the
 observation's history blocks) + 13 ints, covariance 36 floats, observation 47 floats, random state 32
