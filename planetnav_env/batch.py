@@ -205,11 +205,12 @@ class BatchCore:
             # Drawn last, so the rest of the episode is the one the same seed gives without failures.
             p_fix = gen.uniform(cfg.image_success_min, 1.0, cfg.n_planets)
             f[L.F_IMG_P : L.F_IMG_P + cfg.n_planets] = p_fix
-        if cfg.centroid_bias_max > 0.0:
-            scale = gen.uniform(0.0, cfg.centroid_bias_max, cfg.n_planets)
+        world = cfg.world
+        if world.centroid_bias_bound > 0.0:
+            scale = gen.uniform(0.0, world.centroid_bias_bound, cfg.n_planets)
             f[L.F_COB : L.F_COB + cfg.n_planets] = scale
-        if cfg.pulsar_frequency_error_max > 0.0:
-            top = cfg.pulsar_frequency_error_max
+        if world.pulsar_frequency_error_bound > 0.0:
+            top = world.pulsar_frequency_error_bound
             delta = gen.uniform(-top, top, cfg.n_pulsars)
             f[L.F_PSR_DRIFT : L.F_PSR_DRIFT + cfg.n_pulsars] = SPEED_OF_LIGHT_KM_S * delta
         if cfg.prior_long_sigma_km > 0.0:
@@ -229,7 +230,7 @@ class BatchCore:
         """(N, P) each row's centroid-bias scale of each planet this episode (0 without the event):
         privileged, as :meth:`true_image_success`."""
         n_p = self.config.n_planets
-        if self.config.centroid_bias_max <= 0.0:
+        if self.config.world.centroid_bias_bound <= 0.0:
             return np.zeros((self.num_rows, n_p))
         return self.f[:, L.F_COB : L.F_COB + n_p].copy()
 
