@@ -67,8 +67,8 @@ MAX_DEADLINES = 8
 
 @dataclass(frozen=True)
 class OperationsSettings:
-    """A navigation-operations scenario (research/operations_log.md §3): a mission attitude that imaging
-    interrupts, and knowledge deadlines. ``None`` in :attr:`EnvConfig.operations` is the plain cruise.
+    """A navigation-operations scenario: a mission attitude that imaging interrupts, and knowledge
+    deadlines. ``None`` in :attr:`EnvConfig.operations` is the plain cruise.
 
     Mission attitude: the thrust axis is the camera boresight body axis (the engine sits on the opposite
     face, so the thrust acts along +boresight); the planned thrust direction ``u`` is the filter's estimated
