@@ -126,6 +126,21 @@ def test_the_core_check_classifies_names() -> None:
     assert not above_the_core("numpy")
 
 
+def test_the_reader_finds_a_planted_upward_import(tmp_path: Path) -> None:
+    from test_import_graph import _imported_names
+
+    mod = tmp_path / "m.py"
+    mod.write_text(
+        "from planetnav_env.core import layout\n"
+        "def f():\n    from planetnav_env.batch import BatchCore\n    from planetnav_env import config\n"
+    )
+    names = _imported_names(mod, "planetnav_env.core.m", False)
+    assert sorted(n for n in names if above_the_core(n)) == [
+        "planetnav_env.batch.BatchCore",
+        "planetnav_env.config",
+    ]
+
+
 def test_the_core_imports_nothing_above_it() -> None:
     found = _core_upward()
     new = sorted(found - KNOWN_CORE_UPWARD)
