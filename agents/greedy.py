@@ -42,16 +42,16 @@ prior updated by this episode's images (the observation's ``image_log`` block; w
 ``oracle``: times the true rate drawn for the episode (privileged: a reference that knows the event's
 realization, reported as an upper bound, never used as the score's best reference).
 
-``bias`` (tasks with a centroid bias, ``EnvConfig.centroid_bias_max``): how the score of a planet counts
+``bias`` (tasks with a centroid bias, ``world.centroid_bias_max``): how the score of a planet counts
 a bias the filter does not model. ``nominal`` (default): none. ``observed``, the adaptive rule: each planet's
 score divided by the mean normalized NIS of its fixes this episode (the observation's ``residual_log``;
 1 for a consistent beacon), so a beacon whose residuals disagree with the filter is down-weighted.
 ``expected``: divided by ``1 + (delta / sigma)^2``, with ``delta`` the offset an image of it would have now at
-the prior mean scale ``centroid_bias_max / 2`` (the bias model is known, its size is not; phase angle and
-apparent diameter from the estimate) and ``sigma`` the filter's direction sigma. ``oracle``: the same with
+the prior mean scale ``world.centroid_bias_max / 2`` (the bias model is known, its size is not; phase angle
+and apparent diameter from the estimate) and ``sigma`` the filter's direction sigma. ``oracle``: the same with
 the planet's true drawn scale (privileged).
 
-``timing`` (tasks with a pulsar timing-model error, ``EnvConfig.pulsar_frequency_error_max``): how the
+``timing`` (tasks with a pulsar timing-model error, ``world.pulsar_frequency_error_max``): how the
 score of a pulsar counts a phase drift the filter does not model. ``nominal`` (default): none. ``observed``,
 the adaptive rule: each pulsar's score divided by the mean normalized NIS of its phases this episode (the
 observation's ``residual_log``), as ``bias=observed`` does for planets. ``oracle``: divided by
@@ -225,7 +225,7 @@ class GreedyAgent(TargetAgent):
         elif self.bias in ("oracle", "expected"):
             scale = (
                 self.env.unwrapped.core.true_centroid_bias()[0] if self.bias == "oracle"
-                else np.full(self.n_planets, 0.5 * self.config.centroid_bias_max)
+                else np.full(self.n_planets, 0.5 * self.config.world.centroid_bias_bound)
             )  # fmt: skip
             w /= 1.0 + (self._offsets(obs, info, scale) / float(self._params.scalars[0]["sig_dir"])) ** 2
         return w

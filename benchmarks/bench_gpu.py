@@ -53,7 +53,7 @@ import gymnasium as gym
 import numpy as np
 
 import planetnav_env  # noqa: F401
-from planetnav_env.core.batch import BatchCore
+from planetnav_env.batch import BatchCore
 from planetnav_env.device.bank import EpisodeBank
 from planetnav_env.device.draw_pool import DrawPool
 from planetnav_env.device.parity import compare_runs, record_run, run_actions

@@ -30,8 +30,8 @@ import time
 
 import numba
 
+from planetnav_env.batch import BatchCore
 from planetnav_env.config import EnvConfig
-from planetnav_env.core.batch import BatchCore
 from planetnav_env.core.cuda_entry import ENTRY_POINTS, entry_argtypes
 from planetnav_env.device import occupancy as O
 from planetnav_env.device.cuda_kernels import autoreset_argtypes, autoreset_kernel

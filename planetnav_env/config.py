@@ -67,8 +67,8 @@ MAX_DEADLINES = 8
 
 @dataclass(frozen=True)
 class OperationsSettings:
-    """A navigation-operations scenario (research/operations_log.md §3): a mission attitude that imaging
-    interrupts, and knowledge deadlines. ``None`` in :attr:`EnvConfig.operations` is the plain cruise.
+    """A navigation-operations scenario: a mission attitude that imaging interrupts, and knowledge
+    deadlines. ``None`` in :attr:`EnvConfig.operations` is the plain cruise.
 
     Mission attitude: the thrust axis is the camera boresight body axis (the engine sits on the opposite
     face, so the thrust acts along +boresight); the planned thrust direction ``u`` is the filter's estimated
@@ -135,6 +135,19 @@ class OperationsSettings:
         a, tau = self.thrust_accel_km_s2, self.thrust_corr_time_s
         sp = math.radians(self.thrust_point_sigma_deg)
         return 2.0 * (self.thrust_mag_sigma * a) ** 2 * tau, 2.0 * (sp * a) ** 2 * tau
+
+
+#: Options of the world (planetnav_env.world.WorldConfig) that a top-level key's error points to.
+WORLD_OPTIONS_NAMED = ("centroid_bias_max", "pulsar_frequency_error_max")
+
+
+def _unknown_option_hint(key: str) -> str:
+    """What the error of the unknown top-level option ``key`` adds: the option to set instead, if any."""
+    if key == "max_episode_steps":
+        return " (planetnav's name for it is 'episode_steps')"
+    if key in WORLD_OPTIONS_NAMED:
+        return f" (an effect of the world: set world.{key}, in YAML 'world: {{{key}: ...}}')"
+    return ""
 
 
 @dataclass(frozen=True)
@@ -274,18 +287,6 @@ class EnvConfig:
         "gives no measurement (``info['visibility']`` ``image_failed``). 1: every image succeeds (the v0 and "
         "v1 physics; nothing is drawn)",
     )
-    centroid_bias_max: float = option(
-        0.0,
-        ge=0,
-        le=2,
-        unit="fraction of the uniformly bright disk's offset",
-        kernel="cob_max",
-        doc="a centre-of-brightness centroid bias the filter does not model (it assumes the centre of "
-        "figure): at reset each planet draws a scale b uniformly from [0, centroid_bias_max], fixed for the "
-        "episode and not observed, and every image of it is displaced toward the Sun by b * 4 / (3 pi) * "
-        "(apparent radius) * (1 - cos phase angle), the offset of a uniformly bright illuminated disk "
-        "(b = 1). 0: none (the v0 and v1 physics; nothing is drawn)",
-    )
     prior_long_sigma_km: float = option(
         0.0,
         ge=0,
@@ -305,25 +306,13 @@ class EnvConfig:
         "``log_sigma`` they give the whole P_rr, which way the position error lies, as a rule reading "
         "``info['filter']['P']`` sees it)",
     )
-    pulsar_frequency_error_max: float = option(
-        0.0,
-        ge=0,
-        le=1e-6,
-        unit="fractional frequency (delta nu / nu)",
-        kernel="psr_df_max",
-        doc="a pulsar timing-model error the filter does not model (timing noise, or a glitch since the "
-        "model was last fitted; the Crab's timing noise is documented to make pulsar filters diverge over "
-        "weeks): at reset each pulsar draws the fractional error delta of the on-board model's spin "
-        "frequency uniformly from [-pulsar_frequency_error_max, pulsar_frequency_error_max], fixed for the "
-        "episode and not observed, and every phase of it is off by delta * (t - episode start) / period "
-        "cycles, a range error of c * delta * (t - start) along its direction (c * 1e-10 is ~10 km after "
-        "94 h). 0: none (the v0 and v1 physics; nothing is drawn)",
-    )
     observe_residual_log: bool = option(
         False,
         doc="add the ``residual_log`` block to the observation (last, one per target, planets then pulsars: "
         "the mean normalized NIS of this episode's fixes of it, with a prior of two consistent ones, capped "
-        "at 10, / 10): the filter's own consistency check per beacon",
+        "at 10, / 10): the filter's own consistency check per beacon. Kept although no id sets it: when the "
+        "world's truth departs from the onboard model (``world``), the filter's residuals are what a policy "
+        "can read of the departure",
     )
     observe_image_log: bool = option(
         False,
@@ -495,7 +484,7 @@ class EnvConfig:
             if key not in known:
                 # Worded as Python words a bad keyword, and a TypeError too: clients probe optional
                 # keywords (TorchRL's GymEnv passes frameskip) and retry only on that error.
-                hint = " (planetnav's name for it is 'episode_steps')" if key == "max_episode_steps" else ""
+                hint = _unknown_option_hint(key)
                 raise UnknownOptionError(
                     f"unknown environment option: got an unexpected keyword argument {key!r}{hint}; "
                     f"known options: {sorted(known)}"

@@ -81,6 +81,8 @@ def build_params(cfg: EnvConfig, plan: ChannelPlan, mu_central: float, mus: np.n
         world_ab=cfg.world.aberration_on,
         onboard_lt=cfg.world.light_time_corrected,
         onboard_ab=cfg.world.aberration_corrected,
+        cob_max=cfg.world.centroid_bias_bound,
+        psr_df_max=cfg.world.pulsar_frequency_error_bound,
         det_half_fov=math.radians(0.5 * cfg.detector_fov_deg),
         sun_avoid=math.radians(cfg.detector.sun_avoidance_deg),
         reward_truth=cfg.reward == "truth",

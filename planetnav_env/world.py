@@ -8,10 +8,13 @@ effect alone (a regime map's axis, or one effect's share of the flight world's e
 * ``"matched"`` (the default of every registered id): the truth is the onboard model. Every line of
   sight is geometric and instantaneous; the golden hashes of the ids are this world's.
 * ``"flight"``: a truth that the onboard model only approximates, at flight-like magnitudes. Today it
-  holds light time and stellar aberration on every line of sight (``docs/flight_world.md``); the
-  other effects of a flight world (third bodies and solar radiation pressure in truth, image-driven camera
-  errors, centre of brightness, oblate planets, a boresight drift, a newer ephemeris in truth, attitude
-  disturbances) are not modelled yet and will join as options of this section.
+  holds light time and stellar aberration on every line of sight (``docs/flight_world.md``). Two
+  effects are modelled but off in both presets until a flight magnitude with a cited source joins:
+  the centre-of-brightness centroid bias (``centroid_bias_max``) and the pulsar timing-model error
+  (``pulsar_frequency_error_max``), each set on its own. The other effects of a flight world (third
+  bodies and solar radiation pressure in truth, image-driven camera errors, oblate planets, a boresight
+  drift, a newer ephemeris in truth, attitude disturbances) are not modelled yet and will join as options
+  of this section.
 
 On board, the filter applies the corrections flight optical navigation applies to each effect that is on
 in truth, computed from its *estimated* state (``onboard_corrections``, default: on); switching them
@@ -35,7 +38,8 @@ PRESETS = ("matched", "flight")
 #: What ``EnvConfig.world`` accepts, as an error states it.
 EXPECTED = (
     "one of 'matched', 'flight' (str), or a WorldConfig (in EnvConfig.from_dict / YAML a mapping of its "
-    "options: preset, light_time, aberration, onboard_corrections)"
+    "options: preset, light_time, aberration, onboard_corrections, centroid_bias_max, "
+    "pulsar_frequency_error_max)"
 )
 
 
@@ -43,8 +47,9 @@ EXPECTED = (
 class WorldConfig:
     """The truth's world: a ``preset`` and its effects, each ``None`` (the preset's) or set on its own.
 
-    The resolved switches the core reads are :attr:`light_time_on`, :attr:`aberration_on`,
-    :attr:`light_time_corrected` and :attr:`aberration_corrected`."""
+    The resolved values the core reads are :attr:`light_time_on`, :attr:`aberration_on`,
+    :attr:`light_time_corrected`, :attr:`aberration_corrected`, :attr:`centroid_bias_bound` and
+    :attr:`pulsar_frequency_error_bound`."""
 
     preset: str = option(
         "matched",
@@ -73,6 +78,32 @@ class WorldConfig:
         "light-time position from the estimated position, the predicted line of sight and the star "
         "catalogue aberrated by the estimated velocity. False: the filter ignores the effects (their "
         "bias). None: on",
+    )
+
+    centroid_bias_max: float | None = option(
+        None,
+        kind="float",
+        ge=0,
+        le=2,
+        unit="fraction of the uniformly bright disk's offset",
+        doc="centre-of-brightness centroid bias in truth, which the filter does not model (it takes the "
+        "image's centroid for the centre of figure): at reset each planet draws a scale b uniformly from "
+        "[0, centroid_bias_max], fixed for the episode and not observed, and every image of it is displaced "
+        "toward the Sun by b * 4 / (3 pi) * (apparent radius) * (1 - cos phase angle), the offset of a "
+        "uniformly bright illuminated disk (b = 1). 0: none (nothing is drawn). None: 0 in both presets",
+    )
+    pulsar_frequency_error_max: float | None = option(
+        None,
+        kind="float",
+        ge=0,
+        le=1e-6,
+        unit="fractional frequency (delta nu / nu)",
+        doc="pulsar timing-model error in truth, which the filter does not model (timing noise, or a glitch "
+        "since the on-board model was fitted): at reset each pulsar draws the fractional error delta of the "
+        "on-board spin frequency uniformly from [-pulsar_frequency_error_max, pulsar_frequency_error_max], "
+        "fixed for the episode and not observed, and every phase of it is off by delta * (t - episode "
+        "start) / period cycles, a range error of c * delta * (t - start) along the pulsar's direction "
+        "(c * 1e-10 is ~10 km after 94 h). 0: none (nothing is drawn). None: 0 in both presets",
     )
 
     def __post_init__(self) -> None:
@@ -119,6 +150,22 @@ class WorldConfig:
         return self.aberration_on and self.corrections_on
 
     @property
+    def centroid_bias_bound(self) -> float:
+        """The largest centre-of-brightness scale a planet draws (0: no bias); neither preset sets one."""
+        return 0.0 if self.centroid_bias_max is None else float(self.centroid_bias_max)
+
+    @property
+    def pulsar_frequency_error_bound(self) -> float:
+        """The largest fractional frequency error |delta nu / nu| a pulsar's timing model draws (0: none);
+        neither preset sets one."""
+        return 0.0 if self.pulsar_frequency_error_max is None else float(self.pulsar_frequency_error_max)
+
+    @property
     def is_matched(self) -> bool:
         """No effect on: the truth is the onboard model (whatever the preset's name)."""
-        return not (self.light_time_on or self.aberration_on)
+        return not (
+            self.light_time_on
+            or self.aberration_on
+            or self.centroid_bias_bound > 0.0
+            or self.pulsar_frequency_error_bound > 0.0
+        )

@@ -263,9 +263,9 @@ class FeatureRows(RowsWrapper):
 
 @dataclass(frozen=True, kw_only=True)
 class TrainingOptions:
-    """The training recipe's options over the environment (``research/training_log.md``): the one list of
-    them, whose fields (by keyword) are the options of :func:`training_rows`, :func:`single_training_env`
-    and :class:`planetnav_train.vec_training.NavTrainingVecEnv`.
+    """The training recipe's options over the environment: the one list of them, whose fields (by
+    keyword) are the options of :func:`training_rows`, :func:`single_training_env` and
+    :class:`planetnav_train.vec_training.NavTrainingVecEnv`.
 
     ``features``: observation features appended (``gain``, ``pd_torque``); ``pointing``: the pointing
     shaping's weight [reward units] (None / 0: none); ``gamma``: its discount (the algorithm's, per

@@ -513,8 +513,7 @@ def open_loop_batch_arrays(
 ):
     """:func:`propagate_open_loop_batch` for callers in Python: the fields of :class:`AttitudeRows` and
     :class:`Plant` as plain arrays (``*rows``, ``*plant``), the records built here. Numba types a named
-    tuple passed from Python about 0.5 us per array slower than the array itself (bench_core's truth step
-    paid ~6 us a call)."""
+    tuple passed from Python about 0.5 us per array slower than the array itself."""
     rows = AttitudeRows(q=q, omega=omega, h_w=h_w, u_ext=u_ext, q_out=q_out, w_out=w_out, h_out=h_out)
     plant = Plant(jm=jm, jinv=jinv, tau_max=tau_max, h_max=h_max)
     return propagate_open_loop_batch(rows, u_cmd, dt, n_substeps, plant)

@@ -23,13 +23,19 @@ kernel (a bank row copied in, then the compiled reset), are in :mod:`planetnav_e
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 
-from planetnav_env.core.batch import BatchCore
 from planetnav_env.core.kernels import step_thread
-from planetnav_env.core.records import Actions, rows_innermost, rows_innermost_like, scratch_rows
+from planetnav_env.core.records import (
+    Actions,
+    CoreParams,
+    RowState,
+    rows_innermost,
+    rows_innermost_like,
+    scratch_rows,
+)
 from planetnav_env.numerics.cuda_target import DEFAULT_CC, compile_ptx, device_typeof, require_numba_cuda
 
 __all__ = ["ENTRY_POINTS", "compile_ptx", "entry_argtypes", "entry_ptx", "step_kernel"]
@@ -49,7 +55,20 @@ def step_kernel(prm, st, act, rows) -> None:  # pragma: no cover - compiled
 ENTRY_POINTS: dict[str, Any] = {"step": step_kernel}
 
 
-def entry_argtypes(core: BatchCore) -> dict[str, tuple]:
+class RowBatch(Protocol):
+    """What the entry points' types are read from: the kernels' parameters and state of ``num_rows`` rows
+    (:class:`planetnav_env.batch.BatchCore` is one, built above the core from a configuration)."""
+
+    num_rows: int
+
+    @property
+    def params(self) -> CoreParams: ...
+
+    @property
+    def state(self) -> RowState: ...
+
+
+def entry_argtypes(core: RowBatch) -> dict[str, tuple]:
     """The numba argument types of each entry point for the batch ``core``, as a launch with the records'
     arrays on the device types them (:func:`~planetnav_env.numerics.cuda_target.device_typeof`): the
     parameters as the CPU holds them, the state, actions and scratch rows innermost
@@ -64,7 +83,7 @@ def entry_argtypes(core: BatchCore) -> dict[str, tuple]:
     return {"step": (prm, st, device_typeof(act), rows)}
 
 
-def entry_ptx(core: BatchCore, names: tuple[str, ...] = ("step",), cc=DEFAULT_CC) -> dict[str, str]:
+def entry_ptx(core: RowBatch, names: tuple[str, ...] = ("step",), cc=DEFAULT_CC) -> dict[str, str]:
     """PTX of the entry points ``names`` for ``core``'s types and compute capability ``cc`` (no GPU needed:
     :func:`~planetnav_env.numerics.cuda_target.compile_ptx`)."""
     types = entry_argtypes(core)

@@ -2,7 +2,7 @@
 
 Every environment row ``n`` is advanced one decision at a time by :func:`decide_row` (the decision
 rule: ``decision_steps`` physics steps of :func:`step_row`, each observed by :func:`observe_row`); the
-batch functions loop over a range of rows; :class:`~planetnav_env.core.batch.BatchCore` runs chunks of
+batch functions loop over a range of rows; :class:`~planetnav_env.batch.BatchCore` runs chunks of
 rows on Python threads (the kernels release the GIL). A row reads and writes
 only its own slices of the state arrays (the record ``st``, :class:`~planetnav_env.core.records.RowState`:
 ``f``, ``p``, ``i``, ``rng``, ``eph``, ``obs``; columns in :mod:`planetnav_env.core.layout`), and its

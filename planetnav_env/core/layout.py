@@ -58,11 +58,11 @@ _F_FIELDS = (
     # image-processing failures (EnvConfig.image_success_min < 1; unused, 0, otherwise): per planet, the
     # probability, drawn at reset and fixed for the episode, that an image of it in view yields a fix
     ("IMG_P", 7),
-    # centroid bias (EnvConfig.centroid_bias_max > 0; unused, 0, otherwise): per planet, the scale of its
+    # centroid bias (world.centroid_bias_max > 0; unused, 0, otherwise): per planet, the scale of its
     # centre-of-brightness offset drawn at reset (sensors.camera_kernels.centroid_bias_kernel)
     ("COB", 7),
     ("COB_LAST", 1),  # the offset of the last image [rad] (0: none)
-    # pulsar timing-model error (EnvConfig.pulsar_frequency_error_max > 0; unused, 0, otherwise): per
+    # pulsar timing-model error (world.pulsar_frequency_error_max > 0; unused, 0, otherwise): per
     # pulsar, the range drift c * delta [km/s] of its phases, drawn at reset (every catalogue pulsar fits)
     ("PSR_DRIFT", 4),
     # counters of the observation blocks that keep a history (ObservationLayout; written by

@@ -60,6 +60,10 @@ CORE_SCALAR_FIELDS: tuple[tuple[str, str, str], ...] = (
     ("world_ab", "i8", "1: aberration in the truth's planet and star directions (world.aberration_on)"),
     ("onboard_lt", "i8", "1: the filter models the light-time position (world.light_time_corrected)"),
     ("onboard_ab", "i8", "1: the filter aberrates its prediction and stars (world.aberration_corrected)"),
+    ("cob_max", "f8", "largest centre-of-brightness scale a planet draws [fraction of the uniformly bright "
+     "disk's offset] (world.centroid_bias_bound; 0: none)"),
+    ("psr_df_max", "f8", "largest pulsar timing-model frequency error [delta nu / nu] "
+     "(world.pulsar_frequency_error_bound; 0: none)"),
     # pulsars
     ("det_half_fov", "f8", "detector half field of view [rad] (detector_fov_deg / 2)"),
     ("sun_avoid", "f8", "detector Sun-avoidance angle [rad] (detector.sun_avoidance_deg)"),
@@ -142,7 +146,7 @@ class CoreParams(NamedTuple):
 
 class RowState(NamedTuple):
     """The state arrays of ``N`` rows (leading axis; columns in :mod:`planetnav_env.core.layout`), built by
-    keyword by :attr:`planetnav_env.core.batch.BatchCore.state`."""
+    keyword by :attr:`planetnav_env.batch.BatchCore.state`."""
 
     f: np.ndarray  # (N, NF) float state
     p: np.ndarray  # (N, 6, 6) filter covariance

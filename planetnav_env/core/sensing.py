@@ -309,7 +309,7 @@ def time_pulsar(prm, st, n, j, t, sc):  # pragma: no cover - compiled
     noise_begin(prm, i, rng, n, NOISE_PULSAR0 + j, sc)
     total = total / lam + sigma * next_normal(prm, rng, n, sc)
     if ps.psr_df_max > 0.0:
-        # The on-board timing model's frequency error (EnvConfig.pulsar_frequency_error_max): the phase
+        # The on-board timing model's frequency error (world.pulsar_frequency_error_max): the phase
         # runs off by nu * delta * (t - start) cycles, i.e. c * delta * (t - start) / lambda.
         total += f[n, F_PSR_DRIFT + j] * (t - f[n, F_T0]) / lam
     h /= lam

@@ -2,7 +2,7 @@
 device (torch tensors, stepped by the CUDA entry points of :mod:`planetnav_env.core.cuda_entry`).
 
 * :mod:`planetnav_env.device.bank`: :class:`~planetnav_env.device.bank.EpisodeBank`, the host-side part of
-  ``M`` resets drawn in advance by :meth:`BatchCore.draw_row <planetnav_env.core.batch.BatchCore.draw_row>`
+  ``M`` resets drawn in advance by :meth:`BatchCore.draw_row <planetnav_env.batch.BatchCore.draw_row>`
   (the CPU reset's own code), laid out like the state's rows, in the CPU vector env's order of episodes;
 * :mod:`planetnav_env.device.refill`: :class:`~planetnav_env.device.refill.BankRefill`, the bank's next
   passes drawn on a host thread while the rows step, written into the slots the rows have left;

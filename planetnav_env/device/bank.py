@@ -1,9 +1,9 @@
 """The episode bank: what resets draw on the host, drawn in advance and laid out like the state rows.
 
-A reset of a row has two parts (:meth:`BatchCore.reset_rows <planetnav_env.core.batch.BatchCore.reset_rows>`):
+A reset of a row has two parts (:meth:`BatchCore.reset_rows <planetnav_env.batch.BatchCore.reset_rows>`):
 the host draws the episode from the row's ``numpy`` generator (scenario, ephemeris table fit, initial
 filter error, attitude, the compiled noise stream's seed, the episode's events) with
-:meth:`BatchCore.draw_row <planetnav_env.core.batch.BatchCore.draw_row>`, then the compiled part
+:meth:`BatchCore.draw_row <planetnav_env.batch.BatchCore.draw_row>`, then the compiled part
 (``kernels.reset_row``) takes the first star fix, rate measurement and observation. A GPU thread cannot run
 the first part, so the device env draws it here, into arrays of the state's row layout
 (:class:`BankRows`: ``f`` (M, NF), ``p`` (M, 6, 6), ``rng`` (M, STATE_WORDS) uint64, ``eph`` (M, table)),
@@ -30,7 +30,7 @@ from typing import NamedTuple, Protocol
 import numpy as np
 from gymnasium.utils import seeding
 
-from planetnav_env.core.batch import BatchCore, RowEpisode
+from planetnav_env.batch import BatchCore, RowEpisode
 from planetnav_env.core.rng import STATE_WORDS
 from planetnav_env.envs.vector_env import row_seeds
 from planetnav_env.errors import InvalidParameterError, require_count
@@ -109,7 +109,7 @@ class EpisodeBank:
     """The episodes of ``num_rows`` rows in global order, and pass 0 of a bank of ``size`` slots (module
     docstring).
 
-    ``core`` is a :class:`~planetnav_env.core.batch.BatchCore` of the configuration (any number of rows: only
+    ``core`` is a :class:`~planetnav_env.batch.BatchCore` of the configuration (any number of rows: only
     its drawing code and its table cache are used); ``seeds`` one seed (or None: fresh entropy) per row,
     as ``PlanetNavVectorEnv.reset(seed=...)`` takes them; ``pool`` worker processes that draw in parallel
     (:mod:`planetnav_env.device.draw_pool`; None: draw in this process, the same numbers). ``rows`` holds

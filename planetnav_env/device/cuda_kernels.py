@@ -13,7 +13,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from planetnav_env.core.batch import BatchCore
+from planetnav_env.batch import BatchCore
 from planetnav_env.core.cuda_entry import entry_argtypes
 from planetnav_env.core.records import rows_innermost_like, scratch_rows
 from planetnav_env.device.bank import BankRows

@@ -25,8 +25,8 @@ from multiprocessing import shared_memory
 
 import numpy as np
 
+from planetnav_env.batch import BatchCore, RowEpisode
 from planetnav_env.config import EnvConfig
-from planetnav_env.core.batch import BatchCore, RowEpisode
 from planetnav_env.device.bank import BankRows, RowGenerators, empty_rows
 from planetnav_env.errors import require_count
 

@@ -64,9 +64,9 @@ from typing import Any
 import numpy as np
 import torch
 
+from planetnav_env.batch import BatchCore
 from planetnav_env.config import EnvConfig
 from planetnav_env.core import layout as L
-from planetnav_env.core.batch import BatchCore
 from planetnav_env.core.records import (
     Actions,
     CoreParams,

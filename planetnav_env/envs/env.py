@@ -17,7 +17,7 @@ The agent never reads the truth: observations are built from the filter's estima
 the star tracker's attitude, the reported rates, wheel momenta and the ephemeris. The default reward
 uses the true error (a privileged training signal; ``reward="covariance"`` is computable on board).
 
-The environment is a shell over :class:`planetnav_env.core.batch.BatchCore` with one row: the vector
+The environment is a shell over :class:`planetnav_env.batch.BatchCore` with one row: the vector
 environment (:class:`planetnav_env.envs.vector_env.PlanetNavVectorEnv`) runs the same compiled step over N
 rows, and row i of it equals this environment seeded ``seed + i`` bit for bit.
 
@@ -36,9 +36,9 @@ import gymnasium as gym
 import numpy as np
 from gymnasium.envs.registration import EnvSpec
 
+from planetnav_env.batch import BatchCore
 from planetnav_env.config import EnvConfig
 from planetnav_env.core import layout as L
-from planetnav_env.core.batch import BatchCore
 from planetnav_env.core.decisions import relative_targets
 from planetnav_env.core.layout import ObservationLayout
 from planetnav_env.core.rng import seed_state

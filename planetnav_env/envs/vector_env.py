@@ -2,7 +2,7 @@
 
 ``gym.make_vec("planetnav/<id>", num_envs=N)`` returns it (the ids' ``vector_entry_point``). Row ``i``
 after ``reset(seed=s)`` is, bit for bit, the single :class:`~planetnav_env.envs.env.PlanetNavEnv` after
-``reset(seed=s + i)``: both run :class:`~planetnav_env.core.batch.BatchCore`, and each row keeps its own
+``reset(seed=s + i)``: both run :class:`~planetnav_env.batch.BatchCore`, and each row keeps its own
 Gymnasium ``np_random`` (for episode draws) and its own compiled random stream (for sensor noise).
 
 Autoreset: ``autoreset_mode="next_step"`` (Gymnasium's default): the step after a row ends resets it and
@@ -36,10 +36,10 @@ from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
+from planetnav_env import batch as B
+from planetnav_env.batch import BatchCore, attitude_err_arcsec
 from planetnav_env.config import EnvConfig
-from planetnav_env.core import batch as B
 from planetnav_env.core import layout as L
-from planetnav_env.core.batch import BatchCore, attitude_err_arcsec
 from planetnav_env.core.decisions import relative_targets
 from planetnav_env.envs.env import EpisodeLengthSpec, check_reset_options, resolve_config
 from planetnav_env.envs.spaces import (

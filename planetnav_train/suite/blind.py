@@ -149,7 +149,7 @@ def default_references(cfg: EnvConfig) -> tuple[tuple[str, ...], tuple[str, ...]
         return TORQUE_REFS, ()
     if cfg.image_success_min < 1.0:
         return V2_REFERENCES, V2_PRIVILEGED
-    if cfg.pulsar_frequency_error_max > 0.0:
+    if cfg.world.pulsar_frequency_error_bound > 0.0:
         return TIMING_REFERENCES, TIMING_PRIVILEGED
     return ("greedy",), ()
 

@@ -25,11 +25,19 @@ from planetnav_train.cli import write_json
 from planetnav_train.provenance import provenance
 from planetnav_train.suite import blind as B
 
-#: The events swept: the option's value at a strength (0 = the v1 physics), the axis label.
-REGIME_EVENTS: dict[str, tuple[Callable[[float], float], str]] = {
-    "image_success_min": (lambda s: 1.0 - s, "1 - image_success_min (largest failure probability)"),
-    "centroid_bias_max": (lambda s: s, "centroid_bias_max (largest bias scale)"),
-    "pulsar_frequency_error_max": (lambda s: s, "pulsar_frequency_error_max (largest delta nu / nu)"),
+#: The events swept: the options at a strength (0 = the v1 physics), the axis label. The centroid bias
+#: and the pulsar timing error are effects of the world (``world.<name>``).
+REGIME_EVENTS: dict[str, tuple[Callable[[float], dict], str]] = {
+    "image_success_min": (
+        lambda s: {"image_success_min": 1.0 - s}, "1 - image_success_min (largest failure probability)"
+    ),
+    "centroid_bias_max": (
+        lambda s: {"world": {"centroid_bias_max": s}}, "world.centroid_bias_max (largest bias scale)"
+    ),
+    "pulsar_frequency_error_max": (
+        lambda s: {"world": {"pulsar_frequency_error_max": s}},
+        "world.pulsar_frequency_error_max (largest delta nu / nu)",
+    ),
 }
 
 
@@ -41,11 +49,11 @@ def regime_map(args: argparse.Namespace) -> int:
         raise ConfigError(f"regime-map: unknown task {args.task!r}; the ids are {sorted(ENV_IDS)}")
     if args.event not in REGIME_EVENTS:
         raise ConfigError(f"regime-map: --event must be one of {sorted(REGIME_EVENTS)}, got {args.event!r}")
-    option_of, xlabel = REGIME_EVENTS[args.event]
+    options_of, xlabel = REGIME_EVENTS[args.event]
 
     def cfg_for(strength: float) -> EnvConfig:
         return EnvConfig.from_dict(
-            {**ENV_IDS[env_id], **dict(args.option or []), args.event: option_of(strength)},
+            {**ENV_IDS[env_id], **dict(args.option or []), **options_of(strength)},
             noise_streams="per_step",
         )
 

@@ -92,7 +92,7 @@ def run(mode: str, out: Path, rows: int, decisions: int) -> None:
 
 def _column_names(env_id: str) -> dict[str, list[str]]:
     """Names of the state's ``f`` columns and of the observation's, for the report."""
-    from planetnav_env.core.batch import BatchCore
+    from planetnav_env.batch import BatchCore
     from planetnav_env.core.layout import F_OFFSETS
     from planetnav_env.envs.env import resolve_config
 

@@ -35,8 +35,8 @@ from typing import Any
 
 import numpy as np
 
+from planetnav_env.batch import BatchCore
 from planetnav_env.config import EnvConfig
-from planetnav_env.core.batch import BatchCore
 from planetnav_env.core.records import Actions, map_arrays, scratch_rows
 from planetnav_env.device.bank import BankRows
 from planetnav_env.envs.registration import ENV_IDS

@@ -1,7 +1,7 @@
 """Does the residual log find a centroid-biased planet? Four episodes of Cruise-Target-v1 with
-``centroid_bias_max: 1`` and a blind Venus-Mars-Earth schedule (30 steps each): per planet the drawn bias
-scale, the mean offset of its images [arcsec], the residual log's mean normalized NIS at the end, and the
-final true error and filter 1-sigma [km].
+``world: {centroid_bias_max: 1}`` and a blind Venus-Mars-Earth schedule (30 steps each): per planet the
+drawn bias scale, the mean offset of its images [arcsec], the residual log's mean normalized NIS at the
+end, and the final true error and filter 1-sigma [km].
 
     python research/tasks_v2/centroid_nis.py
 """
@@ -21,8 +21,9 @@ ARCSEC = np.pi / 180.0 / 3600.0
 
 def main() -> None:
     options = {
-        **ENV_IDS["planetnav/Cruise-Target-v1"], "centroid_bias_max": 1.0, "observe_residual_log": True
-    }
+        **ENV_IDS["planetnav/Cruise-Target-v1"], "world": {"centroid_bias_max": 1.0},
+        "observe_residual_log": True,
+    }  # fmt: skip
     env = PlanetNavEnv(EnvConfig.from_dict(options).at_physics_step())
     for seed in range(60_000, 60_004):
         obs, info = env.reset(seed=seed)

@@ -2,7 +2,7 @@
 noise, on N seeds from SEED: the probe behind docs/tasks_v2.md's centroid-bias paragraph.
 
     python research/tasks_v2/probe_events.py planetnav/Cruise-Target-v1 12 60000 \
-        '{"centroid_bias_max": 1.0, "observe_residual_log": true}' \
+        '{"world": {"centroid_bias_max": 1.0}, "observe_residual_log": true}' \
         greedy greedy:bias=expected greedy:bias=oracle schedule:targets=1-2,steps=20 \
         schedule:targets=0-1-2,steps=30 schedule:targets=0-2,steps=20
 """

@@ -189,8 +189,10 @@ def test_kernel_scalars_copied_from_options() -> None:
         "step_s": "f8", "substep_s": "f8", "coarse_s": "f8", "episode_steps": "i8", "reward_scale": "f8",
         "torque_penalty": "f8", "torque_scale": "f8", "divergence": "f8", "ambig_k": "f8", "k_a": "f8",
         "k_w": "f8", "psr_int_s": "f8", "ops_encounter": "f8", "ops_weight": "f8", "img_min": "f8",
-        "cob_max": "f8", "psr_df_max": "f8",
+        "decision_steps": "i8",
     }  # fmt: skip
+    # The world's effects are resolved against its preset before the core reads them (kernel_params).
+    assert {"cob_max", "psr_df_max"} <= set(names) - set(copied)
     cfg = EnvConfig(torque_action_scale=0.25)
     values = kernel_values(cfg)
     assert values["torque_scale"] == 0.25 and values["step_s"] == cfg.step_s

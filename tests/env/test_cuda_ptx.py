@@ -26,9 +26,9 @@ import numpy as np
 import pytest
 from numba import njit
 
+from planetnav_env.batch import BatchCore
 from planetnav_env.config import EnvConfig
 from planetnav_env.core import kernels as K
-from planetnav_env.core.batch import BatchCore
 from planetnav_env.core.records import Actions, map_arrays, rows_innermost_like, scratch_rows
 from planetnav_env.envs.registration import ENV_IDS
 from planetnav_env.numerics import portable_math as pm

@@ -19,7 +19,7 @@ import pytest
 import torch
 
 import planetnav_env  # noqa: F401
-from planetnav_env.core.batch import BatchCore
+from planetnav_env.batch import BatchCore
 from planetnav_env.device.bank import EpisodeBank
 from planetnav_env.device.draw_pool import DrawPool
 from planetnav_env.device.vector_env import DeviceVectorEnv

@@ -25,9 +25,9 @@ from gymnasium.utils import seeding
 from numba import njit
 
 import planetnav_env  # noqa: F401
+from planetnav_env.batch import BatchCore
 from planetnav_env.config import EnvConfig
 from planetnav_env.core import kernels as K
-from planetnav_env.core.batch import BatchCore
 from planetnav_env.core.records import scratch_rows
 from planetnav_env.device.bank import EpisodeBank, bank_slot
 from planetnav_env.device.vector_env import DeviceVectorEnv, cuda_unavailable_reason

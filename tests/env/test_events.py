@@ -23,7 +23,7 @@ from planetnav_env.core import layout as L
 from planetnav_env.core.decisions import RESIDUAL_CAP
 from planetnav_env.envs.env import PlanetNavEnv
 from planetnav_env.envs.registration import ENV_IDS
-from planetnav_env.errors import ConfigError
+from planetnav_env.errors import ConfigError, UnknownOptionError
 from planetnav_env.sensors.camera_kernels import COB_UNIFORM_DISK, centroid_bias_kernel
 from planetnav_env.sensors.pulsar import PULSARS, SPEED_OF_LIGHT_KM_S
 
@@ -61,7 +61,6 @@ def test_v2_ids_are_v1_plus_the_event_options():
         assert set(extra) <= {
             "image_success_min",
             "observe_image_log",
-            "centroid_bias_max",
             "observe_residual_log",
             "filter",
             "prior_long_sigma_km",
@@ -74,8 +73,8 @@ def test_v2_ids_are_v1_plus_the_event_options():
     "options",
     [
         {"image_success_min": 0.0},
-        {"centroid_bias_max": 1.0},
-        {"image_success_min": 0.3, "centroid_bias_max": 0.5},
+        {"world": {"centroid_bias_max": 1.0}},
+        {"image_success_min": 0.3, "world": {"centroid_bias_max": 0.5}},
     ],
 )
 def test_events_are_drawn_after_the_episode(options):
@@ -87,7 +86,8 @@ def test_events_are_drawn_after_the_episode(options):
     _assert_same_episode(base, ev)
     drawn = ev.core.true_image_success()[0], ev.core.true_centroid_bias()[0]
     assert np.all((drawn[0] >= options.get("image_success_min", 1.0)) & (drawn[0] <= 1.0))
-    assert np.all((drawn[1] >= 0.0) & (drawn[1] <= options.get("centroid_bias_max", 0.0)))
+    top = options.get("world", {}).get("centroid_bias_max", 0.0)
+    assert np.all((drawn[1] >= 0.0) & (drawn[1] <= top))
 
 
 def test_image_failures_follow_the_drawn_probability_and_skip_the_update():
@@ -177,7 +177,9 @@ def test_centroid_bias_kernel_rotates_toward_the_sun_by_delta():
 
 def test_centroid_bias_moves_the_estimate_and_the_residual_log_counts_the_fixes():
     clean = _physics_env(noise_streams="per_step")
-    biased = _physics_env(centroid_bias_max=2.0, observe_residual_log=True, noise_streams="per_step")
+    biased = _physics_env(
+        world={"centroid_bias_max": 2.0}, observe_residual_log=True, noise_streams="per_step"
+    )
     clean.reset(seed=5)
     biased.reset(seed=5)
     total = np.zeros(3)
@@ -200,7 +202,11 @@ def test_centroid_bias_moves_the_estimate_and_the_residual_log_counts_the_fixes(
 
 @pytest.mark.parametrize(
     ("options", "name"),
-    [({"image_success_min": 1.5}, "image_success_min"), ({"centroid_bias_max": -0.1}, "centroid_bias_max")],
+    [
+        ({"image_success_min": 1.5}, "image_success_min"),
+        ({"world": {"centroid_bias_max": -0.1}}, "world.centroid_bias_max"),
+        ({"world": {"centroid_bias_max": 2.5}}, "world.centroid_bias_max"),
+    ],
 )
 def test_event_options_are_checked(options, name):
     with pytest.raises(ConfigError, match=name):
@@ -230,7 +236,7 @@ def _mars_env(**options) -> PlanetNavEnv:
 
 
 def test_pulsar_timing_error_is_drawn_after_the_episode():
-    base, ev = _mars_env(), _mars_env(pulsar_frequency_error_max=1e-10)
+    base, ev = _mars_env(), _mars_env(world={"pulsar_frequency_error_max": 1e-10})
     base.reset(seed=3)
     ev.reset(seed=3)
     _assert_same_episode(base, ev)
@@ -246,7 +252,7 @@ def test_pulsar_timing_error_shifts_each_update_by_the_gain_times_the_phase_erro
     K * dz with K = P+ H^T / R (the Kalman gain from the updated covariance) and dz = c delta (t - t0) /
     lambda cycles; the residual log counts the phase with one degree of freedom."""
     opts = {"observe_residual_log": True}
-    clean, drifting = _mars_env(**opts), _mars_env(pulsar_frequency_error_max=1e-8, **opts)
+    clean, drifting = _mars_env(**opts), _mars_env(world={"pulsar_frequency_error_max": 1e-8}, **opts)
     clean.reset(seed=8)
     drifting.reset(seed=8)
     prm = drifting.core_params
@@ -275,10 +281,27 @@ def test_pulsar_timing_error_shifts_each_update_by_the_gain_times_the_phase_erro
 
 
 def test_pulsar_timing_error_option_is_checked():
-    with pytest.raises(ConfigError, match="pulsar_frequency_error_max"):
-        EnvConfig.from_dict({**MARS, "pulsar_frequency_error_max": -1e-10})
-    with pytest.raises(ConfigError, match="pulsar_frequency_error_max"):
-        EnvConfig.from_dict({**MARS, "pulsar_frequency_error_max": 1e-3})
+    for bad in (-1e-10, 1e-3, math.nan):
+        with pytest.raises(ConfigError, match=r"world\.pulsar_frequency_error_max"):
+            EnvConfig.from_dict({**MARS, "world": {"pulsar_frequency_error_max": bad}})
+
+
+@pytest.mark.parametrize("name", ["centroid_bias_max", "pulsar_frequency_error_max"])
+def test_the_former_top_level_event_options_name_the_world_option(name, tmp_path):
+    """The two events are effects of the world: their former top-level names are unknown options whose
+    error names the ``world`` option to set, through EnvConfig, gym.make, gym.make_vec and YAML."""
+    want = rf"unexpected keyword argument '{name}'.*world\.{name}"
+    with pytest.raises(UnknownOptionError, match=want):
+        EnvConfig.from_dict({**MARS, name: 1e-10})
+    with pytest.raises(UnknownOptionError, match=want):
+        gym.make("planetnav/MarsApproach-Tasking-v1", **{name: 1e-10})
+    with pytest.raises(UnknownOptionError, match=want):
+        gym.make_vec("planetnav/MarsApproach-Tasking-v1", num_envs=2, **{name: 1e-10})
+    path = tmp_path / "env.yaml"
+    path.write_text(f"env:\n  {name}: 1.0e-10\n")
+    with pytest.raises(UnknownOptionError, match=want):
+        EnvConfig.from_yaml(path)
+    assert getattr(EnvConfig.from_dict({"world": {name: 1e-10}}).world, name) == 1e-10
 
 
 def test_elongated_prior_is_drawn_after_the_episode_along_its_long_axis():

@@ -18,9 +18,9 @@ from pathlib import Path
 
 import numpy as np
 
+from planetnav_env.batch import BatchCore
 from planetnav_env.config import EnvConfig
 from planetnav_env.core import layout as L
-from planetnav_env.core.batch import BatchCore
 from planetnav_env.envs.registration import id_options
 from planetnav_env.numerics.portable_math import log1p
 

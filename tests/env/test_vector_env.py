@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 import planetnav_env  # noqa: F401  (registers the ids)
+from planetnav_env.batch import PARALLEL_MIN_ROWS
 from planetnav_env.core import layout as L
-from planetnav_env.core.batch import PARALLEL_MIN_ROWS
 from planetnav_env.envs.env import PlanetNavEnv
 from planetnav_env.envs.registration import ENV_IDS
 from planetnav_env.envs.vector_env import PlanetNavVectorEnv

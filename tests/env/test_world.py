@@ -14,6 +14,7 @@ import planetnav_env  # noqa: F401  (registers the ids)
 from planetnav_env.astro.apparent import SPEED_OF_LIGHT_KM_S, aberrate, apparent_direction
 from planetnav_env.astro.bodies import GM_SUN
 from planetnav_env.astro.ephemeris import DEEphemeris
+from planetnav_env.batch import BatchCore
 from planetnav_env.config import EnvConfig
 from planetnav_env.core import layout as L
 from planetnav_env.core import sensing
@@ -32,7 +33,7 @@ from planetnav_env.sensors.star_tracker import (
     star_fix_tables,
 )
 from planetnav_env.tasks.spec import Params
-from planetnav_env.world import WorldConfig
+from planetnav_env.world import PRESETS, WorldConfig
 
 ARCSEC = math.pi / 648_000.0
 
@@ -60,6 +61,23 @@ def test_presets_and_per_effect_options_resolve() -> None:
     assert not off.light_time_corrected and not off.aberration_corrected
     cfg = EnvConfig(world="flight")
     assert EnvConfig.from_dict(cfg.to_dict()) == cfg  # the YAML round trip keeps the world
+
+
+def test_the_centroid_bias_and_the_pulsar_timing_error_are_off_in_both_presets() -> None:
+    """Modelled world effects without a cited flight magnitude yet: 0 (nothing drawn) in both presets,
+    swept on their own, and the kernel scalars copy the resolved value."""
+    for preset in PRESETS:
+        w = WorldConfig(preset=preset)
+        assert w.centroid_bias_max is None and w.centroid_bias_bound == 0.0
+        assert w.pulsar_frequency_error_max is None and w.pulsar_frequency_error_bound == 0.0
+    swept = WorldConfig(centroid_bias_max=0.5)
+    assert swept.centroid_bias_bound == 0.5 and not swept.is_matched and not swept.light_time_on
+    assert not WorldConfig(pulsar_frequency_error_max=1e-10).is_matched
+    kw = {**ENV_IDS["planetnav/MarsApproach-Tasking-v1"], "episode_steps": 4}
+    for world, want in (({}, (0.0, 0.0)), ({"centroid_bias_max": 0.5, "pulsar_frequency_error_max": 2e-10},
+                                           (0.5, 2e-10))):  # fmt: skip
+        ps = BatchCore(EnvConfig.from_dict({**kw, "world": world}), 1).params.scalars[0]
+        assert (float(ps["cob_max"]), float(ps["psr_df_max"])) == want
 
 
 def test_every_registered_id_is_the_matched_world() -> None:

@@ -66,7 +66,7 @@ def test_default_references_per_task():
     assert B.default_references(_cfg("planetnav/Cruise-Torque-v2"))[0] == (
         "greedy", "periodic", "planner", "baseline"
     )  # fmt: skip
-    timing = _cfg("planetnav/MarsApproach-Tasking-v1", pulsar_frequency_error_max=1e-10)
+    timing = _cfg("planetnav/MarsApproach-Tasking-v1", world={"pulsar_frequency_error_max": 1e-10})
     assert B.default_references(timing) == (B.TIMING_REFERENCES, B.TIMING_PRIVILEGED)
     assert B.default_references(_cfg("planetnav/Cruise-Target-v1")) == (("greedy",), ())
 
@@ -177,7 +177,9 @@ def test_greedy_timing_rules_score_pulsars_by_their_residuals_and_the_true_drift
         make_agent("greedy:timing=observed", mars_v1)
     env = PlanetNavEnv(
         _cfg(
-            "planetnav/MarsApproach-Tasking-v1", pulsar_frequency_error_max=1e-9, observe_residual_log=True
+            "planetnav/MarsApproach-Tasking-v1",
+            world={"pulsar_frequency_error_max": 1e-9},
+            observe_residual_log=True,
         ).at_physics_step()
     )
     adaptive, oracle = make_agent("greedy:timing=observed", env), make_agent("greedy:timing=oracle", env)

@@ -4,7 +4,9 @@ Both environments are shells over this class: :class:`~planetnav_env.envs.env.Pl
 one, :class:`~planetnav_env.envs.vector_env.PlanetNavVectorEnv` a batch of ``num_envs``. The compiled step is
 :mod:`planetnav_env.core.kernels`; here live what needs Python: drawing an episode (the scenario, the
 initial error, from the row's ``numpy`` generator), fitting the row's ephemeris table, choosing the
-serial or the threaded loop, and turning row statuses into named errors.
+serial or the threaded loop, and turning row statuses into named errors. It sits above the core: it reads
+the :class:`~planetnav_env.config.EnvConfig` and builds the kernels' parameters with
+:mod:`planetnav_env.kernel_params`, so that ``planetnav_env.core`` imports no configuration.
 
 Memory per row (default cruise, 3 planets, 1 day): state 166 floats (47 of them the counters of the
 observation's history blocks) + 13 ints, covariance 36 floats, observation 47 floats, random state 32
@@ -48,8 +50,8 @@ def attitude_err_arcsec(att_rad: Any) -> Any:
     never +-inf. Scalars and arrays alike (the single env's info and the vector env's)."""
     if type(att_rad) is float:  # the single env's info (a Python float): no numpy call (~3 us a step)
         return att_rad / ARCSEC if math.isfinite(att_rad) else math.nan
-    # Dividing inf or NaN by a constant raises no floating-point warning, so no np.errstate is needed
-    # (it cost ~3 us a call); the finiteness test is on the value in radians, as it always was.
+    # Dividing inf or NaN by a constant raises no floating-point warning, so no np.errstate is needed;
+    # the finiteness test is on the value in radians.
     att_rad = np.asarray(att_rad)
     return np.where(np.isfinite(att_rad), att_rad / ARCSEC, np.nan)
 
@@ -203,11 +205,12 @@ class BatchCore:
             # Drawn last, so the rest of the episode is the one the same seed gives without failures.
             p_fix = gen.uniform(cfg.image_success_min, 1.0, cfg.n_planets)
             f[L.F_IMG_P : L.F_IMG_P + cfg.n_planets] = p_fix
-        if cfg.centroid_bias_max > 0.0:
-            scale = gen.uniform(0.0, cfg.centroid_bias_max, cfg.n_planets)
+        world = cfg.world
+        if world.centroid_bias_bound > 0.0:
+            scale = gen.uniform(0.0, world.centroid_bias_bound, cfg.n_planets)
             f[L.F_COB : L.F_COB + cfg.n_planets] = scale
-        if cfg.pulsar_frequency_error_max > 0.0:
-            top = cfg.pulsar_frequency_error_max
+        if world.pulsar_frequency_error_bound > 0.0:
+            top = world.pulsar_frequency_error_bound
             delta = gen.uniform(-top, top, cfg.n_pulsars)
             f[L.F_PSR_DRIFT : L.F_PSR_DRIFT + cfg.n_pulsars] = SPEED_OF_LIGHT_KM_S * delta
         if cfg.prior_long_sigma_km > 0.0:
@@ -227,7 +230,7 @@ class BatchCore:
         """(N, P) each row's centroid-bias scale of each planet this episode (0 without the event):
         privileged, as :meth:`true_image_success`."""
         n_p = self.config.n_planets
-        if self.config.centroid_bias_max <= 0.0:
+        if self.config.world.centroid_bias_bound <= 0.0:
             return np.zeros((self.num_rows, n_p))
         return self.f[:, L.F_COB : L.F_COB + n_p].copy()
 
@@ -387,8 +390,8 @@ class BatchCore:
         its other keys from them. Both are new arrays (one gather per state array instead of a copy
         per key: fewer numpy calls at small N) and the values are rows of them, so nothing handed out
         aliases the state a later step overwrites."""
-        # take along the columns then a C-order copy of the transpose: each key a contiguous row (the
-        # fastest of the gathers tried, ~0.9 us at N = 1 and 4, against ~1.1-1.3 us for f.T[INFO_F]).
+        # take along the columns then a C-order copy of the transpose: each key a contiguous row, one
+        # gather per state array.
         fc = self.f.take(INFO_F, axis=1).T.copy()
         ic = self.i.take(INFO_I, axis=1).T.copy()
         flags = ic[_INFO_FLAGS].astype(np.bool_)  # != 0, in one call
