@@ -35,8 +35,20 @@ PRESETS = ("matched", "flight")
 #: What ``EnvConfig.world`` accepts, as an error states it.
 EXPECTED = (
     "one of 'matched', 'flight' (str), or a WorldConfig (in EnvConfig.from_dict / YAML a mapping of its "
-    "options: preset, light_time, aberration, onboard_corrections)"
+    "options: preset, light_time, aberration, onboard_corrections, third_bodies, srp, area_to_mass_m2_kg, "
+    "reflectivity_range)"
 )
+
+#: The bodies of the ephemeris whose point masses act on the truth with third bodies on: every planet
+#: DEEphemeris gives (the gas giants as their system barycentres, which hold their moons' mass), the Earth
+#: and the Moon as two point masses (their barycentre is a point mass only far from them), and the Sun on
+#: a planetary approach; the central body is left out.
+GRAVITY_BODIES = ("sun", "mercury", "venus", "earth", "moon", "mars", "jupiter", "saturn")
+
+
+def truth_perturbers(central: str) -> tuple[str, ...]:
+    """The truth's third bodies about ``central`` (every :data:`GRAVITY_BODIES` entry but it)."""
+    return tuple(b for b in GRAVITY_BODIES if b != central)
 
 
 @dataclass(frozen=True)
@@ -75,8 +87,44 @@ class WorldConfig:
         "bias). None: on",
     )
 
+    third_bodies: bool | None = option(
+        None,
+        kind="bool",
+        doc="the truth's own force model: the point masses of every planet of the ephemeris (the Earth and "
+        "the Moon apart, the gas giants' system barycentres; the Sun too on a planetary approach) in the "
+        "central body's frame, direct minus indirect term. The filter keeps its own model (Sun-only on "
+        "the cruises, the approach's Sun, Earth and Jupiter). None: off (not yet in a preset)",
+    )
+    srp: bool | None = option(
+        None,
+        kind="bool",
+        doc="cannonball solar radiation pressure in truth from ``area_to_mass_m2_kg`` and a reflectivity "
+        "drawn per episode in ``reflectivity_range`` (heliocentric scenarios; not modelled on the Mars "
+        "approach yet). The filter does not model it. None: off (not yet in a preset)",
+    )
+    area_to_mass_m2_kg: float = option(
+        0.01,
+        unit="m^2/kg",
+        gt=0.0,
+        le=1.0,
+        doc="the spacecraft's cross-section over its mass, for SRP (0.01: a 1,000 kg probe of 10 m^2)",
+    )
+    reflectivity_range: tuple[float, float] = option(
+        (1.2, 1.5),
+        kind="floats",
+        length=2,
+        ge=1.0,
+        le=2.0,
+        doc="[low, high] of the reflectivity coefficient C_R drawn uniformly per episode for SRP (1: "
+        "absorbs all, 2: mirrors all back)",
+    )
+
     def __post_init__(self) -> None:
         check_options(self, "world.")
+        lo, hi = self.reflectivity_range
+        if lo > hi:
+            expected = "[low, high] with low <= high, each in [1, 2]"
+            raise OptionError("world.reflectivity_range", expected, self.reflectivity_range)
 
     @classmethod
     def coerce(cls, value: Any) -> WorldConfig:
@@ -119,6 +167,21 @@ class WorldConfig:
         return self.aberration_on and self.corrections_on
 
     @property
+    def third_bodies_on(self) -> bool:
+        """Every planet's point mass in the truth's force model."""
+        return False if self.third_bodies is None else self.third_bodies
+
+    @property
+    def srp_on(self) -> bool:
+        """Cannonball SRP in the truth's force model."""
+        return False if self.srp is None else self.srp
+
+    @property
+    def truth_forces_on(self) -> bool:
+        """The truth flies its own force model, apart from the filter's."""
+        return self.third_bodies_on or self.srp_on
+
+    @property
     def is_matched(self) -> bool:
         """No effect on: the truth is the onboard model (whatever the preset's name)."""
-        return not (self.light_time_on or self.aberration_on)
+        return not (self.light_time_on or self.aberration_on or self.truth_forces_on)
