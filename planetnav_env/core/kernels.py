@@ -49,6 +49,7 @@ from planetnav_env.core.layout import (
     F_NIS,
     F_PIX,
     F_Q,
+    F_Q_PSD,
     F_QE,
     F_REWARD,
     F_SRP_K,
@@ -261,7 +262,14 @@ def step_row(prm, st, n, target, torque, sc) -> bool:  # pragma: no cover - comp
     orbit = OrbitModel(mu=ps.mu, p0=sc.pert[0], p1=sc.pert[1], p2=sc.pert[2], mus=prm.mus)
     propagate_truth(prm, eph, f, n, t, dt, orbit, sc)
     pws = PredictScratch(w6=sc.w6, v6=sc.v6, phi=sc.phi, tmp=sc.tmp)
-    predict_kernel(xe, pm, dt, orbit, prm.qproc, ps.euler != 0, pws)
+    if ps.q_tuned != 0:
+        # The row's process noise, tuned at reset to what the filter's force model omits.
+        for a in range(6):
+            for b in range(6):
+                sc.qrow[a, b] = prm.qunit[a, b] * f[n, F_Q_PSD]
+        predict_kernel(xe, pm, dt, orbit, sc.qrow, ps.euler != 0, pws)
+    else:
+        predict_kernel(xe, pm, dt, orbit, prm.qproc, ps.euler != 0, pws)
     if ops and t_on > 0.0:
         # Truth: nominal thrust + execution error drawn from frac * Q_thrust; filter: nominal thrust and
         # the same Q (the filter knows when the engine was on: it commands it).

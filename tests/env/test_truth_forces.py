@@ -9,6 +9,8 @@ the Sun. The propagator under test is the compiled truth step itself (``kernels.
 
 from __future__ import annotations
 
+import dataclasses
+
 import gymnasium as gym
 import numpy as np
 import pytest
@@ -193,7 +195,7 @@ def test_reflectivity_is_drawn_last_so_the_rest_of_the_episode_is_unchanged() ->
     lo, hi = (_closed_form_k(0.01, c) for c in WorldConfig().reflectivity_range)
     assert lo <= k <= hi
     mask = np.ones(L.NF, dtype=bool)
-    mask[L.F_SRP_K] = False
+    mask[[L.F_SRP_K, L.F_Q_PSD]] = False
     assert np.array_equal(plain.f[0, mask], srp.f[0, mask], equal_nan=True)
     draws = {float(_core(WorldConfig(srp=True)).f[0, L.F_SRP_K])}
     core = BatchCore(EnvConfig(world=WorldConfig(srp=True)), 1)
@@ -220,6 +222,7 @@ def test_bad_force_options_get_named_errors_through_make_vec_and_yaml(tmp_path) 
         ({"reflectivity_range": [1.5, 1.2]}, "world.reflectivity_range"),
         ({"reflectivity_range": [1.2]}, "world.reflectivity_range"),
         ({"third_bodies": 1}, "world.third_bodies"),
+        ({"process_noise": "inflated"}, "world.process_noise"),
     ]
     for value, match in cases:
         with pytest.raises(OptionError, match=match):
@@ -237,10 +240,61 @@ def test_bad_force_options_get_named_errors_through_make_vec_and_yaml(tmp_path) 
     assert world.truth_forces_on and world.reflectivity_range == (1.1, 1.9)
 
 
+def _omitted_oracle(core: BatchCore, c_r: float) -> np.ndarray:
+    """The truth's third bodies and SRP (``c_r``) minus the filter's field at the row's initial state,
+    from jplephem and the closed forms (the cruise: the filter is Sun-only)."""
+    t0 = np.array([float(core.f[0, L.F_T0])])
+    r = core.f[0, L.F_X : L.F_X + 3]
+    spk = SPK.open(de421_path())
+    try:
+        sun = _barycentric(spk, "sun", t0)[0][0]
+        acc = np.zeros(3)
+        for b in core.plan.truth_perturbers:
+            p = _barycentric(spk, b, t0)[0][0] - sun
+            d = r - p
+            acc -= BODIES[b].gm * (d / np.linalg.norm(d) ** 3 + p / np.linalg.norm(p) ** 3)
+    finally:
+        spk.close()
+    k = _closed_form_k(core.config.world.area_to_mass_m2_kg, c_r)
+    return acc + k * r / np.linalg.norm(r) ** 3
+
+
+def test_tuned_process_noise_is_the_omitted_acceleration_squared_times_the_span() -> None:
+    core = _core(WorldConfig(preset="flight"))
+    world, cfg = core.config.world, core.config
+    assert world.process_noise_tuned and world.truth_forces_on
+    a = _omitted_oracle(core, world.reflectivity_range[1])
+    span = (cfg.episode_steps + 1) * cfg.step_s
+    q = core.f[0, L.F_Q_PSD]
+    assert q == pytest.approx(float(a @ a) * span, rel=1e-6)
+    assert q > 1e3 * cfg.filter.accel_psd  # the configured 1e-20 stands for far less than is omitted
+    # The filter flies that q: the same covariance as a filter configured with accel_psd = q.
+    fixed = EnvConfig(
+        world=WorldConfig(preset="flight", process_noise="filter"),
+        filter=dataclasses.replace(cfg.filter, accel_psd=float(q)),
+    )
+    other = BatchCore(fixed, 1)
+    other.reset_rows(np.array([0]), [np.random.default_rng(11)])
+    assert other.f[0, L.F_Q_PSD] == 0.0
+    for _ in range(5):
+        core.step(np.array([0]), np.zeros((1, 3)))
+        other.step(np.array([0]), np.zeros((1, 3)))
+    assert np.array_equal(core.p, other.p)
+    assert not WorldConfig().process_noise_tuned
+    assert not WorldConfig(preset="flight", process_noise="filter").process_noise_tuned
+
+
 if __name__ == "__main__":  # python tests/env/test_truth_forces.py: the validation's figures
     for (scenario, world, steps, dt, tol), name in zip(CASES, CASE_IDS, strict=True):
         err, plain_err = truth_errors(scenario, world, steps, dt)
         print(
             f"{name}: truth vs DOP853 {err * 1e3:.2e} m (tolerance {tol * 1e3:g} m); "
             f"matched-world truth vs the same reference {plain_err:.3e} km"
+        )
+    for scenario in ("cruise", "random-cruise", "mars-approach"):
+        core = _core(WorldConfig(preset="flight"), scenario)
+        a = np.linalg.norm(core.omitted_acceleration(core.f[0, L.F_T0], core.f[0, L.F_X : L.F_X + 6]))
+        print(
+            f"{scenario} (flight, seed 11): omitted acceleration {a * 1e3:.3e} m/s^2, tuned q "
+            f"{core.f[0, L.F_Q_PSD]:.2e} km^2/s^3 (filter.accel_psd {core.config.filter.accel_psd:.0e})"
         )
