@@ -35,10 +35,12 @@ from planetnav_env.core.ephemeris_table import SEGMENT_S, TableSpec, fit_table
 from planetnav_env.core.params import ARCSEC, ChannelPlan
 from planetnav_env.core.records import RowState
 from planetnav_env.dynamics.orbit import GravityModel
+from planetnav_env.dynamics.srp import srp_gm
 from planetnav_env.errors import NonFiniteError, PlanetNavError
 from planetnav_env.kernel_params import build_params, episode_duration_s
 from planetnav_env.scenarios.episodes import Episode, approach_episode, draw_episode
 from planetnav_env.sensors.pulsar import SPEED_OF_LIGHT_KM_S
+from planetnav_env.world import truth_perturbers, tuned_accel_psd
 
 #: Batches at least this large step in chunks on several threads (smaller ones are faster serially:
 #: handing chunks to threads costs ~20-50 us a step).
@@ -114,10 +116,23 @@ class BatchCore:
         else:
             central, perturbers = "sun", ()
         self.gravity = GravityModel(central, perturbers)
-        self.plan = ChannelPlan(central, cfg.planets, tuple(perturbers), bool(cfg.pulsars))
+        # The truth's own force model (world.truth_forces_on): every planet as a third body, or with SRP
+        # alone the filter's perturbers, in channels of its own.
+        world = cfg.world
+        if world.truth_forces_on:
+            bodies = truth_perturbers(central) if world.third_bodies_on else tuple(perturbers)
+            self.truth_gravity: GravityModel | None = GravityModel(central, bodies)
+        else:
+            self.truth_gravity = None
+        truth_bodies = self.truth_gravity.perturbers if self.truth_gravity is not None else ()
+        self.plan = ChannelPlan(central, cfg.planets, tuple(perturbers), bool(cfg.pulsars), truth_bodies)
+        truth_mus = None
+        if self.truth_gravity is not None:
+            truth_mus = np.asarray(self.truth_gravity.mu_perturbers, dtype=float)
         self.params = build_params(
-            cfg, self.plan, self.gravity.mu_central, np.asarray(self.gravity.mu_perturbers, dtype=float)
-        )
+            cfg, self.plan, self.gravity.mu_central, np.asarray(self.gravity.mu_perturbers, dtype=float),
+            truth_mus,
+        )  # fmt: skip
         self.layout = L.ObservationLayout.for_config(cfg)
         self.table_spec = TableSpec.for_duration(
             episode_duration_s(cfg), max(self.plan.n_channels, 1), segment_s=SEGMENT_S
@@ -215,7 +230,39 @@ class BatchCore:
             f[L.F_PSR_DRIFT : L.F_PSR_DRIFT + cfg.n_pulsars] = SPEED_OF_LIGHT_KM_S * delta
         if cfg.prior_long_sigma_km > 0.0:
             self._elongate_prior(gen, f, p)
+        world = cfg.world
+        if world.srp_in(cfg.scenario):
+            # Drawn after every other draw: a world without SRP draws nothing new.
+            c_r = gen.uniform(*world.reflectivity_range)
+            f[L.F_SRP_K] = srp_gm(world.area_to_mass_m2_kg, c_r)
+        if world.process_noise_tuned:
+            a_omit = float(np.linalg.norm(self.omitted_acceleration(ep.epoch, x)))
+            f[L.F_Q_PSD] = tuned_accel_psd(a_omit, episode_duration_s(cfg), cfg.filter.accel_psd)
         return RowEpisode(ep.epoch, ep.central, tuple(ep.perturbers))
+
+    def omitted_acceleration(self, epoch: float, x: np.ndarray) -> np.ndarray:
+        """(3,) [km/s^2] the acceleration the filter's force model omits at the state ``x`` (central-body
+        frame [km]) at ``epoch`` [TDB s]: the truth's field (its third bodies, and SRP with the top of the
+        reflectivity range: the filter does not know the episode's draw) minus the filter's. Zero when
+        the truth flies the filter's model."""
+        if self.truth_gravity is None:
+            return np.zeros(3)
+        eph, central = self._ephemeris, self.plan.central_body
+        t = np.array([float(epoch)])
+        c = eph.position(central, t)[0] if central != "sun" else np.zeros(3)
+        r = np.asarray(x, dtype=float)[None, :3]
+
+        def rel(bodies: tuple[str, ...]) -> np.ndarray | None:
+            return np.stack([eph.position(b, t)[0] - c for b in bodies]) if bodies else None
+
+        truth, onboard = self.truth_gravity, self.gravity
+        a = truth.acceleration(r, rel(truth.perturbers)) - onboard.acceleration(r, rel(onboard.perturbers))
+        world = self.config.world
+        if world.srp_in(self.config.scenario):
+            s = r[0] + c  # heliocentric
+            k = srp_gm(world.area_to_mass_m2_kg, world.reflectivity_range[1])
+            a[0] += k * s / np.linalg.norm(s) ** 3
+        return a[0]
 
     def true_image_success(self) -> np.ndarray:
         """(N, P) each row's probability that an image of planet p in view yields a fix this episode (1

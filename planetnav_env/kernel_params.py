@@ -44,8 +44,15 @@ def episode_duration_s(cfg: EnvConfig) -> float:
     return (cfg.episode_steps + 1) * cfg.step_s
 
 
-def build_params(cfg: EnvConfig, plan: ChannelPlan, mu_central: float, mus: np.ndarray) -> CoreParams:
-    """The record of everything the kernels read, from a validated config and its channel plan."""
+def build_params(
+    cfg: EnvConfig,
+    plan: ChannelPlan,
+    mu_central: float,
+    mus: np.ndarray,
+    truth_mus: np.ndarray | None = None,
+) -> CoreParams:
+    """The record of everything the kernels read, from a validated config and its channel plan
+    (``truth_mus``: the GMs of ``plan.truth_perturbers`` [km^3/s^2], with the truth's own force model)."""
     att = cfg.attitude
     cam = cfg.camera
     layout = L.ObservationLayout.for_config(cfg)
@@ -93,6 +100,11 @@ def build_params(cfg: EnvConfig, plan: ChannelPlan, mu_central: float, mus: np.n
         ch_planet0=plan.planet0,
         ch_pert0=plan.pert0,
         n_pert=len(plan.perturbers),
+        truth_own=cfg.world.truth_forces_on,
+        ch_tpert0=plan.truth0,
+        n_tpert=len(plan.truth_perturbers),
+        srp_on=cfg.world.srp_in(cfg.scenario),
+        q_tuned=cfg.world.process_noise_tuned,
         ch_ssb=plan.ssb,
         approach=approach,
         noise_per_step=cfg.noise_streams == "per_step",
@@ -134,10 +146,12 @@ def build_params(cfg: EnvConfig, plan: ChannelPlan, mu_central: float, mus: np.n
         boresight=np.ascontiguousarray(cam.boresight_body, dtype=float),
         radii=np.array([body(p).radius for p in cfg.planets]),
         mus=np.ascontiguousarray(mus, dtype=float),
+        tmus=np.ascontiguousarray(truth_mus if truth_mus is not None else np.zeros(0), dtype=float),
         psr=np.ascontiguousarray(psr_rows),
         c2b=np.ascontiguousarray(cam._c2b),
         cam=np.ascontiguousarray(cam._params),
         qproc=process_noise(cfg.step_s, cfg.filter.accel_psd),
+        qunit=process_noise(cfg.step_s, 1.0),
         stars=tables,
         q_bias=bias_quaternion(cfg.star_tracker_bias_arcsec),
         obs_blocks=layout.block_starts(),

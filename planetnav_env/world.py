@@ -8,13 +8,14 @@ effect alone (a regime map's axis, or one effect's share of the flight world's e
 * ``"matched"`` (the default of every registered id): the truth is the onboard model. Every line of
   sight is geometric and instantaneous; the golden hashes of the ids are this world's.
 * ``"flight"``: a truth that the onboard model only approximates, at flight-like magnitudes. Today it
-  holds light time and stellar aberration on every line of sight (``docs/flight_world.md``). Two
-  effects are modelled but off in both presets until a flight magnitude with a cited source joins:
-  the centre-of-brightness centroid bias (``centroid_bias_max``) and the pulsar timing-model error
-  (``pulsar_frequency_error_max``), each set on its own. The other effects of a flight world (third
-  bodies and solar radiation pressure in truth, image-driven camera errors, oblate planets, a boresight
-  drift, a newer ephemeris in truth, attitude disturbances) are not modelled yet and will join as options
-  of this section.
+  holds light time and stellar aberration on every line of sight, and the truth's own force model (every
+  planet's point mass, cannonball SRP with a reflectivity drawn per episode) against the filter's
+  (``docs/flight_world.md``), whose process noise is then tuned to what it omits. Two effects are modelled
+  but off in both presets until a flight magnitude with a cited source joins: the centre-of-brightness
+  centroid bias (``centroid_bias_max``) and the pulsar timing-model error (``pulsar_frequency_error_max``),
+  each set on its own. The other effects of a flight world (image-driven camera errors, oblate planets, a
+  boresight drift, a newer ephemeris in truth, attitude disturbances) are not modelled yet and will join
+  as options of this section.
 
 On board, the filter applies the corrections flight optical navigation applies to each effect that is on
 in truth, computed from its *estimated* state (``onboard_corrections``, default: on); switching them
@@ -38,9 +39,28 @@ PRESETS = ("matched", "flight")
 #: What ``EnvConfig.world`` accepts, as an error states it.
 EXPECTED = (
     "one of 'matched', 'flight' (str), or a WorldConfig (in EnvConfig.from_dict / YAML a mapping of its "
-    "options: preset, light_time, aberration, onboard_corrections, centroid_bias_max, "
-    "pulsar_frequency_error_max)"
+    "options: preset, light_time, aberration, onboard_corrections, third_bodies, srp, area_to_mass_m2_kg, "
+    "reflectivity_range, process_noise, centroid_bias_max, pulsar_frequency_error_max)"
 )
+
+#: The bodies of the ephemeris whose point masses act on the truth with third bodies on: every planet
+#: DEEphemeris gives (the gas giants as their system barycentres, which hold their moons' mass), the Earth
+#: and the Moon as two point masses (their barycentre is a point mass only far from them), and the Sun on
+#: a planetary approach; the central body is left out.
+GRAVITY_BODIES = ("sun", "mercury", "venus", "earth", "moon", "mars", "jupiter", "saturn")
+
+
+def tuned_accel_psd(a_omit_km_s2: float, span_s: float, floor_km2_s3: float) -> float:
+    """The filter's white-acceleration PSD q [km^2/s^3] for an omitted acceleration ``a_omit_km_s2``
+    [km/s^2] over an episode of ``span_s`` [s]: q = a^2 T, whose velocity variance q T after T equals the
+    omitted (a T)^2 (a position spread q T^3 / 3 against the bias's (a T^2 / 2)^2, the same order), and
+    never below the configured ``floor_km2_s3`` (``filter.accel_psd``)."""
+    return max(floor_km2_s3, a_omit_km_s2 * a_omit_km_s2 * span_s)
+
+
+def truth_perturbers(central: str) -> tuple[str, ...]:
+    """The truth's third bodies about ``central`` (every :data:`GRAVITY_BODIES` entry but it)."""
+    return tuple(b for b in GRAVITY_BODIES if b != central)
 
 
 @dataclass(frozen=True)
@@ -105,9 +125,55 @@ class WorldConfig:
         "start) / period cycles, a range error of c * delta * (t - start) along the pulsar's direction "
         "(c * 1e-10 is ~10 km after 94 h). 0: none (nothing is drawn). None: 0 in both presets",
     )
+    third_bodies: bool | None = option(
+        None,
+        kind="bool",
+        doc="the truth's own force model: the point masses of every planet of the ephemeris (the Earth and "
+        "the Moon apart, the gas giants' system barycentres; the Sun too on a planetary approach) in the "
+        "central body's frame, direct minus indirect term. The filter keeps its own model (Sun-only on "
+        "the cruises, the approach's Sun, Earth and Jupiter). None: on in ``flight``, off in ``matched``",
+    )
+    srp: bool | None = option(
+        None,
+        kind="bool",
+        doc="cannonball solar radiation pressure in truth from ``area_to_mass_m2_kg`` and a reflectivity "
+        "drawn per episode in ``reflectivity_range`` (heliocentric scenarios; not modelled on the Mars "
+        "approach yet: there ``flight`` leaves it off and True is an error). The filter does not model "
+        "it. None: on in ``flight``, off in ``matched``",
+    )
+    process_noise: str | None = option(
+        None,
+        kind="str",
+        choices=("filter", "tuned"),
+        doc="the filter's process noise: ``filter``, the white-acceleration PSD ``filter.accel_psd``; "
+        "``tuned``, per episode q = max(accel_psd, a_omit^2 T) with a_omit the acceleration the filter's "
+        "force model omits at the episode's initial state (the truth's third bodies and SRP at the top of "
+        "``reflectivity_range``, minus the filter's) and T the episode's span (docs/flight_world.md). "
+        "None: ``tuned`` when the truth flies its own force model, else ``filter``",
+    )
+    area_to_mass_m2_kg: float = option(
+        0.01,
+        unit="m^2/kg",
+        gt=0.0,
+        le=1.0,
+        doc="the spacecraft's cross-section over its mass, for SRP (0.01: a 1,000 kg probe of 10 m^2)",
+    )
+    reflectivity_range: tuple[float, float] = option(
+        (1.2, 1.5),
+        kind="floats",
+        length=2,
+        ge=1.0,
+        le=2.0,
+        doc="[low, high] of the reflectivity coefficient C_R drawn uniformly per episode for SRP (1: "
+        "absorbs all, 2: mirrors all back)",
+    )
 
     def __post_init__(self) -> None:
         check_options(self, "world.")
+        lo, hi = self.reflectivity_range
+        if lo > hi:
+            expected = "[low, high] with low <= high, each in [1, 2]"
+            raise OptionError("world.reflectivity_range", expected, self.reflectivity_range)
 
     @classmethod
     def coerce(cls, value: Any) -> WorldConfig:
@@ -161,11 +227,40 @@ class WorldConfig:
         return 0.0 if self.pulsar_frequency_error_max is None else float(self.pulsar_frequency_error_max)
 
     @property
+    def third_bodies_on(self) -> bool:
+        """Every planet's point mass in the truth's force model."""
+        return self.flight if self.third_bodies is None else self.third_bodies
+
+    @property
+    def srp_on(self) -> bool:
+        """Cannonball SRP in the truth's force model (where the scenario models it: see
+        :meth:`srp_in`)."""
+        return self.flight if self.srp is None else self.srp
+
+    def srp_in(self, scenario: str) -> bool:
+        """SRP in the truth on ``scenario`` (heliocentric scenarios only: the preset leaves it off on the
+        Mars approach, where setting it is an error)."""
+        return self.srp_on and scenario != "mars-approach"
+
+    @property
+    def truth_forces_on(self) -> bool:
+        """The truth flies its own force model, apart from the filter's."""
+        return self.third_bodies_on or self.srp_on
+
+    @property
+    def process_noise_tuned(self) -> bool:
+        """The filter's process noise tuned per episode to what its force model omits."""
+        if self.process_noise is None:
+            return self.truth_forces_on
+        return self.process_noise == "tuned"
+
+    @property
     def is_matched(self) -> bool:
         """No effect on: the truth is the onboard model (whatever the preset's name)."""
         return not (
             self.light_time_on
             or self.aberration_on
+            or self.truth_forces_on
             or self.centroid_bias_bound > 0.0
             or self.pulsar_frequency_error_bound > 0.0
         )

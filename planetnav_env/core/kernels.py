@@ -49,8 +49,10 @@ from planetnav_env.core.layout import (
     F_NIS,
     F_PIX,
     F_Q,
+    F_Q_PSD,
     F_QE,
     F_REWARD,
+    F_SRP_K,
     F_THRUSTING,
     F_U,
     F_W,
@@ -92,7 +94,13 @@ from planetnav_env.core.operations import (
     thrust_noise,
 )
 from planetnav_env.core.records import Actions, RowState, make_scratch, scratch_row
-from planetnav_env.core.row_ephemeris import eval_channel, perturbers_at, planets_at, row_time
+from planetnav_env.core.row_ephemeris import (
+    eval_channel,
+    perturbers_at,
+    planets_at,
+    row_time,
+    truth_perturbers_at,
+)
 from planetnav_env.core.row_noise import NOISE_IMAGE, next_uniform, noise_begin
 from planetnav_env.core.scoring import score_row
 from planetnav_env.core.sensing import (
@@ -132,6 +140,26 @@ def _pointing_settled(prm, f, n, sc) -> bool:  # pragma: no cover - compiled
     rate = math.sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2])
     # tr > 1 rules out the 180-degree equilibria, where S also vanishes.
     return tr > 1.0 and sin_err < prm.scalars[0].settle_angle and rate < prm.scalars[0].settle_rate
+
+
+@row_kernel
+def propagate_truth(prm, eph, f, n, t, dt, orbit, sc) -> None:  # pragma: no cover - compiled
+    """The true orbit state of row ``n`` (``f[n, F_X:F_X + 6]`` [km, km/s], central-body frame) advanced
+    in place by one RK4 step of ``dt`` [s] from ``t`` [TDB s]. The matched world's truth flies the
+    filter's field ``orbit``; with its own force model (``truth_own``) it flies that: its perturbers
+    (every planet as a third body, from the row's table), and with SRP (heliocentric only) the Sun's GM
+    reduced by the row's cannonball coefficient ``F_SRP_K`` (``dynamics.srp.srp_gm``: radial, 1 / r^2)."""
+    ps = prm.scalars[0]
+    x = f[n, F_X : F_X + 6]
+    if ps.truth_own != 0:
+        truth_perturbers_at(prm, eph, f, n, t, dt, sc.tpert)
+        mu_truth = ps.mu - f[n, F_SRP_K] if ps.srp_on != 0 else ps.mu
+        truth = OrbitModel(mu=mu_truth, p0=sc.tpert[0], p1=sc.tpert[1], p2=sc.tpert[2], mus=prm.tmus)
+        rk4_kernel(x, dt, truth, sc.x_new, sc.w6, sc.v6)
+    else:
+        rk4_kernel(x, dt, orbit, sc.x_new, sc.w6, sc.v6)
+    for j in range(6):
+        x[j] = sc.x_new[j]
 
 
 @row_kernel
@@ -228,15 +256,20 @@ def step_row(prm, st, n, target, torque, sc) -> bool:  # pragma: no cover - comp
         return False
     i[n, I_SETTLED] = 1 if (use_pd and mode == MODE_TARGET and _pointing_settled(prm, f, n, sc)) else 0
 
-    # --- orbit truth (state only: it needs no STM) and filter prediction (same dynamics, perturbers from
-    # the row's table) ---
+    # --- orbit truth (state only: it needs no STM) and filter prediction (perturbers from the row's
+    # table) ---
     perturbers_at(prm, eph, f, n, t, dt, sc.pert)
     orbit = OrbitModel(mu=ps.mu, p0=sc.pert[0], p1=sc.pert[1], p2=sc.pert[2], mus=prm.mus)
-    rk4_kernel(x, dt, orbit, sc.x_new, sc.w6, sc.v6)
-    for j in range(6):
-        x[j] = sc.x_new[j]
+    propagate_truth(prm, eph, f, n, t, dt, orbit, sc)
     pws = PredictScratch(w6=sc.w6, v6=sc.v6, phi=sc.phi, tmp=sc.tmp)
-    predict_kernel(xe, pm, dt, orbit, prm.qproc, ps.euler != 0, pws)
+    if ps.q_tuned != 0:
+        # The row's process noise, tuned at reset to what the filter's force model omits.
+        for a in range(6):
+            for b in range(6):
+                sc.qrow[a, b] = prm.qunit[a, b] * f[n, F_Q_PSD]
+        predict_kernel(xe, pm, dt, orbit, sc.qrow, ps.euler != 0, pws)
+    else:
+        predict_kernel(xe, pm, dt, orbit, prm.qproc, ps.euler != 0, pws)
     if ops and t_on > 0.0:
         # Truth: nominal thrust + execution error drawn from frac * Q_thrust; filter: nominal thrust and
         # the same Q (the filter knows when the engine was on: it commands it).

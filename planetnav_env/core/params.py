@@ -26,13 +26,16 @@ SETTLE_RATE_RAD_S = 1e-5
 @dataclass(frozen=True)
 class ChannelPlan:
     """Ephemeris channels of a row's table: ``central`` (heliocentric; -1 for the Sun, always zero),
-    ``planets`` (heliocentric, in config order), ``perturbers`` (relative to the central body) and ``ssb``
-    (central body relative to the Solar-system barycentre; -1 without pulsars)."""
+    ``planets`` (heliocentric, in config order), ``perturbers`` (the filter's, relative to the central
+    body), ``ssb`` (central body relative to the Solar-system barycentre; -1 without pulsars), then
+    ``truth_perturbers`` (the truth's third bodies when its force model is its own, relative to the
+    central body; none otherwise, so the matched world's table is unchanged)."""
 
     central_body: str
     planets: tuple[str, ...]
     perturbers: tuple[str, ...]
     with_ssb: bool
+    truth_perturbers: tuple[str, ...] = ()
 
     @property
     def central(self) -> int:
@@ -51,8 +54,13 @@ class ChannelPlan:
         return self.pert0 + len(self.perturbers) if self.with_ssb else -1
 
     @property
-    def n_channels(self) -> int:
+    def truth0(self) -> int:
+        """The first of the truth's perturber channels (after every channel of the onboard model)."""
         return self.pert0 + len(self.perturbers) + (1 if self.with_ssb else 0)
+
+    @property
+    def n_channels(self) -> int:
+        return self.truth0 + len(self.truth_perturbers)
 
     def positions(self, ephemeris, times: np.ndarray) -> np.ndarray:
         """(T, C, 3) [km] of every channel at ``times`` [TDB s] (what the table is fitted to)."""
@@ -68,6 +76,7 @@ class ChannelPlan:
         cols += [ephemeris.position(b, times) - central for b in self.perturbers]
         if self.with_ssb:
             cols.append(central + ephemeris.sun_barycentric_position(times))
+        cols += [ephemeris.position(b, times) - central for b in self.truth_perturbers]
         return np.stack(cols, axis=1)
 
 

@@ -77,6 +77,11 @@ CORE_SCALAR_FIELDS: tuple[tuple[str, str, str], ...] = (
     ("ch_planet0", "i8", "ephemeris channel of the first planet"),
     ("ch_pert0", "i8", "ephemeris channel of the first perturber"),
     ("n_pert", "i8", "perturbers"),
+    ("truth_own", "i8", "1: the truth has its own force model (world.truth_forces_on), 0: the filter's"),
+    ("ch_tpert0", "i8", "ephemeris channel of the truth's first perturber (its own force model)"),
+    ("n_tpert", "i8", "the truth's perturbers (its own force model)"),
+    ("srp_on", "i8", "1: cannonball SRP in truth, the Sun's GM reduced by the row's SRP_K (world.srp_in)"),
+    ("q_tuned", "i8", "1: the filter's process noise is the row's Q_PSD (world.process_noise_tuned)"),
     ("ch_ssb", "i8", "ephemeris channel of the Solar-system barycentre (-1: none)"),
     ("approach", "i8", "1: a planetary approach (central body not the Sun; scenario)"),
     ("noise_per_step", "i8", "1: noise from a per-step stream (noise_streams 'per_step')"),
@@ -135,10 +140,12 @@ class CoreParams(NamedTuple):
     boresight: np.ndarray  # (3,) camera boresight, body axes
     radii: np.ndarray  # (P,) planet radii [km]
     mus: np.ndarray  # (K,) perturbers' GM [km^3/s^2]
+    tmus: np.ndarray  # (Kt,) the truth's perturbers' GM [km^3/s^2] (its own force model; else empty)
     psr: np.ndarray  # (Q, 5) pulsar direction (3), wavelength [km], phase sigma [cycles]
     c2b: np.ndarray  # (3, 3) camera -> body
     cam: np.ndarray  # (11,) camera parameters (CameraConfig._params)
     qproc: np.ndarray  # (6, 6) process noise over one step
+    qunit: np.ndarray  # (6, 6) process noise over one step of a unit PSD (1 km^2/s^3): a row's tuned Q / q
     stars: tuple  # star_tracker.StarFixTables
     q_bias: np.ndarray  # (4,) fixed star-tracker misalignment composed with every fix (identity: none)
     obs_blocks: np.ndarray  # (len(OBSERVATION_BLOCKS),) int64 first index of each optional block (-1: off)
@@ -200,6 +207,8 @@ class Scratch(NamedTuple):
     dirv: np.ndarray  # (3,)
     roll: np.ndarray  # (3,)
     pert: np.ndarray  # (3, K, 3) perturbers at t, t + dt/2, t + dt
+    tpert: np.ndarray  # (3, Kt, 3) the truth's perturbers at t, t + dt/2, t + dt (its own force model)
+    qrow: np.ndarray  # (6, 6) the row's tuned process noise over one step (world.process_noise_tuned)
     planets: np.ndarray  # (P, 3)
     r_tile: np.ndarray  # (P, 3)
     q_tile: np.ndarray  # (P, 4)
@@ -217,6 +226,7 @@ class Scratch(NamedTuple):
 def make_scratch(prm: CoreParams) -> Scratch:  # pragma: no cover - compiled
     n_p = prm.radii.shape[0]
     n_k = prm.mus.shape[0]
+    n_kt = prm.tmus.shape[0]
     n_s = prm.stars.max_stars
     # By keyword (a field is found by its name, not by its place among 44), a line per stage that uses them.
     return Scratch(
@@ -229,6 +239,7 @@ def make_scratch(prm: CoreParams) -> Scratch:  # pragma: no cover - compiled
         m=np.empty((3, 3)), u6=np.empty(6), vals=np.empty(N_VIS_SLOTS), los=np.empty(3), los_true=np.empty(3),
         mm=np.empty(2), pix=np.empty(2), r1=np.empty((1, 3)), q1=np.empty((1, 4)), t1=np.empty((1, 3)),
         central=np.empty(3), ssb=np.empty(3), pert=np.empty((3, n_k, 3)), planets=np.empty((n_p, 3)),
+        tpert=np.empty((3, n_kt, 3)), qrow=np.empty((6, 6)),
         r_tile=np.empty((n_p, 3)), q_tile=np.empty((n_p, 4)), feat=np.empty((n_p, TARGET_FEATURES)),
         noise3=np.empty(3), sub=np.empty(crng.STATE_WORDS, np.uint64),
         star_idx=np.empty(n_s, np.int64), star_noise=np.empty((n_s, 3)), star_work=np.empty(FIX_WORK_SHAPE),
@@ -288,7 +299,9 @@ def scratch_row(rows: Scratch, n: int) -> Scratch:  # pragma: no cover - compile
         rcov=rows.rcov[n], z=rows.z[n], basis=rows.basis[n], m=rows.m[n], u6=rows.u6[n], vals=rows.vals[n],
         los=rows.los[n], los_true=rows.los_true[n], mm=rows.mm[n], pix=rows.pix[n], r1=rows.r1[n],
         q1=rows.q1[n], t1=rows.t1[n], central=rows.central[n], ssb=rows.ssb[n], dirv=rows.dirv[n],
-        roll=rows.roll[n], pert=rows.pert[n], planets=rows.planets[n], r_tile=rows.r_tile[n],
+        roll=rows.roll[n], pert=rows.pert[n], tpert=rows.tpert[n], qrow=rows.qrow[n],
+        planets=rows.planets[n],
+        r_tile=rows.r_tile[n],
         q_tile=rows.q_tile[n], feat=rows.feat[n], noise3=rows.noise3[n], star_idx=rows.star_idx[n],
         star_noise=rows.star_noise[n], star_work=rows.star_work[n], q_fix=rows.q_fix[n], sub=rows.sub[n],
         light=rows.light[n],

@@ -33,12 +33,24 @@ def planets_at(prm, eph, f, n, t, out) -> bool:  # pragma: no cover - compiled
 
 @row_kernel
 def perturbers_at(prm, eph, f, n, t, dt, out) -> bool:  # pragma: no cover - compiled
+    """The filter's perturbers (relative to the central body) at ``t``, ``t + dt/2``, ``t + dt`` into
+    ``out`` (3, K, 3) [km]."""
     ps = prm.scalars[0]
-    k = ps.n_pert
+    return _channels_at(eph, f, n, t, dt, ps.ch_pert0, ps.n_pert, ps.segment_s, out)
+
+
+@row_kernel
+def truth_perturbers_at(prm, eph, f, n, t, dt, out) -> bool:  # pragma: no cover - compiled
+    """The truth's own perturbers (its force model apart from the filter's) at the three RK4 epochs into
+    ``out`` (3, Kt, 3) [km]."""
+    ps = prm.scalars[0]
+    return _channels_at(eph, f, n, t, dt, ps.ch_tpert0, ps.n_tpert, ps.segment_s, out)
+
+
+@row_kernel
+def _channels_at(eph, f, n, t, dt, c0, k, seg, out) -> bool:  # pragma: no cover - compiled
     if k == 0:
         return True
-    c0 = ps.ch_pert0
-    seg = ps.segment_s
     ok = positions_kernel(eph[n], f[n, F_T0], seg, t, c0, c0 + k, out[0])
     ok = ok and positions_kernel(eph[n], f[n, F_T0], seg, t + 0.5 * dt, c0, c0 + k, out[1])
     return ok and positions_kernel(eph[n], f[n, F_T0], seg, t + dt, c0, c0 + k, out[2])

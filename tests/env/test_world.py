@@ -93,7 +93,7 @@ def test_bad_world_gets_the_named_option_error_through_make_vec_and_yaml(tmp_pat
         ({"light_time": 1}, OptionTypeError, "world.light_time"),
         ({"aberration": "yes"}, OptionTypeError, "world.aberration"),
         ({"onboard_corrections": 0.0}, OptionTypeError, "world.onboard_corrections"),
-        ({"srp": 1.0}, ConfigError, "world.'srp'"),
+        ({"solar_sail": 1.0}, ConfigError, "world.'solar_sail'"),
     ]
     for value, err, match in cases:
         with pytest.raises(err, match=match):
