@@ -22,9 +22,9 @@ from scipy.interpolate import CubicHermiteSpline
 import planetnav_env  # noqa: F401  (registers the ids)
 from planetnav_env.astro.bodies import BODIES
 from planetnav_env.astro.ephemeris import de421_path
+from planetnav_env.batch import BatchCore
 from planetnav_env.config import EnvConfig
 from planetnav_env.core import layout as L
-from planetnav_env.core.batch import BatchCore
 from planetnav_env.core.kernels import propagate_truth
 from planetnav_env.core.records import make_scratch
 from planetnav_env.core.row_ephemeris import perturbers_at
