@@ -58,7 +58,7 @@ def entry_argtypes(core: BatchCore) -> dict[str, tuple]:
     n = core.num_rows
     ps = core.params.scalars[0]
     act = Actions(
-        raw=rows_innermost((n, raw_action_size(int(ps.mode), int(ps.n_planets))), np.float64),
+        raw=rows_innermost((n, raw_action_size(int(ps["mode"]), int(ps["n_planets"]))), np.float64),
         targets=np.zeros(n, np.int64),
         torques=rows_innermost((n, 3), np.float64),
         active=np.ones(n, np.bool_),
