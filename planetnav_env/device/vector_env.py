@@ -17,7 +17,8 @@ Where things run. On the device: the physics step and the compiled part of the r
 (:mod:`planetnav_env.core.cuda_entry`, :mod:`planetnav_env.device.cuda_kernels`, one thread per row), the
 autoreset (a bank row copied in, then the compiled reset, for the rows a mask marks), the decision (one
 launch: each thread runs the CPU's compiled decision rule over ``decision_steps`` physics steps and sums
-their rewards), the action decoding and the float32 observation
+their rewards, after decoding each row's raw action by the CPU's compiled rule,
+:mod:`planetnav_env.core.decoding`) and the float32 observation
 (every block written by the compiled kernels, :mod:`planetnav_env.core.observation`, as on the CPU). On
 the host, once per ``reset(seed=...)``: the episode bank (:mod:`planetnav_env.device.bank`), and on a host
 thread its refill (:mod:`planetnav_env.device.refill`). A step copies nothing between host and device but the
