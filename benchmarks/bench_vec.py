@@ -77,12 +77,11 @@ def ceiling_per_core(
     core = env.core
     active = np.ones(n, dtype=bool)
 
-    def decoded(a):
-        if mode == "target":
-            return a.astype(np.int64), np.zeros((n, 3))
-        return np.full(n, -1, dtype=np.int64), np.ascontiguousarray(a, dtype=float)
+    def raw(a):  # the actions as the env hands them to the core, which decodes them
+        return np.ascontiguousarray(np.asarray(a, dtype=float).reshape(n, -1))
 
-    dec = [Actions(targets=t, torques=u, active=active) for t, u in (decoded(a) for a in acts)]
+    buffers = (np.zeros(n, np.int64), np.zeros((n, 3)))  # the decoding's
+    dec = [Actions(raw=raw(a), targets=buffers[0], torques=buffers[1], active=active) for a in acts]
     prm, st = core.params, core.state
     return _best_rate(lambda act: K.step_batch(prm, st, act), dec, steps, n)
 

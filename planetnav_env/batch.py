@@ -147,6 +147,9 @@ class BatchCore:
         self._ephemeris = DEEphemeris()
         self._table_cache: tuple[float, np.ndarray] | None = None
         self._all = np.ones(n, dtype=np.bool_)
+        # The decoding of the rows' actions (kernels.decide_row writes it at a decision's start).
+        self._targets = np.full(n, -1, dtype=np.int64)
+        self._torques = np.zeros((n, 3))
         self._p0 = cfg.filter.initial_covariance()
         # P0 is diagonal: the initial error is a standard normal draw per axis times its sigma (the numbers
         # Generator.multivariate_normal gives for a diagonal P0, without its BLAS-dependent SVD and product).
@@ -304,8 +307,7 @@ class BatchCore:
 
     def step_decision(
         self,
-        targets: np.ndarray,
-        torques: np.ndarray,
+        actions: np.ndarray,
         active: np.ndarray | None = None,
         on_step: Callable[[np.ndarray], None] | None = None,
     ) -> None:
@@ -313,32 +315,34 @@ class BatchCore:
         of the compiled rule, ``on_step`` running after every physics step with the bool (N,) mask of the
         rows it advanced (evaluation records each physics step)."""
         if on_step is None:
-            self.step(targets, torques, active)
+            self.step(actions, active)
             return
         for s in range(self.config.decision_steps):
             before = self.i[:, L.I_K].copy()
-            self._run(targets, torques, active, s == 0, 1)
+            self._run(actions, active, s == 0, 1)
             stepped = self.i[:, L.I_K] != before
             if s > 0 and not stepped.any():
                 break
             on_step(stepped)
 
-    def step(self, targets: np.ndarray, torques: np.ndarray, active: np.ndarray | None = None) -> None:
-        """Advance the ``active`` rows (all by default) by one decision with decoded actions: ``targets``
-        (N,) int64 (-1: none) and ``torques`` (N, 3) float64 fractions of the wheel limit in [-1, 1]. The
-        decision rule is compiled (:func:`~planetnav_env.core.kernels.decide_row`): ``decision_steps``
-        physics steps with the same actions, the rewards summed into the reward column, a row whose
-        episode ends inside the hold stopping there (its flags stay as that step set them)."""
-        self._run(targets, torques, active, True, self.config.decision_steps)
+    def step(self, actions: np.ndarray, active: np.ndarray | None = None) -> None:
+        """Advance the ``active`` rows (all by default) by one decision with ``actions`` (N, A) float64,
+        the rows' validated actions as given (A = 1 in target mode: the action index; the Box action
+        otherwise), decoded by the compiled rule (:mod:`planetnav_env.core.decoding`) with each row's
+        current target. The decision rule is compiled (:func:`~planetnav_env.core.kernels.decide_row`):
+        ``decision_steps`` physics steps with the same decoded action, the rewards summed into the reward
+        column, a row whose episode ends inside the hold stopping there (its flags stay as that step set
+        them)."""
+        self._run(actions, active, True, self.config.decision_steps)
 
-    def _run(self, targets: np.ndarray, torques: np.ndarray, active: np.ndarray | None, first: bool,
-             steps: int) -> None:  # fmt: skip
+    def _run(self, actions: np.ndarray, active: np.ndarray | None, first: bool, steps: int) -> None:
         """``steps`` physics steps of the decision rule (``first``: they start the decision), then the
         rows' status codes as named errors."""
         # Plain arrays, not the RowState/Actions records: typing a record passed from Python costs
         # several µs a call (K.step_range_arrays builds them in compiled code).
         active = self._all if active is None else active
-        args = (self.params, self.f, self.p, self.i, self.rng, self.eph, self.obs, targets, torques, active)
+        state = (self.f, self.p, self.i, self.rng, self.eph, self.obs)
+        args = (self.params, *state, actions, self._targets, self._torques, active)
         n = self.num_rows
         if self.threads > 1:
             # The kernels release the GIL; rows are independent, so the chunking changes no result.

@@ -74,6 +74,7 @@ def build_params(
         settle_angle=SETTLE_ANGLE_RAD,
         settle_rate=SETTLE_RATE_RAD_S,
         mode=L.MODE_CODES[cfg.action_mode],
+        relative=cfg.target_actions == "relative",
         mu=mu_central,
         central_radius=body(plan.central_body).radius,
         euler=cfg.filter.stm == "euler",

@@ -27,6 +27,7 @@ from typing import Any, Protocol
 
 import numpy as np
 
+from planetnav_env.core.decoding import raw_action_size
 from planetnav_env.core.kernels import step_thread
 from planetnav_env.core.records import (
     Actions,
@@ -74,8 +75,12 @@ def entry_argtypes(core: RowBatch) -> dict[str, tuple]:
     parameters as the CPU holds them, the state, actions and scratch rows innermost
     (:func:`~planetnav_env.core.records.rows_innermost`, the device env's layout)."""
     n = core.num_rows
+    ps = core.params.scalars[0]
     act = Actions(
-        targets=np.zeros(n, np.int64), torques=rows_innermost((n, 3), np.float64), active=np.ones(n, np.bool_)
+        raw=rows_innermost((n, raw_action_size(int(ps["mode"]), int(ps["n_planets"]))), np.float64),
+        targets=np.zeros(n, np.int64),
+        torques=rows_innermost((n, 3), np.float64),
+        active=np.ones(n, np.bool_),
     )
     prm = device_typeof(core.params)
     st = device_typeof(rows_innermost_like(core.state))

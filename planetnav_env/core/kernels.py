@@ -39,6 +39,7 @@ from planetnav_env.attitude.pointing import (
     frame_kernel,
     substeps_kernel,
 )
+from planetnav_env.core.decoding import decode_row
 from planetnav_env.core.layout import (
     F_DV_LOST,
     F_DV_STEP,
@@ -383,7 +384,8 @@ def step_active_row(prm, st, act, n, sc) -> None:  # pragma: no cover - compiled
 @njit(inline="always", **ROW_KERNEL_OPTIONS)
 def decide_row(prm, st, act, n, sc, first, steps) -> None:  # pragma: no cover - compiled
     """The decision rule of row ``n`` (if ``act`` marks it active): ``steps`` physics steps of its
-    decision (:func:`step_active_row` each) with the same decoded action, stopping once the episode ends
+    decision (:func:`step_active_row` each) with the same action (decoded from ``act.raw`` when the call
+    starts the decision, :func:`~planetnav_env.core.decoding.decode_row`), stopping once the episode ends
     (terminated or truncated) inside the hold; with ``decision_steps`` > 1 the reward column holds the
     sum of the decision's rewards so far (from 0.0, in step order). ``first``: the call starts the
     decision (its first physics step runs whatever the flags, and the sum starts). A whole decision is
@@ -391,6 +393,8 @@ def decide_row(prm, st, act, n, sc, first, steps) -> None:  # pragma: no cover -
     Inlined into the CPU's row loop and the device's thread."""
     if not act.active[n]:
         return
+    if first:
+        decode_row(prm, st, act, n)  # the raw action, read with the row's target at the decision's start
     f, i = st.f, st.i
     hold = prm.scalars[0].decision_steps > 1
     for s in range(steps):
@@ -429,14 +433,16 @@ def step_batch(prm, st, act) -> None:  # pragma: no cover - compiled
 
 @njit(cache=True, nogil=True)
 def step_range_arrays(
-    prm, f, p, i, rng, eph, obs, targets, torques, active, lo, hi, first, steps
+    prm, f, p, i, rng, eph, obs, raw, targets, torques, active, lo, hi, first, steps
 ) -> None:  # pragma: no cover
     """:func:`decide_row` of the rows ``lo .. hi - 1`` for callers in Python (``first``, ``steps``: a
-    whole decision is ``True, decision_steps``): the state and the actions as plain arrays, the records
-    built here. Numba types a named-tuple argument from Python far more slowly than arrays (several µs
-    per call, most of a one-row step), so the Python-facing entry takes the arrays."""
+    whole decision is ``True, decision_steps``): the state and the actions as plain arrays (``raw`` (N, A)
+    float64 the validated actions; ``targets`` (N,), ``torques`` (N, 3) the decoding's buffers, written
+        when ``first`` and read by the later calls of the same decision), the records built here. Numba
+    types a named-tuple argument from Python far more slowly than arrays (several µs per call, most of a
+    one-row step), so the Python-facing entry takes the arrays."""
     st = RowState(f=f, p=p, i=i, rng=rng, eph=eph, obs=obs)
-    act = Actions(targets=targets, torques=torques, active=active)
+    act = Actions(raw=raw, targets=targets, torques=torques, active=active)
     _step_rows(prm, st, act, lo, hi, first, steps, make_scratch(prm))
 
 

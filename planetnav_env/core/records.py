@@ -42,6 +42,7 @@ CORE_SCALAR_FIELDS: tuple[tuple[str, str, str], ...] = (
     ("settle_angle", "f8", "pointing error below which a held target counts as settled [rad]"),
     ("settle_rate", "f8", "body rate below which a held target counts as settled [rad/s]"),
     ("mode", "i8", "action mode (layout.MODE_CODES of action_mode)"),
+    ("relative", "i8", "1: relative target actions (target_actions 'relative'; core.decoding)"),
     # orbit and filter
     ("mu", "f8", "central body's GM [km^3/s^2] (scenario)"),
     ("central_radius", "f8", "central body's radius [km] (scenario)"),
@@ -164,10 +165,12 @@ class RowState(NamedTuple):
 
 
 class Actions(NamedTuple):
-    """The decoded actions of one step of ``N`` rows."""
+    """The actions of one decision of ``N`` rows: the raw actions the environment validated, and their
+    decoding (:func:`planetnav_env.core.decoding.decode_row`, written at the start of the decision)."""
 
-    targets: np.ndarray  # (N,) int64 planet/pulsar index (-1: none)
-    torques: np.ndarray  # (N, 3) float64 fractions of the wheel torque limit
+    raw: np.ndarray  # (N, A) float64 the rows' actions as given (A: the action's size, 1 in target mode)
+    targets: np.ndarray  # (N,) int64 decoded planet/pulsar index (-1: none)
+    torques: np.ndarray  # (N, 3) float64 decoded fractions of the wheel torque limit
     active: np.ndarray  # (N,) bool: the rows to step
 
 

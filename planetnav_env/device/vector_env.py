@@ -17,7 +17,8 @@ Where things run. On the device: the physics step and the compiled part of the r
 (:mod:`planetnav_env.core.cuda_entry`, :mod:`planetnav_env.device.cuda_kernels`, one thread per row), the
 autoreset (a bank row copied in, then the compiled reset, for the rows a mask marks), the decision (one
 launch: each thread runs the CPU's compiled decision rule over ``decision_steps`` physics steps and sums
-their rewards), the action decoding and the float32 observation
+their rewards, after decoding each row's raw action by the CPU's compiled rule,
+:mod:`planetnav_env.core.decoding`) and the float32 observation
 (every block written by the compiled kernels, :mod:`planetnav_env.core.observation`, as on the CPU). On
 the host, once per ``reset(seed=...)``: the episode bank (:mod:`planetnav_env.device.bank`), and on a host
 thread its refill (:mod:`planetnav_env.device.refill`). A step copies nothing between host and device but the
@@ -82,7 +83,7 @@ from planetnav_env.device.draw_pool import DrawPool
 from planetnav_env.device.occupancy import SM_90
 from planetnav_env.device.refill import DEFAULT_CHUNK, BankRefill, check_refill
 from planetnav_env.envs.env import check_reset_options, resolve_config
-from planetnav_env.envs.spaces import action_space, observation_space
+from planetnav_env.envs.spaces import action_size, action_space, observation_space
 from planetnav_env.errors import InvalidParameterError, require_count
 
 #: ``autoreset_mode`` choices.
@@ -327,10 +328,11 @@ class DeviceVectorEnv:
         dev_ = self.device
         self.obs = torch.zeros((n, self.layout.size), dtype=torch.float32, device=dev_)
         self.final_obs = torch.zeros_like(self.obs) if autoreset_mode == "same_step" else None
-        self._targets, targets = be.zeros((n,), np.int64)
-        self._torques, torques = be.zeros((n, 3), np.float64)
+        self._raw, raw = be.zeros((n, action_size(self.single_action_space)), np.float64)
+        _, targets = be.zeros((n,), np.int64)  # the decoding, written by the step kernel
+        _, torques = be.zeros((n, 3), np.float64)
         self._active, active = be.zeros((n,), np.bool_)
-        self._act = Actions(targets=targets, torques=torques, active=active)
+        self._act = Actions(raw=raw, targets=targets, torques=torques, active=active)
         self._slots, self._slots_view = be.zeros((n,), np.int64)
         self._mask, self._mask_view = be.zeros((n,), np.bool_)
         self._rows = torch.arange(n, device=dev_)
@@ -418,32 +420,11 @@ class DeviceVectorEnv:
         )
         self.episode_count += mask
 
-    def _decode(self, actions: torch.Tensor) -> None:
-        """Actions (a tensor on the env's device) into the target and torque buffers (the rules of
-        :func:`~planetnav_env.envs.spaces.decode_target_actions` and ``decode_box_actions``, unchecked)."""
-        cfg, n = self.config, self.num_envs
+    def _load(self, actions: torch.Tensor) -> None:
+        """Actions (a tensor on the env's device, unchecked) into the raw action buffer as float64; the
+        step kernel's threads decode them (:mod:`planetnav_env.core.decoding`, the CPU's own rule)."""
         a = torch.as_tensor(actions, device=self.device)
-        if cfg.action_mode == "target":
-            idx = a.reshape(n).to(torch.int64)
-            if cfg.target_actions == "relative":
-                # decisions.relative_targets: 0 keeps the current target, k moves k places.
-                self._targets.copy_((torch.clamp(self.i[:, L.I_TARGET], min=0) + idx) % cfg.n_targets)
-            else:
-                self._targets.copy_(torch.where(idx == cfg.n_targets, -1, idx))
-            return
-        a = torch.clamp(a.reshape(n, -1).to(torch.float64), -1.0, 1.0)
-        p_ = cfg.n_planets
-        if cfg.action_mode == "torque":
-            self._targets.fill_(-1)
-            self._torques.copy_(a)
-        elif cfg.action_mode == "hybrid":  # spaces.decode_hybrid
-            option = torch.argmax(a[:, : p_ + 1], dim=1)
-            direct = option == p_
-            self._targets.copy_(torch.where(direct, -1, option))
-            self._torques.copy_(torch.where(direct[:, None], a[:, p_ + 1 :], 0.0))
-        else:  # target+torque
-            self._targets.copy_(torch.argmax(a[:, :p_], dim=1))
-            self._torques.copy_(a[:, p_:])
+        self._raw.copy_(a.reshape(self._raw.shape))
 
     def _advance(self, active: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
         """One decision of the ``active`` rows: one launch of the step kernel, whose threads run the
@@ -466,7 +447,7 @@ class DeviceVectorEnv:
         if self._bank is None:
             raise RuntimeError("call reset() before step()")
         self.refill.poll()
-        self._decode(actions)
+        self._load(actions)
         if self.autoreset_mode == "next_step":
             needs = self._needs_reset
             self._autoreset(needs)

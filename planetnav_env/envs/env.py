@@ -39,15 +39,15 @@ from gymnasium.envs.registration import EnvSpec
 from planetnav_env.batch import BatchCore
 from planetnav_env.config import EnvConfig
 from planetnav_env.core import layout as L
-from planetnav_env.core.decisions import relative_targets
 from planetnav_env.core.layout import ObservationLayout
 from planetnav_env.core.rng import seed_state
 from planetnav_env.envs.registration import id_options
 from planetnav_env.envs.spaces import (
+    action_size,
     action_space,
-    decode_box_actions,
+    check_box_actions,
+    check_target_actions,
     decode_observation,
-    decode_target_actions,
     format_observation,
     observation_space,
 )
@@ -200,8 +200,7 @@ class PlanetNavEnv(EpisodeLengthSpec, gym.Env):
         self.action_space = action_space(cfg)
         self.observation_space = observation_space(cfg, self.layout)
         self._obs_dim = self.layout.size
-        self._targets = np.full(1, -1, dtype=np.int64)
-        self._torques = np.zeros((1, 3))
+        self._raw = np.zeros((1, action_size(self.action_space)))  # the action the core decodes
         self._started = False
         self._done = False
         self.history: list[tuple[float, float]] = []
@@ -221,7 +220,8 @@ class PlanetNavEnv(EpisodeLengthSpec, gym.Env):
         self.history = [(info["pos_err_km"], info["pos_sigma_km"])]
         return format_observation(self.config, self.layout, self.core.obs[0]), info
 
-    def _decode(self, action: Any) -> None:
+    def _check(self, action: Any) -> None:
+        """``action`` checked (named errors) into the raw action row the core decodes."""
         cfg = self.config
         if cfg.action_mode == "target":
             n_act = self.action_space.n
@@ -231,31 +231,27 @@ class PlanetNavEnv(EpisodeLengthSpec, gym.Env):
                     raise InvalidParameterError(
                         f"target action must be an integer in [0, {n_act}), got {action!r}"
                     )
-                self._targets[0] = -1 if idx == cfg.n_targets else idx
+                self._raw[0, 0] = idx
             else:
-                self._targets[:] = decode_target_actions(cfg, n_act, action, 1, single=True)
-            if cfg.target_actions == "relative":
-                self._targets[:] = relative_targets(self._targets, self.core.i[:, L.I_TARGET], cfg.n_targets)
+                self._raw[:, 0] = check_target_actions(cfg, n_act, action, 1, single=True)
             return
-        targets, torques = decode_box_actions(cfg, self.action_space.shape, action, 1, single=True)
-        self._targets[:] = targets
-        self._torques[:] = torques
+        self._raw[:] = check_box_actions(cfg, self.action_space.shape, action, 1, single=True)
 
     def step(self, action: Any):
         if not self._started:
             raise RuntimeError("call reset() before step()")
         if self._done:
             raise RuntimeError("the episode has ended (terminated or truncated): call reset() before step()")
-        self._decode(action)
+        self._check(action)
         core = self.core
         if self.config.decision_steps == 1:
-            core.step(self._targets, self._torques)
+            core.step(self._raw)
             info = core.info_row(0)
             self.history.append((info["pos_err_km"], info["pos_sigma_km"]))
         else:
             steps: list[dict[str, Any]] = []
             record = lambda _: steps.append(core.info_batch())  # noqa: E731
-            core.step_decision(self._targets, self._torques, on_step=record)
+            core.step_decision(self._raw, on_step=record)
             info = core.info_row(0)
             self.held = {k: np.array([h[k][0] for h in steps]) for k in DECISION_KEYS}
             self.history += list(zip(self.held["pos_err_km"], self.held["pos_sigma_km"], strict=True))

@@ -1,5 +1,7 @@
-"""Action and observation spaces, action decoding and observation decoding, shared by the single and the
-vector environment (one place for each rule: both shells call these)."""
+"""Action and observation spaces, action validation and observation decoding, shared by the single and the
+vector environment (one place for each rule: both shells call these). An action is decoded (target,
+torque) by the compiled row kernels, :mod:`planetnav_env.core.decoding`; here it is only checked, with
+named errors."""
 
 from __future__ import annotations
 
@@ -9,7 +11,9 @@ import numpy as np
 from gymnasium import spaces
 
 from planetnav_env.config import EnvConfig
+from planetnav_env.core.decoding import decode_actions
 from planetnav_env.core.layout import (
+    MODE_HYBRID,
     OBSERVATION_BLOCKS,
     TARGET_FEATURES,
     ObservationLayout,
@@ -23,7 +27,7 @@ _DEG = np.pi / 180.0
 def action_space(cfg: EnvConfig) -> spaces.Space:
     """``Discrete(T [+1 idle])`` in target mode, ``Box(-1, 1, (3,))`` in torque mode,
     ``Box(-1, 1, (P + 3,))`` in target+torque mode, ``Box(-1, 1, (P + 1 + 3,))`` in hybrid mode
-    (:func:`decode_box_actions`)."""
+    (decoded by :mod:`planetnav_env.core.decoding`)."""
     if cfg.action_mode == "target":
         return spaces.Discrete(cfg.n_targets + (1 if cfg.idle_action else 0))
     if cfg.action_mode == "torque":
@@ -31,6 +35,11 @@ def action_space(cfg: EnvConfig) -> spaces.Space:
     if cfg.action_mode == "hybrid":
         return spaces.Box(-1.0, 1.0, (cfg.n_planets + 1 + 3,), dtype=np.float32)
     return spaces.Box(-1.0, 1.0, (cfg.n_planets + 3,), dtype=np.float32)
+
+
+def action_size(space: spaces.Space) -> int:
+    """Numbers per raw action of ``space`` (:func:`action_space`): 1 for a target index, the Box's size."""
+    return 1 if isinstance(space, spaces.Discrete) else int(np.prod(space.shape))
 
 
 def observation_space(cfg: EnvConfig, layout: ObservationLayout) -> spaces.Space:
@@ -81,11 +90,12 @@ def _out_of_range(r: int, single: bool, n_actions: int, value: Any) -> InvalidPa
     )
 
 
-def decode_target_actions(
+def check_target_actions(
     cfg: EnvConfig, n_actions: int, actions: Any, n_rows: int, *, single: bool = False
 ) -> np.ndarray:
-    """Target indices (N,) int64 (-1: the idle action) from discrete actions; errors name the row (the
-    value alone with ``single=True``, the single environment's wording)."""
+    """Discrete actions checked: (N,) int64 in ``0 .. n_actions - 1`` (``cfg.n_targets``: the idle action;
+    relative targets have none), decoded by the row kernels (:mod:`planetnav_env.core.decoding`). Errors
+    name the row (the value alone with ``single=True``, the single environment's wording)."""
     a = np.asarray(actions)
     if not _is_numeric(a):
         what = "target action must be an integer" if single else f"target actions must be {n_rows} integer(s)"
@@ -117,21 +127,16 @@ def decode_target_actions(
     if out.any():
         r = int(np.flatnonzero(out)[0])
         raise _out_of_range(r, single, n_actions, a[r].item())
-    return np.where(idx == cfg.n_targets, -1, idx)
+    return idx
 
 
-def decode_box_actions(
+def check_box_actions(
     cfg: EnvConfig, shape: tuple[int, ...], actions: Any, n_rows: int, *, single: bool = False
-) -> tuple[np.ndarray, np.ndarray]:
-    """(targets (N,), torque fractions (N, 3)) from Box actions of ``shape`` per row; values outside
-    [-1, 1] are clipped (as SB3 does), NaN/inf raise naming the row (the values alone with
-    ``single=True``, the single environment's wording).
-
-    ``torque``: target -1, the torque as given. ``target+torque``: target ``argmax(a[:P])``, residual
-    torque ``a[P:]``. ``hybrid``: option ``k = argmax(a[:P + 1])`` (first maximum on ties): ``k < P``
-    is planet k by the PD law (target k, torque 0: ``a[P + 1:]`` is ignored), ``k = P`` the direct torque
-    (target -1, torque ``a[P + 1:]``). Torques are fractions of ``torque_action_scale`` x the wheel limit;
-    in hybrid mode the camera measures the visible planet nearest the boresight under either option.
+) -> np.ndarray:
+    """Box actions of ``shape`` per row checked: (N, A) float64 as given (finite; values outside [-1, 1]
+    are clipped by the decoding, as SB3 does), decoded by the row kernels
+    (:mod:`planetnav_env.core.decoding`: the target and torque of each action mode, the hybrid option).
+    NaN/inf raise naming the row (the values alone with ``single=True``, the single environment's wording).
     """
     want = shape if single else (n_rows, *shape)
     try:
@@ -157,25 +162,17 @@ def decode_box_actions(
         raise NonFiniteError(
             f"{_row(r, single)} contains NaN or infinite values: {a[r].tolist()}{_not_stepped(single)}"
         )
-    a = np.clip(a, -1.0, 1.0)
-    if cfg.action_mode == "torque":
-        return np.full(n_rows, -1, dtype=np.int64), np.ascontiguousarray(a)
-    n = cfg.n_planets
-    if cfg.action_mode == "hybrid":
-        return decode_hybrid(a, n)
-    return np.argmax(a[:, :n], axis=1).astype(np.int64), np.ascontiguousarray(a[:, n:])
+    return np.ascontiguousarray(a)
 
 
 def decode_hybrid(actions: np.ndarray, n_planets: int) -> tuple[np.ndarray, np.ndarray]:
-    """(targets (N,), torques (N, 3)) of checked, clipped ``hybrid`` Box actions (N, P + 1 + 3): option
-    ``k = argmax(a[:P + 1])``; ``k < P`` -> target k with zero torque (the PD law slews), ``k = P`` ->
-    target -1 with torque ``a[P + 1:]`` (the agent drives the wheels). The one decoding rule of the
-    hybrid action (:func:`decode_box_actions` calls it; agents encode with it in mind)."""
-    option = np.argmax(actions[:, : n_planets + 1], axis=1).astype(np.int64)
-    direct = option == n_planets
-    targets = np.where(direct, -1, option)
-    torques = np.where(direct[:, None], actions[:, n_planets + 1 :], 0.0)
-    return targets, np.ascontiguousarray(torques)
+    """(targets (N,), torques (N, 3)) of checked ``hybrid`` Box actions (N, P + 1 + 3) by the row kernels'
+    own rule (:func:`planetnav_env.core.decoding.decode_action`): option ``k = argmax(clip(a[:P + 1]))``;
+    ``k < P`` -> target k with zero torque (the PD law slews), ``k = P`` -> target -1 with torque
+    ``clip(a[P + 1:])`` (the agent drives the wheels). For agents and tests that encode with it in mind."""
+    a = np.ascontiguousarray(actions, dtype=float)
+    n = a.shape[0]
+    return decode_actions(MODE_HYBRID, False, n_planets, n_planets, a, np.full(n, -1, dtype=np.int64))
 
 
 def decode_observation(cfg: EnvConfig, layout: ObservationLayout, observation: Any) -> dict[str, Any]:

@@ -40,13 +40,13 @@ from planetnav_env import batch as B
 from planetnav_env.batch import BatchCore, attitude_err_arcsec
 from planetnav_env.config import EnvConfig
 from planetnav_env.core import layout as L
-from planetnav_env.core.decisions import relative_targets
 from planetnav_env.envs.env import EpisodeLengthSpec, check_reset_options, resolve_config
 from planetnav_env.envs.spaces import (
+    action_size,
     action_space,
-    decode_box_actions,
+    check_box_actions,
+    check_target_actions,
     decode_observation,
-    decode_target_actions,
     format_observation,
     observation_space,
 )
@@ -120,8 +120,7 @@ class PlanetNavVectorEnv(EpisodeLengthSpec, VectorEnv):
         self.render_mode = None
         self._generators: list[np.random.Generator] | None = None
         self._needs_reset = np.zeros(n, dtype=bool)
-        self._targets = np.full(n, -1, dtype=np.int64)
-        self._torques = np.zeros((n, 3))
+        self._raw = np.zeros((n, action_size(self.single_action_space)))  # target mode's raw actions
         self._rows = np.arange(n, dtype=np.int64)
         self._all_rows = np.ones(n, dtype=bool)
         self._all_rows.flags.writeable = False
@@ -156,16 +155,16 @@ class PlanetNavVectorEnv(EpisodeLengthSpec, VectorEnv):
         self._needs_reset[mask] = False
         return self.observations(), self._infos()
 
-    def _decode(self, actions: Any) -> tuple[np.ndarray, np.ndarray]:
+    def _check(self, actions: Any) -> np.ndarray:
+        """``actions`` checked (named errors, the whole batch before any row moves) into the raw (N, A)
+        float64 actions the core decodes."""
         if self._generators is None:
             raise RuntimeError("call reset() before step()")
         cfg, n = self.config, self.num_envs
         if cfg.action_mode == "target":
-            targets = decode_target_actions(cfg, self.single_action_space.n, actions, n)
-            if cfg.target_actions == "relative":
-                targets = relative_targets(targets, self.core.i[:, L.I_TARGET], cfg.n_targets)
-            return targets, self._torques
-        return decode_box_actions(cfg, self.single_action_space.shape, actions, n)
+            self._raw[:, 0] = check_target_actions(cfg, self.single_action_space.n, actions, n)
+            return self._raw
+        return check_box_actions(cfg, self.single_action_space.shape, actions, n)
 
     def step_rows(
         self, actions: Any, active: np.ndarray, on_step: Callable[[np.ndarray], None] | None = None
@@ -180,23 +179,22 @@ class PlanetNavVectorEnv(EpisodeLengthSpec, VectorEnv):
         validated, inactive rows included. ``on_step(stepped)``: called after every physics step of the
         decision with the bool (N,) mask of the rows it advanced (``decision_steps`` > 1 holds each
         decision several physics steps; evaluation records each one through it)."""
-        targets, torques = self._decode(actions)
+        raw = self._check(actions)
         active = np.asarray(active, dtype=bool)
         if active.shape != (self.num_envs,):
             raise InvalidParameterError(f"active must have shape ({self.num_envs},), got {active.shape}")
-        return self._advance(targets, torques, active, on_step)
+        return self._advance(raw, active, on_step)
 
     def _advance(
         self,
-        targets: np.ndarray,
-        torques: np.ndarray,
+        raw: np.ndarray,
         active: np.ndarray | None = None,
         on_step: Callable[[np.ndarray], None] | None = None,
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Step the ``active`` rows (all when None) by one decision with decoded actions; (reward,
-        terminated, truncated), zero / False for the rows not stepped."""
+        """Step the ``active`` rows (all when None) by one decision with checked raw actions (the core
+        decodes them); (reward, terminated, truncated), zero / False for the rows not stepped."""
         core = self.core
-        core.step_decision(targets, torques, active, on_step)
+        core.step_decision(raw, active, on_step)
         reward = core.f[:, L.F_REWARD].copy()
         terminated = core.i[:, L.I_TERMINATED] != 0
         truncated = core.i[:, L.I_TRUNCATED] != 0
@@ -209,7 +207,7 @@ class PlanetNavVectorEnv(EpisodeLengthSpec, VectorEnv):
     def step(self, actions: Any):
         cfg = self.config
         n = self.num_envs
-        targets, torques = self._decode(actions)
+        raw = self._check(actions)
         core = self.core
         if self.autoreset_mode == _DISABLED and self._needs_reset.any():
             raise RuntimeError(
@@ -220,9 +218,9 @@ class PlanetNavVectorEnv(EpisodeLengthSpec, VectorEnv):
         if self.autoreset_mode == AutoresetMode.NEXT_STEP and self._needs_reset.any():
             rows = np.flatnonzero(self._needs_reset)
             core.reset_rows(rows, [self._generators[r] for r in rows])
-            reward, terminated, truncated = self._advance(targets, torques, ~self._needs_reset)
+            reward, terminated, truncated = self._advance(raw, ~self._needs_reset)
         else:
-            reward, terminated, truncated = self._advance(targets, torques)
+            reward, terminated, truncated = self._advance(raw)
         done = terminated | truncated
         infos = self._infos()
         if self.autoreset_mode == AutoresetMode.SAME_STEP:

@@ -40,6 +40,7 @@ from planetnav_env.config import EnvConfig
 from planetnav_env.core.records import Actions, map_arrays, scratch_rows
 from planetnav_env.device.bank import BankRows
 from planetnav_env.envs.registration import ENV_IDS
+from planetnav_env.envs.spaces import action_size, action_space
 from planetnav_env.numerics.cuda_target import device_typeof, require_numba_cuda
 
 #: The benchmark's three ids, and the device PPO's task.
@@ -156,7 +157,10 @@ def main(argv: list[str] | None = None) -> None:
         core = BatchCore(cfg, 4)
         n = core.num_rows
         rows = scratch_rows(core.params, n)
-        act = Actions(targets=np.zeros(n, np.int64), torques=np.zeros((n, 3)), active=np.ones(n, np.bool_))
+        act = Actions(
+            raw=np.zeros((n, action_size(action_space(cfg)))), targets=np.zeros(n, np.int64),
+            torques=np.zeros((n, 3)), active=np.ones(n, np.bool_),
+        )  # fmt: skip
         bank = BankRows(f=core.f, p=core.p, rng=core.rng, eph=core.eph)
         slots, mask = np.zeros(n, np.int64), np.zeros(n, np.bool_)
         kernels = {

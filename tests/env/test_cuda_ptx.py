@@ -24,6 +24,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from gymnasium import spaces
 from numba import njit
 
 from planetnav_env.batch import BatchCore
@@ -31,6 +32,7 @@ from planetnav_env.config import EnvConfig
 from planetnav_env.core import kernels as K
 from planetnav_env.core.records import Actions, map_arrays, rows_innermost_like, scratch_rows
 from planetnav_env.envs.registration import ENV_IDS
+from planetnav_env.envs.spaces import action_size, action_space
 from planetnav_env.numerics import portable_math as pm
 
 PACKAGE = Path(__file__).resolve().parents[2] / "planetnav_env"
@@ -151,19 +153,25 @@ def test_thread_functions_equal_the_chunked_step_bit_for_bit(env_id: str, monkey
     st = rows_innermost_like(threads.state)
     assert st.f.strides[0] == 8 and st.p.strides[0] == 8
     rng = np.random.default_rng(3)
-    n_targets = cfg.n_targets
+    space = action_space(cfg)
+    decoded = (np.zeros(ROWS, np.int64), np.zeros((ROWS, 3)))  # the chunked step's decoding buffers
+    act = rows_innermost_like(Actions(raw=np.zeros((ROWS, action_size(space))), targets=decoded[0],
+                                      torques=decoded[1], active=np.ones(ROWS, np.bool_)))  # fmt: skip
     for k in range(STEPS):
-        # Hold each target a few steps (slews, settling, pulsar integration), change it now and then.
-        if k % 4 == 0:
-            targets = rng.integers(-1, n_targets, ROWS).astype(np.int64)
-        torques = rng.uniform(-1.0, 1.0, (ROWS, 3))
+        if isinstance(space, spaces.Discrete):
+            # Hold each action a few steps (slews, settling, pulsar integration), change it now and then.
+            if k % 4 == 0:
+                raw = rng.integers(0, space.n, (ROWS, 1)).astype(float)
+        else:  # Box actions, some outside [-1, 1] (the decoding clips them)
+            raw = rng.uniform(-1.2, 1.2, (ROWS, action_size(space)))
         active = np.ones(ROWS, dtype=np.bool_)
         active[k % ROWS] = k % 5 != 0  # an inactive row now and then
         K.step_range_arrays(
             chunked.params, chunked.f, chunked.p, chunked.i, chunked.rng, chunked.eph, chunked.obs,
-            targets, torques, active, 0, ROWS, True, cfg.decision_steps,
+            raw, *decoded, active, 0, ROWS, True, cfg.decision_steps,
         )  # fmt: skip
-        act = rows_innermost_like(Actions(targets=targets, torques=torques, active=active))
+        act.raw[:] = raw
+        act.active[:] = active
         _step_threads(threads.params, st, act, rows)
         assert [np.ascontiguousarray(a).tobytes() for a in st] == _state_bytes(chunked), f"step {k}"
 
@@ -233,7 +241,9 @@ def test_device_typeof_makes_every_array_writable() -> None:
 
     ro = np.zeros((2, 3))
     ro.setflags(write=False)
-    act = Actions(targets=np.zeros(2, np.int64), torques=ro, active=np.ones(2, np.bool_))
+    act = Actions(
+        raw=np.zeros((2, 1)), targets=np.zeros(2, np.int64), torques=ro, active=np.ones(2, np.bool_)
+    )
     value = (ro, (ro, ro), act, 1.5)
     want = (np.zeros((2, 3)), (np.zeros((2, 3)),) * 2, act._replace(torques=np.zeros((2, 3))), 1.5)
     assert "readonly" in str(numba.typeof(value))

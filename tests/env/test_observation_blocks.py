@@ -118,7 +118,10 @@ def test_history_blocks_equal_numpy_oracles_bit_for_bit() -> None:
         if k % 6 == 0:  # held long enough for a pulsar's integration
             targets = rng.integers(-1, cfg.n_targets, n)
         active = rng.random(n) < 0.8
-        core.step(targets.astype(np.int64), np.zeros((n, 3)), active)
+        # The drawn targets as the relative actions that reach them (-1, none: keep the current one).
+        current = np.maximum(core.i[:, L.I_TARGET], 0)
+        raw = np.where(targets < 0, 0, (targets - current) % cfg.n_targets).astype(float)
+        core.step(raw.reshape(n, 1), active)
         stepped = np.flatnonzero(active)
         oracle.count(core, stepped)
         seen["fix"] += int((core.i[stepped, L.I_SENSOR] == L.SENSOR_CAMERA).sum())
@@ -147,7 +150,7 @@ def test_position_correlation_of_any_covariance_equals_numpy() -> None:
     rng = np.random.default_rng(5)
     a = rng.standard_normal((n, 6, 6)) * 10.0 ** rng.uniform(-1, 4, (n, 1, 1))
     core.p[:] = a @ a.transpose(0, 2, 1)
-    core.step(np.zeros(n, np.int64), np.zeros((n, 3)))  # observed after the step, from its covariance
+    core.step(np.zeros((n, 1)))  # observed after the step, from its covariance
     want = _Oracle(cfg, n).blocks(core.p)["position_correlation"]
     assert core.layout.to_dict(core.obs)["position_correlation"].tobytes() == want.tobytes()
 
