@@ -203,9 +203,10 @@ def _exception_classes() -> list[type[BaseException]]:
     """Every exception class the planetnav packages define (those in planetnav_train and planetnav_rl, if
     any, would join here; today they define none)."""
     from planetnav_agents.base import NotApplicableError
+    from planetnav_env.device.preflight import CheckFailed, Skipped
 
     own = [c for c in vars(errors).values() if isinstance(c, type) and issubclass(c, BaseException)]
-    return [*own, UnknownPulsarError, NotApplicableError]
+    return [*own, UnknownPulsarError, NotApplicableError, CheckFailed, Skipped]
 
 
 def _defined_exception_names() -> set[str]:
