@@ -172,7 +172,7 @@ def test_stepped_env_flies_the_truth_path_bit_for_bit() -> None:
     out = np.empty((steps, 6))
     _truth_path(core.params, core.eph, f, 0, steps, 60.0, out)
     for _ in range(steps):
-        core.step(np.array([0]), np.zeros((1, 3)))
+        core.step(np.zeros((1, 1)))
     assert np.array_equal(core.f[0, L.F_X : L.F_X + 6], out[-1])
 
 
@@ -277,8 +277,8 @@ def test_tuned_process_noise_is_the_omitted_acceleration_squared_times_the_span(
     other.reset_rows(np.array([0]), [np.random.default_rng(11)])
     assert other.f[0, L.F_Q_PSD] == 0.0
     for _ in range(5):
-        core.step(np.array([0]), np.zeros((1, 3)))
-        other.step(np.array([0]), np.zeros((1, 3)))
+        core.step(np.zeros((1, 1)))
+        other.step(np.zeros((1, 1)))
     assert np.array_equal(core.p, other.p)
     assert not WorldConfig().process_noise_tuned
     assert not WorldConfig(preset="flight", process_noise="filter").process_noise_tuned

@@ -199,7 +199,9 @@ def test_suite_record_and_reference_cache_carry_provenance(tmp_path, monkeypatch
     suite.finish(result, settings, str(tmp_path / "ran.json"), tmp_path / "page.md", reps=50)
     for name in ("suite.json", "ran.json"):
         data = json.loads((tmp_path / name).read_text())
-        _check(data["provenance"], None)
+        prov = dict(data["provenance"])
+        assert isinstance(prov.pop("allow_dirty"), bool)  # the publisher's own: was --allow-dirty given
+        _check(prov, None)
         assert data["runs"][0]["provenance"] == record["provenance"]
 
 
