@@ -264,3 +264,26 @@ class WorldConfig:
             or self.centroid_bias_bound > 0.0
             or self.pulsar_frequency_error_bound > 0.0
         )
+
+
+#: Each effect of the flight world, by its option, and the value that switches it off alone (its matched
+#: value); what a study of one effect's share sets (``flight_effects``).
+EFFECTS_OFF: dict[str, Any] = {
+    "light_time": False,
+    "aberration": False,
+    "third_bodies": False,
+    "srp": False,
+}
+
+
+def flight_effects(scenario: str) -> dict[str, Any]:
+    """The effects the ``flight`` preset turns on on ``scenario`` (a scenario name of
+    :class:`~planetnav_env.config.EnvConfig`), each option mapped to the value that switches it off alone."""
+    flight = WorldConfig(preset="flight")
+    on = {
+        "light_time": flight.light_time_on,
+        "aberration": flight.aberration_on,
+        "third_bodies": flight.third_bodies_on,
+        "srp": flight.srp_in(scenario),
+    }
+    return {name: off for name, off in EFFECTS_OFF.items() if on[name]}
