@@ -90,9 +90,9 @@ def not_applicable(case: Case) -> str | None:
 def episode(case: Case) -> dict[str, float]:
     """One episode of ``case``: its per-episode values (module docstring)."""
     from planetnav_agents import acts_at_physics_step, make_agent
-    from planetnav_env.estimation.ekf_kernels import KIND_CODES
     from planetnav_env.core import layout as L
     from planetnav_env.envs.env import PlanetNavEnv
+    from planetnav_env.estimation.ekf_kernels import KIND_CODES
 
     cfg = _config(case)
     if acts_at_physics_step(case.agent):
@@ -183,8 +183,9 @@ def agents_table(args: argparse.Namespace) -> dict[str, Any]:
                 s = summarize(vals)
                 out.setdefault(scenario, {}).setdefault(agent, {})[world] = {"summary": s, "episodes": vals}
                 print(
-                    f"| {scenario} | {agent} | {world} | {_fmt(s['final_err_km'])} | {_fmt(s['mean_err_km'])} "
-                    f"| {_fmt(s['final_sigma_km'])} | {_fmt(s['nees'], 2)} | {_fmt(s['nis_camera'], 2)} "
+                    f"| {scenario} | {agent} | {world} | {_fmt(s['final_err_km'])} "
+                    f"| {_fmt(s['mean_err_km'])} | {_fmt(s['final_sigma_km'])} | {_fmt(s['nees'], 2)} "
+                    f"| {_fmt(s['nis_camera'], 2)} "
                     f"| {_fmt(s['nis_pulsar'], 2)} |",
                     flush=True,
                 )
@@ -242,7 +243,8 @@ def inflation_table(args: argparse.Namespace) -> dict[str, Any]:
                 (("filter", {"accel_psd": q}),),
             )
         for name, (world, extra) in cases.items():
-            vals = run_cases([Case(scenario, args.agent, world, s, extra) for s in _seeds(args)], args.workers)
+            cells = [Case(scenario, args.agent, world, s, extra) for s in _seeds(args)]
+            vals = run_cases(cells, args.workers)
             s = summarize(vals)
             out.setdefault(scenario, {})[name] = {"summary": s, "episodes": vals}
             print(
