@@ -1,5 +1,5 @@
 """What the flight world measures, against the matched world:
-``python research/commands/flight_world_study.py {agents,shares,inflation} [--seeds N] [--json FILE]``.
+``python research/commands/flight_world_study.py {agents,shares,claims,inflation} [--seeds N] [--json FILE]``.
 
 * ``agents``: per scenario (the four v2 scenarios) and per rule agent (baseline, greedy, planner,
   periodic), the same held-out seeds in the matched and the flight world, with per-step noise streams
@@ -10,6 +10,10 @@
 * ``shares``: each effect's share of the flight world's error: the flight world with that one effect
   switched off (set to its matched value), one at a time, for one agent (``--agent``, default baseline);
   the same seeds and noise streams.
+* ``claims``: the source documents' claims that the environment can pose (docs/angular_size.md,
+  docs/optical_pulsar.md), each a paired comparison of two agents or two settings on the same seeds, in
+  the matched and the flight world, with the verdict in each: the claim holds where the paired 95 %
+  interval of the difference lies wholly on the claimed side.
 * ``inflation``: the filter's process noise that restores consistency in the flight world: the
   white-acceleration PSD ``filter.accel_psd`` swept over decades with ``world.process_noise: filter``
   (the tuned rule's q beside it), reporting NEES and error per value.
@@ -230,6 +234,63 @@ def shares_table(args: argparse.Namespace) -> dict[str, Any]:
     return out
 
 
+@dataclass(frozen=True)
+class Claim:
+    """A source's claim as a paired comparison on ``scenario``: agent ``a`` with options ``a_extra`` ends the
+    episode with a lower position error than agent ``b`` with ``b_extra`` (the sources compare the error
+    after convergence, not the initial transient that dominates a one-day mean)."""
+
+    source: str
+    text: str
+    scenario: str
+    a: str
+    b: str
+    a_extra: tuple[tuple[str, Any], ...] = ()
+    b_extra: tuple[tuple[str, Any], ...] = ()
+
+
+CLAIMS = (
+    Claim("thesis", "direction and size beat direction alone (nearest planet)", "cruise", "baseline",
+          "baseline", (("measurement_model", "los+size"),), (("measurement_model", "los"),)),
+    Claim("thesis", "switching to the nearest planet beats holding Venus", "random-cruise", "baseline",
+          "schedule:targets=venus"),
+    Claim("thesis", "switching to the nearest planet beats holding Mars", "random-cruise", "baseline",
+          "schedule:targets=mars"),
+    Claim("patent", "hybrid (Mars and the pulsars, greedy) beats optical only (Mars held)", "mars-approach",
+          "greedy", "schedule:targets=mars"),
+    Claim("patent", "hybrid (greedy) beats pulsar only (B1937+21 held)", "mars-approach", "greedy",
+          "schedule:targets=B1937+21"),
+)  # fmt: skip
+
+
+def claims_table(args: argparse.Namespace) -> dict[str, Any]:
+    from planetnav_train.stats import paired_difference
+
+    out: dict[str, Any] = {}
+    print("| source | claim | world | final error, first [km] | final error, second [km] | paired difference "
+          "[km] | holds? |")  # fmt: skip
+    print("|---|---|---|---|---|---|---|")
+    for claim in CLAIMS:
+        for world in ("matched", "flight"):
+            per = []
+            for agent, extra in ((claim.a, claim.a_extra), (claim.b, claim.b_extra)):
+                cells = [Case(claim.scenario, agent, world, s, extra) for s in _seeds(args)]
+                per.append(np.array([v["final_err_km"] for v in run_cases(cells, args.workers)]))
+            diff = paired_difference(per[0], per[1])
+            holds = (
+                "yes"
+                if diff.high < 0.0
+                else ("no: the reverse" if diff.low > 0.0 else "no: within the noise")
+            )
+            out.setdefault(claim.text, {})[world] = {"first": per[0].tolist(), "second": per[1].tolist()}
+            print(
+                f"| {claim.source} | {claim.text} | {world} | {per[0].mean():.1f} | {per[1].mean():.1f} "
+                f"| {diff.format('{:+.1f}')} | {holds} |",
+                flush=True,
+            )
+    return out
+
+
 def inflation_table(args: argparse.Namespace) -> dict[str, Any]:
     out: dict[str, Any] = {}
     print(f"agent: {args.agent}; flight world, world.process_noise: filter, filter.accel_psd swept\n")
@@ -257,7 +318,13 @@ def inflation_table(args: argparse.Namespace) -> dict[str, Any]:
 
 def study(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
-    table = {"agents": agents_table, "shares": shares_table, "inflation": inflation_table}[args.table]
+    tables = {
+        "agents": agents_table,
+        "shares": shares_table,
+        "claims": claims_table,
+        "inflation": inflation_table,
+    }
+    table = tables[args.table]
     out = table(args)
     print(f"\n{args.seeds} seeds from {args.seed}, per-step noise streams; {time.perf_counter() - t0:.0f} s")
     if args.json:
@@ -267,7 +334,7 @@ def study(args: argparse.Namespace) -> int:
 
 def parser() -> argparse.ArgumentParser:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("table", choices=("agents", "shares", "inflation"))
+    ap.add_argument("table", choices=("agents", "shares", "claims", "inflation"))
     ap.add_argument("--seeds", type=int, default=100, help="held-out seeds per cell (default 100)")
     ap.add_argument("--seed", type=int, default=EVAL_SEED, help=f"first seed (default {EVAL_SEED})")
     ap.add_argument("--scenarios", nargs="+", default=list(SCENARIOS), choices=list(SCENARIOS))
