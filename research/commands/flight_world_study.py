@@ -71,6 +71,7 @@ def _config(case: Case) -> Any:
     from planetnav_env.envs.env import resolve_config
 
     overrides = {"world": case.world, "noise_streams": "per_step", **dict(case.extra)}
+
     return resolve_config(SCENARIOS[case.scenario], overrides)
 
 
@@ -169,6 +170,20 @@ def _seeds(args: argparse.Namespace) -> list[int]:
     return list(range(args.seed, args.seed + args.seeds))
 
 
+def _cases(
+    args: argparse.Namespace,
+    scenario: str,
+    agent: str,
+    world: Any,
+    extra: tuple = (),
+    seeds: int | None = None,
+) -> list[Case]:
+    """The cases of one cell: ``seeds`` (default ``--seeds``) seeds, with ``--episode-steps`` if given."""
+    if args.episode_steps:
+        extra = (*extra, ("episode_steps", args.episode_steps))
+    return [Case(scenario, agent, world, s, extra) for s in _seeds(args)[:seeds]]
+
+
 def agents_table(args: argparse.Namespace) -> dict[str, Any]:
     out: dict[str, Any] = {}
     print("| scenario | agent | world | final error [km] | mean error [km] | final 1-sigma [km] | NEES "
@@ -180,10 +195,10 @@ def agents_table(args: argparse.Namespace) -> dict[str, Any]:
             if reason:
                 print(f"| {scenario} | {agent} | - | not applicable: {reason.splitlines()[0][:60]} |")
                 continue
-            seeds = _seeds(args)[: args.planner_seeds] if agent == "planner" else _seeds(args)
+            seeds = args.planner_seeds if agent == "planner" else args.seeds
             for world in ("matched", "flight"):
                 t0 = time.perf_counter()
-                vals = run_cases([Case(scenario, agent, world, s) for s in seeds], args.workers)
+                vals = run_cases(_cases(args, scenario, agent, world, seeds=seeds), args.workers)
                 s = summarize(vals)
                 out.setdefault(scenario, {}).setdefault(agent, {})[world] = {"summary": s, "episodes": vals}
                 print(
@@ -193,7 +208,7 @@ def agents_table(args: argparse.Namespace) -> dict[str, Any]:
                     f"| {_fmt(s['nis_pulsar'], 2)} |",
                     flush=True,
                 )
-                print(f"<!-- {len(seeds)} seeds in {time.perf_counter() - t0:.0f} s -->", file=sys.stderr)
+                print(f"<!-- {len(vals)} seeds in {time.perf_counter() - t0:.0f} s -->", file=sys.stderr)
     return out
 
 
@@ -218,7 +233,7 @@ def shares_table(args: argparse.Namespace) -> dict[str, Any]:
                     "matched": "matched"}  # fmt: skip
         full = None
         for name, world in variants.items():
-            vals = run_cases([Case(scenario, args.agent, world, s) for s in _seeds(args)], args.workers)
+            vals = run_cases(_cases(args, scenario, args.agent, world), args.workers)
             s = summarize(vals)
             out.setdefault(scenario, {})[name] = {"summary": s, "episodes": vals}
             per = np.array([v["mean_err_km"] for v in vals])
@@ -274,7 +289,7 @@ def claims_table(args: argparse.Namespace) -> dict[str, Any]:
         for world in ("matched", "flight"):
             per = []
             for agent, extra in ((claim.a, claim.a_extra), (claim.b, claim.b_extra)):
-                cells = [Case(claim.scenario, agent, world, s, extra) for s in _seeds(args)]
+                cells = _cases(args, claim.scenario, agent, world, extra)
                 per.append(np.array([v["final_err_km"] for v in run_cases(cells, args.workers)]))
             diff = paired_difference(per[0], per[1])
             holds = (
@@ -304,8 +319,7 @@ def inflation_table(args: argparse.Namespace) -> dict[str, Any]:
                 (("filter", {"accel_psd": q}),),
             )
         for name, (world, extra) in cases.items():
-            cells = [Case(scenario, args.agent, world, s, extra) for s in _seeds(args)]
-            vals = run_cases(cells, args.workers)
+            vals = run_cases(_cases(args, scenario, args.agent, world, extra), args.workers)
             s = summarize(vals)
             out.setdefault(scenario, {})[name] = {"summary": s, "episodes": vals}
             print(
@@ -316,8 +330,22 @@ def inflation_table(args: argparse.Namespace) -> dict[str, Any]:
     return out
 
 
+def _check_agents(names: Sequence[str]) -> None:
+    """A ConfigError naming an agent spec that names no registered rule agent."""
+    from planetnav_agents import AGENTS, OPERATIONS_AGENTS, parse_spec
+    from planetnav_env.errors import ConfigError
+
+    known = {*AGENTS, *OPERATIONS_AGENTS}
+    for spec in names:
+        if parse_spec(spec)[0] not in known:
+            raise ConfigError(
+                f"flight_world_study: unknown agent {spec!r}; the rule agents are {sorted(known)}"
+            )
+
+
 def study(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
+    _check_agents([*args.agents, args.agent])
     tables = {
         "agents": agents_table,
         "shares": shares_table,
@@ -346,6 +374,7 @@ def parser() -> argparse.ArgumentParser:
     ap.add_argument(
         "--psd", type=float, nargs="+", default=[1e-20, 1e-18, 1e-16, 1e-14], help="accel_psd values swept"
     )
+    ap.add_argument("--episode-steps", type=int, help="shorter episodes (a smoke run); default: the ids' own")
     ap.add_argument("--workers", type=int, default=1, help="processes (default 1)")
     ap.add_argument("--json", help="write every per-episode value here")
     return ap
