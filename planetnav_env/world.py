@@ -10,12 +10,16 @@ effect alone (a regime map's axis, or one effect's share of the flight world's e
 * ``"flight"``: a truth that the onboard model only approximates, at flight-like magnitudes. Today it
   holds light time and stellar aberration on every line of sight, and the truth's own force model (every
   planet's point mass, cannonball SRP with a reflectivity drawn per episode) against the filter's
-  (``docs/flight_world.md``), whose process noise is then tuned to what it omits. Two effects are modelled
-  but off in both presets until a flight magnitude with a cited source joins: the centre-of-brightness
-  centroid bias (``centroid_bias_max``) and the pulsar timing-model error (``pulsar_frequency_error_max``),
-  each set on its own. The other effects of a flight world (image-driven camera errors, oblate planets, a
-  boresight drift, a newer ephemeris in truth, attitude disturbances) are not modelled yet and will join
-  as options of this section.
+  (``docs/flight_world.md``), whose process noise is then tuned to what it omits; and the camera's
+  truth: errors from the image (``image_errors``: centroid and diameter sigmas from the disk's size in
+  pixels and the image's SNR), the Lambertian centre-of-brightness offset at the true phase with an
+  onboard photometric correction of a scale error drawn per episode (``lambert_cob``), oblate planets
+  (``oblate_planets``) and a Gauss-Markov boresight drift of the planet camera (``boresight_drift``).
+  Two effects are modelled but off in both presets: the uniform-disk centroid bias the filter does not
+  correct (``centroid_bias_max``, for regime maps) and the pulsar timing-model error
+  (``pulsar_frequency_error_max``), each set on its own. The other effects of a flight world (a newer
+  ephemeris in truth, attitude disturbances) are not modelled yet and will join as options of this
+  section.
 
 On board, the filter applies the corrections flight optical navigation applies to each effect that is on
 in truth, computed from its *estimated* state (``onboard_corrections``, default: on); switching them
@@ -40,7 +44,9 @@ PRESETS = ("matched", "flight")
 EXPECTED = (
     "one of 'matched', 'flight' (str), or a WorldConfig (in EnvConfig.from_dict / YAML a mapping of its "
     "options: preset, light_time, aberration, onboard_corrections, third_bodies, srp, area_to_mass_m2_kg, "
-    "reflectivity_range, process_noise, centroid_bias_max, pulsar_frequency_error_max)"
+    "reflectivity_range, process_noise, image_errors, centroid_floor_px, limb_scatter, aperture_mm, "
+    "exposure_s, full_well_e, read_noise_e, psf_sigma_px, lambert_cob, cob_model_error, oblate_planets, "
+    "boresight_drift, drift_sigma_arcsec, drift_tau_s, centroid_bias_max, pulsar_frequency_error_max)"
 )
 
 #: The bodies of the ephemeris whose point masses act on the truth with third bodies on: every planet
@@ -124,6 +130,90 @@ class WorldConfig:
         "fixed for the episode and not observed, and every phase of it is off by delta * (t - episode "
         "start) / period cycles, a range error of c * delta * (t - start) along the pulsar's direction "
         "(c * 1e-10 is ~10 km after 94 h). 0: none (nothing is drawn). None: 0 in both presets",
+    )
+    image_errors: bool | None = option(
+        None,
+        kind="bool",
+        doc="camera errors from the image in truth, instead of the filter's white R: per image and axis the "
+        "centroid sigma^2 = centroid_floor_px^2 + (psf^2 + D^2 / 16) / SNR^2 + (limb_scatter D)^2 and the "
+        "diameter sigma^2 = (2 centroid_floor_px)^2 + (16 / D^2)(D^4 / 192 + psf^2 D^2 / 2 "
+        "+ 4 psf^4) / SNR^2 + (2 limb_scatter D)^2 [px], D the disk's diameter [px] and SNR the "
+        "image's, from the planet's brightness at its phase and distance (sensors/image_noise.py, "
+        "docs/flight_world.md). The filter keeps its R. None: on in ``flight``, off in ``matched``",
+    )
+    centroid_floor_px: float = option(
+        0.05,
+        unit="px",
+        ge=0.0,
+        le=1.0,
+        doc="the image-driven errors' floor: a bright point image's centroid sigma per axis (pixel response, "
+        "PSF and distortion residuals)",
+    )
+    limb_scatter: float = option(
+        1e-3,
+        unit="fraction of the disk's diameter",
+        ge=0.0,
+        le=0.1,
+        doc="the image-driven errors' limb term: a resolved disk's centroid sigma per axis as a fraction of "
+        "its diameter (limb relief, haze, terminator), twice that for the diameter",
+    )
+    aperture_mm: float = option(
+        10.0, unit="mm", gt=0.0, le=1000.0, doc="the camera's entrance-pupil diameter (image-driven errors)"
+    )
+    exposure_s: float = option(
+        0.1,
+        unit="s",
+        gt=0.0,
+        le=1000.0,
+        doc="the camera's longest exposure (image-driven errors); shortened so that the image stays below "
+        "full_well_e per pixel",
+    )
+    full_well_e: float = option(
+        20000.0, unit="e-", gt=0.0, le=1e7, doc="a pixel's full-well capacity (image-driven errors)"
+    )
+    read_noise_e: float = option(
+        10.0, unit="e-", ge=0.0, le=1e4, doc="read noise per pixel (image-driven errors)"
+    )
+    psf_sigma_px: float = option(
+        0.7, unit="px", gt=0.0, le=10.0, doc="the optics' point-spread function, Gaussian sigma per axis"
+    )
+    lambert_cob: bool | None = option(
+        None,
+        kind="bool",
+        doc="the centre-of-brightness offset of a Lambertian sphere in truth, at the true phase angle, "
+        "toward the Sun across the line of sight (sensors/photometry.py: 0.59 of the disk's radius at "
+        "quadrature); on board (``onboard_corrections``) a photometric model subtracts the Lambert offset "
+        "at the estimated geometry, scaled by (1 + e) with e drawn per planet and episode uniformly in "
+        "[-cob_model_error, cob_model_error]. None: on in ``flight``, off in ``matched``",
+    )
+    cob_model_error: float = option(
+        0.1,
+        unit="fraction of the offset",
+        ge=0.0,
+        le=1.0,
+        doc="the bound of the onboard photometric model's scale error e (uniform per planet and episode)",
+    )
+    oblate_planets: bool | None = option(
+        None,
+        kind="bool",
+        doc="planets in truth are spheroids of their equatorial and polar radii (Mars's flattening 1/170): "
+        "the camera's limb-fit diameter is that of the circle of the outline's area seen at the true "
+        "sub-camera latitude (sensors/figure.py); on board a sphere of the equatorial radius. None: on in "
+        "``flight``, off in ``matched``",
+    )
+    boresight_drift: bool | None = option(
+        None,
+        kind="bool",
+        doc="a first-order Gauss-Markov drift of the planet camera's line of sight against the star "
+        "tracker, about the camera's X and Y axes (thermo-elastic misalignment), in truth on the planet "
+        "images only, unknown to the filter: stationary start at reset, stepped every physics step. None: "
+        "on in ``flight``, off in ``matched``",
+    )
+    drift_sigma_arcsec: float = option(
+        3.0, unit="arcsec", gt=0.0, le=3600.0, doc="the boresight drift's stationary sigma per axis"
+    )
+    drift_tau_s: float = option(
+        21600.0, unit="s", gt=0.0, le=1e9, doc="the boresight drift's correlation time"
     )
     third_bodies: bool | None = option(
         None,
@@ -227,6 +317,31 @@ class WorldConfig:
         return 0.0 if self.pulsar_frequency_error_max is None else float(self.pulsar_frequency_error_max)
 
     @property
+    def image_errors_on(self) -> bool:
+        """The camera's errors come from the image (sensors/image_noise.py) in truth."""
+        return self.flight if self.image_errors is None else self.image_errors
+
+    @property
+    def lambert_cob_on(self) -> bool:
+        """The Lambertian centre-of-brightness offset in truth."""
+        return self.flight if self.lambert_cob is None else self.lambert_cob
+
+    @property
+    def lambert_cob_corrected(self) -> bool:
+        """The filter subtracts its photometric model's offset from each image."""
+        return self.lambert_cob_on and self.corrections_on
+
+    @property
+    def oblate_on(self) -> bool:
+        """Planets are spheroids in truth."""
+        return self.flight if self.oblate_planets is None else self.oblate_planets
+
+    @property
+    def drift_on(self) -> bool:
+        """The planet camera's boresight drifts in truth."""
+        return self.flight if self.boresight_drift is None else self.boresight_drift
+
+    @property
     def third_bodies_on(self) -> bool:
         """Every planet's point mass in the truth's force model."""
         return self.flight if self.third_bodies is None else self.third_bodies
@@ -262,5 +377,9 @@ class WorldConfig:
             or self.aberration_on
             or self.truth_forces_on
             or self.centroid_bias_bound > 0.0
+            or self.image_errors_on
+            or self.lambert_cob_on
+            or self.oblate_on
+            or self.drift_on
             or self.pulsar_frequency_error_bound > 0.0
         )
