@@ -210,7 +210,7 @@ class WorldConfig:
         "on in ``flight``, off in ``matched``",
     )
     drift_sigma_arcsec: float = option(
-        3.0, unit="arcsec", gt=0.0, le=3600.0, doc="the boresight drift's stationary sigma per axis"
+        1.0, unit="arcsec", gt=0.0, le=3600.0, doc="the boresight drift's stationary sigma per axis"
     )
     drift_tau_s: float = option(
         21600.0, unit="s", gt=0.0, le=1e9, doc="the boresight drift's correlation time"
