@@ -74,8 +74,10 @@ class WorldConfig:
     """The truth's world: a ``preset`` and its effects, each ``None`` (the preset's) or set on its own.
 
     The resolved values the core reads are :attr:`light_time_on`, :attr:`aberration_on`,
-    :attr:`light_time_corrected`, :attr:`aberration_corrected`, :attr:`centroid_bias_bound` and
-    :attr:`pulsar_frequency_error_bound`."""
+    :attr:`light_time_corrected`, :attr:`aberration_corrected`, :attr:`centroid_bias_bound`,
+    :attr:`pulsar_frequency_error_bound`, :attr:`image_errors_on`, :attr:`lambert_cob_on`,
+    :attr:`lambert_cob_corrected`, :attr:`oblate_on` and :attr:`drift_on` (with the camera effects'
+    parameters as set), besides the force model's."""
 
     preset: str = option(
         "matched",
@@ -112,11 +114,9 @@ class WorldConfig:
         ge=0,
         le=2,
         unit="fraction of the uniformly bright disk's offset",
-        doc="centre-of-brightness centroid bias in truth, which the filter does not model (it takes the "
-        "image's centroid for the centre of figure): at reset each planet draws a scale b uniformly from "
-        "[0, centroid_bias_max], fixed for the episode and not observed, and every image of it is displaced "
-        "toward the Sun by b * 4 / (3 pi) * (apparent radius) * (1 - cos phase angle), the offset of a "
-        "uniformly bright illuminated disk (b = 1). 0: none (nothing is drawn). None: 0 in both presets",
+        doc="a uniformly bright disk's centre-of-brightness bias in truth, uncorrected (docs/camera.md): "
+        "each planet draws a scale b uniformly in [0, centroid_bias_max] per episode, its images move toward "
+        "the Sun by b 4 / (3 pi) R (1 - cos phase). 0: none (nothing drawn). None: 0 in both presets",
     )
     pulsar_frequency_error_max: float | None = option(
         None,
@@ -134,87 +134,58 @@ class WorldConfig:
     image_errors: bool | None = option(
         None,
         kind="bool",
-        doc="camera errors from the image in truth, instead of the filter's white R: per image and axis the "
-        "centroid sigma^2 = centroid_floor_px^2 + (psf^2 + D^2 / 16) / SNR^2 + (limb_scatter D)^2 and the "
-        "diameter sigma^2 = (2 centroid_floor_px)^2 + (16 / D^2)(D^4 / 192 + psf^2 D^2 / 2 "
-        "+ 4 psf^4) / SNR^2 + (2 limb_scatter D)^2 [px], D the disk's diameter [px] and SNR the "
-        "image's, from the planet's brightness at its phase and distance (sensors/image_noise.py, "
-        "docs/flight_world.md). The filter keeps its R. None: on in ``flight``, off in ``matched``",
+        doc="camera errors from the image in truth: centroid and diameter sigmas from the disk's size [px] "
+        "and the image's SNR (sensors/image_noise.py); the filter keeps its R. None: on in ``flight``",
     )
     centroid_floor_px: float = option(
-        0.05,
-        unit="px",
-        ge=0.0,
-        le=1.0,
-        doc="the image-driven errors' floor: a bright point image's centroid sigma per axis (pixel response, "
-        "PSF and distortion residuals)",
+        0.05, unit="px", ge=0.0, le=1.0, doc="image errors: a bright point image's centroid sigma per axis"
     )
     limb_scatter: float = option(
-        1e-3,
-        unit="fraction of the disk's diameter",
-        ge=0.0,
-        le=0.1,
-        doc="the image-driven errors' limb term: a resolved disk's centroid sigma per axis as a fraction of "
-        "its diameter (limb relief, haze, terminator), twice that for the diameter",
+        1e-3, unit="-", ge=0.0, le=0.1, doc="image errors: centroid sigma / diameter of a resolved disk"
     )
-    aperture_mm: float = option(
-        10.0, unit="mm", gt=0.0, le=1000.0, doc="the camera's entrance-pupil diameter (image-driven errors)"
-    )
+    aperture_mm: float = option(10.0, unit="mm", gt=0.0, le=1000.0, doc="image errors: the camera's aperture")
     exposure_s: float = option(
         0.1,
         unit="s",
         gt=0.0,
         le=1000.0,
-        doc="the camera's longest exposure (image-driven errors); shortened so that the image stays below "
-        "full_well_e per pixel",
+        doc="image errors: the longest exposure",
     )
-    full_well_e: float = option(
-        20000.0, unit="e-", gt=0.0, le=1e7, doc="a pixel's full-well capacity (image-driven errors)"
-    )
-    read_noise_e: float = option(
-        10.0, unit="e-", ge=0.0, le=1e4, doc="read noise per pixel (image-driven errors)"
-    )
+    full_well_e: float = option(20000.0, unit="e-", gt=0.0, le=1e7, doc="image errors: a pixel's full well")
+    read_noise_e: float = option(10.0, unit="e-", ge=0.0, le=1e4, doc="image errors: read noise per pixel")
     psf_sigma_px: float = option(
-        0.7, unit="px", gt=0.0, le=10.0, doc="the optics' point-spread function, Gaussian sigma per axis"
+        0.7, unit="px", gt=0.0, le=10.0, doc="image errors: the PSF's Gaussian sigma"
     )
     lambert_cob: bool | None = option(
         None,
         kind="bool",
-        doc="the centre-of-brightness offset of a Lambertian sphere in truth, at the true phase angle, "
-        "toward the Sun across the line of sight (sensors/photometry.py: 0.59 of the disk's radius at "
-        "quadrature); on board (``onboard_corrections``) a photometric model subtracts the Lambert offset "
-        "at the estimated geometry, scaled by (1 + e) with e drawn per planet and episode uniformly in "
-        "[-cob_model_error, cob_model_error]. None: on in ``flight``, off in ``matched``",
+        doc="a Lambertian sphere's centre-of-brightness offset in truth at the true phase; on board "
+        "a photometric model takes it off at the estimated geometry, scaled by 1 + e drawn per planet and "
+        "episode. None: on in ``flight``",
     )
     cob_model_error: float = option(
         0.1,
-        unit="fraction of the offset",
+        unit="-",
         ge=0.0,
         le=1.0,
-        doc="the bound of the onboard photometric model's scale error e (uniform per planet and episode)",
+        doc="the bound of e (uniform)",
     )
     oblate_planets: bool | None = option(
         None,
         kind="bool",
-        doc="planets in truth are spheroids of their equatorial and polar radii (Mars's flattening 1/170): "
-        "the camera's limb-fit diameter is that of the circle of the outline's area seen at the true "
-        "sub-camera latitude (sensors/figure.py); on board a sphere of the equatorial radius. None: on in "
-        "``flight``, off in ``matched``",
+        doc="planets are spheroids in truth (the limb-fit size at the true sub-camera latitude), spheres on "
+        "board. None: on in ``flight``",
     )
     boresight_drift: bool | None = option(
         None,
         kind="bool",
-        doc="a first-order Gauss-Markov drift of the planet camera's line of sight against the star "
-        "tracker, about the camera's X and Y axes (thermo-elastic misalignment), in truth on the planet "
-        "images only, unknown to the filter: stationary start at reset, stepped every physics step. None: "
-        "on in ``flight``, off in ``matched``",
+        doc="a Gauss-Markov drift of the planet image against the stars about the camera's X and Y axes, in "
+        "truth, unknown to the filter. None: on in ``flight``",
     )
     drift_sigma_arcsec: float = option(
-        1.0, unit="arcsec", gt=0.0, le=3600.0, doc="the boresight drift's stationary sigma per axis"
+        1.0, unit="arcsec", gt=0.0, le=3600.0, doc="the drift's sigma per axis"
     )
-    drift_tau_s: float = option(
-        21600.0, unit="s", gt=0.0, le=1e9, doc="the boresight drift's correlation time"
-    )
+    drift_tau_s: float = option(21600.0, unit="s", gt=0.0, le=1e9, doc="the drift's correlation time")
     third_bodies: bool | None = option(
         None,
         kind="bool",
