@@ -241,6 +241,11 @@ class BatchCore:
         if world.process_noise_tuned:
             a_omit = float(np.linalg.norm(self.omitted_acceleration(ep.epoch, x)))
             f[L.F_Q_PSD] = tuned_accel_psd(a_omit, episode_duration_s(cfg), cfg.filter.accel_psd)
+        if world.lambert_cob_corrected:
+            # The onboard photometric model's scale 1 + e per planet, e uniform in [-b, b]; drawn after
+            # every other draw, so a world without it draws nothing new.
+            b = world.cob_model_error
+            f[L.F_COB_MODEL : L.F_COB_MODEL + cfg.n_planets] = 1.0 + gen.uniform(-b, b, cfg.n_planets)
         return RowEpisode(ep.epoch, ep.central, tuple(ep.perturbers))
 
     def omitted_acceleration(self, epoch: float, x: np.ndarray) -> np.ndarray:

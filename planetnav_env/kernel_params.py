@@ -31,6 +31,7 @@ from planetnav_env.estimation.ekf import process_noise
 from planetnav_env.estimation.ekf_kernels import KIND_CODES
 from planetnav_env.options import kernel_fields, kernel_values
 from planetnav_env.sensors import pulsar as psr
+from planetnav_env.sensors.photometry import GEOMETRIC_ALBEDO
 from planetnav_env.sensors.star_tracker import StarTrackerConfig, star_fix_tables
 
 #: Every scalar of ``CoreParams.scalars``: (name, numpy type, meaning [unit]), the option-copied ones first.
@@ -54,6 +55,7 @@ def build_params(
     """The record of everything the kernels read, from a validated config and its channel plan
     (``truth_mus``: the GMs of ``plan.truth_perturbers`` [km^3/s^2], with the truth's own force model)."""
     att = cfg.attitude
+    world = cfg.world
     cam = cfg.camera
     layout = L.ObservationLayout.for_config(cfg)
     approach = cfg.scenario == "mars-approach"
@@ -91,6 +93,19 @@ def build_params(
         onboard_ab=cfg.world.aberration_corrected,
         cob_max=cfg.world.centroid_bias_bound,
         psr_df_max=cfg.world.pulsar_frequency_error_bound,
+        img_on=world.image_errors_on,
+        img_floor=world.centroid_floor_px,
+        img_limb=world.limb_scatter,
+        img_collect=math.pi * (0.5e-3 * world.aperture_mm) ** 2 * world.exposure_s,
+        img_fw=world.full_well_e,
+        img_rn=world.read_noise_e,
+        img_psf=world.psf_sigma_px,
+        cob_lam=world.lambert_cob_on,
+        cob_fix=world.lambert_cob_corrected,
+        oblate=world.oblate_on,
+        drift_on=world.drift_on,
+        drift_sigma=world.drift_sigma_arcsec * ARCSEC,
+        drift_tau=world.drift_tau_s,
         det_half_fov=math.radians(0.5 * cfg.detector_fov_deg),
         sun_avoid=math.radians(cfg.detector.sun_avoidance_deg),
         reward_truth=cfg.reward == "truth",
@@ -146,6 +161,9 @@ def build_params(
         h_max=np.full(3, att.wheel_momentum_capacity),
         boresight=np.ascontiguousarray(cam.boresight_body, dtype=float),
         radii=np.array([body(p).radius for p in cfg.planets]),
+        figure=np.array(
+            [[body(p).polar_radius, *body(p).pole, GEOMETRIC_ALBEDO[p]] for p in cfg.planets], dtype=float
+        ).reshape(-1, 5),
         mus=np.ascontiguousarray(mus, dtype=float),
         tmus=np.ascontiguousarray(truth_mus if truth_mus is not None else np.zeros(0), dtype=float),
         psr=np.ascontiguousarray(psr_rows),

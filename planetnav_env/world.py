@@ -10,12 +10,16 @@ effect alone (a regime map's axis, or one effect's share of the flight world's e
 * ``"flight"``: a truth that the onboard model only approximates, at flight-like magnitudes. Today it
   holds light time and stellar aberration on every line of sight, and the truth's own force model (every
   planet's point mass, cannonball SRP with a reflectivity drawn per episode) against the filter's
-  (``docs/flight_world.md``), whose process noise is then tuned to what it omits. Two effects are modelled
-  but off in both presets until a flight magnitude with a cited source joins: the centre-of-brightness
-  centroid bias (``centroid_bias_max``) and the pulsar timing-model error (``pulsar_frequency_error_max``),
-  each set on its own. The other effects of a flight world (image-driven camera errors, oblate planets, a
-  boresight drift, a newer ephemeris in truth, attitude disturbances) are not modelled yet and will join
-  as options of this section.
+  (``docs/flight_world.md``), whose process noise is then tuned to what it omits; and the camera's
+  truth: errors from the image (``image_errors``: centroid and diameter sigmas from the disk's size in
+  pixels and the image's SNR), the Lambertian centre-of-brightness offset at the true phase with an
+  onboard photometric correction of a scale error drawn per episode (``lambert_cob``), oblate planets
+  (``oblate_planets``) and a Gauss-Markov boresight drift of the planet camera (``boresight_drift``).
+  Two effects are modelled but off in both presets: the uniform-disk centroid bias the filter does not
+  correct (``centroid_bias_max``, for regime maps) and the pulsar timing-model error
+  (``pulsar_frequency_error_max``), each set on its own. The other effects of a flight world (a newer
+  ephemeris in truth, attitude disturbances) are not modelled yet and will join as options of this
+  section.
 
 On board, the filter applies the corrections flight optical navigation applies to each effect that is on
 in truth, computed from its *estimated* state (``onboard_corrections``, default: on); switching them
@@ -40,7 +44,9 @@ PRESETS = ("matched", "flight")
 EXPECTED = (
     "one of 'matched', 'flight' (str), or a WorldConfig (in EnvConfig.from_dict / YAML a mapping of its "
     "options: preset, light_time, aberration, onboard_corrections, third_bodies, srp, area_to_mass_m2_kg, "
-    "reflectivity_range, process_noise, centroid_bias_max, pulsar_frequency_error_max)"
+    "reflectivity_range, process_noise, image_errors, centroid_floor_px, limb_scatter, aperture_mm, "
+    "exposure_s, full_well_e, read_noise_e, psf_sigma_px, lambert_cob, cob_model_error, oblate_planets, "
+    "boresight_drift, drift_sigma_arcsec, drift_tau_s, centroid_bias_max, pulsar_frequency_error_max)"
 )
 
 #: The bodies of the ephemeris whose point masses act on the truth with third bodies on: every planet
@@ -68,8 +74,10 @@ class WorldConfig:
     """The truth's world: a ``preset`` and its effects, each ``None`` (the preset's) or set on its own.
 
     The resolved values the core reads are :attr:`light_time_on`, :attr:`aberration_on`,
-    :attr:`light_time_corrected`, :attr:`aberration_corrected`, :attr:`centroid_bias_bound` and
-    :attr:`pulsar_frequency_error_bound`."""
+    :attr:`light_time_corrected`, :attr:`aberration_corrected`, :attr:`centroid_bias_bound`,
+    :attr:`pulsar_frequency_error_bound`, :attr:`image_errors_on`, :attr:`lambert_cob_on`,
+    :attr:`lambert_cob_corrected`, :attr:`oblate_on` and :attr:`drift_on` (with the camera effects'
+    parameters as set), besides the force model's."""
 
     preset: str = option(
         "matched",
@@ -106,11 +114,9 @@ class WorldConfig:
         ge=0,
         le=2,
         unit="fraction of the uniformly bright disk's offset",
-        doc="centre-of-brightness centroid bias in truth, which the filter does not model (it takes the "
-        "image's centroid for the centre of figure): at reset each planet draws a scale b uniformly from "
-        "[0, centroid_bias_max], fixed for the episode and not observed, and every image of it is displaced "
-        "toward the Sun by b * 4 / (3 pi) * (apparent radius) * (1 - cos phase angle), the offset of a "
-        "uniformly bright illuminated disk (b = 1). 0: none (nothing is drawn). None: 0 in both presets",
+        doc="a uniformly bright disk's centre-of-brightness bias in truth, uncorrected (docs/camera.md): "
+        "each planet draws a scale b uniformly in [0, centroid_bias_max] per episode, its images move toward "
+        "the Sun by b 4 / (3 pi) R (1 - cos phase). 0: none (nothing drawn). None: 0 in both presets",
     )
     pulsar_frequency_error_max: float | None = option(
         None,
@@ -125,6 +131,61 @@ class WorldConfig:
         "start) / period cycles, a range error of c * delta * (t - start) along the pulsar's direction "
         "(c * 1e-10 is ~10 km after 94 h). 0: none (nothing is drawn). None: 0 in both presets",
     )
+    image_errors: bool | None = option(
+        None,
+        kind="bool",
+        doc="camera errors from the image in truth: centroid and diameter sigmas from the disk's size [px] "
+        "and the image's SNR (sensors/image_noise.py); the filter keeps its R. None: on in ``flight``",
+    )
+    centroid_floor_px: float = option(
+        0.05, unit="px", ge=0.0, le=1.0, doc="image errors: a bright point image's centroid sigma per axis"
+    )
+    limb_scatter: float = option(
+        1e-3, unit="-", ge=0.0, le=0.1, doc="image errors: centroid sigma / diameter of a resolved disk"
+    )
+    aperture_mm: float = option(10.0, unit="mm", gt=0.0, le=1000.0, doc="image errors: the camera's aperture")
+    exposure_s: float = option(
+        0.1,
+        unit="s",
+        gt=0.0,
+        le=1000.0,
+        doc="image errors: the longest exposure",
+    )
+    full_well_e: float = option(20000.0, unit="e-", gt=0.0, le=1e7, doc="image errors: a pixel's full well")
+    read_noise_e: float = option(10.0, unit="e-", ge=0.0, le=1e4, doc="image errors: read noise per pixel")
+    psf_sigma_px: float = option(
+        0.7, unit="px", gt=0.0, le=10.0, doc="image errors: the PSF's Gaussian sigma"
+    )
+    lambert_cob: bool | None = option(
+        None,
+        kind="bool",
+        doc="a Lambertian sphere's centre-of-brightness offset in truth at the true phase; on board "
+        "a photometric model takes it off at the estimated geometry, scaled by 1 + e drawn per planet and "
+        "episode. None: on in ``flight``",
+    )
+    cob_model_error: float = option(
+        0.1,
+        unit="-",
+        ge=0.0,
+        le=1.0,
+        doc="the bound of e (uniform)",
+    )
+    oblate_planets: bool | None = option(
+        None,
+        kind="bool",
+        doc="planets are spheroids in truth (the limb-fit size at the true sub-camera latitude), spheres on "
+        "board. None: on in ``flight``",
+    )
+    boresight_drift: bool | None = option(
+        None,
+        kind="bool",
+        doc="a Gauss-Markov drift of the planet image against the stars about the camera's X and Y axes, in "
+        "truth, unknown to the filter. None: on in ``flight``",
+    )
+    drift_sigma_arcsec: float = option(
+        1.0, unit="arcsec", gt=0.0, le=3600.0, doc="the drift's sigma per axis"
+    )
+    drift_tau_s: float = option(21600.0, unit="s", gt=0.0, le=1e9, doc="the drift's correlation time")
     third_bodies: bool | None = option(
         None,
         kind="bool",
@@ -227,6 +288,31 @@ class WorldConfig:
         return 0.0 if self.pulsar_frequency_error_max is None else float(self.pulsar_frequency_error_max)
 
     @property
+    def image_errors_on(self) -> bool:
+        """The camera's errors come from the image (sensors/image_noise.py) in truth."""
+        return self.flight if self.image_errors is None else self.image_errors
+
+    @property
+    def lambert_cob_on(self) -> bool:
+        """The Lambertian centre-of-brightness offset in truth."""
+        return self.flight if self.lambert_cob is None else self.lambert_cob
+
+    @property
+    def lambert_cob_corrected(self) -> bool:
+        """The filter subtracts its photometric model's offset from each image."""
+        return self.lambert_cob_on and self.corrections_on
+
+    @property
+    def oblate_on(self) -> bool:
+        """Planets are spheroids in truth."""
+        return self.flight if self.oblate_planets is None else self.oblate_planets
+
+    @property
+    def drift_on(self) -> bool:
+        """The planet camera's boresight drifts in truth."""
+        return self.flight if self.boresight_drift is None else self.boresight_drift
+
+    @property
     def third_bodies_on(self) -> bool:
         """Every planet's point mass in the truth's force model."""
         return self.flight if self.third_bodies is None else self.third_bodies
@@ -262,6 +348,10 @@ class WorldConfig:
             or self.aberration_on
             or self.truth_forces_on
             or self.centroid_bias_bound > 0.0
+            or self.image_errors_on
+            or self.lambert_cob_on
+            or self.oblate_on
+            or self.drift_on
             or self.pulsar_frequency_error_bound > 0.0
         )
 

@@ -105,6 +105,8 @@ from planetnav_env.core.row_ephemeris import (
 from planetnav_env.core.row_noise import NOISE_IMAGE, next_uniform, noise_begin
 from planetnav_env.core.scoring import score_row
 from planetnav_env.core.sensing import (
+    drift_reset,
+    drift_step,
     measure_planet,
     nearest_in_view,
     rate_measurement,
@@ -282,6 +284,8 @@ def step_row(prm, st, n, target, torque, sc) -> bool:  # pragma: no cover - comp
     k += 1
     i[n, I_K] = k
     t = t + dt
+    if ps.drift_on != 0:
+        drift_step(prm, st, n, sc)  # the planet camera's boresight drift, one step on
 
     # --- sensors ---
     star_fix_stage(prm, st, n, sc)
@@ -362,6 +366,8 @@ def reset_row(prm, st, n, sc) -> None:  # pragma: no cover - compiled
     star_fix_stage(prm, st, n, sc)
     rate_measurement(prm, st, n, sc)
     score_row(prm, st, n, NO_TORQUE, sc)
+    if prm.scalars[0].drift_on != 0:
+        drift_reset(prm, st, n, sc)  # the boresight drift's stationary start
     i[n, I_TERMINATED] = 0
     i[n, I_TRUNCATED] = 0
     f[n, F_REWARD] = 0.0

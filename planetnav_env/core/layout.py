@@ -62,6 +62,12 @@ _F_FIELDS = (
     # centre-of-brightness offset drawn at reset (sensors.camera_kernels.centroid_bias_kernel)
     ("COB", 7),
     ("COB_LAST", 1),  # the offset of the last image [rad] (0: none)
+    # the onboard photometric model's scale (world.lambert_cob_corrected; unused, 0, otherwise): per
+    # planet, 1 + e with e drawn at reset, what the filter's centre-of-brightness correction is scaled by
+    ("COB_MODEL", 7),
+    # the planet camera's boresight drift (world.drift_on; unused, 0, otherwise): its small rotation
+    # about the camera's X and Y axes [rad], a Gauss-Markov process drawn at reset, stepped every step
+    ("DRIFT", 2),
     # pulsar timing-model error (world.pulsar_frequency_error_max > 0; unused, 0, otherwise): per
     # pulsar, the range drift c * delta [km/s] of its phases, drawn at reset (every catalogue pulsar fits)
     ("PSR_DRIFT", 4),
@@ -98,6 +104,7 @@ F_DV_STEP, F_DV_LOST, F_OBJECTIVE, F_THRUSTING, F_DL_SIGMA, F_DL_ERR = (
 F_IMG_P = F_OFFSETS["IMG_P"][0]
 F_COB, F_COB_LAST = F_OFFSETS["COB"][0], F_OFFSETS["COB_LAST"][0]
 F_PSR_DRIFT = F_OFFSETS["PSR_DRIFT"][0]
+F_COB_MODEL, F_DRIFT = F_OFFSETS["COB_MODEL"][0], F_OFFSETS["DRIFT"][0]
 F_SRP_K, F_Q_PSD = F_OFFSETS["SRP_K"][0], F_OFFSETS["Q_PSD"][0]
 F_SINCE, F_IMG_LOG, F_RES_LOG = (F_OFFSETS[k][0] for k in ("SINCE", "IMG_LOG", "RES_LOG"))
 #: Pulsar slots of PSR_DRIFT.

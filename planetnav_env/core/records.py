@@ -65,6 +65,19 @@ CORE_SCALAR_FIELDS: tuple[tuple[str, str, str], ...] = (
      "disk's offset] (world.centroid_bias_bound; 0: none)"),
     ("psr_df_max", "f8", "largest pulsar timing-model frequency error [delta nu / nu] "
      "(world.pulsar_frequency_error_bound; 0: none)"),
+    ("img_on", "i8", "1: the camera's truth errors come from the image (world.image_errors_on)"),
+    ("img_floor", "f8", "the image errors' centroid floor [px] (world.centroid_floor_px)"),
+    ("img_limb", "f8", "the image errors' limb term [fraction of the diameter] (world.limb_scatter)"),
+    ("img_collect", "f8", "aperture area times exposure [m^2 s] (world.aperture_mm, world.exposure_s)"),
+    ("img_fw", "f8", "a pixel's full well [e-] (world.full_well_e)"),
+    ("img_rn", "f8", "read noise per pixel [e-] (world.read_noise_e)"),
+    ("img_psf", "f8", "the PSF's Gaussian sigma [px] (world.psf_sigma_px)"),
+    ("cob_lam", "i8", "1: the Lambertian centre-of-brightness offset in truth (world.lambert_cob_on)"),
+    ("cob_fix", "i8", "1: the filter subtracts its photometric model's offset (world.lambert_cob_corrected)"),
+    ("oblate", "i8", "1: planets are spheroids in truth (world.oblate_on)"),
+    ("drift_on", "i8", "1: the planet camera's boresight drifts in truth (world.drift_on)"),
+    ("drift_sigma", "f8", "the drift's stationary sigma per axis [rad] (world.drift_sigma_arcsec)"),
+    ("drift_tau", "f8", "the drift's correlation time [s] (world.drift_tau_s)"),
     # pulsars
     ("det_half_fov", "f8", "detector half field of view [rad] (detector_fov_deg / 2)"),
     ("sun_avoid", "f8", "detector Sun-avoidance angle [rad] (detector.sun_avoidance_deg)"),
@@ -102,6 +115,8 @@ CORE_SCALAR_FIELDS: tuple[tuple[str, str, str], ...] = (
     ("ops_q_perp", "f8", "thrust acceleration PSD across the thrust [km^2/s^3] (operations.psd_km2_s3)"),
     ("ops_cos_tol", "f8", "cosine of the thrust attitude tolerance (operations.attitude_tolerance_deg)"),
 )  # fmt: skip
+
+
 def scalars_dtype(fields: tuple[tuple[str, str, str], ...]) -> np.dtype:
     """The scalars' record of ``fields`` ((name, numpy type, meaning), in order; aligned: every field at a
     multiple of 8 bytes); a name given twice is an error."""
@@ -140,6 +155,7 @@ class CoreParams(NamedTuple):
     h_max: np.ndarray  # (3,) wheel momentum capacities [N m s]
     boresight: np.ndarray  # (3,) camera boresight, body axes
     radii: np.ndarray  # (P,) planet radii [km]
+    figure: np.ndarray  # (P, 5) polar radius [km], unit north pole (3, ICRF), geometric albedo
     mus: np.ndarray  # (K,) perturbers' GM [km^3/s^2]
     tmus: np.ndarray  # (Kt,) the truth's perturbers' GM [km^3/s^2] (its own force model; else empty)
     psr: np.ndarray  # (Q, 5) pulsar direction (3), wavelength [km], phase sigma [cycles]

@@ -11,10 +11,14 @@ from planetnav_env.numerics.jit import row_kernel
 
 #: Stream ids of the per-step noise (``noise_streams: per_step``): one per sensor; pulsar j uses
 #: ``NOISE_PULSAR0 + j``; ``NOISE_THRUST`` is the thrust execution error of an operations scenario;
-#: ``NOISE_IMAGE`` decides whether an image yields a fix (``EnvConfig.image_success_min``).
+#: ``NOISE_IMAGE`` decides whether an image yields a fix (``EnvConfig.image_success_min``); ``NOISE_DRIFT``
+#: drives the camera's boresight drift.
 NOISE_STAR, NOISE_RATE, NOISE_CAMERA, NOISE_PULSAR0 = 1, 2, 3, 16
 NOISE_THRUST = 4
 NOISE_IMAGE = 5
+#: The planet camera's boresight drift (``world.boresight_drift``): its stationary start at reset (step 0)
+#: and its step after every physics step.
+NOISE_DRIFT = 9
 
 
 @row_kernel

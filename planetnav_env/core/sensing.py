@@ -15,6 +15,8 @@ from planetnav_env.core.layout import (
     F_ATT_ERR,
     F_COB,
     F_COB_LAST,
+    F_COB_MODEL,
+    F_DRIFT,
     F_INTEGRATED,
     F_NIS,
     F_PIX,
@@ -46,6 +48,7 @@ from planetnav_env.core.light_path import (
 from planetnav_env.core.row_ephemeris import eval_channel, row_time
 from planetnav_env.core.row_noise import (
     NOISE_CAMERA,
+    NOISE_DRIFT,
     NOISE_PULSAR0,
     NOISE_RATE,
     NOISE_STAR,
@@ -57,14 +60,27 @@ from planetnav_env.estimation.ekf_kernels import (
     update_kernel,
 )
 from planetnav_env.estimation.measurement_kernels import measurement_vector_kernel
+from planetnav_env.numerics.gauss_markov import gauss_markov_step
 from planetnav_env.numerics.jit import row_kernel
+from planetnav_env.sensors.camera_config import P_FPX, P_SALPHA, P_SDIR
 from planetnav_env.sensors.camera_kernels import (
     CameraFix,
     CameraModel,
     CameraScratch,
     centroid_bias_kernel,
     measure_row_kernel,
+    measure_sigmas_row_kernel,
+    rotate_in_camera,
+    shift_toward,
 )
+from planetnav_env.sensors.figure import equal_area_radius
+from planetnav_env.sensors.image_noise import (
+    centroid_sigma_px,
+    diameter_sigma_px,
+    image_snr,
+    planet_electrons,
+)
+from planetnav_env.sensors.photometry import lambert_cob_offset
 from planetnav_env.sensors.pulsar import (
     ambiguity_resolvable_row,
     pulsar_visibility_row,
@@ -181,15 +197,44 @@ def measure_planet(prm, st, n, idx, sc):  # pragma: no cover - compiled
     camera = CameraModel(c2b=prm.c2b, params=prm.cam)
     ws = CameraScratch(m=sc.m, u=sc.u6)
     out = CameraFix(los=sc.los, los_true=sc.los_true, mm=sc.mm, pix=sc.pix)
-    _, alpha, alpha_true = measure_row_kernel(
-        sc.r1, sc.q1, sc.t1, 0, prm.radii[idx], sc.noise3, camera, ws, out
-    )
+    if ps.img_on != 0 or ps.oblate != 0:
+        # The flight world's image: the outline of the spheroid, and sigmas from the image itself.
+        rt = _outline_radius(prm, sc, idx) if ps.oblate != 0 else prm.radii[idx]
+        s_dir, s_alpha = prm.cam[P_SDIR], prm.cam[P_SALPHA]
+        if ps.img_on != 0:
+            s_dir, s_alpha = _image_sigmas(prm, sc, idx, rt)
+        _, alpha, alpha_true = measure_sigmas_row_kernel(
+            sc.r1, sc.q1, sc.t1, 0, rt, sc.noise3, camera, ws, out, s_dir, s_alpha
+        )
+    else:
+        _, alpha, alpha_true = measure_row_kernel(
+            sc.r1, sc.q1, sc.t1, 0, prm.radii[idx], sc.noise3, camera, ws, out
+        )
     f[n, F_COB_LAST] = 0.0
     if ps.cob_max > 0.0:
         f[n, F_COB_LAST] = _centroid_bias(sc, idx, alpha_true, f[n, F_COB + idx])
+    xe = f[n, F_XE : F_XE + 6]
+    if ps.cob_lam != 0:
+        # Truth: the Lambertian sphere's centre of brightness at the true phase (true attitude).
+        q = sc.q1[0]
+        cos_phase = _sun_in_body(sc, idx, sc.r1[0, 0], sc.r1[0, 1], sc.r1[0, 2], q[0], q[1], q[2], q[3])
+        delta = lambert_cob_offset(cos_phase) * 0.5 * alpha_true
+        shift_toward(sc.los, sc.dirv, delta)
+        f[n, F_COB_LAST] += delta
+    if ps.drift_on != 0:
+        rotate_in_camera(sc.los, prm.c2b, f[n, F_DRIFT], f[n, F_DRIFT + 1])
+    if ps.cob_fix != 0:
+        # On board: the photometric model's offset at the estimated geometry (estimated position and
+        # attitude, the sphere's size), scaled by the episode's model error, taken off the image.
+        qe = f[n, F_QE : F_QE + 4]
+        ox, oy, oz = xe[0] + sc.central[0], xe[1] + sc.central[1], xe[2] + sc.central[2]
+        cos_est = _sun_in_body(sc, idx, ox, oy, oz, qe[0], qe[1], qe[2], qe[3])
+        pl = sc.planets[idx]
+        dx, dy, dz = pl[0] - ox, pl[1] - oy, pl[2] - oz
+        rad_est = math.asin(min(1.0, prm.radii[idx] / math.sqrt(dx * dx + dy * dy + dz * dz)))
+        shift_toward(sc.los, sc.dirv, -f[n, F_COB_MODEL + idx] * lambert_cob_offset(cos_est) * rad_est)
     f[n, F_PIX] = sc.pix[0]
     f[n, F_PIX + 1] = sc.pix[1]
-    xe = f[n, F_XE : F_XE + 6]
     kind = ps.kind
     for j in range(3):
         sc.dirv[j] = sc.planets[idx, j] - sc.central[j]  # the planet in the filter's frame
@@ -247,22 +292,91 @@ def _onboard_apparent(prm, st, n, idx, sc) -> None:  # pragma: no cover - compil
 
 
 @row_kernel
-def _centroid_bias(sc, idx, alpha_true, scale) -> float:  # pragma: no cover - compiled
-    """Displace the body-frame line of sight ``sc.los`` of planet ``idx`` (heliocentric ``sc.planets[idx]``,
-    seen from ``sc.r1[0]`` at the true attitude ``sc.q1[0]``) by its centre-of-brightness offset
-    (:func:`~planetnav_env.sensors.camera_kernels.centroid_bias_kernel`); uses ``sc.dirv`` and ``sc.rq`` as
-    work space. Returns the offset [rad]."""
-    q = sc.q1[0]
-    dcm_body_to_inertial_kernel(q[0], q[1], q[2], q[3], sc.rq)
+def _sun_in_body(sc, idx, ox, oy, oz, q0, q1, q2, q3) -> float:  # pragma: no cover - compiled
+    """The cosine of planet ``idx``'s phase angle (heliocentric ``sc.planets[idx]``, Sun-planet-observer)
+    seen from the heliocentric point ``(ox, oy, oz)`` [km]; writes the unit planet-to-Sun direction in
+    the body axes of the attitude ``q`` into ``sc.dirv`` (``sc.rq`` as work space)."""
+    dcm_body_to_inertial_kernel(q0, q1, q2, q3, sc.rq)
     pl = sc.planets[idx]
     ps_ = math.sqrt(pl[0] * pl[0] + pl[1] * pl[1] + pl[2] * pl[2])
-    cx, cy, cz = sc.r1[0, 0] - pl[0], sc.r1[0, 1] - pl[1], sc.r1[0, 2] - pl[2]
+    cx, cy, cz = ox - pl[0], oy - pl[1], oz - pl[2]
     cn = math.sqrt(cx * cx + cy * cy + cz * cz)
     # The Sun is the heliocentric origin: the planet-to-Sun direction is -planet.
     cos_phase = -(pl[0] * cx + pl[1] * cy + pl[2] * cz) / (ps_ * cn)
     for k in range(3):  # planet-to-Sun direction in body axes: R^T (-planet / |planet|)
         sc.dirv[k] = -(sc.rq[0, k] * pl[0] + sc.rq[1, k] * pl[1] + sc.rq[2, k] * pl[2]) / ps_
+    return cos_phase
+
+
+@row_kernel
+def _centroid_bias(sc, idx, alpha_true, scale) -> float:  # pragma: no cover - compiled
+    """Displace the body-frame line of sight ``sc.los`` of planet ``idx`` (heliocentric ``sc.planets[idx]``,
+    seen from ``sc.r1[0]`` at the true attitude ``sc.q1[0]``) by its uniform-disk centre-of-brightness
+    offset (:func:`~planetnav_env.sensors.camera_kernels.centroid_bias_kernel`); uses ``sc.dirv`` and
+    ``sc.rq`` as work space. Returns the offset [rad]."""
+    q = sc.q1[0]
+    cos_phase = _sun_in_body(sc, idx, sc.r1[0, 0], sc.r1[0, 1], sc.r1[0, 2], q[0], q[1], q[2], q[3])
     return centroid_bias_kernel(sc.los, sc.dirv, cos_phase, alpha_true, scale)
+
+
+@row_kernel
+def _outline_radius(prm, sc, idx) -> float:  # pragma: no cover - compiled
+    """The radius [km] of the circle of the area of planet ``idx``'s spheroidal outline seen along the true
+    line of sight ``sc.r1[0]`` -> ``sc.t1[0]`` (:func:`~planetnav_env.sensors.figure.equal_area_radius`;
+    ``sc.dirv`` as work space): what a limb fit of the true outline gives for its size."""
+    n2 = 0.0
+    for k in range(3):
+        sc.dirv[k] = sc.t1[0, k] - sc.r1[0, k]
+        n2 += sc.dirv[k] * sc.dirv[k]
+    inv = 1.0 / math.sqrt(n2)
+    for k in range(3):
+        sc.dirv[k] *= inv
+    fig = prm.figure[idx]
+    return equal_area_radius(prm.radii[idx], fig[0], sc.dirv, fig[1:4])
+
+
+@row_kernel
+def _image_sigmas(prm, sc, idx, rt) -> tuple[float, float]:  # pragma: no cover - compiled
+    """The truth's sigmas of this image of planet ``idx`` (apparent radius ``rt`` [km], true target
+    ``sc.t1[0]`` from ``sc.r1[0]``): per axis across the line of sight and of the angular diameter [rad],
+    from the disk's size in pixels and the image's SNR (:mod:`planetnav_env.sensors.image_noise`)."""
+    ps = prm.scalars[0]
+    f_px = prm.cam[P_FPX]
+    dx, dy, dz = sc.t1[0, 0] - sc.r1[0, 0], sc.t1[0, 1] - sc.r1[0, 1], sc.t1[0, 2] - sc.r1[0, 2]
+    dist = math.sqrt(dx * dx + dy * dy + dz * dz)
+    d_px = 2.0 * math.asin(rt / dist) * f_px
+    pl = sc.planets[idx]
+    sun = math.sqrt(pl[0] * pl[0] + pl[1] * pl[1] + pl[2] * pl[2])
+    cos_phase = (pl[0] * dx + pl[1] * dy + pl[2] * dz) / (sun * dist)  # (-pl) . (r - pl), r - pl ~ -d
+    e = planet_electrons(prm.figure[idx, 4], rt, sun, dist, cos_phase, ps.img_collect)
+    snr = image_snr(e, d_px, ps.img_psf, ps.img_fw, ps.img_rn)
+    s_c = centroid_sigma_px(d_px, snr, ps.img_psf, ps.img_floor, ps.img_limb)
+    s_d = diameter_sigma_px(d_px, snr, ps.img_psf, ps.img_floor, ps.img_limb)
+    return s_c / f_px, s_d / f_px
+
+
+@row_kernel
+def drift_reset(prm, st, n, sc) -> None:  # pragma: no cover - compiled
+    """The boresight drift of row ``n`` at reset: its stationary distribution, ``drift_sigma`` times a
+    standard normal per camera axis, from the stream ``NOISE_DRIFT``."""
+    f, i, rng = st.f, st.i, st.rng
+    sigma = prm.scalars[0].drift_sigma
+    noise_begin(prm, i, rng, n, NOISE_DRIFT, sc)
+    for j in range(2):
+        f[n, F_DRIFT + j] = sigma * next_normal(prm, rng, n, sc)
+
+
+@row_kernel
+def drift_step(prm, st, n, sc) -> None:  # pragma: no cover - compiled
+    """The boresight drift of row ``n`` one physics step (``step_s``) on: the exact Gauss-Markov
+    transition of :func:`~planetnav_env.numerics.gauss_markov.gauss_markov_step` per camera axis, driven
+    by the stream ``NOISE_DRIFT``."""
+    f, i, rng = st.f, st.i, st.rng
+    ps = prm.scalars[0]
+    noise_begin(prm, i, rng, n, NOISE_DRIFT, sc)
+    for j in range(2):
+        w = next_normal(prm, rng, n, sc)
+        f[n, F_DRIFT + j] = gauss_markov_step(f[n, F_DRIFT + j], ps.drift_sigma, ps.drift_tau, ps.step_s, w)
 
 
 @row_kernel

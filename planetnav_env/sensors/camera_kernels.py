@@ -58,6 +58,9 @@ __all__ = [
     "Occulters",
     "measure_into_kernel",
     "measure_row_kernel",
+    "measure_sigmas_row_kernel",
+    "rotate_in_camera",
+    "shift_toward",
     "visibility_codes_kernel",
     "visibility_row_kernel",
 ]
@@ -344,15 +347,36 @@ def measure_row_kernel(
 
     The one implementation of the measurement model (the batch kernel and the simulation core call it).
     Writes the noisy and true body-frame lines of sight, the image point [mm] and [px] into ``out``;
-    returns (status, noisy angular diameter, true angular diameter) [rad]. Allocates nothing.
+    returns (status, noisy angular diameter, true angular diameter) [rad]. Allocates nothing. The sigmas
+    are the camera's (``P_SDIR``, ``P_SALPHA``); :func:`measure_sigmas_row_kernel` takes them per image.
     """
+    p = camera.params
+    return measure_sigmas_row_kernel(r, q, t, i, rt, z, camera, ws, out, p[P_SDIR], p[P_SALPHA])
+
+
+@row_kernel
+def measure_sigmas_row_kernel(
+    r: np.ndarray,
+    q: np.ndarray,
+    t: np.ndarray,
+    i: int,
+    rt: float,
+    z: np.ndarray,
+    camera: CameraModel,
+    ws: CameraScratch,
+    out: CameraFix,
+    s_dir: float,
+    s_alpha: float,
+) -> tuple[int, float, float]:
+    """:func:`measure_row_kernel` with this image's sigmas: ``s_dir`` [rad] per axis across the line of
+    sight and ``s_alpha`` [rad] of the angular diameter (the flight world's image-driven errors,
+    :mod:`planetnav_env.sensors.image_noise`)."""
     c2b, p, u = camera.c2b, camera.params, ws.u
     los, los_true, mm, pix = out.los, out.los_true, out.mm, out.pix
     dist, st = _target_los(r, q, t, i, rt, c2b, ws.m, u)
     if st != _OK:
         return st, 0.0, 0.0
     f_px, cx, cy, f_mm = p[P_FPX], p[P_CX], p[P_CY], p[P_FMM]
-    s_dir, s_alpha = p[P_SDIR], p[P_SALPHA]
     a = 2.0 * math.asin(rt / dist)
     ux, uy, uz = u[3], u[4], u[5]
     # Tangent basis at the true LOS: e1 = camera X projected off the LOS (camera Y when the LOS is within
@@ -419,6 +443,45 @@ def centroid_bias_kernel(los, sun_dir, cos_phase, alpha, scale) -> float:  # pra
     for k in range(3):
         los[k] = c * los[k] + s_ * (sun_dir[k] - d * los[k])
     return delta
+
+
+@row_kernel
+def shift_toward(los, direction, delta) -> None:  # pragma: no cover - compiled
+    """Turn the unit line of sight ``los`` (3,) in place by the angle ``delta`` [rad] toward the component
+    of the unit ``direction`` (3,) across it (away from it for ``delta`` < 0); unchanged when
+    ``direction`` is along ``los``. The centre-of-brightness offset and its onboard correction."""
+    d = direction[0] * los[0] + direction[1] * los[1] + direction[2] * los[2]
+    px, py, pz = direction[0] - d * los[0], direction[1] - d * los[1], direction[2] - d * los[2]
+    norm = math.sqrt(px * px + py * py + pz * pz)
+    if norm < 1e-12:
+        return
+    c, s_ = math.cos(delta), math.sin(delta) / norm
+    los[0] = c * los[0] + s_ * px
+    los[1] = c * los[1] + s_ * py
+    los[2] = c * los[2] + s_ * pz
+
+
+@row_kernel
+def rotate_in_camera(los, c2b, ax, ay) -> None:  # pragma: no cover - compiled
+    """Rotate the body-frame unit vector ``los`` (3,) in place by the rotation vector ``(ax, ay, 0)``
+    [rad] of the camera's axes (``c2b``: camera -> body): ``los <- C R(a) C^T los`` (Rodrigues; exact at
+    any angle). The boresight drift's turn of a planet image."""
+    vx = c2b[0, 0] * los[0] + c2b[1, 0] * los[1] + c2b[2, 0] * los[2]
+    vy = c2b[0, 1] * los[0] + c2b[1, 1] * los[1] + c2b[2, 1] * los[2]
+    vz = c2b[0, 2] * los[0] + c2b[1, 2] * los[1] + c2b[2, 2] * los[2]
+    phi = math.sqrt(ax * ax + ay * ay)
+    if phi == 0.0:
+        return
+    kx, ky = ax / phi, ay / phi  # unit axis (kz = 0)
+    c, s_ = math.cos(phi), math.sin(phi)
+    kv = kx * vx + ky * vy
+    # k x v with k = (kx, ky, 0)
+    cx_, cy_, cz_ = ky * vz, -kx * vz, kx * vy - ky * vx
+    wx = vx * c + cx_ * s_ + kx * kv * (1.0 - c)
+    wy = vy * c + cy_ * s_ + ky * kv * (1.0 - c)
+    wz = vz * c + cz_ * s_
+    for k in range(3):
+        los[k] = c2b[k, 0] * wx + c2b[k, 1] * wy + c2b[k, 2] * wz
 
 
 @njit(cache=True, nogil=True)

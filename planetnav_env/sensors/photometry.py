@@ -26,6 +26,35 @@ from planetnav_env.numerics.jit import row_kernel
 #: The Lambertian sphere's centre-of-brightness offset at quadrature (alpha = 90 deg), in disk radii.
 COB_LAMBERT_QUADRATURE = 3.0 * math.pi / 16.0
 
+#: Geometric albedos (V band) of the bodies a camera may target: Mallama, Krobusek & Pavlov (2017),
+#: "Comprehensive wide-band magnitudes and albedos for the planets, with applications to exo-planets and
+#: Planet Nine", Icarus 282:19, table 12; the Moon's 0.12 is the classical value (Allen's Astrophysical
+#: Quantities, 4th ed., sec. 12.3). The image-driven camera errors read them (the planet's brightness).
+GEOMETRIC_ALBEDO = {
+    "mercury": 0.142,
+    "venus": 0.689,
+    "earth": 0.434,
+    "moon": 0.12,
+    "mars": 0.170,
+    "jupiter": 0.538,
+    "saturn": 0.499,
+}
+
+
+@row_kernel
+def lambert_phase_function(cos_phase: float) -> float:  # pragma: no cover - compiled
+    """The Lambertian sphere's phase function Phi(alpha) = (sin alpha + (pi - alpha) cos alpha) / pi, its
+    flux at phase angle ``acos(cos_phase)`` over its flux at full phase (1 at 0, 1/pi at quadrature, 0 at
+    pi): the lune integral of the module docstring, ``cos_phase`` clipped to [-1, 1]."""
+    c = min(max(cos_phase, -1.0), 1.0)
+    return max(0.0, _lune_flux(c)) / math.pi
+
+
+@row_kernel
+def _lune_flux(c: float) -> float:  # pragma: no cover - compiled
+    """sin(alpha) + (pi - alpha) cos(alpha) at cos(alpha) = ``c`` in [-1, 1]."""
+    return math.sqrt(max(0.0, 1.0 - c * c)) + (math.pi - math.acos(c)) * c
+
 
 @row_kernel
 def lambert_cob_offset(cos_phase: float) -> float:  # pragma: no cover - compiled
@@ -34,9 +63,8 @@ def lambert_cob_offset(cos_phase: float) -> float:  # pragma: no cover - compile
     is clipped to [-1, 1]; at ``alpha = pi`` (the night side facing the camera) nothing is lit and 0 is
     returned."""
     c = min(max(cos_phase, -1.0), 1.0)
-    alpha = math.acos(c)
     s = math.sqrt(max(0.0, 1.0 - c * c))
-    flux = s + (math.pi - alpha) * c
+    flux = _lune_flux(c)
     if flux <= 0.0:
         return 0.0
     return COB_LAMBERT_QUADRATURE * s * (1.0 + c) / flux
