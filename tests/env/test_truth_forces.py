@@ -59,7 +59,15 @@ def _truth_path(prm, eph, f, n, steps, dt, out):  # pragma: no cover - compiled
     for s in range(steps):
         t = t0 + s * dt
         perturbers_at(prm, eph, f, n, t, dt, sc.pert)
-        orbit = OrbitModel(mu=prm.scalars[0].mu, p0=sc.pert[0], p1=sc.pert[1], p2=sc.pert[2], mus=prm.mus)
+        orbit = OrbitModel(
+            mu=prm.scalars[0].mu,
+            p0=sc.pert[0],
+            p1=sc.pert[1],
+            p2=sc.pert[2],
+            mus=prm.mus,
+            srp_k=0.0,
+            srp_sun=-1,
+        )
         propagate_truth(prm, eph, f, n, t, dt, orbit, sc)
         for j in range(6):
             out[s, j] = f[n, L.F_X + j]
