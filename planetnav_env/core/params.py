@@ -118,8 +118,20 @@ class ChannelPlan:
             cols += truth_cols
             cols += [truth.position(p, times) for p in self.planets]
             if self.with_ssb:
-                cols.append(t_central + truth.sun_barycentric_position(times))
+                cols.append(t_central + truth_barycentre_offset(ephemeris, truth, times))
         return np.stack(cols, axis=1)
+
+
+def truth_barycentre_offset(onboard, truth, times: np.ndarray) -> np.ndarray:
+    """(T, 3) [km] the Sun relative to the barycentre in truth at ``times`` [TDB s], as the pulsars'
+    timing models see it: the truth ephemeris' offset less its constant difference from the onboard
+    one's at ``times[0]`` (the episode's start). Two DE fits put the barycentre ~116 km apart almost
+    constantly (DE440 counts the Kuiper belt's mass, DE421 does not: docs/flight_world.md); a timing
+    model fitted with the onboard ephemeris holds that constant in its phase, so what is left for the
+    filter is the offset's change over the episode and the heliocentric positions' difference."""
+    t0 = times[:1]
+    frame = truth.sun_barycentric_position(t0) - onboard.sun_barycentric_position(t0)
+    return truth.sun_barycentric_position(times) - frame
 
 
 def bias_quaternion(bias_arcsec: tuple[float, float, float]) -> np.ndarray:
