@@ -126,7 +126,9 @@ def _nominal_path(prm, eph, f1, p1, i1, obs1, x0, n_steps, t0):  # pragma: no co
                 dirv[j] = sc.planets[a, j] - (xe[j] + sc.central[j])
             frame_kernel(dirv, roll, fr_pl[k, a])
         perturbers_at(prm, eph, f1, 0, t, dt, sc.pert)
-        orbit = OrbitModel(mu=ps.mu, p0=sc.pert[0], p1=sc.pert[1], p2=sc.pert[2], mus=prm.mus)
+        orbit = OrbitModel(
+            mu=ps.mu, p0=sc.pert[0], p1=sc.pert[1], p2=sc.pert[2], mus=prm.mus, srp_k=0.0, srp_sun=-1
+        )
         predict_kernel(xe, pdummy, dt, orbit, prm.qproc, ps.euler != 0, pws)
         phis[k] = sc.phi
         # The nominal thrust over a whole step: t_on = dt, position moment dt^2 / 2.

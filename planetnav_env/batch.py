@@ -25,7 +25,7 @@ from typing import Any
 
 import numpy as np
 
-from planetnav_env.astro.ephemeris import DEEphemeris
+from planetnav_env.astro.ephemeris import DEEphemeris, ephemeris_path
 from planetnav_env.attitude import quaternion as qt
 from planetnav_env.config import EnvConfig
 from planetnav_env.core import kernels as K
@@ -117,15 +117,25 @@ class BatchCore:
             central, perturbers = "sun", ()
         self.gravity = GravityModel(central, perturbers)
         # The truth's own force model (world.truth_forces_on): every planet as a third body, or with SRP
-        # alone the filter's perturbers, in channels of its own.
+        # or its own ephemeris alone the filter's perturbers, in channels of its own; with SRP on a
+        # planetary approach the Sun is among them (its direction and distance).
         world = cfg.world
         if world.truth_forces_on:
             bodies = truth_perturbers(central) if world.third_bodies_on else tuple(perturbers)
+            if world.srp_on and central != "sun" and "sun" not in bodies:
+                bodies = ("sun", *bodies)
             self.truth_gravity: GravityModel | None = GravityModel(central, bodies)
         else:
             self.truth_gravity = None
         truth_bodies = self.truth_gravity.perturbers if self.truth_gravity is not None else ()
-        self.plan = ChannelPlan(central, cfg.planets, tuple(perturbers), bool(cfg.pulsars), truth_bodies)
+        self.plan = ChannelPlan(
+            central,
+            cfg.planets,
+            tuple(perturbers),
+            bool(cfg.pulsars),
+            truth_bodies,
+            world.truth_ephemeris_apart,
+        )
         truth_mus = None
         if self.truth_gravity is not None:
             truth_mus = np.asarray(self.truth_gravity.mu_perturbers, dtype=float)
@@ -145,6 +155,12 @@ class BatchCore:
         self.obs = np.zeros((n, self.layout.size))
         self.episodes: list[RowEpisode | None] = [None] * n
         self._ephemeris = DEEphemeris()
+        # The truth's ephemeris (world.truth_ephemeris): DE421 itself, or DE440 mapped once per process.
+        self._truth_ephemeris = (
+            DEEphemeris(ephemeris_path(world.truth_ephemeris_name))
+            if world.truth_ephemeris_apart
+            else self._ephemeris
+        )
         self._table_cache: tuple[float, np.ndarray] | None = None
         self._all = np.ones(n, dtype=np.bool_)
         # The decoding of the rows' actions (kernels.decide_row writes it at a decision's start).
@@ -183,7 +199,8 @@ class BatchCore:
             coeffs = np.zeros(spec.shape)
         else:
             coeffs = fit_table(
-                lambda t: self.plan.positions(self._ephemeris, t), epoch, spec.span_s, spec.n_channels,
+                lambda t: self.plan.positions(self._ephemeris, t, self._truth_ephemeris), epoch, spec.span_s,
+                spec.n_channels,
                 segment_s=spec.segment_s, degree=spec.degree,
             )  # fmt: skip
         self._table_cache = (epoch, coeffs)
@@ -234,10 +251,15 @@ class BatchCore:
         if cfg.prior_long_sigma_km > 0.0:
             self._elongate_prior(gen, f, p)
         world = cfg.world
-        if world.srp_in(cfg.scenario):
+        if world.srp_on:
             # Drawn after every other draw: a world without SRP draws nothing new.
             c_r = gen.uniform(*world.reflectivity_range)
             f[L.F_SRP_K] = srp_gm(world.area_to_mass_m2_kg, c_r)
+        ops = cfg.operations
+        if ops is not None and world.thrust_gauss_markov_on:
+            # The execution error's stationary start (magnitude fraction, two pointing angles [rad]).
+            sig = np.array([ops.thrust_mag_sigma, *(2 * [math.radians(ops.thrust_point_sigma_deg)])])
+            f[L.F_THR_GM : L.F_THR_GM + 3] = sig * gen.standard_normal(3)
         if world.process_noise_tuned:
             a_omit = float(np.linalg.norm(self.omitted_acceleration(ep.epoch, x)))
             f[L.F_Q_PSD] = tuned_accel_psd(a_omit, episode_duration_s(cfg), cfg.filter.accel_psd)
@@ -255,19 +277,22 @@ class BatchCore:
         the truth flies the filter's model."""
         if self.truth_gravity is None:
             return np.zeros(3)
-        eph, central = self._ephemeris, self.plan.central_body
+        central = self.plan.central_body
         t = np.array([float(epoch)])
-        c = eph.position(central, t)[0] if central != "sun" else np.zeros(3)
         r = np.asarray(x, dtype=float)[None, :3]
 
-        def rel(bodies: tuple[str, ...]) -> np.ndarray | None:
+        def rel(eph: DEEphemeris, bodies: tuple[str, ...]) -> np.ndarray | None:
+            c = eph.position(central, t)[0] if central != "sun" else np.zeros(3)
             return np.stack([eph.position(b, t)[0] - c for b in bodies]) if bodies else None
 
         truth, onboard = self.truth_gravity, self.gravity
-        a = truth.acceleration(r, rel(truth.perturbers)) - onboard.acceleration(r, rel(onboard.perturbers))
+        a = truth.acceleration(r, rel(self._truth_ephemeris, truth.perturbers))
+        a = a - onboard.acceleration(r, rel(self._ephemeris, onboard.perturbers))
         world = self.config.world
-        if world.srp_in(self.config.scenario):
-            s = r[0] + c  # heliocentric
+        if world.srp_on:
+            # Away from the Sun (the heliocentric origin, or the Sun among the approach's perturbers).
+            sun = -self._truth_ephemeris.position(central, t)[0] if central != "sun" else np.zeros(3)
+            s = r[0] - sun
             k = srp_gm(world.area_to_mass_m2_kg, world.reflectivity_range[1])
             a[0] += k * s / np.linalg.norm(s) ** 3
         return a[0]

@@ -400,13 +400,6 @@ class EnvConfig:
                 f"({self.filter.sigma_pos0} km), got {self.prior_long_sigma_km}"
             )
         _check_ephemeris_span(self)
-        if self.scenario == "mars-approach" and self.world.srp is True:
-            raise OptionError(
-                "world.srp",
-                "False or None on scenario 'mars-approach' (SRP in truth is modelled on the heliocentric "
-                "scenarios only)",
-                self.world.srp,
-            )
         ratio = self.step_s / self.attitude_substep_s
         if abs(ratio - round(ratio)) > 1e-9:
             raise ConfigError(

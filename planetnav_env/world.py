@@ -8,18 +8,18 @@ effect alone (a regime map's axis, or one effect's share of the flight world's e
 * ``"matched"`` (the default of every registered id): the truth is the onboard model. Every line of
   sight is geometric and instantaneous; the golden hashes of the ids are this world's.
 * ``"flight"``: a truth that the onboard model only approximates, at flight-like magnitudes. Today it
-  holds light time and stellar aberration on every line of sight, and the truth's own force model (every
-  planet's point mass, cannonball SRP with a reflectivity drawn per episode) against the filter's
-  (``docs/flight_world.md``), whose process noise is then tuned to what it omits; and the camera's
+  holds light time and stellar aberration on every line of sight; the truth's own force model (every
+  planet's point mass, cannonball SRP with a reflectivity drawn per episode, on every scenario) against
+  the filter's (``docs/flight_world.md``), whose process noise is then tuned to what it omits; a newer
+  ephemeris in truth (DE440) than on board (DE421); the thrust arc's execution error as its documented
+  first-order Gauss-Markov process; the pulsars' Shapiro delay in the arrival times; and the camera's
   truth: errors from the image (``image_errors``: centroid and diameter sigmas from the disk's size in
   pixels and the image's SNR), the Lambertian centre-of-brightness offset at the true phase with an
   onboard photometric correction of a scale error drawn per episode (``lambert_cob``), oblate planets
   (``oblate_planets``) and a Gauss-Markov boresight drift of the planet camera (``boresight_drift``).
   Two effects are modelled but off in both presets: the uniform-disk centroid bias the filter does not
   correct (``centroid_bias_max``, for regime maps) and the pulsar timing-model error
-  (``pulsar_frequency_error_max``), each set on its own. The other effects of a flight world (a newer
-  ephemeris in truth, attitude disturbances) are not modelled yet and will join as options of this
-  section.
+  (``pulsar_frequency_error_max``), each set on its own.
 
 On board, the filter applies the corrections flight optical navigation applies to each effect that is on
 in truth, computed from its *estimated* state (``onboard_corrections``, default: on); switching them
@@ -44,10 +44,14 @@ PRESETS = ("matched", "flight")
 EXPECTED = (
     "one of 'matched', 'flight' (str), or a WorldConfig (in EnvConfig.from_dict / YAML a mapping of its "
     "options: preset, light_time, aberration, onboard_corrections, third_bodies, srp, area_to_mass_m2_kg, "
-    "reflectivity_range, process_noise, image_errors, centroid_floor_px, limb_scatter, aperture_mm, "
-    "exposure_s, full_well_e, read_noise_e, psf_sigma_px, lambert_cob, cob_model_error, oblate_planets, "
-    "boresight_drift, drift_sigma_arcsec, drift_tau_s, centroid_bias_max, pulsar_frequency_error_max)"
+    "reflectivity_range, process_noise, truth_ephemeris, thrust_gauss_markov, pulsar_shapiro, "
+    "image_errors, centroid_floor_px, limb_scatter, aperture_mm, exposure_s, full_well_e, read_noise_e, "
+    "psf_sigma_px, lambert_cob, cob_model_error, oblate_planets, boresight_drift, drift_sigma_arcsec, "
+    "drift_tau_s, centroid_bias_max, pulsar_frequency_error_max)"
 )
+
+#: The JPL ephemerides the truth can follow (``truth_ephemeris``); the onboard model always carries DE421.
+EPHEMERIDES = ("de421", "de440")
 
 #: The bodies of the ephemeris whose point masses act on the truth with third bodies on: every planet
 #: DEEphemeris gives (the gas giants as their system barycentres, which hold their moons' mass), the Earth
@@ -74,10 +78,12 @@ class WorldConfig:
     """The truth's world: a ``preset`` and its effects, each ``None`` (the preset's) or set on its own.
 
     The resolved values the core reads are :attr:`light_time_on`, :attr:`aberration_on`,
-    :attr:`light_time_corrected`, :attr:`aberration_corrected`, :attr:`centroid_bias_bound`,
+    :attr:`light_time_corrected`, :attr:`aberration_corrected`, :attr:`third_bodies_on`, :attr:`srp_on`,
+    :attr:`truth_ephemeris_name`, :attr:`thrust_gauss_markov_on`, :attr:`shapiro_on`,
+    :attr:`shapiro_corrected`, :attr:`process_noise_tuned`, :attr:`centroid_bias_bound`,
     :attr:`pulsar_frequency_error_bound`, :attr:`image_errors_on`, :attr:`lambert_cob_on`,
     :attr:`lambert_cob_corrected`, :attr:`oblate_on` and :attr:`drift_on` (with the camera effects'
-    parameters as set), besides the force model's."""
+    parameters as set)."""
 
     preset: str = option(
         "matched",
@@ -197,10 +203,9 @@ class WorldConfig:
     srp: bool | None = option(
         None,
         kind="bool",
-        doc="cannonball solar radiation pressure in truth from ``area_to_mass_m2_kg`` and a reflectivity "
-        "drawn per episode in ``reflectivity_range`` (heliocentric scenarios; not modelled on the Mars "
-        "approach yet: there ``flight`` leaves it off and True is an error). The filter does not model "
-        "it. None: on in ``flight``, off in ``matched``",
+        doc="cannonball solar radiation pressure in truth (every scenario) from ``area_to_mass_m2_kg`` "
+        "and a reflectivity drawn per episode in ``reflectivity_range``. The filter does not model it. "
+        "None: on in ``flight``, off in ``matched``",
     )
     process_noise: str | None = option(
         None,
@@ -211,6 +216,28 @@ class WorldConfig:
         "force model omits at the episode's initial state (the truth's third bodies and SRP at the top of "
         "``reflectivity_range``, minus the filter's) and T the episode's span (docs/flight_world.md). "
         "None: ``tuned`` when the truth flies its own force model, else ``filter``",
+    )
+    truth_ephemeris: str | None = option(
+        None,
+        kind="str",
+        choices=EPHEMERIDES,
+        doc="the JPL ephemeris the truth follows (its third bodies, central body, the planets the camera "
+        "sees, the pulsars' barycentre); the filter, the rules and the observation keep DE421. None: "
+        "``de440`` in ``flight``, ``de421`` in ``matched``",
+    )
+    thrust_gauss_markov: bool | None = option(
+        None,
+        kind="bool",
+        doc="the thrust execution error in truth as its first-order Gauss-Markov process (the "
+        "operations' sigmas and thrust_corr_time_s); False: white noise of the filter's PSD 2 sigma^2 "
+        "tau, which the filter keeps either way. None: on in ``flight``, off in ``matched``",
+    )
+    pulsar_shapiro: bool | None = option(
+        None,
+        kind="bool",
+        doc="the Sun's Shapiro delay in the pulsars' arrival times in truth (~10 km of range at 1 AU); "
+        "the filter models it from its estimate (``onboard_corrections``). None: on in ``flight``, off "
+        "in ``matched``",
     )
     area_to_mass_m2_kg: float = option(
         0.01,
@@ -319,19 +346,41 @@ class WorldConfig:
 
     @property
     def srp_on(self) -> bool:
-        """Cannonball SRP in the truth's force model (where the scenario models it: see
-        :meth:`srp_in`)."""
+        """Cannonball SRP in the truth's force model (every scenario)."""
         return self.flight if self.srp is None else self.srp
 
-    def srp_in(self, scenario: str) -> bool:
-        """SRP in the truth on ``scenario`` (heliocentric scenarios only: the preset leaves it off on the
-        Mars approach, where setting it is an error)."""
-        return self.srp_on and scenario != "mars-approach"
+    @property
+    def truth_ephemeris_name(self) -> str:
+        """The JPL ephemeris the truth follows (:data:`EPHEMERIDES`)."""
+        if self.truth_ephemeris is not None:
+            return self.truth_ephemeris
+        return "de440" if self.flight else "de421"
+
+    @property
+    def truth_ephemeris_apart(self) -> bool:
+        """The truth follows another ephemeris than the onboard model's DE421."""
+        return self.truth_ephemeris_name != "de421"
 
     @property
     def truth_forces_on(self) -> bool:
-        """The truth flies its own force model, apart from the filter's."""
-        return self.third_bodies_on or self.srp_on
+        """The truth flies its own force model, apart from the filter's (its own bodies, SRP, or the same
+        bodies from its own ephemeris)."""
+        return self.third_bodies_on or self.srp_on or self.truth_ephemeris_apart
+
+    @property
+    def thrust_gauss_markov_on(self) -> bool:
+        """The thrust execution error in truth is the Gauss-Markov process (else the filter's white noise)."""
+        return self.flight if self.thrust_gauss_markov is None else self.thrust_gauss_markov
+
+    @property
+    def shapiro_on(self) -> bool:
+        """The Sun's Shapiro delay in the truth's pulsar arrival times."""
+        return self.flight if self.pulsar_shapiro is None else self.pulsar_shapiro
+
+    @property
+    def shapiro_corrected(self) -> bool:
+        """The filter's pulsar phase model holds the Shapiro delay, from its estimate."""
+        return self.shapiro_on and self.corrections_on
 
     @property
     def process_noise_tuned(self) -> bool:
@@ -347,6 +396,8 @@ class WorldConfig:
             self.light_time_on
             or self.aberration_on
             or self.truth_forces_on
+            or self.thrust_gauss_markov_on
+            or self.shapiro_on
             or self.centroid_bias_bound > 0.0
             or self.image_errors_on
             or self.lambert_cob_on
@@ -357,23 +408,28 @@ class WorldConfig:
 
 
 #: Each effect of the flight world, by its option, and the value that switches it off alone (its matched
-#: value); what a study of one effect's share sets (``flight_effects``).
+#: value); what a study of one effect's share sets (:func:`flight_effects`).
 EFFECTS_OFF: dict[str, Any] = {
     "light_time": False,
     "aberration": False,
     "third_bodies": False,
     "srp": False,
+    "truth_ephemeris": "de421",
+    "thrust_gauss_markov": False,
+    "pulsar_shapiro": False,
+    "image_errors": False,
+    "lambert_cob": False,
+    "oblate_planets": False,
+    "boresight_drift": False,
 }
 
+#: The effects that act only where the scenario has the sensor or the manoeuvre they concern.
+_NEEDS = {"thrust_gauss_markov": "thrust", "pulsar_shapiro": "pulsars"}
 
-def flight_effects(scenario: str) -> dict[str, Any]:
-    """The effects the ``flight`` preset turns on on ``scenario`` (a scenario name of
-    :class:`~planetnav_env.config.EnvConfig`), each option mapped to the value that switches it off alone."""
-    flight = WorldConfig(preset="flight")
-    on = {
-        "light_time": flight.light_time_on,
-        "aberration": flight.aberration_on,
-        "third_bodies": flight.third_bodies_on,
-        "srp": flight.srp_in(scenario),
-    }
-    return {name: off for name, off in EFFECTS_OFF.items() if on[name]}
+
+def flight_effects(thrust: bool = True, pulsars: bool = True) -> dict[str, Any]:
+    """The effects the ``flight`` preset turns on, each option mapped to the value that switches it off
+    alone; ``thrust`` / ``pulsars`` False leaves out those that act only on a thrust arc / on pulsar
+    timing (a scenario without them, where switching them off changes nothing)."""
+    has = {"thrust": thrust, "pulsars": pulsars}
+    return {name: off for name, off in EFFECTS_OFF.items() if name not in _NEEDS or has[_NEEDS[name]]}

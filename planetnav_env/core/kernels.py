@@ -89,8 +89,10 @@ from planetnav_env.core.observation import camera_visibility, clear_counters, co
 from planetnav_env.core.operations import (
     add_thrust_q,
     apply_thrust,
+    apply_thrust_error,
     planned_direction,
     reset_operations,
+    step_thrust_error,
     thrust_axis_on,
     thrust_noise,
 )
@@ -100,6 +102,7 @@ from planetnav_env.core.row_ephemeris import (
     perturbers_at,
     planets_at,
     row_time,
+    truth_bodies_at,
     truth_perturbers_at,
 )
 from planetnav_env.core.row_noise import NOISE_IMAGE, next_uniform, noise_begin
@@ -150,14 +153,19 @@ def propagate_truth(prm, eph, f, n, t, dt, orbit, sc) -> None:  # pragma: no cov
     """The true orbit state of row ``n`` (``f[n, F_X:F_X + 6]`` [km, km/s], central-body frame) advanced
     in place by one RK4 step of ``dt`` [s] from ``t`` [TDB s]. The matched world's truth flies the
     filter's field ``orbit``; with its own force model (``truth_own``) it flies that: its perturbers
-    (every planet as a third body, from the row's table), and with SRP (heliocentric only) the Sun's GM
-    reduced by the row's cannonball coefficient ``F_SRP_K`` (``dynamics.srp.srp_gm``: radial, 1 / r^2)."""
+    (every planet as a third body, from the row's table, fitted from the truth's ephemeris), and with SRP
+    the row's cannonball coefficient ``F_SRP_K`` (``dynamics.srp.srp_gm``) pushing away from the Sun: the
+    central body on the heliocentric scenarios, the perturber ``srp_sun`` on a planetary approach (where
+    the Sun's pull on the central body, the indirect term, feels no light pressure)."""
     ps = prm.scalars[0]
     x = f[n, F_X : F_X + 6]
     if ps.truth_own != 0:
         truth_perturbers_at(prm, eph, f, n, t, dt, sc.tpert)
-        mu_truth = ps.mu - f[n, F_SRP_K] if ps.srp_on != 0 else ps.mu
-        truth = OrbitModel(mu=mu_truth, p0=sc.tpert[0], p1=sc.tpert[1], p2=sc.tpert[2], mus=prm.tmus)
+        k_srp = f[n, F_SRP_K] if ps.srp_on != 0 else 0.0
+        truth = OrbitModel(
+            mu=ps.mu, p0=sc.tpert[0], p1=sc.tpert[1], p2=sc.tpert[2], mus=prm.tmus, srp_k=k_srp,
+            srp_sun=ps.srp_sun,
+        )  # fmt: skip
         rk4_kernel(x, dt, truth, sc.x_new, sc.w6, sc.v6)
     else:
         rk4_kernel(x, dt, orbit, sc.x_new, sc.w6, sc.v6)
@@ -262,7 +270,9 @@ def step_row(prm, st, n, target, torque, sc) -> bool:  # pragma: no cover - comp
     # --- orbit truth (state only: it needs no STM) and filter prediction (perturbers from the row's
     # table) ---
     perturbers_at(prm, eph, f, n, t, dt, sc.pert)
-    orbit = OrbitModel(mu=ps.mu, p0=sc.pert[0], p1=sc.pert[1], p2=sc.pert[2], mus=prm.mus)
+    orbit = OrbitModel(
+        mu=ps.mu, p0=sc.pert[0], p1=sc.pert[1], p2=sc.pert[2], mus=prm.mus, srp_k=0.0, srp_sun=-1
+    )
     propagate_truth(prm, eph, f, n, t, dt, orbit, sc)
     pws = PredictScratch(w6=sc.w6, v6=sc.v6, phi=sc.phi, tmp=sc.tmp)
     if ps.q_tuned != 0:
@@ -274,13 +284,19 @@ def step_row(prm, st, n, target, torque, sc) -> bool:  # pragma: no cover - comp
     else:
         predict_kernel(xe, pm, dt, orbit, prm.qproc, ps.euler != 0, pws)
     if ops and t_on > 0.0:
-        # Truth: nominal thrust + execution error drawn from frac * Q_thrust; filter: nominal thrust and
-        # the same Q (the filter knows when the engine was on: it commands it).
+        # Truth: nominal thrust + execution error, drawn from frac * Q_thrust in the matched world and the
+        # Gauss-Markov process in the flight world; filter: nominal thrust and the white-noise Q (the filter
+        # knows when the engine was on: it commands it).
         frac = t_on / dt
         apply_thrust(x, ps.ops_acc, sc.z, t_on, moment)
-        thrust_noise(prm, i, rng, n, x, dt, frac, ps.ops_q_par, ps.ops_q_perp, sc.z, sc)
+        if ps.thr_gm != 0:
+            apply_thrust_error(f, n, x, ps.ops_acc, sc.z, t_on, moment, sc)
+        else:
+            thrust_noise(prm, i, rng, n, x, dt, frac, ps.ops_q_par, ps.ops_q_perp, sc.z, sc)
         apply_thrust(xe, ps.ops_acc, sc.z, t_on, moment)
         add_thrust_q(pm, dt, frac, ps.ops_q_par, ps.ops_q_perp, sc.z)
+    if ops and ps.thr_gm != 0:
+        step_thrust_error(prm, f, i, rng, n, dt, sc)  # the process runs whether the engine thrusts or not
     k += 1
     i[n, I_K] = k
     t = t + dt
@@ -297,12 +313,14 @@ def step_row(prm, st, n, target, torque, sc) -> bool:  # pragma: no cover - comp
     f[n, F_NIS] = np.nan
     eval_channel(prm, eph, f, n, t, ps.ch_central, sc.central)
     if target >= n_p:
+        truth_bodies_at(prm, eph, f, n, t, sc, False)
         measured, rejected, reason = time_pulsar(prm, st, n, target - n_p, t, sc)
         sensor = SENSOR_XRAY if measured else SENSOR_NONE
     else:
         planets_at(prm, eph, f, n, t, sc.planets)
+        truth_bodies_at(prm, eph, f, n, t, sc, True)  # what the camera sees: the truth's ephemeris
         for j in range(3):
-            sc.r1[0, j] = x[j] + sc.central[j]
+            sc.r1[0, j] = x[j] + sc.tcentral[j]
         for j in range(4):
             sc.q1[0, j] = q[j]
         # Torque and hybrid modes (either option): the camera measures the visible planet nearest its
@@ -313,8 +331,8 @@ def step_row(prm, st, n, target, torque, sc) -> bool:  # pragma: no cover - comp
             i[n, I_TARGET] = idx
         if idx >= 0:
             for j in range(3):
-                sc.t1[0, j] = sc.planets[idx, j]
-            vis_status = camera_visibility(prm, sc.r1, sc.q1, sc.t1, 0, prm.radii[idx], sc)
+                sc.t1[0, j] = sc.tplanets[idx, j]
+            vis_status = camera_visibility(prm, sc.r1, sc.q1, sc.t1, 0, prm.radii[idx], sc.tplanets, sc)
             if vis_status != 0:
                 i[n, I_STATUS] = STATUS_CAMERA
                 i[n, I_TERMINATED] = 1

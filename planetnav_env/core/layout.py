@@ -71,12 +71,18 @@ _F_FIELDS = (
     # pulsar timing-model error (world.pulsar_frequency_error_max > 0; unused, 0, otherwise): per
     # pulsar, the range drift c * delta [km/s] of its phases, drawn at reset (every catalogue pulsar fits)
     ("PSR_DRIFT", 4),
-    # solar radiation pressure in truth (world.srp_on; unused, 0, otherwise): the row's cannonball SRP as a
-    # reduction of the Sun's GM [km^3/s^2] (dynamics.srp.srp_gm), its reflectivity drawn at reset
+    # solar radiation pressure in truth (world.srp_on; unused, 0, otherwise): the row's cannonball SRP
+    # coefficient k [km^3/s^2] (dynamics.srp.srp_gm; a = k s / |s|^3, s from the Sun), its reflectivity
+    # drawn at reset
     ("SRP_K", 1),
     # the filter's process noise tuned to what its force model omits (world.process_noise_tuned; unused, 0,
     # otherwise): the row's white-acceleration PSD q [km^2/s^3], set at reset
     ("Q_PSD", 1),
+    # the thrust execution error as a Gauss-Markov process in truth (world.thrust_gauss_markov_on, an
+    # operations scenario; unused, 0, otherwise): the fractional magnitude error along the thrust, then
+    # the pointing errors [rad] about the two cross axes (core.operations.thrust_axes), drawn stationary
+    # at reset and stepped every step
+    ("THR_GM", 3),
     # counters of the observation blocks that keep a history (ObservationLayout; written by
     # core/observation.py's count kernels, cleared at reset); unused otherwise. Widths: MAX_TARGETS = 7
     # planets + 4 pulsars.
@@ -106,6 +112,7 @@ F_COB, F_COB_LAST = F_OFFSETS["COB"][0], F_OFFSETS["COB_LAST"][0]
 F_PSR_DRIFT = F_OFFSETS["PSR_DRIFT"][0]
 F_COB_MODEL, F_DRIFT = F_OFFSETS["COB_MODEL"][0], F_OFFSETS["DRIFT"][0]
 F_SRP_K, F_Q_PSD = F_OFFSETS["SRP_K"][0], F_OFFSETS["Q_PSD"][0]
+F_THR_GM = F_OFFSETS["THR_GM"][0]
 F_SINCE, F_IMG_LOG, F_RES_LOG = (F_OFFSETS[k][0] for k in ("SINCE", "IMG_LOG", "RES_LOG"))
 #: Pulsar slots of PSR_DRIFT.
 MAX_PULSARS = F_OFFSETS["PSR_DRIFT"][1]

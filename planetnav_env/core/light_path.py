@@ -42,10 +42,11 @@ def channel_velocity(prm, eph, f, n, t, channel, out) -> bool:  # pragma: no cov
 
 
 @row_kernel
-def heliocentric_velocity(prm, eph, f, n, t, x, out) -> None:  # pragma: no cover - compiled
+def heliocentric_velocity(prm, eph, f, n, t, x, central, out) -> None:  # pragma: no cover - compiled
     """Heliocentric velocity [km/s] of the state ``x`` (6,) of row ``n`` (relative to the central body)
-    at ``t``: ``x[3:6]`` plus the central body's velocity (zero on a cruise, Mars's on the approach)."""
-    channel_velocity(prm, eph, f, n, t, prm.scalars[0].ch_central, out)
+    at ``t``: ``x[3:6]`` plus the central body's velocity from its channel ``central`` (the truth's or the
+    onboard model's; -1, the Sun: zero on a cruise, Mars's on the approach)."""
+    channel_velocity(prm, eph, f, n, t, central, out)
     for j in range(3):
         out[j] += x[3 + j]
 

@@ -323,11 +323,12 @@ def _planet_features(prm, r_est, qe, pm, sc) -> None:  # pragma: no cover - comp
 
 # Inlined: a call that passes the parameter and scratch records by value costs a few % of a settled step.
 @njit(inline="always", **ROW_KERNEL_OPTIONS)
-def camera_visibility(prm, r, q, t, i, rt, sc) -> int:  # pragma: no cover - compiled
+def camera_visibility(prm, r, q, t, i, rt, planets, sc) -> int:  # pragma: no cover - compiled
     """The camera's visibility rule for target ``t[i]`` (radius ``rt`` [km]) from ``r[i]`` at attitude
-    ``q[i]``, the row's planets and the Sun as occulters: the one place the core builds the camera's
-    records. Its values (``V_*``) go to ``sc.vals``; returns the kernel's status (0: geometry valid)."""
-    occulters = Occulters(pos=sc.planets, radii=prm.radii, sun=True)
+    ``q[i]``, the ``planets`` (P, 3) (the truth's or the onboard model's, heliocentric [km]) and the Sun as
+    occulters: the one place the core builds the camera's records. Its values (``V_*``) go to
+    ``sc.vals``; returns the kernel's status (0: geometry valid)."""
+    occulters = Occulters(pos=planets, radii=prm.radii, sun=True)
     camera = CameraModel(c2b=prm.c2b, params=prm.cam)
     ws = CameraScratch(m=sc.m, u=sc.u6)
     return visibility_row_kernel(r, q, t, i, rt, occulters, camera, ws, sc.vals)
@@ -340,7 +341,7 @@ def _camera_sees(prm, r_est, a, sc) -> bool:  # pragma: no cover - compiled
     ``sc.q_tile[a]``; its values (``V_*``, e.g. the apparent diameter) are left in ``sc.vals``."""
     for c in range(3):
         sc.r_tile[a, c] = r_est[c]
-    st = camera_visibility(prm, sc.r_tile, sc.q_tile, sc.planets, a, prm.radii[a], sc)
+    st = camera_visibility(prm, sc.r_tile, sc.q_tile, sc.planets, a, prm.radii[a], sc.planets, sc)
     return st == 0 and int(sc.vals[V_REASON]) == REASON_VISIBLE
 
 

@@ -14,12 +14,21 @@ Model (both truth and filter, so the filter is consistent by construction):
 * the nominal thrust ``a u`` is added to the RK4 gravity step as ``dr = a m u``, ``dv = a t_on u``: exact
   for a piecewise-constant acceleration in free flight; the gravity gradient's effect on the thrust
   increment over a step, ~ (mu / r^3) dt^2 ~ 1e-10 at 1 AU for 600 s, is left out in both;
-* the execution error is white acceleration noise of PSD ``q_par`` along ``u`` and ``q_perp`` across,
+* the filter's model of the execution error (and the matched world's truth) is white acceleration noise of
+  PSD ``q_par`` along ``u`` and ``q_perp`` across,
   discretised over the step and scaled by the thrust fraction ``f = t_on / dt``:
   ``Q = f [[dt^3/3 A, dt^2/2 A], [dt^2/2 A, dt A]]`` with ``A = q_perp I + (q_par - q_perp) u u^T``
   (:func:`add_thrust_q`). The truth draws its error from exactly this Q (:func:`thrust_noise`) and the
   filter adds exactly this Q, so NEES stays chi-square. Q depends only on the attitude history, not on
   the measured values: the covariance stays independent of the measurements;
+* in the flight world (``world.thrust_gauss_markov``) the truth's execution error is instead the
+  documented first-order Gauss-Markov process: the error acceleration ``a (e_m u + e_1 p_1 + e_2 p_2)``
+  (``p_1``, ``p_2`` the cross axes of :func:`thrust_axes`) of a fractional magnitude error ``e_m``
+  (sigma ``thrust_mag_sigma``) and two pointing errors [rad] (sigma ``thrust_point_sigma_deg``), each a
+  process of correlation time ``thrust_corr_time_s`` (``numerics.gauss_markov``), drawn stationary at
+  reset (the row's state columns ``F_THR_GM``), held over a step and stepped at its end with a noise
+  stream of its own (:func:`step_thrust_error`); the filter keeps the white-noise Q of its PSD
+  ``2 sigma^2 tau`` (the process's low-frequency PSD);
 * delta-v lost [m/s] = ``a (dt - t_on)`` per step: the thrust the engine would have given on attitude;
 * at each deadline epoch t_k (the first step end at or after it) the filter's position knowledge mapped
   to the encounter E by free flight, t_go = E - t: ``sigma_k = sqrt(coasted_position_trace(P, t_go))``
@@ -37,12 +46,21 @@ from planetnav_env.core.layout import (
     F_DV_LOST,
     F_DV_STEP,
     F_OBJECTIVE,
+    F_THR_GM,
     F_X,
     F_XE,
     I_K,
 )  # fmt: skip
-from planetnav_env.core.row_noise import NOISE_THRUST, next_normal, noise_begin
+from planetnav_env.core.row_noise import (
+    NOISE_THRUST,
+    NOISE_THRUST_GM,
+    next_normal,
+    next_own_normal,
+    noise_begin,
+    own_stream_begin,
+)
 from planetnav_env.core.what_if import coasted_position_trace
+from planetnav_env.numerics.gauss_markov import gauss_markov_step
 from planetnav_env.numerics.jit import row_kernel
 
 #: A deadline counts as reached at the first step end within this relative tolerance of its epoch.
@@ -133,6 +151,48 @@ def thrust_noise(prm, i, rng, n, x, dt, frac, q_par, q_perp, u, sc) -> None:  # 
         a2 = _sqrt_a(g20, g21, g22, sq_par, sq_perp, u, j)
         x[j] += c_r * a1
         x[3 + j] += c_v1 * a1 + c_v2 * a2
+
+
+@row_kernel
+def thrust_axes(u, p1, p2) -> None:  # pragma: no cover - compiled
+    """The cross axes of the unit thrust direction ``u``: ``p1`` = z x u normalized (x x u when ``u`` is
+    within 1e-6 rad of the ICRF z axis), ``p2`` = u x p1; (u, p1, p2) is right-handed orthonormal."""
+    c0, c1, c2 = -u[1], u[0], 0.0  # z x u
+    cn = math.sqrt(c0 * c0 + c1 * c1)
+    if cn < 1e-6:
+        c0, c1, c2 = 0.0, -u[2], u[1]  # x x u
+        cn = math.sqrt(c1 * c1 + c2 * c2)
+    p1[0], p1[1], p1[2] = c0 / cn, c1 / cn, c2 / cn
+    p2[0] = u[1] * p1[2] - u[2] * p1[1]
+    p2[1] = u[2] * p1[0] - u[0] * p1[2]
+    p2[2] = u[0] * p1[1] - u[1] * p1[0]
+
+
+@row_kernel
+def apply_thrust_error(f, n, x, acc, u, t_on, moment, sc) -> None:  # pragma: no cover - compiled
+    """In place on the true state ``x`` (6,): the Gauss-Markov execution error of row ``n`` (its columns
+    ``F_THR_GM``: magnitude fraction, two pointing angles [rad]) as the acceleration
+    ``acc (e_m u + e_1 p1 + e_2 p2)`` over the thrusting time ``t_on`` [s] with moment ``moment`` [s^2],
+    as :func:`apply_thrust` the nominal thrust. Uses ``sc.roll`` and ``sc.dirv`` for the cross axes."""
+    thrust_axes(u, sc.roll, sc.dirv)
+    e_m, e_1, e_2 = f[n, F_THR_GM], f[n, F_THR_GM + 1], f[n, F_THR_GM + 2]
+    for j in range(3):
+        err = acc * (e_m * u[j] + e_1 * sc.roll[j] + e_2 * sc.dirv[j])
+        x[j] += err * moment
+        x[3 + j] += err * t_on
+
+
+@row_kernel
+def step_thrust_error(prm, f, i, rng, n, dt, sc) -> None:  # pragma: no cover - compiled
+    """Step row ``n``'s Gauss-Markov execution error (columns ``F_THR_GM``) over ``dt`` [s]:
+    ``numerics.gauss_markov.gauss_markov_step`` of each component with its sigma (``ops_sig_mag``, then
+    ``ops_sig_point`` twice) and the correlation time ``ops_tau``, driven by the stream
+    ``NOISE_THRUST_GM`` of its own (three draws a step)."""
+    ps = prm.scalars[0]
+    own_stream_begin(i, rng, n, NOISE_THRUST_GM, sc)
+    for c in range(3):
+        sig = ps.ops_sig_mag if c == 0 else ps.ops_sig_point
+        f[n, F_THR_GM + c] = gauss_markov_step(f[n, F_THR_GM + c], sig, ps.ops_tau, dt, next_own_normal(sc))
 
 
 @row_kernel

@@ -94,7 +94,21 @@ CORE_SCALAR_FIELDS: tuple[tuple[str, str, str], ...] = (
     ("truth_own", "i8", "1: the truth has its own force model (world.truth_forces_on), 0: the filter's"),
     ("ch_tpert0", "i8", "ephemeris channel of the truth's first perturber (its own force model)"),
     ("n_tpert", "i8", "the truth's perturbers (its own force model)"),
-    ("srp_on", "i8", "1: cannonball SRP in truth, the Sun's GM reduced by the row's SRP_K (world.srp_in)"),
+    ("srp_on", "i8", "1: cannonball SRP in truth of the row's coefficient SRP_K (world.srp_on)"),
+    ("srp_sun", "i8", "the Sun's index among the truth's perturbers (-1: the Sun is the central body)"),
+    ("truth_eph", "i8", "1: the truth follows its own ephemeris (world.truth_ephemeris_apart), in the "
+     "channels ch_tcentral, ch_tplanet0, ch_tssb"),
+    ("ch_tcentral", "i8", "ephemeris channel of the truth's central body (-1: the Sun; ch_central unless "
+     "truth_eph)"),
+    ("ch_tplanet0", "i8", "ephemeris channel of the truth's first planet (ch_planet0 unless truth_eph)"),
+    ("ch_tssb", "i8", "ephemeris channel of the truth's barycentre offset (ch_ssb unless truth_eph)"),
+    ("world_shapiro", "i8", "1: the Sun's Shapiro delay in the truth's pulsar phases (world.shapiro_on)"),
+    ("onboard_shapiro", "i8", "1: the filter models the Shapiro delay (world.shapiro_corrected)"),
+    ("thr_gm", "i8", "1: the thrust execution error in truth is Gauss-Markov (world.thrust_gauss_markov_on)"),
+    ("ops_sig_mag", "f8", "1-sigma fractional thrust magnitude error (operations.thrust_mag_sigma)"),
+    ("ops_sig_point", "f8", "1-sigma thrust pointing error per cross axis [rad] "
+     "(operations.thrust_point_sigma_deg)"),
+    ("ops_tau", "f8", "correlation time of the thrust execution error [s] (operations.thrust_corr_time_s)"),
     ("q_tuned", "i8", "1: the filter's process noise is the row's Q_PSD (world.process_noise_tuned)"),
     ("ch_ssb", "i8", "ephemeris channel of the Solar-system barycentre (-1: none)"),
     ("approach", "i8", "1: a planetary approach (central body not the Sun; scenario)"),
@@ -229,6 +243,8 @@ class Scratch(NamedTuple):
     tpert: np.ndarray  # (3, Kt, 3) the truth's perturbers at t, t + dt/2, t + dt (its own force model)
     qrow: np.ndarray  # (6, 6) the row's tuned process noise over one step (world.process_noise_tuned)
     planets: np.ndarray  # (P, 3)
+    tcentral: np.ndarray  # (3,) the truth's central body, heliocentric (its own ephemeris: ch_tcentral)
+    tplanets: np.ndarray  # (P, 3) the truth's planets (its own ephemeris: ch_tplanet0)
     r_tile: np.ndarray  # (P, 3)
     q_tile: np.ndarray  # (P, 4)
     feat: np.ndarray  # (P, TARGET_FEATURES)
@@ -258,6 +274,7 @@ def make_scratch(prm: CoreParams) -> Scratch:  # pragma: no cover - compiled
         m=np.empty((3, 3)), u6=np.empty(6), vals=np.empty(N_VIS_SLOTS), los=np.empty(3), los_true=np.empty(3),
         mm=np.empty(2), pix=np.empty(2), r1=np.empty((1, 3)), q1=np.empty((1, 4)), t1=np.empty((1, 3)),
         central=np.empty(3), ssb=np.empty(3), pert=np.empty((3, n_k, 3)), planets=np.empty((n_p, 3)),
+        tcentral=np.empty(3), tplanets=np.empty((n_p, 3)),
         tpert=np.empty((3, n_kt, 3)), qrow=np.empty((6, 6)),
         r_tile=np.empty((n_p, 3)), q_tile=np.empty((n_p, 4)), feat=np.empty((n_p, TARGET_FEATURES)),
         noise3=np.empty(3), sub=np.empty(crng.STATE_WORDS, np.uint64),
@@ -319,7 +336,7 @@ def scratch_row(rows: Scratch, n: int) -> Scratch:  # pragma: no cover - compile
         los=rows.los[n], los_true=rows.los_true[n], mm=rows.mm[n], pix=rows.pix[n], r1=rows.r1[n],
         q1=rows.q1[n], t1=rows.t1[n], central=rows.central[n], ssb=rows.ssb[n], dirv=rows.dirv[n],
         roll=rows.roll[n], pert=rows.pert[n], tpert=rows.tpert[n], qrow=rows.qrow[n],
-        planets=rows.planets[n],
+        planets=rows.planets[n], tcentral=rows.tcentral[n], tplanets=rows.tplanets[n],
         r_tile=rows.r_tile[n],
         q_tile=rows.q_tile[n], feat=rows.feat[n], noise3=rows.noise3[n], star_idx=rows.star_idx[n],
         star_noise=rows.star_noise[n], star_work=rows.star_work[n], q_fix=rows.q_fix[n], sub=rows.sub[n],

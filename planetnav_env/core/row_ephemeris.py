@@ -54,3 +54,24 @@ def _channels_at(eph, f, n, t, dt, c0, k, seg, out) -> bool:  # pragma: no cover
     ok = positions_kernel(eph[n], f[n, F_T0], seg, t, c0, c0 + k, out[0])
     ok = ok and positions_kernel(eph[n], f[n, F_T0], seg, t + 0.5 * dt, c0, c0 + k, out[1])
     return ok and positions_kernel(eph[n], f[n, F_T0], seg, t + dt, c0, c0 + k, out[2])
+
+
+@row_kernel
+def truth_bodies_at(prm, eph, f, n, t, sc, with_planets) -> None:  # pragma: no cover - compiled
+    """The truth's central body ``sc.tcentral`` and (``with_planets``) planets ``sc.tplanets`` at ``t``
+    (heliocentric [km]): from the truth's own channels when it follows an ephemeris of its own
+    (``truth_eph``), else copies of the onboard ``sc.central`` and ``sc.planets``, which must then hold
+    the bodies at ``t`` already (the same numbers: one ephemeris)."""
+    ps = prm.scalars[0]
+    if ps.truth_eph != 0:
+        eval_channel(prm, eph, f, n, t, ps.ch_tcentral, sc.tcentral)
+        if with_planets:
+            c0 = ps.ch_tplanet0
+            positions_kernel(eph[n], f[n, F_T0], ps.segment_s, t, c0, c0 + ps.n_planets, sc.tplanets)
+        return
+    for j in range(3):
+        sc.tcentral[j] = sc.central[j]
+    if with_planets:
+        for a in range(sc.planets.shape[0]):
+            for j in range(3):
+                sc.tplanets[a, j] = sc.planets[a, j]

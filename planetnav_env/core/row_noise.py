@@ -19,6 +19,9 @@ NOISE_IMAGE = 5
 #: The planet camera's boresight drift (``world.boresight_drift``): its stationary start at reset (step 0)
 #: and its step after every physics step.
 NOISE_DRIFT = 9
+#: The thrust execution error's Gauss-Markov driving noise (``world.thrust_gauss_markov``): always a
+#: stream of its own (:func:`own_stream_begin`), so that switching it on moves no other draw.
+NOISE_THRUST_GM = 6
 
 
 @row_kernel
@@ -28,6 +31,20 @@ def noise_begin(prm, i, rng, n, stream, sc) -> None:  # pragma: no cover - compi
     stream id; with the sequential stream it does nothing (draws continue ``rng[n]``)."""
     if prm.scalars[0].noise_per_step:
         crng.substream(rng[n], i[n, I_K], stream, sc.sub)
+
+
+@row_kernel
+def own_stream_begin(i, rng, n, stream, sc) -> None:  # pragma: no cover - compiled
+    """Start a stream of its own for ``stream`` at the row's current step, whatever ``noise_streams``:
+    ``sc.sub`` derived from the row's state ``rng[n]`` (read, not advanced), the step index and the
+    stream id. Draw from it with :func:`next_own_normal`; no other stream's draws move."""
+    crng.substream(rng[n], i[n, I_K], stream, sc.sub)
+
+
+@row_kernel
+def next_own_normal(sc) -> float:  # pragma: no cover - compiled
+    """The next N(0, 1) of the stream begun by :func:`own_stream_begin`."""
+    return crng.standard_normal(sc.sub)
 
 
 @row_kernel

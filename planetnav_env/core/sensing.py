@@ -85,6 +85,7 @@ from planetnav_env.sensors.pulsar import (
     ambiguity_resolvable_row,
     pulsar_visibility_row,
     resolve_cycle,
+    shapiro_range_km,
 )
 from planetnav_env.sensors.star_tracker import error_angle_kernel, select_stars, star_fix, star_fix_apparent
 
@@ -119,8 +120,8 @@ def star_fix_stage(prm, st, n, sc):  # pragma: no cover - compiled
         # The stars' apparent directions (true velocity); on board, the catalogue aberrated by the
         # estimated velocity when the filter corrects it.
         t = row_time(prm, f, i, n)
-        heliocentric_velocity(prm, st.eph, f, n, t, f[n, F_X : F_X + 6], sc.light[V_TRUE])
-        heliocentric_velocity(prm, st.eph, f, n, t, f[n, F_XE : F_XE + 6], sc.light[V_EST])
+        heliocentric_velocity(prm, st.eph, f, n, t, f[n, F_X : F_X + 6], ps.ch_tcentral, sc.light[V_TRUE])
+        heliocentric_velocity(prm, st.eph, f, n, t, f[n, F_XE : F_XE + 6], ps.ch_central, sc.light[V_EST])
         err, ok = star_fix_apparent(
             tables, q, sc.rq, sc.star_idx, n_stars, sc.star_noise, sc.light[V_TRUE], sc.light[V_EST],
             ps.onboard_ab != 0, sc.star_work, sc.q_fix,
@@ -162,7 +163,8 @@ def rate_measurement(prm, st, n, sc):  # pragma: no cover - compiled
 
 @row_kernel
 def nearest_in_view(prm, sc) -> int:  # pragma: no cover - compiled
-    """Index of the planet nearest the boresight by the true geometry (what the image shows), or -1."""
+    """Index of the planet nearest the boresight by the true geometry (what the image shows: the truth's
+    planets ``sc.tplanets``), or -1."""
     q = sc.q1[0]
     dcm_body_to_inertial_kernel(q[0], q[1], q[2], q[3], sc.rq)
     b = prm.boresight
@@ -171,10 +173,10 @@ def nearest_in_view(prm, sc) -> int:  # pragma: no cover - compiled
     bz = sc.rq[2, 0] * b[0] + sc.rq[2, 1] * b[1] + sc.rq[2, 2] * b[2]
     best = -2.0
     idx = -1
-    for j in range(sc.planets.shape[0]):
-        d0 = sc.planets[j, 0] - sc.r1[0, 0]
-        d1 = sc.planets[j, 1] - sc.r1[0, 1]
-        d2 = sc.planets[j, 2] - sc.r1[0, 2]
+    for j in range(sc.tplanets.shape[0]):
+        d0 = sc.tplanets[j, 0] - sc.r1[0, 0]
+        d1 = sc.tplanets[j, 1] - sc.r1[0, 1]
+        d2 = sc.tplanets[j, 2] - sc.r1[0, 2]
         c = (d0 * bx + d1 * by + d2 * bz) / math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
         if c > best:
             best = c
@@ -217,7 +219,8 @@ def measure_planet(prm, st, n, idx, sc):  # pragma: no cover - compiled
     if ps.cob_lam != 0:
         # Truth: the Lambertian sphere's centre of brightness at the true phase (true attitude).
         q = sc.q1[0]
-        cos_phase = _sun_in_body(sc, idx, sc.r1[0, 0], sc.r1[0, 1], sc.r1[0, 2], q[0], q[1], q[2], q[3])
+        r = sc.r1[0]
+        cos_phase = _sun_in_body(sc, sc.tplanets[idx], r[0], r[1], r[2], q[0], q[1], q[2], q[3])
         delta = lambert_cob_offset(cos_phase) * 0.5 * alpha_true
         shift_toward(sc.los, sc.dirv, delta)
         f[n, F_COB_LAST] += delta
@@ -228,7 +231,7 @@ def measure_planet(prm, st, n, idx, sc):  # pragma: no cover - compiled
         # attitude, the sphere's size), scaled by the episode's model error, taken off the image.
         qe = f[n, F_QE : F_QE + 4]
         ox, oy, oz = xe[0] + sc.central[0], xe[1] + sc.central[1], xe[2] + sc.central[2]
-        cos_est = _sun_in_body(sc, idx, ox, oy, oz, qe[0], qe[1], qe[2], qe[3])
+        cos_est = _sun_in_body(sc, sc.planets[idx], ox, oy, oz, qe[0], qe[1], qe[2], qe[3])
         pl = sc.planets[idx]
         dx, dy, dz = pl[0] - ox, pl[1] - oy, pl[2] - oz
         rad_est = math.asin(min(1.0, prm.radii[idx] / math.sqrt(dx * dx + dy * dy + dz * dz)))
@@ -262,10 +265,10 @@ def _truth_apparent(prm, st, n, idx, sc) -> None:  # pragma: no cover - compiled
     Leaves the planet's velocity in ``sc.light[V_TARGET]`` for :func:`_onboard_apparent`."""
     f, ps, lp = st.f, prm.scalars[0], sc.light
     t = row_time(prm, f, st.i, n)
-    channel_velocity(prm, st.eph, f, n, t, ps.ch_planet0 + idx, lp[V_TARGET])
-    heliocentric_velocity(prm, st.eph, f, n, t, f[n, F_X : F_X + 6], lp[V_TRUE])
+    channel_velocity(prm, st.eph, f, n, t, ps.ch_tplanet0 + idx, lp[V_TARGET])
+    heliocentric_velocity(prm, st.eph, f, n, t, f[n, F_X : F_X + 6], ps.ch_tcentral, lp[V_TRUE])
     apparent_point(
-        sc.r1[0], lp[V_TRUE], sc.planets[idx], lp[V_TARGET], ps.world_lt != 0, ps.world_ab != 0,
+        sc.r1[0], lp[V_TRUE], sc.tplanets[idx], lp[V_TARGET], ps.world_lt != 0, ps.world_ab != 0,
         lp[DIRECTION], sc.t1[0],
     )  # fmt: skip
 
@@ -276,11 +279,14 @@ def _onboard_apparent(prm, st, n, idx, sc) -> None:  # pragma: no cover - compil
     computed from row ``n``'s *estimated* position and velocity, so the corrections' error follows the
     estimate's. Aberrating the prediction is the inverse of de-aberrating the measurement (exactly, where
     aberrating the measurement by ``-v`` inverts it only to ``(v/c)^2``). Needs ``sc.light[V_TARGET]``
-    from :func:`_truth_apparent` (an onboard correction is on only with its effect)."""
+    from :func:`_truth_apparent` (an onboard correction is on only with its effect), evaluated again from
+    the onboard channel when the truth follows an ephemeris of its own."""
     f, ps, lp = st.f, prm.scalars[0], sc.light
     xe = f[n, F_XE : F_XE + 6]
     t = row_time(prm, f, st.i, n)
-    heliocentric_velocity(prm, st.eph, f, n, t, xe, lp[V_EST])
+    if ps.truth_eph != 0:
+        channel_velocity(prm, st.eph, f, n, t, ps.ch_planet0 + idx, lp[V_TARGET])
+    heliocentric_velocity(prm, st.eph, f, n, t, xe, ps.ch_central, lp[V_EST])
     for j in range(3):
         lp[R_EST, j] = xe[j] + sc.central[j]
     apparent_point(
@@ -292,12 +298,12 @@ def _onboard_apparent(prm, st, n, idx, sc) -> None:  # pragma: no cover - compil
 
 
 @row_kernel
-def _sun_in_body(sc, idx, ox, oy, oz, q0, q1, q2, q3) -> float:  # pragma: no cover - compiled
-    """The cosine of planet ``idx``'s phase angle (heliocentric ``sc.planets[idx]``, Sun-planet-observer)
-    seen from the heliocentric point ``(ox, oy, oz)`` [km]; writes the unit planet-to-Sun direction in
-    the body axes of the attitude ``q`` into ``sc.dirv`` (``sc.rq`` as work space)."""
+def _sun_in_body(sc, pl, ox, oy, oz, q0, q1, q2, q3) -> float:  # pragma: no cover - compiled
+    """The cosine of the phase angle (Sun-planet-observer) of the planet at the heliocentric point ``pl``
+    (3,) [km] (the truth's ``sc.tplanets[idx]`` or the filter's ``sc.planets[idx]``) seen from the
+    heliocentric point ``(ox, oy, oz)`` [km]; writes the unit planet-to-Sun direction in the body axes of
+    the attitude ``q`` into ``sc.dirv`` (``sc.rq`` as work space)."""
     dcm_body_to_inertial_kernel(q0, q1, q2, q3, sc.rq)
-    pl = sc.planets[idx]
     ps_ = math.sqrt(pl[0] * pl[0] + pl[1] * pl[1] + pl[2] * pl[2])
     cx, cy, cz = ox - pl[0], oy - pl[1], oz - pl[2]
     cn = math.sqrt(cx * cx + cy * cy + cz * cz)
@@ -310,12 +316,12 @@ def _sun_in_body(sc, idx, ox, oy, oz, q0, q1, q2, q3) -> float:  # pragma: no co
 
 @row_kernel
 def _centroid_bias(sc, idx, alpha_true, scale) -> float:  # pragma: no cover - compiled
-    """Displace the body-frame line of sight ``sc.los`` of planet ``idx`` (heliocentric ``sc.planets[idx]``,
+    """Displace the body-frame line of sight ``sc.los`` of planet ``idx`` (the truth's ``sc.tplanets[idx]``,
     seen from ``sc.r1[0]`` at the true attitude ``sc.q1[0]``) by its uniform-disk centre-of-brightness
     offset (:func:`~planetnav_env.sensors.camera_kernels.centroid_bias_kernel`); uses ``sc.dirv`` and
     ``sc.rq`` as work space. Returns the offset [rad]."""
-    q = sc.q1[0]
-    cos_phase = _sun_in_body(sc, idx, sc.r1[0, 0], sc.r1[0, 1], sc.r1[0, 2], q[0], q[1], q[2], q[3])
+    q, r = sc.q1[0], sc.r1[0]
+    cos_phase = _sun_in_body(sc, sc.tplanets[idx], r[0], r[1], r[2], q[0], q[1], q[2], q[3])
     return centroid_bias_kernel(sc.los, sc.dirv, cos_phase, alpha_true, scale)
 
 
@@ -338,14 +344,15 @@ def _outline_radius(prm, sc, idx) -> float:  # pragma: no cover - compiled
 @row_kernel
 def _image_sigmas(prm, sc, idx, rt) -> tuple[float, float]:  # pragma: no cover - compiled
     """The truth's sigmas of this image of planet ``idx`` (apparent radius ``rt`` [km], true target
-    ``sc.t1[0]`` from ``sc.r1[0]``): per axis across the line of sight and of the angular diameter [rad],
+    ``sc.t1[0]`` from ``sc.r1[0]``, the truth's planet ``sc.tplanets[idx]`` for its phase): per axis
+    across the line of sight and of the angular diameter [rad],
     from the disk's size in pixels and the image's SNR (:mod:`planetnav_env.sensors.image_noise`)."""
     ps = prm.scalars[0]
     f_px = prm.cam[P_FPX]
     dx, dy, dz = sc.t1[0, 0] - sc.r1[0, 0], sc.t1[0, 1] - sc.r1[0, 1], sc.t1[0, 2] - sc.r1[0, 2]
     dist = math.sqrt(dx * dx + dy * dy + dz * dz)
     d_px = 2.0 * math.asin(rt / dist) * f_px
-    pl = sc.planets[idx]
+    pl = sc.tplanets[idx]
     sun = math.sqrt(pl[0] * pl[0] + pl[1] * pl[1] + pl[2] * pl[2])
     cos_phase = (pl[0] * dx + pl[1] * dy + pl[2] * dz) / (sun * dist)  # (-pl) . (r - pl), r - pl ~ -d
     e = planet_electrons(prm.figure[idx, 4], rt, sun, dist, cos_phase, ps.img_collect)
@@ -393,7 +400,7 @@ def time_pulsar(prm, st, n, j, t, sc):  # pragma: no cover - compiled
     lam = prm.psr[j, 3]
     sigma = prm.psr[j, 4]
     for k in range(3):
-        sc.r1[0, k] = x[k] + sc.central[k]
+        sc.r1[0, k] = x[k] + sc.tcentral[k]  # the truth's heliocentric position (its own ephemeris)
     q = f[n, F_Q : F_Q + 4]
     dcm_body_to_inertial_kernel(q[0], q[1], q[2], q[3], sc.rq)
     b = prm.boresight
@@ -402,7 +409,7 @@ def time_pulsar(prm, st, n, j, t, sc):  # pragma: no cover - compiled
         cb += (sc.rq[k, 0] * b[0] + sc.rq[k, 1] * b[1] + sc.rq[k, 2] * b[2]) * nvec[k]
     off = math.acos(min(max(cb, -1.0), 1.0))
     reason = pulsar_visibility_row(
-        sc.r1[0], nvec, ps.sun_avoid, sc.central, ps.central_radius, ps.approach != 0
+        sc.r1[0], nvec, ps.sun_avoid, sc.tcentral, ps.central_radius, ps.approach != 0
     )
     if reason != REASON_VISIBLE:
         f[n, F_INTEGRATED] = 0.0
@@ -414,12 +421,26 @@ def time_pulsar(prm, st, n, j, t, sc):  # pragma: no cover - compiled
     if f[n, F_INTEGRATED] + 1e-9 < ps.psr_int_s:
         return False, False, REASON_INTEGRATING
     f[n, F_INTEGRATED] = 0.0
-    eval_channel(prm, eph, f, n, t, ps.ch_ssb, sc.ssb)
+    # Truth: the barycentric position from the truth's ephemeris (ch_tssb), and the Sun's Shapiro delay
+    # (world_shapiro); the filter: from DE421 (ch_ssb) and its estimate, with the delay when it models it.
+    eval_channel(prm, eph, f, n, t, ps.ch_tssb, sc.ssb)
     total = 0.0
-    h = 0.0
     for k in range(3):
         total += nvec[k] * (x[k] + sc.ssb[k])
+    if ps.world_shapiro != 0:
+        for k in range(3):
+            sc.dirv[k] = sc.tcentral[k] - sc.ssb[k]  # the barycentre, heliocentric
+        total += shapiro_range_km(sc.r1[0], sc.dirv, nvec)
+    if ps.truth_eph != 0:
+        eval_channel(prm, eph, f, n, t, ps.ch_ssb, sc.ssb)
+    h = 0.0
+    for k in range(3):
         h += nvec[k] * (xe[k] + sc.ssb[k])
+    if ps.onboard_shapiro != 0:
+        for k in range(3):
+            sc.dirv[k] = sc.central[k] - sc.ssb[k]
+            sc.roll[k] = xe[k] + sc.central[k]  # the estimated heliocentric position
+        h += shapiro_range_km(sc.roll, sc.dirv, nvec)
     noise_begin(prm, i, rng, n, NOISE_PULSAR0 + j, sc)
     total = total / lam + sigma * next_normal(prm, rng, n, sc)
     if ps.psr_df_max > 0.0:

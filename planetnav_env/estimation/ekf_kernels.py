@@ -32,15 +32,19 @@ KIND_CODES = {k.label: int(k) for k in MeasurementKind}
 
 
 class OrbitModel(NamedTuple):
-    """The gravity field of one RK4 step of ``dt``: the central body and ``K`` perturbers (third bodies)
-    at the step's three stage epochs, positions relative to the central body. Built by keyword once per
-    step (or once per batch), outside the stage loops."""
+    """The force field of one RK4 step of ``dt``: the central body and ``K`` perturbers (third bodies)
+    at the step's three stage epochs, positions relative to the central body, and the cannonball solar
+    radiation pressure ``srp_k s / |s|^3`` away from the Sun (``s`` the spacecraft's position from the
+    Sun: the central body's origin, or perturber ``srp_sun``; the truth's alone, the filter's is 0).
+    Built by keyword once per step (or once per batch), outside the stage loops."""
 
     mu: float  # central body's GM [km^3/s^2]
     p0: np.ndarray  # (K, 3) perturbers at t [km]
     p1: np.ndarray  # (K, 3) perturbers at t + dt/2 [km]
     p2: np.ndarray  # (K, 3) perturbers at t + dt [km]
     mus: np.ndarray  # (K,) perturbers' GM [km^3/s^2]
+    srp_k: float  # cannonball SRP coefficient [km^3/s^2] (dynamics.srp.srp_gm; 0: none, the filter's)
+    srp_sun: int  # the Sun's index among the perturbers (-1: the Sun is the central body)
 
 
 class PredictScratch(NamedTuple):
@@ -72,14 +76,24 @@ class FixModel(NamedTuple):
     gate: float  # NIS above which a fix is rejected [-]
 
 
-def orbit_model(mu: float, p0: np.ndarray, p1: np.ndarray, p2: np.ndarray, mus: np.ndarray) -> OrbitModel:
-    """The :class:`OrbitModel` of the arguments (``mu`` as a float, arrays as given)."""
-    return OrbitModel(mu=float(mu), p0=p0, p1=p1, p2=p2, mus=mus)
+def orbit_model(
+    mu: float,
+    p0: np.ndarray,
+    p1: np.ndarray,
+    p2: np.ndarray,
+    mus: np.ndarray,
+    srp_k: float = 0.0,
+    srp_sun: int = -1,
+) -> OrbitModel:
+    """The :class:`OrbitModel` of the arguments (``mu`` and ``srp_k`` as floats, arrays as given)."""
+    return OrbitModel(mu=float(mu), p0=p0, p1=p1, p2=p2, mus=mus, srp_k=float(srp_k), srp_sun=int(srp_sun))
 
 
 @row_kernel
-def _accel_grad(r, mu, pert, mus, a, g, grad=True):
+def _accel_grad(r, mu, pert, mus, a, g, grad=True, srp_k=0.0, srp_sun=-1):
     """a = central + third-body acceleration at r; g = its gradient (3x3). pert (K,3) rel. to centre.
+    With ``srp_k`` != 0 the cannonball SRP ``srp_k s / |s|^3`` away from the Sun is added (``s = r`` with
+    the Sun at the centre, ``srp_sun`` = -1; else ``s = r - pert[srp_sun]``), and its gradient.
 
     ``grad=False`` skips the gradient (``g`` untouched): the acceleration is computed by the same
     operations either way, so it is bit for bit the same.
@@ -111,12 +125,25 @@ def _accel_grad(r, mu, pert, mus, a, g, grad=True):
                 for j in range(3):
                     g[i, j] += mus[k] * 3.0 * s[i] * s[j] * si5
                 g[i, i] -= mus[k] * si3
+    if srp_k != 0.0:
+        s0, s1, s2 = r[0], r[1], r[2]
+        if srp_sun >= 0:
+            s0, s1, s2 = s0 - pert[srp_sun, 0], s1 - pert[srp_sun, 1], s2 - pert[srp_sun, 2]
+        s2n = s0 * s0 + s1 * s1 + s2 * s2
+        si3 = 1.0 / (s2n * math.sqrt(s2n))
+        s = (s0, s1, s2)
+        for i in range(3):
+            a[i] += srp_k * s[i] * si3
+            if grad:
+                for j in range(3):
+                    g[i, j] -= srp_k * 3.0 * s[i] * s[j] * si3 / s2n
+                g[i, i] += srp_k * si3
 
 
 @row_kernel
-def _stage(x, phi, mu, pert, mus, dx, dphi, a, g, stm):
+def _stage(x, phi, orbit, pert, dx, dphi, a, g, stm):
     """Derivative of the state (dx) and, if ``stm``, of Phi (dphi = F Phi with F = [[0, I], [G, 0]])."""
-    _accel_grad(x[:3], mu, pert, mus, a, g, stm)
+    _accel_grad(x[:3], orbit.mu, pert, orbit.mus, a, g, stm, orbit.srp_k, orbit.srp_sun)
     for i in range(3):
         dx[i] = x[3 + i]
         dx[3 + i] = a[i]
@@ -149,7 +176,7 @@ def _rk4(x, dt, orbit, x_out, phi_out, w6, v6, stm):
     # Stages 1..4: evaluate at (xs, ps), accumulate with weights 1,2,2,1, form the next stage point.
     for stage in range(4):
         pert = orbit.p0 if stage == 0 else (orbit.p1 if stage < 3 else orbit.p2)
-        _stage(xs, ps, orbit.mu, pert, orbit.mus, dx, dphi, a, g, stm)
+        _stage(xs, ps, orbit, pert, dx, dphi, a, g, stm)
         wgt = h6 if (stage == 0 or stage == 3) else 2.0 * h6
         nxt = 0.5 * dt if stage < 2 else dt
         for i in range(6):
@@ -205,7 +232,7 @@ def predict_kernel(x, p, dt, orbit, q, euler_stm, ws):
     if euler_stm:
         a = v6[2, :3]
         g = w6[2, :3, :3]
-        _accel_grad(x[:3], orbit.mu, orbit.p0, orbit.mus, a, g)
+        _accel_grad(x[:3], orbit.mu, orbit.p0, orbit.mus, a, g, True, orbit.srp_k, orbit.srp_sun)
         for i in range(6):
             for j in range(6):
                 phi[i, j] = 1.0 if i == j else 0.0
@@ -383,7 +410,7 @@ def predict_arrays_kernel(x, p, dt, mu, p0, p1, p2, mus, q, euler_stm, w6, v6, p
     Kept positional on purpose: numba's dispatcher types a tuple argument in Python (arrays and scalars
     in C), so two records passed from Python would cost every cycle of :class:`SingleEKF` their typing.
     Compiled callers pass the records to :func:`predict_kernel`."""
-    orbit = OrbitModel(mu=mu, p0=p0, p1=p1, p2=p2, mus=mus)
+    orbit = OrbitModel(mu=mu, p0=p0, p1=p1, p2=p2, mus=mus, srp_k=0.0, srp_sun=-1)
     ws = PredictScratch(w6=w6, v6=v6, phi=phi, tmp=tmp)
     predict_kernel(x, p, dt, orbit, q, euler_stm, ws)
 
@@ -458,7 +485,7 @@ def predict_batch_parallel(x, p, dt, orbit, q, euler_stm, n_chunks):
 def rk4_batch_kernel(x, dt, mu, p0, p1, p2, mus):
     """RK4 state step of N trajectories in place (the truth propagator; same stages as the filter);
     ``mu`` [km^3/s^2], perturbers ``p0``/``p1``/``p2`` (K, 3) [km] at t, t + dt/2, t + dt, their ``mus``."""
-    orbit = OrbitModel(mu=mu, p0=p0, p1=p1, p2=p2, mus=mus)
+    orbit = OrbitModel(mu=mu, p0=p0, p1=p1, p2=p2, mus=mus, srp_k=0.0, srp_sun=-1)
     w6 = np.empty((3, 6, 6))
     v6 = np.empty((4, 6))
     x_new = np.empty(6)
@@ -486,7 +513,9 @@ def rk4_path_kernel(x0, times, mu, pert, mus, keep, out):
         out[0, :] = x
         k = 1
     for s in range(times.shape[0] - 1):
-        orbit = OrbitModel(mu=mu, p0=pert[2 * s], p1=pert[2 * s + 1], p2=pert[2 * s + 2], mus=mus)
+        orbit = OrbitModel(
+            mu=mu, p0=pert[2 * s], p1=pert[2 * s + 1], p2=pert[2 * s + 2], mus=mus, srp_k=0.0, srp_sun=-1
+        )
         rk4_kernel(x, times[s + 1] - times[s], orbit, x_new, w6, v6)
         x[:] = x_new
         if k < keep.shape[0] and keep[k] == s + 1:
@@ -518,7 +547,9 @@ def cycle_batch_kernel(x, p, dt, mu, p0, p1, p2, mus, q, euler_stm, *update_args
     ``acc_out``: the fields of :class:`PlanetFixes` and :class:`FixModel`, then the outputs, in that order,
     as ``tests/env/test_fast_ekf.py`` calls it). The measurement and basis must
     not depend on the prediction."""
-    predict_batch_kernel(x, p, dt, OrbitModel(mu=mu, p0=p0, p1=p1, p2=p2, mus=mus), q, euler_stm)
+    predict_batch_kernel(
+        x, p, dt, OrbitModel(mu=mu, p0=p0, p1=p1, p2=p2, mus=mus, srp_k=0.0, srp_sun=-1), q, euler_stm
+    )
     z, planet, diameter, kind, sig_dir, sig_size, basis, active, gate, nis_out, acc_out = update_args
     fixes = PlanetFixes(z=z, planet=planet, diameter=diameter, basis=basis, active=active)
     model = FixModel(kind=kind, sig_dir=sig_dir, sig_size=sig_size, gate=gate)

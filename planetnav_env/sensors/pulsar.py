@@ -14,11 +14,13 @@ cycles, ``lambda`` [km] the distance light travels in one period ``P``. The filt
 total phase ``h(x) = n . r_ssb(x) / lambda`` [cycles] with ``r_ssb = r_mars_ssb(t) + r_sc`` (state relative to
 Mars), which is *linear* in the position: ``dh/dr = n^T / lambda``. Only the ambiguity is nonlinear.
 
-Second-order terms (Shapiro delay, the curvature of the wavefront, aberration) are left out of both the truth
-and the filter model: a real system computes them from its own trajectory estimate, and the errors they leave
-are far below the TOA noise here. The SSB position of Mars comes from the same DE421 kernel for the truth and
-for the filter's prediction, so ephemeris errors do not appear in this simulation (they would in reality: they
-are a bias of ``n . delta r_mars``, see ``docs/optical_pulsar.md``).
+The Sun's Shapiro delay (:func:`shapiro_range_km`, ~10 km of range at 1 AU: the flight world's
+``world.pulsar_shapiro``) joins the truth's phase, and the filter's model computes it from its own estimate;
+in the matched world both leave it out. The curvature of the wavefront (``(r^2 - (n . r)^2) / 2D``, 0.2 km
+for a pulsar 2 kpc away at 1 AU) and the spacecraft clock's relativistic terms are left out of both. The
+SSB position of the central body comes from the truth's ephemeris for the truth (DE440 in the flight world,
+``world.truth_ephemeris``) and from DE421 for the filter's prediction: the ephemeris' error is then a bias
+of ``n . delta r`` (``docs/flight_world.md``).
 
 Cycle ambiguity
 ---------------
@@ -58,7 +60,7 @@ import numpy as np
 from numba import vectorize
 
 from planetnav_env.astro.apparent import SPEED_OF_LIGHT_KM_S
-from planetnav_env.astro.bodies import body
+from planetnav_env.astro.bodies import GM_SUN, body
 from planetnav_env.codes import VisibilityReason
 from planetnav_env.errors import (
     InvalidParameterError,
@@ -74,6 +76,7 @@ from planetnav_env.options import check_options, option
 __all__ = [
     "DEFAULT_DETECTOR",
     "PULSARS",
+    "SHAPIRO_SCALE_KM",
     "SPEED_OF_LIGHT_KM_S",
     "Pulsar",
     "PulsarVisibility",
@@ -92,6 +95,7 @@ __all__ = [
     "radec_to_unit",
     "range_sigma_km",
     "resolve_cycle_ambiguity",
+    "shapiro_range_km",
     "sun_ssb_position",
     "toa_sigma_s",
 ]
@@ -555,6 +559,25 @@ def check_visible(
 def mars_radius_km() -> float:
     """Mars's equatorial radius [km] (the occulter on approach)."""
     return body("mars").radius
+
+
+#: 2 GM_sun / c^2 [km]: the Sun's Shapiro delay's scale as a range (2.95 km).
+SHAPIRO_SCALE_KM = 2.0 * GM_SUN / (SPEED_OF_LIGHT_KM_S * SPEED_OF_LIGHT_KM_S)
+
+
+@row_kernel
+def shapiro_range_km(r_helio, b_helio, nvec) -> float:  # pragma: no cover - compiled
+    """The Sun's Shapiro delay at heliocentric ``r_helio`` [km] relative to the barycentre (heliocentric
+    ``b_helio`` [km]), times c, for a pulsar at infinity along the unit ``nvec`` (ICRF) [km]: the delay of a
+    ray from a source at distance D to an observer at ``r`` is ``(2 GM / c^3) ln(2 D / (|r| + n . r))``
+    (Shapiro 1964, the source going to infinity), so the phase referenced to the barycentre measures the
+    range ``n . r_ssb + 2 GM / c^2 ln((|r| + n . r) / (|b| + n . b))`` (Sheikh et al. 2006, eq. 11;
+    negative when the ray passes near the Sun, where it is delayed most)."""
+    rn = math.sqrt(r_helio[0] ** 2 + r_helio[1] ** 2 + r_helio[2] ** 2)
+    bn = math.sqrt(b_helio[0] ** 2 + b_helio[1] ** 2 + b_helio[2] ** 2)
+    nr = r_helio[0] * nvec[0] + r_helio[1] * nvec[1] + r_helio[2] * nvec[2]
+    nb = b_helio[0] * nvec[0] + b_helio[1] * nvec[1] + b_helio[2] * nvec[2]
+    return SHAPIRO_SCALE_KM * math.log((rn + nr) / (bn + nb))
 
 
 # VisibilityReason codes of the pulsar geometry, as ints for the row kernel (numba folds int globals).

@@ -214,10 +214,13 @@ def agents_table(args: argparse.Namespace) -> dict[str, Any]:
 
 def effects_off(scenario: str) -> dict[str, dict[str, Any]]:
     """Each effect of the flight world on ``scenario``, named by its option, as the world mapping that
-    switches that effect alone off (:func:`planetnav_env.world.flight_effects`)."""
+    switches that effect alone off (:func:`planetnav_env.world.flight_effects`: those the scenario's
+    thrust and pulsars concern)."""
     from planetnav_env.world import flight_effects
 
-    return {name: {"preset": "flight", name: off} for name, off in flight_effects(scenario).items()}
+    cfg = _config(Case(scenario, "baseline", "flight", 0))
+    effects = flight_effects(thrust=cfg.operations is not None, pulsars=bool(cfg.pulsars))
+    return {name: {"preset": "flight", name: off} for name, off in effects.items()}
 
 
 def shares_table(args: argparse.Namespace) -> dict[str, Any]:

@@ -211,3 +211,116 @@ def test_sun_blocking_and_mars_occultation():
     assert not psr.pulsar_visibility(
         (mars + 20_000.0 * n)[None], ["B0531+21"], psr.XrayDetector(), mars, 3396.19
     ).occulted[0, 0]
+
+
+# --- the flight world's timing terms (world.pulsar_shapiro, world.truth_ephemeris) -------------------------
+GM_SUN_KM3_S2 = 1.32712440018e11  # IAU 2015 nominal (DE421's and DE440's value to 1e-10)
+C_KM_S = 299_792.458
+
+
+def _shapiro_finite_source_km(r_obs: np.ndarray, source: np.ndarray) -> float:
+    """c times the Sun's Shapiro delay of a ray from ``source`` to ``r_obs`` (both heliocentric [km]):
+    ``(2 GM / c^2) ln((|o| + |s| + |s - o|) / (|o| + |s| - |s - o|))`` (Shapiro 1964), an independent
+    closed form: the kernel's is its limit for a source at infinity, referenced to the barycentre."""
+    o, s = np.linalg.norm(r_obs), np.linalg.norm(source)
+    d = np.linalg.norm(source - r_obs)
+    s_minus_d = (2.0 * source @ r_obs - o * o) / (s + d)  # s - d without the cancellation of a far source
+    return 2.0 * GM_SUN_KM3_S2 / C_KM_S**2 * np.log((o + s + d) / (o + s_minus_d))
+
+
+def test_shapiro_range_against_the_finite_source_closed_form():
+    rng = np.random.default_rng(5)
+    dist = 1e15  # km: a source 30 pc away is at infinity to 1e-7 of the delay's variation here
+    worst = 0.0
+    sizes = []
+    for _ in range(200):
+        n = rng.normal(size=3)
+        n /= np.linalg.norm(n)
+        r = rng.normal(size=3)
+        r *= rng.uniform(0.5, 1.7) * AU_KM / np.linalg.norm(r)
+        b = rng.normal(size=3)
+        b *= rng.uniform(1e5, 2e6) / np.linalg.norm(b)  # the barycentre: within ~3 solar radii
+        got = psr.shapiro_range_km(r, b, n)
+        # The phase referenced to the barycentre measures n.r_ssb minus c times the observer's delay
+        # relative to the barycentre's (a later arrival reads as a smaller range).
+        want = -(_shapiro_finite_source_km(r, dist * n) - _shapiro_finite_source_km(b, dist * n))
+        worst = max(worst, abs(got - want))
+        sizes.append(abs(got))
+    assert worst < 1e-5  # km: 1 cm, the far source's finite distance
+    assert psr.SHAPIRO_SCALE_KM == pytest.approx(2.953, rel=1e-3)
+    # Its size at 0.5-1.7 AU: a few to ~20 km of range, comparable to a phase's range noise.
+    assert 1.0 < np.median(sizes) < 25.0
+
+
+def _pointing_at(boresight: np.ndarray, n: np.ndarray) -> np.ndarray:
+    """Scalar-first body -> inertial quaternion that turns ``boresight`` onto ``n`` (both unit)."""
+    q = np.concatenate([[1.0 + boresight @ n], np.cross(boresight, n)])
+    return q / np.linalg.norm(q)
+
+
+def test_the_env_phase_in_truth_and_on_board_against_jplephem_and_the_closed_form():
+    """One pulsar phase of the stepped core's own timing stage (``sensing.time_pulsar``), noise off: the
+    truth's is ``n . r_ssb`` with the barycentre from DE440 (jplephem on de440.bsp) plus the Shapiro delay
+    of the true position; the filter's prediction the same from DE421 and its estimate."""
+    from jplephem.spk import SPK
+
+    from planetnav_env.astro.ephemeris import de440_path
+    from planetnav_env.batch import BatchCore
+    from planetnav_env.config import EnvConfig
+    from planetnav_env.core import layout as L
+    from planetnav_env.core import sensing
+    from planetnav_env.core.records import make_scratch
+    from planetnav_env.core.row_ephemeris import eval_channel, truth_bodies_at
+
+    cfg = EnvConfig(
+        scenario="mars-approach", planets=["mars"], pulsars=["B0531+21"], world="flight",
+        step_s=300.0, episode_steps=40,
+    )  # fmt: skip
+    core = BatchCore(cfg, 1)
+    core.reset_rows(np.array([0]), [np.random.default_rng(2)])
+    prm = core.params
+    psr_rows = prm.psr.copy()
+    psr_rows[:, 4] = 0.0  # no phase noise: the measured phase is the truth's model
+    prm = prm._replace(psr=psr_rows)
+    f, st = core.f, core.state
+    nvec, lam = psr_rows[0, :3], psr_rows[0, 3]
+    f[0, L.F_Q : L.F_Q + 4] = _pointing_at(np.asarray(prm.boresight), nvec)
+    ps = prm.scalars[0]
+    f[0, L.F_INTEGRATED] = ps["psr_int_s"]
+    t = float(f[0, L.F_T0]) + 600.0
+    sc = make_scratch(prm)
+    eval_channel(prm, core.eph, f, 0, t, ps["ch_central"], sc.central)
+    truth_bodies_at(prm, core.eph, f, 0, t, sc, False)
+    measured, _, _ = sensing.time_pulsar(prm, st, 0, 0, t, sc)
+    assert measured
+    jd = J2000_JD + t / 86400.0
+    jd0 = J2000_JD + float(f[0, L.F_T0]) / 86400.0
+    x = f[0, L.F_X : L.F_X + 3].copy()
+    new, old = SPK.open(de440_path()), SPK.open(de421_path())
+    try:
+        mars_new, sun_new = new[0, 4].compute(jd), new[0, 10].compute(jd)
+        mars_old = old[0, 4].compute(jd) + old[4, 499].compute(jd)
+        sun_old = old[0, 10].compute(jd)
+        # The barycentres' constant difference at the episode's start, held in the timing model's phase.
+        frame = new[0, 10].compute(jd0) - old[0, 10].compute(jd0)
+    finally:
+        new.close()
+        old.close()
+    assert 50.0 < np.linalg.norm(frame) < 200.0  # km: DE440's barycentre is ~116 km from DE421's
+    mars_new, sun_new = mars_new - frame, sun_new - frame
+    far = 1e15 * nvec
+
+    def phase_km(r_rel_mars, mars_ssb, sun_ssb):
+        r_helio = r_rel_mars + mars_ssb - sun_ssb
+        shapiro = -(_shapiro_finite_source_km(r_helio, far) - _shapiro_finite_source_km(-sun_ssb, far))
+        return nvec @ (r_rel_mars + mars_ssb) + shapiro, shapiro
+
+    truth_km, shapiro_true = phase_km(x, mars_new, sun_new)
+    # The filter's state was updated by the phase: its prediction h is sc.h[0], from the prior estimate.
+    xe = sc.roll - sc.central  # the estimated heliocentric position the kernel used, relative to Mars
+    model_km, _ = phase_km(xe, mars_old, sun_old)
+    assert sc.z[0] * lam == pytest.approx(truth_km, abs=1e-3)
+    assert sc.h[0] * lam == pytest.approx(model_km, abs=1e-3)
+    assert 1.0 < abs(shapiro_true) < 30.0  # km: the delay is there, and of its stated size
+    # What is left of the two barycentric Mars along the pulsar: the heliocentric difference (~0.5 km).
+    assert 1e-3 < abs(nvec @ (mars_new - mars_old)) < 2.0

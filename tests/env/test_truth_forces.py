@@ -1,10 +1,13 @@
-"""The truth's own force model (``world.third_bodies``, ``world.srp``) against independent truth.
+"""The truth's own force model (``world.third_bodies``, ``world.srp``, ``world.truth_ephemeris``) against
+independent truth.
 
-The oracle: scipy's DOP853 on the same forces with the bodies' positions read by jplephem from the DE421
-kernel itself (not the row's Chebyshev table), the third bodies in the central body's frame (direct minus
-indirect term) and the cannonball SRP in its closed form ``a = C_R (A/m) (S/c) (1 AU / r)^2`` away from
-the Sun. The propagator under test is the compiled truth step itself (``kernels.propagate_truth``, what
-``step_row`` calls), run in a loop over the row's own table.
+The oracle: scipy's DOP853 on the same forces with the bodies' positions read by jplephem from the kernel
+itself (DE421, or DE440 when the truth follows it; not the row's Chebyshev table), the third bodies in the
+central body's frame (direct minus indirect term) and the cannonball SRP in its closed form
+``a = C_R (A/m) (S/c) (1 AU / r)^2`` away from the Sun (on the Mars approach from the Sun's position
+relative to Mars, the Sun's pull on Mars untouched by it). The propagator under test is the compiled
+truth step itself (``kernels.propagate_truth``, what ``step_row`` calls), run in a loop over the row's own
+table.
 """
 
 from __future__ import annotations
@@ -21,7 +24,7 @@ from scipy.interpolate import CubicHermiteSpline
 
 import planetnav_env  # noqa: F401  (registers the ids)
 from planetnav_env.astro.bodies import BODIES
-from planetnav_env.astro.ephemeris import de421_path
+from planetnav_env.astro.ephemeris import de421_path, de440_path
 from planetnav_env.batch import BatchCore
 from planetnav_env.config import EnvConfig
 from planetnav_env.core import layout as L
@@ -59,27 +62,39 @@ def _truth_path(prm, eph, f, n, steps, dt, out):  # pragma: no cover - compiled
     for s in range(steps):
         t = t0 + s * dt
         perturbers_at(prm, eph, f, n, t, dt, sc.pert)
-        orbit = OrbitModel(mu=prm.scalars[0].mu, p0=sc.pert[0], p1=sc.pert[1], p2=sc.pert[2], mus=prm.mus)
+        orbit = OrbitModel(
+            mu=prm.scalars[0].mu,
+            p0=sc.pert[0],
+            p1=sc.pert[1],
+            p2=sc.pert[2],
+            mus=prm.mus,
+            srp_k=0.0,
+            srp_sun=-1,
+        )
         propagate_truth(prm, eph, f, n, t, dt, orbit, sc)
         for j in range(6):
             out[s, j] = f[n, L.F_X + j]
 
 
 def _barycentric(spk: SPK, name: str, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Position [km] and velocity [km/s] of ``name`` from the barycentre at ``t`` [TDB s since J2000]."""
+    """Position [km] and velocity [km/s] of ``name`` from the barycentre at ``t`` [TDB s since J2000]
+    (the segments of its chain the kernel holds: DE440's Mars is its system barycentre)."""
     pos = np.zeros((3, t.size))
     vel = np.zeros((3, t.size))
-    for c, b in CHAINS[name]:
+    for c, b in (pair for pair in CHAINS[name] if pair in spk.pairs):
         p, v = spk[c, b].compute_and_differentiate(2451545.0, t / DAY)
         pos += p
         vel += v / DAY
     return pos.T, vel.T
 
 
-def _reference(central: str, bodies: tuple[str, ...], k_srp: float, x0: np.ndarray, t0: float, span: float):
-    """DOP853 of the same forces, the bodies from jplephem (a cubic Hermite spline of its positions and
-    velocities at 10-minute nodes: below 1e-9 km); returns the state at ``t0 + span``."""
-    spk = SPK.open(de421_path())
+def _reference(
+    central: str, bodies: tuple[str, ...], k_srp: float, x0: np.ndarray, t0: float, span: float, path: str
+):
+    """DOP853 of the same forces, the bodies from jplephem on the kernel at ``path`` (a cubic Hermite
+    spline of its positions and velocities at 10-minute nodes: below 1e-9 km); returns the state at
+    ``t0 + span``."""
+    spk = SPK.open(path)
     try:
         nodes = t0 + np.arange(0.0, span + 601.0, 600.0)
         c_pos, c_vel = _barycentric(spk, central, nodes)
@@ -124,10 +139,12 @@ def _core(world: WorldConfig, scenario: str = "cruise", **kw) -> BatchCore:
 
 CASES = [
     ("cruise", FORCES, 1440, 60.0, 1e-3),  # one day at the cruise's step: within 1 m
-    ("mars-approach", WorldConfig(third_bodies=True), 1440, 60.0, 1e-3),
+    ("mars-approach", FORCES, 1440, 60.0, 1e-3),  # SRP away from the perturbing Sun
     ("cruise", FORCES, 1440, 3600.0, 0.1),  # sixty days: within 100 m
+    ("cruise", WorldConfig(preset="flight"), 1440, 60.0, 1e-3),  # the flight truth: DE440's bodies
+    ("mars-approach", WorldConfig(preset="flight"), 1440, 60.0, 1e-3),
 ]
-CASE_IDS = ["cruise-1d", "approach-1d", "cruise-60d"]
+CASE_IDS = ["cruise-1d", "approach-1d", "cruise-60d", "cruise-flight-de440-1d", "approach-flight-de440-1d"]
 
 
 def truth_errors(scenario: str, world: WorldConfig, steps: int, dt: float) -> tuple[float, float]:
@@ -148,7 +165,8 @@ def truth_errors(scenario: str, world: WorldConfig, steps: int, dt: float) -> tu
         assert k == 0.0
     out = np.empty((steps, 6))
     _truth_path(core.params, core.eph, f, 0, steps, dt, out)
-    ref = _reference(central, bodies, k, x0, t0, steps * dt)
+    path = de440_path() if world.truth_ephemeris_name == "de440" else de421_path()
+    ref = _reference(central, bodies, k, x0, t0, steps * dt, path)
     err = float(np.linalg.norm(out[-1, :3] - ref[:3]))
     plain = _core(WorldConfig(), scenario, step_s=dt, episode_steps=steps)
     _truth_path(plain.params, plain.eph, plain.f, 0, steps, dt, out)
@@ -163,6 +181,29 @@ def test_truth_trajectory_against_dop853_on_jplephem(scenario, world, steps, dt,
         # The forces matter at this tolerance: the Sun-only truth misses by far more. (Near Mars the
         # added bodies' tides over a day are below the tolerance.)
         assert plain_err > 20 * tol_km, plain_err
+
+
+def test_srp_on_the_mars_approach_is_there_and_pushes_away_from_the_sun() -> None:
+    """Over a day near Mars the SRP's 4e-8 m/s^2 moves the truth by ~100 m: the same DOP853 without it
+    misses the truth by far more than the 1 m the test above holds it to, and the truth moved away from
+    the Sun relative to the truth without SRP."""
+    steps, dt = 1440, 60.0
+    core = _core(FORCES, "mars-approach", step_s=dt, episode_steps=steps)
+    f = core.f
+    x0, t0 = f[0, L.F_X : L.F_X + 6].copy(), float(f[0, L.F_T0])
+    out = np.empty((steps, 6))
+    _truth_path(core.params, core.eph, f, 0, steps, dt, out)
+    bodies = core.plan.truth_perturbers
+    ref = _reference("mars", bodies, 0.0, x0, t0, steps * dt, de421_path())
+    shift = out[-1, :3] - ref[:3]
+    assert 50e-3 < np.linalg.norm(shift) < 1.0  # km
+    spk = SPK.open(de421_path())
+    try:
+        sun = _barycentric(spk, "sun", np.array([t0]))[0][0] - _barycentric(spk, "mars", np.array([t0]))[0][0]
+    finally:
+        spk.close()
+    away = (x0[:3] - sun) / np.linalg.norm(x0[:3] - sun)
+    assert np.dot(shift, away) > 0.7 * np.linalg.norm(shift)
 
 
 def test_stepped_env_flies_the_truth_path_bit_for_bit() -> None:
@@ -223,14 +264,19 @@ def test_bad_force_options_get_named_errors_through_make_vec_and_yaml(tmp_path) 
         ({"reflectivity_range": [1.2]}, "world.reflectivity_range"),
         ({"third_bodies": 1}, "world.third_bodies"),
         ({"process_noise": "inflated"}, "world.process_noise"),
+        ({"truth_ephemeris": "de430"}, "world.truth_ephemeris"),
+        ({"thrust_gauss_markov": "yes"}, "world.thrust_gauss_markov"),
+        ({"pulsar_shapiro": 1.0}, "world.pulsar_shapiro"),
     ]
     for value, match in cases:
         with pytest.raises(OptionError, match=match):
             gym.make("planetnav/Cruise-Target-v2", world=value)
         with pytest.raises(OptionError, match=match):
             gym.make_vec("planetnav/Cruise-Target-v2", num_envs=2, world=value)
-    with pytest.raises(OptionError, match=r"world\.srp"):
-        EnvConfig(scenario="mars-approach", world=WorldConfig(srp=True))
+    # SRP is modelled on every scenario: on the Mars approach too (the Sun among the truth's bodies).
+    approach = EnvConfig(scenario="mars-approach", world=WorldConfig(srp=True))
+    core = BatchCore(approach, 1)
+    assert "sun" in core.plan.truth_perturbers and core.params.scalars[0]["srp_sun"] >= 0
     path = tmp_path / "env.yaml"
     path.write_text("env:\n  world: {area_to_mass_m2_kg: -1.0}\n")
     with pytest.raises(OptionError, match=r"world\.area_to_mass_m2_kg"):
@@ -242,10 +288,10 @@ def test_bad_force_options_get_named_errors_through_make_vec_and_yaml(tmp_path) 
 
 def _omitted_oracle(core: BatchCore, c_r: float) -> np.ndarray:
     """The truth's third bodies and SRP (``c_r``) minus the filter's field at the row's initial state,
-    from jplephem and the closed forms (the cruise: the filter is Sun-only)."""
+    from jplephem on the truth's kernel and the closed forms (the cruise: the filter is Sun-only)."""
     t0 = np.array([float(core.f[0, L.F_T0])])
     r = core.f[0, L.F_X : L.F_X + 3]
-    spk = SPK.open(de421_path())
+    spk = SPK.open(de440_path() if core.config.world.truth_ephemeris_apart else de421_path())
     try:
         sun = _barycentric(spk, "sun", t0)[0][0]
         acc = np.zeros(3)
@@ -291,7 +337,7 @@ if __name__ == "__main__":  # python tests/env/test_truth_forces.py: the validat
             f"{name}: truth vs DOP853 {err * 1e3:.2e} m (tolerance {tol * 1e3:g} m); "
             f"matched-world truth vs the same reference {plain_err:.3e} km"
         )
-    for scenario in ("cruise", "random-cruise", "mars-approach"):
+    for scenario in ("cruise", "random-cruise", "mars-approach"):  # SRP included on every one
         core = _core(WorldConfig(preset="flight"), scenario)
         a = np.linalg.norm(core.omitted_acceleration(core.f[0, L.F_T0], core.f[0, L.F_X : L.F_X + 6]))
         print(

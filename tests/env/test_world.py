@@ -13,14 +13,14 @@ import pytest
 import planetnav_env  # noqa: F401  (registers the ids)
 from planetnav_env.astro.apparent import SPEED_OF_LIGHT_KM_S, aberrate, apparent_direction
 from planetnav_env.astro.bodies import GM_SUN
-from planetnav_env.astro.ephemeris import DEEphemeris
+from planetnav_env.astro.ephemeris import DEEphemeris, make_ephemeris
 from planetnav_env.batch import BatchCore
 from planetnav_env.config import EnvConfig
 from planetnav_env.core import layout as L
 from planetnav_env.core import sensing
 from planetnav_env.core.light_path import apparent_point
 from planetnav_env.core.records import make_scratch
-from planetnav_env.core.row_ephemeris import planets_at
+from planetnav_env.core.row_ephemeris import planets_at, truth_bodies_at
 from planetnav_env.envs.registration import ENV_IDS
 from planetnav_env.errors import ConfigError, OptionError, OptionTypeError
 from planetnav_env.scenarios.episodes import CRUISE_EPOCH
@@ -132,24 +132,33 @@ def _stepped(env_id: str, world, target: int, steps: int):
 def test_truth_and_onboard_target_points_are_the_apparent_directions(env_id: str, target: int) -> None:
     """On a row's own state after a few steps: the truth's camera target point is the apparent direction
     (CN+S, astro.apparent) of the planet seen from the true state, and the filter's the one seen from the
-    estimated state, each at the geometric range. Planet and central-body states here come from DE421
-    itself, not from the row's table."""
+    estimated state, each at the geometric range. Planet and central-body states here come from the
+    kernels themselves (the truth's DE440, the filter's DE421), not from the row's table."""
     env = _stepped(env_id, "flight", target, 6)
     core = env.core
     prm, st, f, i = core.params, core.state, core.f, core.i
     cfg = env.config
     t = f[0, L.F_T0] + i[0, L.I_K] * cfg.step_s
-    eph = DEEphemeris()
+    eph, truth_eph = DEEphemeris(), make_ephemeris("de440")
     central = "mars" if cfg.scenario == "mars-approach" else "sun"
-    rc, vc = np.zeros(3), np.zeros(3)
-    if central != "sun":
-        rc, vc = (s[0] for s in eph.state(central, np.array([t])))
     name = cfg.planets[target]
-    rp, vp = (s[0] for s in eph.state(name, np.array([t])))
+
+    def states(e):
+        rc, vc = np.zeros(3), np.zeros(3)
+        if central != "sun":
+            rc, vc = (s[0] for s in e.state(central, np.array([t])))
+        rp, vp = (s[0] for s in e.state(name, np.array([t])))
+        return rc, vc, rp, vp
+
+    rc, vc, rp, vp = states(truth_eph)
+    ob_rc, ob_vc, ob_rp, ob_vp = states(eph)
     sc = make_scratch(prm)
     planets_at(prm, st.eph, f, 0, t, sc.planets)
-    assert np.allclose(sc.planets[target], rp, atol=1e-4)  # the row's table is DE421 (0.1 m)
-    sc.central[:] = rc
+    assert np.allclose(sc.planets[target], ob_rp, atol=1e-4)  # the onboard channels are DE421 (0.1 m)
+    sc.central[:] = ob_rc
+    truth_bodies_at(prm, st.eph, f, 0, t, sc, True)
+    assert np.allclose(sc.tplanets[target], rp, atol=1e-4)  # the truth's are DE440
+    assert np.allclose(sc.tcentral, rc, atol=1e-4)
     x, xe = f[0, L.F_X : L.F_X + 6], f[0, L.F_XE : L.F_XE + 6]
     sc.r1[0] = x[:3] + rc
     sensing._truth_apparent(prm, st, 0, target, sc)
@@ -166,10 +175,10 @@ def test_truth_and_onboard_target_points_are_the_apparent_directions(env_id: str
     dv = (x[3:] + vc) - vp
     across = np.linalg.norm(dv - np.dot(dv, los) * los) / SPEED_OF_LIGHT_KM_S
     assert _angle(got, rp - sc.r1[0]) == pytest.approx(across, rel=0.01)
-    # The onboard model: the same correction from the estimated state.
+    # The onboard model: the same correction from the estimated state, on DE421.
     sensing._onboard_apparent(prm, st, 0, target, sc)
-    apparent_direction(xe[:3] + rc, xe[3:] + vc, rp, vp, GM_SUN, want)
-    model = sc.dirv - xe[:3]  # the filter's predicted line of sight (central-body frame)
+    apparent_direction(xe[:3] + ob_rc, xe[3:] + ob_vc, ob_rp, ob_vp, GM_SUN, want)
+    model = sc.dirv + ob_rc - (xe[:3] + ob_rc)  # the filter's predicted line of sight
     assert _angle(model, want) < 1e-4 * ARCSEC
 
 
