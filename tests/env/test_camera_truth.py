@@ -48,8 +48,10 @@ def _image(core: BatchCore, idx: int, planet: np.ndarray, observer: np.ndarray):
     line of sight, ``los_true``: the planet's centre) and the row's true attitude."""
     prm, st = core.params, core.state
     sc = make_scratch(prm)
-    sc.planets[idx] = planet
+    sc.planets[idx] = planet  # truth and onboard alike: the geometry is the test's own
+    sc.tplanets[idx] = planet
     sc.central[:] = 0.0
+    sc.tcentral[:] = 0.0
     sc.r1[0] = observer
     sc.t1[0] = planet
     q = core.f[0, L.F_Q : L.F_Q + 4].copy()
@@ -129,6 +131,7 @@ def test_oblate_limb_fit_size_matches_the_rendered_spheroid(lat_deg):
     prm, st = core.params, core.state
     sc = make_scratch(prm)
     sc.planets[idx], sc.central[:], sc.r1[0], sc.t1[0] = planet, 0.0, observer, planet
+    sc.tplanets[idx], sc.tcentral[:] = planet, 0.0
     sc.q1[0] = core.f[0, L.F_Q : L.F_Q + 4]
     sensing.measure_planet(prm, st, 0, idx, sc)
     # The measured alpha is the filter's z; read it back through the measurement vector's source.

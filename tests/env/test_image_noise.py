@@ -120,7 +120,7 @@ def test_the_truth_image_reads_the_model_at_the_row_geometry():
     sc = make_scratch(prm)
     idx = cfg.planets.index("mars")
     planet = np.array([1.2 * AU_KM, 0.8 * AU_KM, 0.1 * AU_KM])
-    sc.planets[idx] = planet
+    sc.tplanets[idx] = planet  # the truth's planet: the image's own geometry
     sun_dir = -planet / np.linalg.norm(planet)
     side = np.cross(sun_dir, [0.0, 0.0, 1.0])
     side /= np.linalg.norm(side)
