@@ -170,7 +170,7 @@ class WorldConfig:
         "episode. None: on in ``flight``",
     )
     cob_model_error: float = option(
-        0.1,
+        0.05,
         unit="-",
         ge=0.0,
         le=1.0,

@@ -5,7 +5,7 @@ geometry (the reset state of seed 0 and, on the Mars approach, the episode's las
 
 Printed per scenario and planet: range, disk diameter [px], phase, the image's SNR, the image-driven
 centroid sigma ["] and diameter sigma [px] against the filter's R (3.5" and 2.5 px), the Lambertian
-centre-of-brightness offset ["] and what a 10 % photometric-model error leaves of it, the boresight
+centre-of-brightness offset ["] and what the photometric model's error bound leaves of it, the boresight
 drift's sigma, and the range bias a spherical model takes from an oblate outline [km] (seen from the
 planet's equator, the largest). Then the spread between the two classical scattering laws' centres of
 brightness (Lambert and Lommel-Seeliger, rendered), which the photometric model's error bound is
@@ -91,13 +91,13 @@ def main() -> None:
             print(f"{scenario} ({env_id}, seed 0, {when})\n")
             print(
                 '| planet | range [km] | D [px] | phase [deg] | SNR | centroid sigma ["] | diameter sigma '
-                '[px] | CoB offset ["] | 10 % model error ["] | oblate range bias [km] |'
+                '[px] | CoB offset ["] | left at the model error bound ["] | oblate range bias [km] |'
             )
             print("|---|---|---|---|---|---|---|---|---|---|")
             for name, dist, d_px, ph, snr, s_c, s_d, cob, rb in rows(env_id, at_end):
                 print(
                     f"| {name} | {dist:.3g} | {d_px:.3g} | {ph:.0f} | {snr:.0f} | {s_c:.2f} | {s_d:.3g} "
-                    f"| {cob:.2f} | {0.1 * cob:.2f} | {rb:.0f} |"
+                    f"| {cob:.2f} | {w.cob_model_error * cob:.2f} | {rb:.0f} |"
                 )
             print()
     print("centre of brightness [disk radii], rendered: Lambert, Lommel-Seeliger, their relative gap\n")
