@@ -299,6 +299,12 @@ class EnvConfig:
         "unmodelled event), so a rule that reads P sees which way the error lies. 0: the spherical prior of "
         "filter.sigma_pos0 (the v0 and v1 physics; nothing is drawn); else at least filter.sigma_pos0",
     )
+    observe_momentum: bool = option(
+        False,
+        doc="add the ``momentum`` block to the observation (last, four values: the largest wheel momentum "
+        "over the dump threshold, then the total angular momentum in inertial axes / wheel capacity), so "
+        "that a policy can plan around momentum dumps (world.momentum_dumping)",
+    )
     observe_position_correlation: bool = option(
         False,
         doc="add the ``position_correlation`` block to the observation (last, three values: the "
@@ -406,6 +412,13 @@ class EnvConfig:
                 "False or None on scenario 'mars-approach' (SRP in truth is modelled on the heliocentric "
                 "scenarios only)",
                 self.world.srp,
+            )
+        if self.world.dumping_on and self.world.dump_threshold_n_m_s >= self.attitude.wheel_momentum_capacity:
+            raise OptionError(
+                "world.dump_threshold_n_m_s",
+                f"a momentum below attitude.wheel_momentum_capacity ({self.attitude.wheel_momentum_capacity} "
+                "N m s) with momentum dumping on",
+                self.world.dump_threshold_n_m_s,
             )
         ratio = self.step_s / self.attitude_substep_s
         if abs(ratio - round(ratio)) > 1e-9:

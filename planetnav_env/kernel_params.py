@@ -64,6 +64,7 @@ def build_params(
         deadlines[: len(ops.deadlines_s)] = ops.deadlines_s
     pos_scale, vel_scale = L.observation_scales(cfg.scenario)
     ops_q_par, ops_q_perp = ops.psd_km2_s3 if ops is not None else (0.0, 0.0)
+    world = cfg.world
     scalars = make_scalars(
         SCALARS_DTYPE,
         **kernel_values(cfg),  # the scalars that copy an option (declared with kernel=)
@@ -91,6 +92,29 @@ def build_params(
         onboard_ab=cfg.world.aberration_corrected,
         cob_max=cfg.world.centroid_bias_bound,
         psr_df_max=cfg.world.pulsar_frequency_error_bound,
+        att_on=world.attitude_world_on,
+        est_on=world.attitude_world_on and world.estimate_pointing_on,
+        srp_tq=world.srp_torque_on,
+        srp_area=world.srp_torque_area_m2,
+        gg_on=world.gravity_gradient_on,
+        thr_tq=ops is not None and any(v != 0.0 for v in world.thrust_offset),
+        thrust_n=ops.thrust_n if ops is not None else 0.0,
+        fric_c=world.wheel_coulomb,
+        fric_v=world.wheel_viscous,
+        fric_comp=world.wheel_friction_compensation,
+        jw=world.wheel_inertia_kg_m2,
+        h_speed=world.wheel_inertia_kg_m2 * world.wheel_speed_limit_rad_s,
+        h_sat=0.99 * att.wheel_momentum_capacity,
+        dump_on=world.dumping_on,
+        dump_thr=world.dump_threshold_n_m_s,
+        dump_arm=world.dump_lever_arm_m,
+        mass=world.dump_mass(ops.mass_kg if ops is not None else None),
+        dump_sig_m=world.dump_dv_error,
+        dump_sig_p=math.radians(world.dump_pointing_error_deg),
+        dump_dur=world.dump_duration_s,
+        g_rrw=world.gyro_rrw,
+        g_arw=world.gyro_arw,
+        g_bias=world.gyro_bias_rad_s,
         det_half_fov=math.radians(0.5 * cfg.detector_fov_deg),
         sun_avoid=math.radians(cfg.detector.sun_avoidance_deg),
         reward_truth=cfg.reward == "truth",
@@ -156,4 +180,5 @@ def build_params(
         stars=tables,
         q_bias=bias_quaternion(cfg.star_tracker_bias_arcsec),
         obs_blocks=layout.block_starts(),
+        arms=np.array([world.cp_offset, world.thrust_offset], dtype=float),
     )

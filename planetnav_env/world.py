@@ -13,9 +13,12 @@ effect alone (a regime map's axis, or one effect's share of the flight world's e
   (``docs/flight_world.md``), whose process noise is then tuned to what it omits. Two effects are modelled
   but off in both presets until a flight magnitude with a cited source joins: the centre-of-brightness
   centroid bias (``centroid_bias_max``) and the pulsar timing-model error (``pulsar_frequency_error_max``),
-  each set on its own. The other effects of a flight world (image-driven camera errors, oblate planets, a
-  boresight drift, a newer ephemeris in truth, attitude disturbances) are not modelled yet and will join
-  as options of this section.
+  each set on its own. The attitude loop of a flight world is in it too: disturbance torques (SRP from a
+  centre-of-pressure offset, the central body's gravity gradient, the thrust's offset on the thrust arc),
+  reaction wheels with friction and a speed limit, momentum dumps by thrusters with their delta-v error,
+  and pointing from the estimate (a gyro with bias and random walk, an attitude filter fed by the star
+  tracker). The other effects of a flight world (image-driven camera errors, oblate planets, a boresight
+  drift, a newer ephemeris in truth) are not modelled yet and will join as options of this section.
 
 On board, the filter applies the corrections flight optical navigation applies to each effect that is on
 in truth, computed from its *estimated* state (``onboard_corrections``, default: on); switching them
@@ -27,6 +30,7 @@ shorthand for ``world: {preset: flight}``.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Any
 
@@ -40,8 +44,27 @@ PRESETS = ("matched", "flight")
 EXPECTED = (
     "one of 'matched', 'flight' (str), or a WorldConfig (in EnvConfig.from_dict / YAML a mapping of its "
     "options: preset, light_time, aberration, onboard_corrections, third_bodies, srp, area_to_mass_m2_kg, "
-    "reflectivity_range, process_noise, centroid_bias_max, pulsar_frequency_error_max)"
+    "reflectivity_range, process_noise, centroid_bias_max, pulsar_frequency_error_max, cp_offset_m, "
+    "srp_torque_area_m2, gravity_gradient, thrust_offset_m, wheel_coulomb_n_m, wheel_viscous_n_m_s, "
+    "wheel_friction_compensation, wheel_inertia_kg_m2, wheel_speed_limit_rpm, momentum_dumping, "
+    "dump_threshold_n_m_s, dump_lever_arm_m, "
+    "mass_kg, dump_dv_error, dump_pointing_error_deg, dump_duration_s, gyro_bias_deg_h, "
+    "gyro_rrw_deg_h_rt_h, gyro_arw_deg_rt_h, pointing_from_estimate)"
 )
+
+#: The flight preset's attitude magnitudes (docs/flight_world.md cites each): the centre-of-pressure offset
+#: [m, body], the thrust line's offset from the centre of mass [m, body], Coulomb [N m] and viscous
+#: [N m s] wheel friction, the wheel speed limit [rpm], the gyro's bias 1-sigma [deg/h], rate random walk
+#: [deg/h/sqrt(h)] and angle random walk [deg/sqrt(h)].
+FLIGHT_CP_OFFSET_M = (0.0, 0.02, 0.01)
+FLIGHT_THRUST_OFFSET_M = (0.0, 0.001, 0.0)
+FLIGHT_WHEEL_COULOMB_N_M = 1e-4
+FLIGHT_WHEEL_VISCOUS_N_M_S = 2e-7
+FLIGHT_WHEEL_SPEED_LIMIT_RPM = 6500.0
+FLIGHT_GYRO_BIAS_DEG_H = 0.5
+FLIGHT_GYRO_RRW_DEG_H_RT_H = 0.05
+FLIGHT_GYRO_ARW_DEG_RT_H = 0.01
+_DEG_H = math.radians(1.0) / 3600.0  # 1 deg/h in rad/s
 
 #: The bodies of the ephemeris whose point masses act on the truth with third bodies on: every planet
 #: DEEphemeris gives (the gas giants as their system barycentres, which hold their moons' mass), the Earth
@@ -167,6 +190,141 @@ class WorldConfig:
         doc="[low, high] of the reflectivity coefficient C_R drawn uniformly per episode for SRP (1: "
         "absorbs all, 2: mirrors all back)",
     )
+    # --- the attitude loop (docs/flight_world.md, "The attitude loop") ---------------------------------
+    cp_offset_m: tuple[float, float, float] | None = option(
+        None,
+        kind="floats",
+        length=3,
+        unit="m (body axes)",
+        doc="SRP torque in truth: the centre of pressure's offset from the centre of mass; the push "
+        "C_R A P(r) away from the Sun (``srp_torque_area_m2``, C_R as drawn for SRP, else the middle of "
+        "``reflectivity_range``) acts there. None: (0, 0.02, 0.01) in ``flight``, none in ``matched``",
+    )
+    srp_torque_area_m2: float = option(
+        2.0, gt=0.0, le=1000.0, unit="m^2", doc="the sunlit cross-section the SRP torque pushes on"
+    )
+    gravity_gradient: bool | None = option(
+        None,
+        kind="bool",
+        doc="the central body's gravity-gradient torque 3 mu / r^3 (u x J u) in truth (Mars on the "
+        "approach, the Sun on the cruises). None: on in ``flight``, off in ``matched``",
+    )
+    thrust_offset_m: tuple[float, float, float] | None = option(
+        None,
+        kind="floats",
+        length=3,
+        unit="m (body axes)",
+        doc="thrust arc: the offset of the engine's line of thrust from the centre of mass (the residual "
+        "after gimbal trim); its torque r x T acts while the engine thrusts. None: (0, 0.001, 0) in "
+        "``flight``, none in ``matched``",
+    )
+    wheel_coulomb_n_m: float | None = option(
+        None,
+        kind="float",
+        ge=0.0,
+        le=0.01,
+        unit="N m",
+        doc="Coulomb friction of each wheel's bearing, against its spin (the body receives it back). "
+        "None: 1e-4 in ``flight``, 0 in ``matched``",
+    )
+    wheel_viscous_n_m_s: float | None = option(
+        None,
+        kind="float",
+        ge=0.0,
+        le=1e-3,
+        unit="N m s",
+        doc="viscous friction of each wheel: this times the wheel's speed [rad/s]. None: 2e-7 in "
+        "``flight``, 0 in ``matched``",
+    )
+    wheel_friction_compensation: float = option(
+        0.9,
+        ge=0.0,
+        le=1.0,
+        unit="fraction",
+        doc="the share of the bearing friction the wheel drive's feed-forward (its nominal friction model "
+        "at the tachometer's speed) cancels; the rest reaches the body as a disturbance",
+    )
+    wheel_inertia_kg_m2: float = option(
+        8e-4, gt=0.0, le=1.0, unit="kg m^2", doc="each wheel's axial inertia (wheel speed = h / J_w)"
+    )
+    wheel_speed_limit_rpm: float | None = option(
+        None,
+        kind="float",
+        gt=0.0,
+        le=1e5,
+        unit="rpm",
+        doc="each wheel's no-load speed: the motor's torque toward a higher speed falls as "
+        "torque_limit (1 - |speed| / limit) (back EMF). None: 6500 in ``flight``, none in ``matched``",
+    )
+    momentum_dumping: bool | None = option(
+        None,
+        kind="bool",
+        doc="thrusters unload the wheels when one's momentum exceeds ``dump_threshold_n_m_s``: the wheel "
+        "momentum goes to zero, the thrusters' impulse |dh| / lever arm moves the centre of mass by a "
+        "delta-v with a magnitude and pointing error the filter does not know (it applies the nominal "
+        "delta-v and adds the error's covariance); on the thrust arc the engine is off for "
+        "``dump_duration_s``. None: on in ``flight``, off in ``matched``",
+    )
+    dump_threshold_n_m_s: float = option(
+        0.4,
+        gt=0.0,
+        unit="N m s",
+        doc="a dump starts when one wheel's |momentum| exceeds this (below attitude.wheel_momentum_capacity)",
+    )
+    dump_lever_arm_m: float = option(0.5, gt=0.0, le=100.0, unit="m", doc="the dump thrusters' lever arm")
+    mass_kg: float | None = option(
+        None,
+        kind="float",
+        gt=0.0,
+        unit="kg",
+        doc="the spacecraft's mass for a dump's delta-v. None: operations.mass_kg on the thrust arc, else "
+        "srp_torque_area_m2 / area_to_mass_m2_kg (200 kg)",
+    )
+    dump_dv_error: float = option(
+        0.05, ge=0.0, le=1.0, unit="fraction", doc="1-sigma of a dump's delta-v magnitude error"
+    )
+    dump_pointing_error_deg: float = option(
+        2.0, ge=0.0, le=45.0, unit="deg", doc="1-sigma of a dump's delta-v direction error per cross axis"
+    )
+    dump_duration_s: float = option(
+        600.0,
+        ge=0.0,
+        unit="s",
+        doc="thrust arc: the engine is off this long per dump (unloading, settling, restart)",
+    )
+    gyro_bias_deg_h: float | None = option(
+        None,
+        kind="float",
+        ge=0.0,
+        le=100.0,
+        unit="deg/h",
+        doc="1-sigma per axis of the gyro's bias, drawn per episode; the reported rates carry it. None: "
+        "0.5 in ``flight``, 0 in ``matched``",
+    )
+    gyro_rrw_deg_h_rt_h: float | None = option(
+        None,
+        kind="float",
+        ge=0.0,
+        le=10.0,
+        unit="deg/h/sqrt(h)",
+        doc="the gyro bias's random walk (rate random walk). None: 0.05 in ``flight``, 0 in ``matched``",
+    )
+    gyro_arw_deg_rt_h: float | None = option(
+        None,
+        kind="float",
+        ge=0.0,
+        le=10.0,
+        unit="deg/sqrt(h)",
+        doc="the gyro's angle random walk (white rate noise) in the attitude estimator's propagation. "
+        "None: 0.01 in ``flight``, 0 in ``matched``",
+    )
+    pointing_from_estimate: bool | None = option(
+        None,
+        kind="bool",
+        doc="the PD law reads an attitude estimator's quaternion and rate (gyro propagation corrected by "
+        "each star-tracker fix, a 6-state multiplicative Kalman filter of attitude and gyro bias) instead "
+        "of the truth. None: on in ``flight``, off in ``matched``",
+    )
 
     def __post_init__(self) -> None:
         check_options(self, "world.")
@@ -254,6 +412,97 @@ class WorldConfig:
             return self.truth_forces_on
         return self.process_noise == "tuned"
 
+    def _flight_or(self, value, flight_value, off_value):
+        if value is not None:
+            return value
+        return flight_value if self.flight else off_value
+
+    @property
+    def cp_offset(self) -> tuple[float, float, float]:
+        """The centre of pressure's offset [m, body] (zeros: no SRP torque)."""
+        return tuple(self._flight_or(self.cp_offset_m, FLIGHT_CP_OFFSET_M, (0.0, 0.0, 0.0)))
+
+    @property
+    def srp_torque_on(self) -> bool:
+        return any(v != 0.0 for v in self.cp_offset)
+
+    @property
+    def gravity_gradient_on(self) -> bool:
+        return self.flight if self.gravity_gradient is None else self.gravity_gradient
+
+    @property
+    def thrust_offset(self) -> tuple[float, float, float]:
+        """The thrust line's offset [m, body] on the thrust arc (zeros: no thrust torque)."""
+        return tuple(self._flight_or(self.thrust_offset_m, FLIGHT_THRUST_OFFSET_M, (0.0, 0.0, 0.0)))
+
+    @property
+    def wheel_coulomb(self) -> float:
+        return float(self._flight_or(self.wheel_coulomb_n_m, FLIGHT_WHEEL_COULOMB_N_M, 0.0))
+
+    @property
+    def wheel_viscous(self) -> float:
+        return float(self._flight_or(self.wheel_viscous_n_m_s, FLIGHT_WHEEL_VISCOUS_N_M_S, 0.0))
+
+    @property
+    def wheel_speed_limit_rad_s(self) -> float:
+        """The wheels' no-load speed [rad/s] (inf: no speed limit)."""
+        rpm = self._flight_or(self.wheel_speed_limit_rpm, FLIGHT_WHEEL_SPEED_LIMIT_RPM, math.inf)
+        return float(rpm) * 2.0 * math.pi / 60.0
+
+    @property
+    def dumping_on(self) -> bool:
+        return self.flight if self.momentum_dumping is None else self.momentum_dumping
+
+    def dump_mass(self, operations_mass_kg: float | None) -> float:
+        """The mass [kg] a dump's impulse moves (see ``mass_kg``)."""
+        if self.mass_kg is not None:
+            return float(self.mass_kg)
+        if operations_mass_kg is not None:
+            return float(operations_mass_kg)
+        return self.srp_torque_area_m2 / self.area_to_mass_m2_kg
+
+    @property
+    def gyro_bias_rad_s(self) -> float:
+        """1-sigma of the gyro bias per axis [rad/s]."""
+        return float(self._flight_or(self.gyro_bias_deg_h, FLIGHT_GYRO_BIAS_DEG_H, 0.0)) * _DEG_H
+
+    @property
+    def gyro_rrw(self) -> float:
+        """Rate random walk [rad/s/sqrt(s)] (deg/h/sqrt(h) = _DEG_H / 60 rad/s/sqrt(s))."""
+        return (
+            float(self._flight_or(self.gyro_rrw_deg_h_rt_h, FLIGHT_GYRO_RRW_DEG_H_RT_H, 0.0)) * _DEG_H / 60.0
+        )
+
+    @property
+    def gyro_arw(self) -> float:
+        """Angle random walk [rad/sqrt(s)] (deg/sqrt(h) = pi/180 / 60 rad/sqrt(s))."""
+        return (
+            float(self._flight_or(self.gyro_arw_deg_rt_h, FLIGHT_GYRO_ARW_DEG_RT_H, 0.0))
+            * math.radians(1.0)
+            / 60.0
+        )
+
+    @property
+    def estimate_pointing_on(self) -> bool:
+        return self.flight if self.pointing_from_estimate is None else self.pointing_from_estimate
+
+    @property
+    def attitude_world_on(self) -> bool:
+        """Any effect of the attitude loop is on (the row step then runs the flight world's sub-steps)."""
+        return (
+            self.srp_torque_on
+            or self.gravity_gradient_on
+            or any(v != 0.0 for v in self.thrust_offset)
+            or self.wheel_coulomb > 0.0
+            or self.wheel_viscous > 0.0
+            or math.isfinite(self.wheel_speed_limit_rad_s)
+            or self.dumping_on
+            or self.gyro_bias_rad_s > 0.0
+            or self.gyro_rrw > 0.0
+            or self.gyro_arw > 0.0
+            or self.estimate_pointing_on
+        )
+
     @property
     def is_matched(self) -> bool:
         """No effect on: the truth is the onboard model (whatever the preset's name)."""
@@ -263,4 +512,5 @@ class WorldConfig:
             or self.truth_forces_on
             or self.centroid_bias_bound > 0.0
             or self.pulsar_frequency_error_bound > 0.0
+            or self.attitude_world_on
         )

@@ -15,6 +15,9 @@ from planetnav_env.numerics.jit import row_kernel
 NOISE_STAR, NOISE_RATE, NOISE_CAMERA, NOISE_PULSAR0 = 1, 2, 3, 16
 NOISE_THRUST = 4
 NOISE_IMAGE = 5
+#: The flight world's attitude loop: the gyro's random walks over a step, a momentum dump's delta-v error.
+NOISE_GYRO = 10
+NOISE_DUMP = 11
 
 
 @row_kernel
