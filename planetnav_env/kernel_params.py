@@ -33,6 +33,11 @@ from planetnav_env.options import kernel_fields, kernel_values
 from planetnav_env.sensors import pulsar as psr
 from planetnav_env.sensors.star_tracker import StarTrackerConfig, star_fix_tables
 
+#: The flight world's attitude loop settles at an offset (the PD law against friction's residual and the
+#: disturbance torques: ~50" with the shipped gains): its coarse sub-steps start once the pointing error is
+#: below this many times SETTLE_ANGLE_RAD (the rates below SETTLE_RATE_RAD_S, as in the matched world).
+FLIGHT_SETTLE_FACTOR = 10.0
+
 #: Every scalar of ``CoreParams.scalars``: (name, numpy type, meaning [unit]), the option-copied ones first.
 SCALAR_FIELDS: tuple[tuple[str, str, str], ...] = (*kernel_fields(EnvConfig), *CORE_SCALAR_FIELDS)
 #: The record of :data:`SCALAR_FIELDS`.
@@ -72,7 +77,7 @@ def build_params(
         n_coarse=round(cfg.step_s / coarse_s) if coarse_s > 0 else 0,
         segment_s=SEGMENT_S,
         rate_noise=math.radians(att.rate_noise_deg_s),
-        settle_angle=SETTLE_ANGLE_RAD,
+        settle_angle=SETTLE_ANGLE_RAD * (FLIGHT_SETTLE_FACTOR if cfg.world.attitude_world_on else 1.0),
         settle_rate=SETTLE_RATE_RAD_S,
         mode=L.MODE_CODES[cfg.action_mode],
         relative=cfg.target_actions == "relative",

@@ -195,28 +195,19 @@ class WorldConfig:
         None,
         kind="floats",
         length=3,
-        unit="m (body axes)",
-        doc="SRP torque in truth: the centre of pressure's offset from the centre of mass; the push "
-        "C_R A P(r) away from the Sun (``srp_torque_area_m2``, C_R as drawn for SRP, else the middle of "
-        "``reflectivity_range``) acts there. None: (0, 0.02, 0.01) in ``flight``, none in ``matched``",
+        unit="m (body)",
+        doc="SRP torque's centre-of-pressure offset",
     )
-    srp_torque_area_m2: float = option(
-        2.0, gt=0.0, le=1000.0, unit="m^2", doc="the sunlit cross-section the SRP torque pushes on"
-    )
+    srp_torque_area_m2: float = option(2.0, gt=0.0, le=1000.0, unit="m^2", doc="SRP torque's sunlit area")
     gravity_gradient: bool | None = option(
-        None,
-        kind="bool",
-        doc="the central body's gravity-gradient torque 3 mu / r^3 (u x J u) in truth (Mars on the "
-        "approach, the Sun on the cruises). None: on in ``flight``, off in ``matched``",
+        None, kind="bool", doc="the central body's gravity-gradient torque"
     )
     thrust_offset_m: tuple[float, float, float] | None = option(
         None,
         kind="floats",
         length=3,
-        unit="m (body axes)",
-        doc="thrust arc: the offset of the engine's line of thrust from the centre of mass (the residual "
-        "after gimbal trim); its torque r x T acts while the engine thrusts. None: (0, 0.001, 0) in "
-        "``flight``, none in ``matched``",
+        unit="m (body)",
+        doc="thrust arc: the thrust line's offset",
     )
     wheel_coulomb_n_m: float | None = option(
         None,
@@ -224,8 +215,7 @@ class WorldConfig:
         ge=0.0,
         le=0.01,
         unit="N m",
-        doc="Coulomb friction of each wheel's bearing, against its spin (the body receives it back). "
-        "None: 1e-4 in ``flight``, 0 in ``matched``",
+        doc="wheel Coulomb friction",
     )
     wheel_viscous_n_m_s: float | None = option(
         None,
@@ -233,73 +223,48 @@ class WorldConfig:
         ge=0.0,
         le=1e-3,
         unit="N m s",
-        doc="viscous friction of each wheel: this times the wheel's speed [rad/s]. None: 2e-7 in "
-        "``flight``, 0 in ``matched``",
+        doc="wheel viscous friction per rad/s",
     )
     wheel_friction_compensation: float = option(
         0.9,
         ge=0.0,
         le=1.0,
         unit="fraction",
-        doc="the share of the bearing friction the wheel drive's feed-forward (its nominal friction model "
-        "at the tachometer's speed) cancels; the rest reaches the body as a disturbance",
+        doc="friction share the drive cancels",
     )
-    wheel_inertia_kg_m2: float = option(
-        8e-4, gt=0.0, le=1.0, unit="kg m^2", doc="each wheel's axial inertia (wheel speed = h / J_w)"
-    )
+    wheel_inertia_kg_m2: float = option(8e-4, gt=0.0, le=1.0, unit="kg m^2", doc="each wheel's axial inertia")
     wheel_speed_limit_rpm: float | None = option(
         None,
         kind="float",
         gt=0.0,
         le=1e5,
         unit="rpm",
-        doc="each wheel's no-load speed: the motor's torque toward a higher speed falls as "
-        "torque_limit (1 - |speed| / limit) (back EMF). None: 6500 in ``flight``, none in ``matched``",
+        doc="wheel no-load speed (back EMF)",
     )
-    momentum_dumping: bool | None = option(
-        None,
-        kind="bool",
-        doc="thrusters unload the wheels when one's momentum exceeds ``dump_threshold_n_m_s``: the wheel "
-        "momentum goes to zero, the thrusters' impulse |dh| / lever arm moves the centre of mass by a "
-        "delta-v with a magnitude and pointing error the filter does not know (it applies the nominal "
-        "delta-v and adds the error's covariance); on the thrust arc the engine is off for "
-        "``dump_duration_s``. None: on in ``flight``, off in ``matched``",
-    )
+    momentum_dumping: bool | None = option(None, kind="bool", doc="momentum dumps by thrusters")
     dump_threshold_n_m_s: float = option(
-        0.4,
-        gt=0.0,
-        unit="N m s",
-        doc="a dump starts when one wheel's |momentum| exceeds this (below attitude.wheel_momentum_capacity)",
+        0.4, gt=0.0, unit="N m s", doc="dump threshold (below the wheel capacity)"
     )
-    dump_lever_arm_m: float = option(0.5, gt=0.0, le=100.0, unit="m", doc="the dump thrusters' lever arm")
+    dump_lever_arm_m: float = option(0.5, gt=0.0, le=100.0, unit="m", doc="dump thrusters' lever arm")
     mass_kg: float | None = option(
         None,
         kind="float",
         gt=0.0,
         unit="kg",
-        doc="the spacecraft's mass for a dump's delta-v. None: operations.mass_kg on the thrust arc, else "
-        "srp_torque_area_m2 / area_to_mass_m2_kg (200 kg)",
+        doc="mass a dump moves. None: operations.mass_kg, else srp_torque_area_m2 / area_to_mass_m2_kg",
     )
-    dump_dv_error: float = option(
-        0.05, ge=0.0, le=1.0, unit="fraction", doc="1-sigma of a dump's delta-v magnitude error"
-    )
+    dump_dv_error: float = option(0.05, ge=0.0, le=1.0, unit="fraction", doc="dump delta-v magnitude 1-sigma")
     dump_pointing_error_deg: float = option(
-        2.0, ge=0.0, le=45.0, unit="deg", doc="1-sigma of a dump's delta-v direction error per cross axis"
+        2.0, ge=0.0, le=45.0, unit="deg", doc="dump delta-v direction 1-sigma per cross axis"
     )
-    dump_duration_s: float = option(
-        600.0,
-        ge=0.0,
-        unit="s",
-        doc="thrust arc: the engine is off this long per dump (unloading, settling, restart)",
-    )
+    dump_duration_s: float = option(600.0, ge=0.0, unit="s", doc="thrust arc: engine-off time per dump")
     gyro_bias_deg_h: float | None = option(
         None,
         kind="float",
         ge=0.0,
         le=100.0,
         unit="deg/h",
-        doc="1-sigma per axis of the gyro's bias, drawn per episode; the reported rates carry it. None: "
-        "0.5 in ``flight``, 0 in ``matched``",
+        doc="gyro bias 1-sigma per axis",
     )
     gyro_rrw_deg_h_rt_h: float | None = option(
         None,
@@ -307,7 +272,7 @@ class WorldConfig:
         ge=0.0,
         le=10.0,
         unit="deg/h/sqrt(h)",
-        doc="the gyro bias's random walk (rate random walk). None: 0.05 in ``flight``, 0 in ``matched``",
+        doc="gyro rate random walk",
     )
     gyro_arw_deg_rt_h: float | None = option(
         None,
@@ -315,15 +280,12 @@ class WorldConfig:
         ge=0.0,
         le=10.0,
         unit="deg/sqrt(h)",
-        doc="the gyro's angle random walk (white rate noise) in the attitude estimator's propagation. "
-        "None: 0.01 in ``flight``, 0 in ``matched``",
+        doc="gyro angle random walk",
     )
     pointing_from_estimate: bool | None = option(
         None,
         kind="bool",
-        doc="the PD law reads an attitude estimator's quaternion and rate (gyro propagation corrected by "
-        "each star-tracker fix, a 6-state multiplicative Kalman filter of attitude and gyro bias) instead "
-        "of the truth. None: on in ``flight``, off in ``matched``",
+        doc="the PD law reads the attitude filter, not the truth",
     )
 
     def __post_init__(self) -> None:

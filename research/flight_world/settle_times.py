@@ -21,7 +21,7 @@ from planetnav_env.attitude.pointing import pointing_error, propagate_pointing
 from planetnav_env.attitude.quaternion import normalize
 
 GAINS = {"shipped (k_a = 0.02 N m, k_w = 1 N m s)": (0.02, 1.0), "thesis (k_a = k_w = 1)": (1.0, 1.0)}
-SUBSTEPS_S = (1.0, 0.1)
+SUBSTEPS_S = (1.0, 0.5, 0.2, 0.1)
 TOL_RAD = np.radians(0.01)
 SAMPLE_S = 10.0
 

@@ -124,7 +124,7 @@ def test_friction_spins_a_free_wheel_down_as_its_closed_form() -> None:
     """Torque mode with zero torque (no PD law, no compensation): each wheel obeys J_w dw/dt = -tau_c
     sign(w) - c_v w, h(t) = J_w ((w0 + tau_c / c_v) exp(-c_v t / J_w) - tau_c / c_v), whatever the body
     does."""
-    tau_c, c_v, jw = 2e-5, 2e-6, 8e-4
+    tau_c, c_v, jw = 2e-5, 5e-7, 8e-4
     world = {
         **QUIET,
         "wheel_coulomb_n_m": tau_c,
@@ -137,7 +137,7 @@ def test_friction_spins_a_free_wheel_down_as_its_closed_form() -> None:
     env.reset(seed=1)
     h0 = np.array([0.3, -0.2, 0.1])
     env.core.f[0, L.F_HW : L.F_HW + 3] = h0
-    steps = 30
+    steps = 15  # 900 s: every wheel still spins (it would stop after ~1,500 s)
     for _ in range(steps):
         env.step(np.zeros((1, 3)))
     t = steps * env.core.config.step_s
@@ -148,52 +148,55 @@ def test_friction_spins_a_free_wheel_down_as_its_closed_form() -> None:
     assert np.all(np.abs(h) < 0.9 * np.abs(h0))  # it did spin down
 
 
+def _dump_pair(world: dict, n: int, seed: int) -> tuple[PlanetNavVectorEnv, dict[bool, np.ndarray]]:
+    """One step from the same episode with a wheel loaded above the threshold, with and without dumping:
+    the rows' states after it (the dump happens at the first sub-step)."""
+    h0 = np.array([0.45, -0.1, 0.2])
+    out = {}
+    for dumping in (True, False):
+        env = _env({**world, "momentum_dumping": dumping}, n=n)
+        env.reset(seed=seed)
+        env.core.f[:, L.F_HW : L.F_HW + 3] = h0
+        env.step(np.zeros(n, dtype=int))
+        out[dumping] = (env.core.f.copy(), env.core.p.copy())
+    return env, out
+
+
 def test_a_dump_moves_the_centre_of_mass_by_the_momentum_over_lever_arm_and_mass() -> None:
     """A wheel loaded above the threshold is unloaded at the first sub-step; with the dump's errors off,
     the true velocity differs from the same episode without dumping by |dh| / (l m) (the momentum the
-    dump removed, recorded by the row), and the filter's estimate moves by the same nominal delta-v."""
-    h0 = np.array([0.45, -0.1, 0.2])
+    dump removed, recorded by the row); the filter's estimate moves by the same nominal delta-v (to the
+    share its measurement update then takes of the different prediction)."""
     world = {**QUIET, "dump_dv_error": 0.0, "dump_pointing_error_deg": 0.0, "dump_lever_arm_m": 0.4}
-    runs = {}
-    for dumping in (True, False):
-        env = _env({**world, "momentum_dumping": dumping})
-        env.reset(seed=2)
-        env.core.f[0, L.F_HW : L.F_HW + 3] = h0
-        env.step(np.array([0]))
-        runs[dumping] = env.core.f[0].copy()
-    cfg = env.core.config
-    mass = cfg.world.dump_mass(None)
-    on, off = runs[True], runs[False]
+    env, runs = _dump_pair(world, 1, 2)
+    mass = env.core.config.world.dump_mass(None)
+    on, off = runs[True][0][0], runs[False][0][0]
     assert on[L.F_DUMPS] == 1.0 and off[L.F_DUMPS] == 0.0
     dv_true = np.linalg.norm(on[L.F_X + 3 : L.F_X + 6] - off[L.F_X + 3 : L.F_X + 6]) * 1000.0  # m/s
     dv_est = np.linalg.norm(on[L.F_XE + 3 : L.F_XE + 6] - off[L.F_XE + 3 : L.F_XE + 6]) * 1000.0
     recorded = on[L.F_DUMP_DV]
     assert dv_true == pytest.approx(recorded, rel=1e-9)
-    assert dv_est == pytest.approx(recorded, rel=1e-9)
+    assert dv_est == pytest.approx(recorded, rel=1e-2)
     # The momentum removed is the loaded one, moved by at most one sub-step of wheel torque (0.01 N m s).
-    assert recorded == pytest.approx(np.linalg.norm(h0) / (0.4 * mass), rel=0.05)
+    assert recorded == pytest.approx(np.linalg.norm([0.45, -0.1, 0.2]) / (0.4 * mass), rel=0.05)
     assert np.all(np.abs(on[L.F_HW : L.F_HW + 3]) < 0.05)
 
 
 def test_a_dump_error_is_drawn_and_the_filter_gets_its_covariance() -> None:
-    h0 = np.array([0.45, -0.1, 0.2])
-    env = _env({**QUIET, "momentum_dumping": True}, n=64)
-    env.reset(seed=4)
-    p_before = None
-    env.core.f[:, L.F_HW : L.F_HW + 3] = h0
-    p_before = env.core.p.copy()
-    env.step(np.zeros(64, dtype=int))
-    f = env.core.f
-    err = (f[:, L.F_X + 3 : L.F_X + 6] - f[:, L.F_XE + 3 : L.F_XE + 6]) * 1000.0  # m/s
-    dv = f[:, L.F_DUMP_DV]
-    cfg = env.core.config.world
-    sigma = dv * math.hypot(cfg.dump_dv_error, math.radians(cfg.dump_pointing_error_deg))
-    # The error's spread is the model's (magnitude and two pointing axes), within sampling.
-    rms = np.sqrt(np.mean(np.sum(err**2, axis=1) / (dv**2)))
-    model = math.sqrt(cfg.dump_dv_error**2 + 2 * math.radians(cfg.dump_pointing_error_deg) ** 2)
-    assert rms == pytest.approx(model, rel=0.25)
-    grew = np.trace(env.core.p[:, 3:, 3:], axis1=1, axis2=2) - np.trace(p_before[:, 3:, 3:], axis1=1, axis2=2)
-    assert np.all(grew > 0.5 * (sigma * 1e-3) ** 2)
+    """The truth's dump delta-v less the filter's nominal one, over 64 rows: its spread is the model's
+    (5 % in magnitude, 2 deg per cross axis), and the filter's velocity covariance grows by it."""
+    n = 64
+    env, runs = _dump_pair(QUIET, n, 4)
+    (f1, p1), (f0, p0) = runs[True], runs[False]
+    d_true = (f1[:, L.F_X + 3 : L.F_X + 6] - f0[:, L.F_X + 3 : L.F_X + 6]) * 1000.0  # m/s
+    d_est = (f1[:, L.F_XE + 3 : L.F_XE + 6] - f0[:, L.F_XE + 3 : L.F_XE + 6]) * 1000.0
+    dv = f1[:, L.F_DUMP_DV]
+    w = env.core.config.world
+    model2 = w.dump_dv_error**2 + 2 * math.radians(w.dump_pointing_error_deg) ** 2
+    rms = np.sqrt(np.mean(np.sum((d_true - d_est) ** 2, axis=1) / dv**2))
+    assert rms == pytest.approx(math.sqrt(model2), rel=0.25)
+    grew = (np.trace(p1[:, 3:, 3:], axis1=1, axis2=2) - np.trace(p0[:, 3:, 3:], axis1=1, axis2=2)) * 1e6
+    assert np.median(grew / (dv**2 * model2)) == pytest.approx(1.0, rel=0.2)
 
 
 def test_attitude_estimator_nees_is_consistent_over_monte_carlo() -> None:
