@@ -251,6 +251,7 @@ class BatchCore:
         if cfg.prior_long_sigma_km > 0.0:
             self._elongate_prior(gen, f, p)
         world = cfg.world
+        c_r = 0.5 * (world.reflectivity_range[0] + world.reflectivity_range[1])
         if world.srp_on:
             # Drawn after every other draw: a world without SRP draws nothing new.
             c_r = gen.uniform(*world.reflectivity_range)
@@ -268,6 +269,12 @@ class BatchCore:
             # every other draw, so a world without it draws nothing new.
             b = world.cob_model_error
             f[L.F_COB_MODEL : L.F_COB_MODEL + cfg.n_planets] = 1.0 + gen.uniform(-b, b, cfg.n_planets)
+        if world.attitude_world_on:
+            # The attitude loop's episode: the SRP torque's reflectivity (the force's draw, else
+            # mid-range) and the gyro's bias, drawn last (a world without it draws nothing new).
+            f[L.F_SRP_CR] = c_r
+            if world.gyro_bias_rad_s > 0.0:
+                f[L.F_GB : L.F_GB + 3] = world.gyro_bias_rad_s * gen.standard_normal(3)
         return RowEpisode(ep.epoch, ep.central, tuple(ep.perturbers))
 
     def omitted_acceleration(self, epoch: float, x: np.ndarray) -> np.ndarray:

@@ -299,6 +299,12 @@ class EnvConfig:
         "unmodelled event), so a rule that reads P sees which way the error lies. 0: the spherical prior of "
         "filter.sigma_pos0 (the v0 and v1 physics; nothing is drawn); else at least filter.sigma_pos0",
     )
+    observe_momentum: bool = option(
+        False,
+        doc="add the ``momentum`` block to the observation (last, four values: the largest wheel momentum "
+        "over the dump threshold, then the total angular momentum in inertial axes / wheel capacity), so "
+        "that a policy can plan around momentum dumps (world.momentum_dumping)",
+    )
     observe_position_correlation: bool = option(
         False,
         doc="add the ``position_correlation`` block to the observation (last, three values: the "
@@ -400,6 +406,13 @@ class EnvConfig:
                 f"({self.filter.sigma_pos0} km), got {self.prior_long_sigma_km}"
             )
         _check_ephemeris_span(self)
+        if self.world.dumping_on and self.world.dump_threshold_n_m_s >= self.attitude.wheel_momentum_capacity:
+            raise OptionError(
+                "world.dump_threshold_n_m_s",
+                f"a momentum below attitude.wheel_momentum_capacity ({self.attitude.wheel_momentum_capacity} "
+                "N m s) with momentum dumping on",
+                self.world.dump_threshold_n_m_s,
+            )
         ratio = self.step_s / self.attitude_substep_s
         if abs(ratio - round(ratio)) > 1e-9:
             raise ConfigError(
@@ -585,9 +598,16 @@ def _check_ephemeris_span(cfg: EnvConfig) -> None:
     )
 
 
-if __name__ == "__main__":  # python -m planetnav_env.config docs/environment.md: rewrite its option table
-    import sys
+#: The generated option tables of the docs: the page (from the repository root) -> its table. The world's
+#: options have a page of their own (they outgrew environment.md's size limit).
+OPTION_PAGES = {
+    "docs/environment.md": lambda: option_table(EnvConfig, elsewhere={"world": "world_options.md"}),
+    "docs/world_options.md": lambda: option_table(WorldConfig, prefix="world."),
+}
 
-    for name in sys.argv[1:]:
-        doc = Path(name)
-        doc.write_text(replace_table(doc.read_text(), option_table(EnvConfig)))
+
+if __name__ == "__main__":  # python -m planetnav_env.config: rewrite the docs' option tables
+    root = Path(__file__).resolve().parents[1]
+    for page, table in OPTION_PAGES.items():
+        doc = root / page
+        doc.write_text(replace_table(doc.read_text(), table()))

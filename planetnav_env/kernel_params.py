@@ -34,6 +34,11 @@ from planetnav_env.sensors import pulsar as psr
 from planetnav_env.sensors.photometry import GEOMETRIC_ALBEDO
 from planetnav_env.sensors.star_tracker import StarTrackerConfig, star_fix_tables
 
+#: The flight world's attitude loop settles at an offset (the PD law against friction's residual and the
+#: disturbance torques: ~50" with the shipped gains): its coarse sub-steps start once the pointing error is
+#: below this many times SETTLE_ANGLE_RAD (the rates below SETTLE_RATE_RAD_S, as in the matched world).
+FLIGHT_SETTLE_FACTOR = 10.0
+
 #: Every scalar of ``CoreParams.scalars``: (name, numpy type, meaning [unit]), the option-copied ones first.
 SCALAR_FIELDS: tuple[tuple[str, str, str], ...] = (*kernel_fields(EnvConfig), *CORE_SCALAR_FIELDS)
 #: The record of :data:`SCALAR_FIELDS`.
@@ -66,6 +71,7 @@ def build_params(
         deadlines[: len(ops.deadlines_s)] = ops.deadlines_s
     pos_scale, vel_scale = L.observation_scales(cfg.scenario)
     ops_q_par, ops_q_perp = ops.psd_km2_s3 if ops is not None else (0.0, 0.0)
+    world = cfg.world
     scalars = make_scalars(
         SCALARS_DTYPE,
         **kernel_values(cfg),  # the scalars that copy an option (declared with kernel=)
@@ -73,7 +79,7 @@ def build_params(
         n_coarse=round(cfg.step_s / coarse_s) if coarse_s > 0 else 0,
         segment_s=SEGMENT_S,
         rate_noise=math.radians(att.rate_noise_deg_s),
-        settle_angle=SETTLE_ANGLE_RAD,
+        settle_angle=SETTLE_ANGLE_RAD * (FLIGHT_SETTLE_FACTOR if cfg.world.attitude_world_on else 1.0),
         settle_rate=SETTLE_RATE_RAD_S,
         mode=L.MODE_CODES[cfg.action_mode],
         relative=cfg.target_actions == "relative",
@@ -106,6 +112,29 @@ def build_params(
         drift_on=world.drift_on,
         drift_sigma=world.drift_sigma_arcsec * ARCSEC,
         drift_tau=world.drift_tau_s,
+        att_on=world.attitude_world_on,
+        est_on=world.attitude_world_on and world.estimate_pointing_on,
+        srp_tq=world.srp_torque_on,
+        srp_area=world.srp_torque_area_m2,
+        gg_on=world.gravity_gradient_on,
+        thr_tq=ops is not None and any(v != 0.0 for v in world.thrust_offset),
+        thrust_n=ops.thrust_n if ops is not None else 0.0,
+        fric_c=world.wheel_coulomb,
+        fric_v=world.wheel_viscous,
+        fric_comp=world.wheel_friction_compensation,
+        jw=world.wheel_inertia_kg_m2,
+        h_speed=world.wheel_inertia_kg_m2 * world.wheel_speed_limit_rad_s,
+        h_sat=0.99 * att.wheel_momentum_capacity,
+        dump_on=world.dumping_on,
+        dump_thr=world.dump_threshold_n_m_s,
+        dump_arm=world.dump_lever_arm_m,
+        mass=world.dump_mass(ops.mass_kg if ops is not None else None),
+        dump_sig_m=world.dump_dv_error,
+        dump_sig_p=math.radians(world.dump_pointing_error_deg),
+        dump_dur=world.dump_duration_s,
+        g_rrw=world.gyro_rrw,
+        g_arw=world.gyro_arw,
+        g_bias=world.gyro_bias_rad_s,
         det_half_fov=math.radians(0.5 * cfg.detector_fov_deg),
         sun_avoid=math.radians(cfg.detector.sun_avoidance_deg),
         reward_truth=cfg.reward == "truth",
@@ -185,4 +214,5 @@ def build_params(
         stars=tables,
         q_bias=bias_quaternion(cfg.star_tracker_bias_arcsec),
         obs_blocks=layout.block_starts(),
+        arms=np.array([world.cp_offset, world.thrust_offset], dtype=float),
     )

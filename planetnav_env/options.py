@@ -33,8 +33,7 @@ _ITEM = {"floats": "float", "ints": "int", "strs": "str", "matrix": "float"}
 
 #: Markers of the generated region of a Markdown file (:func:`replace_table`).
 TABLE_BEGIN = (
-    "<!-- option-table: generated from the declarations by python -m planetnav_env.config "
-    "docs/environment.md; do not edit -->"
+    "<!-- option-table: generated from the declarations by python -m planetnav_env.config; do not edit -->"
 )
 TABLE_END = "<!-- option-table end -->"
 
@@ -305,15 +304,21 @@ def kernel_values(obj: Any) -> dict[str, Any]:
 
 
 # --- the option table -------------------------------------------------------------------------------------
-def option_table(cls: type) -> str:
-    """The Markdown table of every option of ``cls``: name, type, default, unit, range, description."""
+def option_table(cls: type, prefix: str = "", elsewhere: dict[str, str] | None = None) -> str:
+    """The Markdown table of every option of ``cls`` (paths after ``prefix``): name, type, default, unit,
+    range, description. ``elsewhere`` maps a section's path to the page that holds its options' own table:
+    that section keeps its row, which names the page, and its options are left out here."""
+    elsewhere = elsewhere or {}
     rows = [
         "| option | type | default | unit | range | description |",
         "|---|---|---|---|---|---|",
     ]
-    for path, opt, default in walk(cls):
+    for path, opt, default in walk(cls, prefix):
+        if any(path.startswith(sec + ".") for sec in elsewhere):
+            continue
         below = opt.kind == "section" and default is not None
-        shown = "its options below" if below else f"`{_plain(default)}`"
+        shown = f"its options in {elsewhere[path]}" if path in elsewhere else "its options below"
+        shown = shown if below else f"`{_plain(default)}`"
         rng = opt.range_text()
         if opt.kind in ("floats", "ints", "strs") and rng:
             rng = "each " + rng

@@ -19,7 +19,11 @@ effect alone (a regime map's axis, or one effect's share of the flight world's e
   (``oblate_planets``) and a Gauss-Markov boresight drift of the planet camera (``boresight_drift``).
   Two effects are modelled but off in both presets: the uniform-disk centroid bias the filter does not
   correct (``centroid_bias_max``, for regime maps) and the pulsar timing-model error
-  (``pulsar_frequency_error_max``), each set on its own.
+  (``pulsar_frequency_error_max``), each set on its own. The attitude loop of a flight world is in
+  it too: disturbance torques (SRP from a centre-of-pressure offset, the central body's gravity gradient,
+  the thrust's offset on the thrust arc), reaction wheels with friction and a speed limit, momentum dumps
+  by thrusters with their delta-v error, and pointing from the estimate (a gyro with bias and random walk,
+  an attitude filter fed by the star tracker).
 
 On board, the filter applies the corrections flight optical navigation applies to each effect that is on
 in truth, computed from its *estimated* state (``onboard_corrections``, default: on); switching them
@@ -31,6 +35,7 @@ shorthand for ``world: {preset: flight}``.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Any
 
@@ -47,8 +52,26 @@ EXPECTED = (
     "reflectivity_range, process_noise, truth_ephemeris, thrust_gauss_markov, pulsar_shapiro, "
     "image_errors, centroid_floor_px, limb_scatter, aperture_mm, exposure_s, full_well_e, read_noise_e, "
     "psf_sigma_px, lambert_cob, cob_model_error, oblate_planets, boresight_drift, drift_sigma_arcsec, "
-    "drift_tau_s, centroid_bias_max, pulsar_frequency_error_max)"
-)
+    "drift_tau_s, centroid_bias_max, pulsar_frequency_error_max, cp_offset_m, "
+    "srp_torque_area_m2, gravity_gradient, thrust_offset_m, wheel_coulomb_n_m, wheel_viscous_n_m_s, "
+    "wheel_friction_compensation, wheel_inertia_kg_m2, wheel_speed_limit_rpm, momentum_dumping, "
+    "dump_threshold_n_m_s, dump_lever_arm_m, "
+    "mass_kg, dump_dv_error, dump_pointing_error_deg, dump_duration_s, gyro_bias_deg_h, "
+    "gyro_rrw_deg_h_rt_h, gyro_arw_deg_rt_h, pointing_from_estimate")
+
+#: The flight preset's attitude magnitudes (docs/flight_world.md cites each): the centre-of-pressure offset
+#: [m, body], the thrust line's offset from the centre of mass [m, body], Coulomb [N m] and viscous
+#: [N m s] wheel friction, the wheel speed limit [rpm], the gyro's bias 1-sigma [deg/h], rate random walk
+#: [deg/h/sqrt(h)] and angle random walk [deg/sqrt(h)].
+FLIGHT_CP_OFFSET_M = (0.0, 0.02, 0.01)
+FLIGHT_THRUST_OFFSET_M = (0.0, 0.001, 0.0)
+FLIGHT_WHEEL_COULOMB_N_M = 1e-4
+FLIGHT_WHEEL_VISCOUS_N_M_S = 2e-7
+FLIGHT_WHEEL_SPEED_LIMIT_RPM = 6500.0
+FLIGHT_GYRO_BIAS_DEG_H = 0.5
+FLIGHT_GYRO_RRW_DEG_H_RT_H = 0.05
+FLIGHT_GYRO_ARW_DEG_RT_H = 0.01
+_DEG_H = math.radians(1.0) / 3600.0  # 1 deg/h in rad/s
 
 #: The JPL ephemerides the truth can follow (``truth_ephemeris``); the onboard model always carries DE421.
 EPHEMERIDES = ("de421", "de440")
@@ -255,6 +278,103 @@ class WorldConfig:
         doc="[low, high] of the reflectivity coefficient C_R drawn uniformly per episode for SRP (1: "
         "absorbs all, 2: mirrors all back)",
     )
+    # --- the attitude loop (docs/flight_world.md, "The attitude loop") ---------------------------------
+    cp_offset_m: tuple[float, float, float] | None = option(
+        None,
+        kind="floats",
+        length=3,
+        unit="m (body)",
+        doc="SRP torque's centre-of-pressure offset",
+    )
+    srp_torque_area_m2: float = option(2.0, gt=0.0, le=1000.0, unit="m^2", doc="SRP torque's sunlit area")
+    gravity_gradient: bool | None = option(
+        None, kind="bool", doc="the central body's gravity-gradient torque"
+    )
+    thrust_offset_m: tuple[float, float, float] | None = option(
+        None,
+        kind="floats",
+        length=3,
+        unit="m (body)",
+        doc="thrust arc: the thrust line's offset",
+    )
+    wheel_coulomb_n_m: float | None = option(
+        None,
+        kind="float",
+        ge=0.0,
+        le=0.01,
+        unit="N m",
+        doc="wheel Coulomb friction",
+    )
+    wheel_viscous_n_m_s: float | None = option(
+        None,
+        kind="float",
+        ge=0.0,
+        le=1e-3,
+        unit="N m s",
+        doc="wheel viscous friction per rad/s",
+    )
+    wheel_friction_compensation: float = option(
+        0.9,
+        ge=0.0,
+        le=1.0,
+        unit="fraction",
+        doc="friction share the drive cancels",
+    )
+    wheel_inertia_kg_m2: float = option(8e-4, gt=0.0, le=1.0, unit="kg m^2", doc="each wheel's axial inertia")
+    wheel_speed_limit_rpm: float | None = option(
+        None,
+        kind="float",
+        gt=0.0,
+        le=1e5,
+        unit="rpm",
+        doc="wheel no-load speed (back EMF)",
+    )
+    momentum_dumping: bool | None = option(None, kind="bool", doc="momentum dumps by thrusters")
+    dump_threshold_n_m_s: float = option(
+        0.4, gt=0.0, unit="N m s", doc="dump threshold (below the wheel capacity)"
+    )
+    dump_lever_arm_m: float = option(0.5, gt=0.0, le=100.0, unit="m", doc="dump thrusters' lever arm")
+    mass_kg: float | None = option(
+        None,
+        kind="float",
+        gt=0.0,
+        unit="kg",
+        doc="mass a dump moves. None: operations.mass_kg, else srp_torque_area_m2 / area_to_mass_m2_kg",
+    )
+    dump_dv_error: float = option(0.05, ge=0.0, le=1.0, unit="fraction", doc="dump delta-v magnitude 1-sigma")
+    dump_pointing_error_deg: float = option(
+        2.0, ge=0.0, le=45.0, unit="deg", doc="dump delta-v direction 1-sigma per cross axis"
+    )
+    dump_duration_s: float = option(600.0, ge=0.0, unit="s", doc="thrust arc: engine-off time per dump")
+    gyro_bias_deg_h: float | None = option(
+        None,
+        kind="float",
+        ge=0.0,
+        le=100.0,
+        unit="deg/h",
+        doc="gyro bias 1-sigma per axis",
+    )
+    gyro_rrw_deg_h_rt_h: float | None = option(
+        None,
+        kind="float",
+        ge=0.0,
+        le=10.0,
+        unit="deg/h/sqrt(h)",
+        doc="gyro rate random walk",
+    )
+    gyro_arw_deg_rt_h: float | None = option(
+        None,
+        kind="float",
+        ge=0.0,
+        le=10.0,
+        unit="deg/sqrt(h)",
+        doc="gyro angle random walk",
+    )
+    pointing_from_estimate: bool | None = option(
+        None,
+        kind="bool",
+        doc="the PD law reads the attitude filter, not the truth",
+    )
 
     def __post_init__(self) -> None:
         check_options(self, "world.")
@@ -389,6 +509,97 @@ class WorldConfig:
             return self.truth_forces_on
         return self.process_noise == "tuned"
 
+    def _flight_or(self, value, flight_value, off_value):
+        if value is not None:
+            return value
+        return flight_value if self.flight else off_value
+
+    @property
+    def cp_offset(self) -> tuple[float, float, float]:
+        """The centre of pressure's offset [m, body] (zeros: no SRP torque)."""
+        return tuple(self._flight_or(self.cp_offset_m, FLIGHT_CP_OFFSET_M, (0.0, 0.0, 0.0)))
+
+    @property
+    def srp_torque_on(self) -> bool:
+        return any(v != 0.0 for v in self.cp_offset)
+
+    @property
+    def gravity_gradient_on(self) -> bool:
+        return self.flight if self.gravity_gradient is None else self.gravity_gradient
+
+    @property
+    def thrust_offset(self) -> tuple[float, float, float]:
+        """The thrust line's offset [m, body] on the thrust arc (zeros: no thrust torque)."""
+        return tuple(self._flight_or(self.thrust_offset_m, FLIGHT_THRUST_OFFSET_M, (0.0, 0.0, 0.0)))
+
+    @property
+    def wheel_coulomb(self) -> float:
+        return float(self._flight_or(self.wheel_coulomb_n_m, FLIGHT_WHEEL_COULOMB_N_M, 0.0))
+
+    @property
+    def wheel_viscous(self) -> float:
+        return float(self._flight_or(self.wheel_viscous_n_m_s, FLIGHT_WHEEL_VISCOUS_N_M_S, 0.0))
+
+    @property
+    def wheel_speed_limit_rad_s(self) -> float:
+        """The wheels' no-load speed [rad/s] (inf: no speed limit)."""
+        rpm = self._flight_or(self.wheel_speed_limit_rpm, FLIGHT_WHEEL_SPEED_LIMIT_RPM, math.inf)
+        return float(rpm) * 2.0 * math.pi / 60.0
+
+    @property
+    def dumping_on(self) -> bool:
+        return self.flight if self.momentum_dumping is None else self.momentum_dumping
+
+    def dump_mass(self, operations_mass_kg: float | None) -> float:
+        """The mass [kg] a dump's impulse moves (see ``mass_kg``)."""
+        if self.mass_kg is not None:
+            return float(self.mass_kg)
+        if operations_mass_kg is not None:
+            return float(operations_mass_kg)
+        return self.srp_torque_area_m2 / self.area_to_mass_m2_kg
+
+    @property
+    def gyro_bias_rad_s(self) -> float:
+        """1-sigma of the gyro bias per axis [rad/s]."""
+        return float(self._flight_or(self.gyro_bias_deg_h, FLIGHT_GYRO_BIAS_DEG_H, 0.0)) * _DEG_H
+
+    @property
+    def gyro_rrw(self) -> float:
+        """Rate random walk [rad/s/sqrt(s)] (deg/h/sqrt(h) = _DEG_H / 60 rad/s/sqrt(s))."""
+        return (
+            float(self._flight_or(self.gyro_rrw_deg_h_rt_h, FLIGHT_GYRO_RRW_DEG_H_RT_H, 0.0)) * _DEG_H / 60.0
+        )
+
+    @property
+    def gyro_arw(self) -> float:
+        """Angle random walk [rad/sqrt(s)] (deg/sqrt(h) = pi/180 / 60 rad/sqrt(s))."""
+        return (
+            float(self._flight_or(self.gyro_arw_deg_rt_h, FLIGHT_GYRO_ARW_DEG_RT_H, 0.0))
+            * math.radians(1.0)
+            / 60.0
+        )
+
+    @property
+    def estimate_pointing_on(self) -> bool:
+        return self.flight if self.pointing_from_estimate is None else self.pointing_from_estimate
+
+    @property
+    def attitude_world_on(self) -> bool:
+        """Any effect of the attitude loop is on (the row step then runs the flight world's sub-steps)."""
+        return (
+            self.srp_torque_on
+            or self.gravity_gradient_on
+            or any(v != 0.0 for v in self.thrust_offset)
+            or self.wheel_coulomb > 0.0
+            or self.wheel_viscous > 0.0
+            or math.isfinite(self.wheel_speed_limit_rad_s)
+            or self.dumping_on
+            or self.gyro_bias_rad_s > 0.0
+            or self.gyro_rrw > 0.0
+            or self.gyro_arw > 0.0
+            or self.estimate_pointing_on
+        )
+
     @property
     def is_matched(self) -> bool:
         """No effect on: the truth is the onboard model (whatever the preset's name)."""
@@ -404,6 +615,7 @@ class WorldConfig:
             or self.oblate_on
             or self.drift_on
             or self.pulsar_frequency_error_bound > 0.0
+            or self.attitude_world_on
         )
 
 

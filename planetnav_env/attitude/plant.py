@@ -59,6 +59,7 @@ import numpy as np
 from numba import njit
 
 from planetnav_env.attitude import quaternion as qt
+from planetnav_env.attitude.disturbances import wheel_friction
 from planetnav_env.codes import AttitudeStatus
 from planetnav_env.errors import (
     InvalidParameterError,
@@ -239,6 +240,50 @@ def wheel_torque_kernel(
         lo = max(-tau_max[i], min(0.0, (h_w[i] - h_max[i]) / dt))
         hi = min(tau_max[i], max(0.0, (h_w[i] + h_max[i]) / dt))
         out[i] = min(max(u_cmd[i], lo), hi)
+
+
+@row_kernel
+def flight_wheel_torque_kernel(
+    u_cmd: np.ndarray,
+    h_w: np.ndarray,
+    dt: float,
+    tau_max: np.ndarray,
+    h_max: np.ndarray,
+    h_speed: float,
+    coulomb: float,
+    viscous: float,
+    j_wheel: float,
+    compensation: float,
+    out: np.ndarray,
+) -> None:
+    """The flight world's wheels: the torque [N m] they apply to the body over a sub-step of ``dt`` [s]
+    under the command ``u_cmd`` [N m], held over it (zero-order hold).
+
+    1. the wheel limits of :func:`wheel_torque_kernel` (torque clip, momentum capacity);
+    2. the speed limit (back EMF): the motor's torque toward a higher wheel speed is at most
+       ``tau_max (1 - |h| / h_speed)`` (``h_speed = J_w * no-load speed`` [N m s]; inf: none); a wheel
+       spins up when the torque on the body opposes its momentum (``h_dot = -U``);
+    3. bearing friction (:func:`~planetnav_env.attitude.disturbances.wheel_friction`, Coulomb ``coulomb``
+       [N m] and viscous ``viscous`` [N m s] with the wheel inertia ``j_wheel`` [kg m^2]) at the wheel's
+       momentum at the sub-step's start, no more than stops the wheel within the sub-step: the wheel
+       receives ``tau_f``, the body ``-tau_f``, so the torque on the body is ``U - tau_f`` and
+       ``h_dot = -(U - tau_f)`` (internal: the total momentum is unchanged); the drive's friction
+       feed-forward adds ``compensation * tau_f`` to the motor's torque, so ``(1 - compensation) tau_f``
+       remains."""
+    wheel_torque_kernel(u_cmd, h_w, dt, tau_max, h_max, out)
+    for i in range(3):
+        h = h_w[i]
+        if h_speed < math.inf and h != 0.0:
+            avail = tau_max[i] * max(0.0, 1.0 - abs(h) / h_speed)
+            if h > 0.0:
+                out[i] = max(out[i], -avail)
+            else:
+                out[i] = min(out[i], avail)
+        if h != 0.0 and (coulomb > 0.0 or viscous > 0.0):
+            tf = wheel_friction(h, j_wheel, coulomb, viscous)
+            stop = abs(h) / dt
+            tf = max(-stop, min(stop, tf))
+            out[i] -= (1.0 - compensation) * tf
 
 
 @row_kernel

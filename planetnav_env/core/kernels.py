@@ -39,6 +39,14 @@ from planetnav_env.attitude.pointing import (
     frame_kernel,
     substeps_kernel,
 )
+from planetnav_env.core.attitude_loop import (
+    apply_dumps,
+    begin_step,
+    filter_step,
+    flight_substeps,
+    pointing_error_kernel,
+    reset_filter,
+)
 from planetnav_env.core.decoding import decode_row
 from planetnav_env.core.layout import (
     F_DV_LOST,
@@ -49,6 +57,7 @@ from planetnav_env.core.layout import (
     F_INTEGRATED,
     F_NIS,
     F_PIX,
+    F_POINT_ERR,
     F_Q,
     F_Q_PSD,
     F_QE,
@@ -246,7 +255,16 @@ def step_row(prm, st, n, target, torque, sc) -> bool:  # pragma: no cover - comp
     u_out = f[n, F_U : F_U + 3]  # the last applied wheel torque [N m]
     t_on = 0.0  # thrusting time [s] and its position moment [s^2] (operations)
     moment = 0.0
-    if ops:
+    if ps.att_on != 0:
+        # The flight world's attitude loop: disturbance torques, flight wheels, dumps, the estimator.
+        begin_step(prm, f, n, sc)
+        t_on, moment, on = flight_substeps(prm, st, n, use_pd, sc.frame, n_sub, h_dt, dt, loop, ws, u_out, sc)
+        if ops:
+            f[n, F_THRUSTING] = 1.0 if on else 0.0
+            dv_step = ps.ops_acc * (dt - t_on) * 1000.0  # [m/s]
+            f[n, F_DV_STEP] = dv_step
+            f[n, F_DV_LOST] += dv_step
+    elif ops:
         # One sub-step at a time (the same loop as one call with n_sub), checking the thrust axis.
         on = False
         for j in range(n_sub):
@@ -297,6 +315,8 @@ def step_row(prm, st, n, target, torque, sc) -> bool:  # pragma: no cover - comp
         add_thrust_q(pm, dt, frac, ps.ops_q_par, ps.ops_q_perp, sc.z)
     if ops and ps.thr_gm != 0:
         step_thrust_error(prm, f, i, rng, n, dt, sc)  # the process runs whether the engine thrusts or not
+    if ps.att_on != 0:
+        apply_dumps(f, n, x, xe, pm, sc)
     k += 1
     i[n, I_K] = k
     t = t + dt
@@ -306,6 +326,10 @@ def step_row(prm, st, n, target, torque, sc) -> bool:  # pragma: no cover - comp
     # --- sensors ---
     star_fix_stage(prm, st, n, sc)
     rate_measurement(prm, st, n, sc)
+    if ps.att_on != 0:
+        filter_step(prm, st, n, dt, sc)
+    # The camera's true pointing error against the PD law's direction (a diagnostic column, both worlds).
+    f[n, F_POINT_ERR] = pointing_error_kernel(q, prm.boresight, sc.frame[0], sc.rq) if use_pd else np.nan
     measured = False
     rejected = False
     reason = REASON_NONE
@@ -383,6 +407,9 @@ def reset_row(prm, st, n, sc) -> None:  # pragma: no cover - compiled
         reset_operations(f, n)
     star_fix_stage(prm, st, n, sc)
     rate_measurement(prm, st, n, sc)
+    f[n, F_POINT_ERR] = np.nan
+    if prm.scalars[0].att_on:
+        reset_filter(prm, st, n, sc)
     score_row(prm, st, n, NO_TORQUE, sc)
     if prm.scalars[0].drift_on != 0:
         drift_reset(prm, st, n, sc)  # the boresight drift's stationary start

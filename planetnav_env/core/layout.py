@@ -89,6 +89,17 @@ _F_FIELDS = (
     ("SINCE", 11),  # per target: physics steps since it was last measured (inf: not this episode)
     ("IMG_LOG", 14),  # per planet: images of it in view, then (at + MAX_PLANETS) the fixes they gave
     ("RES_LOG", 22),  # per target: fixes of it, then (at + MAX_TARGETS) the sum of their NIS / dof
+    # the flight world's attitude loop (world.attitude_world_on; unused, 0, otherwise)
+    ("QH", 4),  # the attitude estimator's quaternion (scalar first, body -> inertial)
+    ("BH", 3),  # its estimate of the gyro bias [rad/s]
+    ("GB", 3),  # the gyro's true bias [rad/s] (drawn at reset, random walk)
+    ("PA", 36),  # its covariance of (attitude error [rad], bias error [rad/s]), 6 x 6 row-major
+    ("SRP_CR", 1),  # the reflectivity C_R the SRP torque uses (the episode's SRP draw, else mid-range)
+    ("DUMPS", 1),  # momentum dumps this episode
+    ("DUMP_DV", 1),  # nominal delta-v of this episode's dumps [m/s]
+    ("DUMP_LEFT", 1),  # thrust arc: time the engine is still off for a dump [s]
+    ("SAT_S", 1),  # time this episode a wheel spent at its momentum capacity [s]
+    ("POINT_ERR", 1),  # both worlds: true boresight to the PD direction at the step end [rad] (NaN: none)
 )
 F_OFFSETS: dict[str, tuple[int, int]] = {}
 _o = 0
@@ -114,6 +125,10 @@ F_COB_MODEL, F_DRIFT = F_OFFSETS["COB_MODEL"][0], F_OFFSETS["DRIFT"][0]
 F_SRP_K, F_Q_PSD = F_OFFSETS["SRP_K"][0], F_OFFSETS["Q_PSD"][0]
 F_THR_GM = F_OFFSETS["THR_GM"][0]
 F_SINCE, F_IMG_LOG, F_RES_LOG = (F_OFFSETS[k][0] for k in ("SINCE", "IMG_LOG", "RES_LOG"))
+F_QH, F_BH, F_GB, F_PA = (F_OFFSETS[k][0] for k in ("QH", "BH", "GB", "PA"))
+F_SRP_CR, F_DUMPS, F_DUMP_DV, F_DUMP_LEFT, F_SAT_S, F_POINT_ERR = (
+    F_OFFSETS[k][0] for k in ("SRP_CR", "DUMPS", "DUMP_DV", "DUMP_LEFT", "SAT_S", "POINT_ERR")
+)
 #: Pulsar slots of PSR_DRIFT.
 MAX_PULSARS = F_OFFSETS["PSR_DRIFT"][1]
 #: Planet slots of IMG_P: every body a camera may target (``astro.bodies.BODIES`` but the Sun).
@@ -320,6 +335,14 @@ OBSERVATION_BLOCKS: tuple[ObservationBlock, ...] = (
         "diagonal they give the whole P_rr: which way the position error lies)",
         "last 3", "-1..1", (-1.0, 1.0),
     ),
+    ObservationBlock(
+        "momentum", 0, 0, 4,
+        "momentum (with EnvConfig.observe_momentum): the largest wheel |momentum| over the dump "
+        "threshold (world.dump_threshold_n_m_s; the wheel capacity without dumping: a dump comes at 1), "
+        "then the total angular momentum of body and wheels in inertial axes (the star-tracker attitude, "
+        "the reported rates) / the wheel capacity: what the disturbance torques build and a dump removes",
+        "last 4", "-, / capacity", (-10.0, 10.0),
+    ),
 )  # fmt: skip
 #: Index of each optional block in :data:`OBSERVATION_BLOCKS` (and in ``CoreParams.obs_blocks``).
 BLOCK_CODES = {b.name: k for k, b in enumerate(OBSERVATION_BLOCKS)}
@@ -329,6 +352,7 @@ OB_SINCE_MEASURED = BLOCK_CODES["since_measured"]
 OB_IMAGE_LOG = BLOCK_CODES["image_log"]
 OB_RESIDUAL_LOG = BLOCK_CODES["residual_log"]
 OB_POSITION_CORRELATION = BLOCK_CODES["position_correlation"]
+OB_MOMENTUM = BLOCK_CODES["momentum"]
 
 
 @dataclass(frozen=True)
@@ -352,6 +376,7 @@ class ObservationLayout:
     image_log: bool = False
     residual_log: bool = False
     position_correlation: bool = False
+    momentum: bool = False
 
     @classmethod
     def for_config(cls, cfg) -> ObservationLayout:

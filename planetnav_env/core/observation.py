@@ -40,6 +40,7 @@ from planetnav_env.core.layout import (
     MAX_TARGETS,
     OB_IMAGE_LOG,
     OB_IN_FIELD,
+    OB_MOMENTUM,
     OB_POSITION_CORRELATION,
     OB_RESIDUAL_LOG,
     OB_SINCE_MEASURED,
@@ -146,6 +147,8 @@ def observe_row(prm, f, p, i, eph, obs, n, sc, bodies_ready) -> None:  # pragma:
         _residual_log(prm, f, n, o, blocks[OB_RESIDUAL_LOG])
     if blocks[OB_POSITION_CORRELATION] >= 0:
         _position_correlation(pm, o, blocks[OB_POSITION_CORRELATION])
+    if blocks[OB_MOMENTUM] >= 0:
+        _momentum(prm, f, n, qe, sc, o, blocks[OB_MOMENTUM])
 
 
 @row_kernel
@@ -258,6 +261,28 @@ def _position_correlation(pm, o, base) -> None:  # pragma: no cover - compiled
     o[base] = _clip_unit(_ratio(pm[0, 1], s0 * s1))
     o[base + 1] = _clip_unit(_ratio(pm[0, 2], s0 * s2))
     o[base + 2] = _clip_unit(_ratio(pm[1, 2], s1 * s2))
+
+
+@row_kernel
+def _momentum(prm, f, n, qe, sc, o, base) -> None:  # pragma: no cover - compiled
+    """The ``momentum`` block: the largest wheel |momentum| over the dump threshold (the capacity without
+    dumping), then the total angular momentum ``R(q_e) (J omega_m + h_w)`` in inertial axes over the
+    capacity, from the star-tracker attitude and the reported rates; each clipped to [-10, 10]."""
+    ps = prm.scalars[0]
+    cap = prm.h_max[0]
+    scale = ps.dump_thr if ps.dump_on else cap
+    top = max(abs(f[n, F_HW]), abs(f[n, F_HW + 1]), abs(f[n, F_HW + 2]))
+    o[base] = min(top / scale, 10.0)
+    dcm_body_to_inertial_kernel(qe[0], qe[1], qe[2], qe[3], sc.rq)
+    jm = prm.jm
+    for a in range(3):
+        acc = 0.0
+        for b in range(3):
+            hb = (
+                jm[b, 0] * f[n, F_WM] + jm[b, 1] * f[n, F_WM + 1] + jm[b, 2] * f[n, F_WM + 2] + f[n, F_HW + b]
+            )
+            acc += sc.rq[a, b] * hb
+        o[base + 1 + a] = max(-10.0, min(10.0, acc / cap))
 
 
 @row_kernel

@@ -78,6 +78,30 @@ CORE_SCALAR_FIELDS: tuple[tuple[str, str, str], ...] = (
     ("drift_on", "i8", "1: the planet camera's boresight drifts in truth (world.drift_on)"),
     ("drift_sigma", "f8", "the drift's stationary sigma per axis [rad] (world.drift_sigma_arcsec)"),
     ("drift_tau", "f8", "the drift's correlation time [s] (world.drift_tau_s)"),
+    # the flight world's attitude loop (world.attitude_world_on; all 0 otherwise)
+    ("att_on", "i8", "1: the flight world's attitude sub-steps (world.attitude_world_on)"),
+    ("est_on", "i8", "1: the PD law reads the attitude estimator (world.estimate_pointing_on)"),
+    ("srp_tq", "i8", "1: SRP torque from the centre-of-pressure offset CoreParams.arms[0]"),
+    ("srp_area", "f8", "the SRP torque's sunlit cross-section [m^2] (world.srp_torque_area_m2)"),
+    ("gg_on", "i8", "1: the central body's gravity-gradient torque (world.gravity_gradient_on)"),
+    ("thr_tq", "i8", "1: the thrust's torque from its offset CoreParams.arms[1] (thrust arc)"),
+    ("thrust_n", "f8", "engine thrust [N] (operations.thrust_n; 0 without)"),
+    ("fric_c", "f8", "wheel Coulomb friction [N m] (world.wheel_coulomb)"),
+    ("fric_v", "f8", "wheel viscous friction [N m s] (world.wheel_viscous)"),
+    ("fric_comp", "f8", "share of the friction the wheel drive cancels (world.wheel_friction_compensation)"),
+    ("jw", "f8", "wheel axial inertia [kg m^2] (world.wheel_inertia_kg_m2)"),
+    ("h_speed", "f8", "wheel momentum at the no-load speed [N m s] (inf: no speed limit)"),
+    ("h_sat", "f8", "wheel momentum counted as saturated [N m s] (0.99 of the capacity)"),
+    ("dump_on", "i8", "1: momentum dumping (world.dumping_on)"),
+    ("dump_thr", "f8", "dump threshold [N m s] (world.dump_threshold_n_m_s)"),
+    ("dump_arm", "f8", "dump thrusters' lever arm [m] (world.dump_lever_arm_m)"),
+    ("mass", "f8", "spacecraft mass for a dump's delta-v [kg] (world.dump_mass)"),
+    ("dump_sig_m", "f8", "1-sigma of a dump's delta-v magnitude error [fraction] (world.dump_dv_error)"),
+    ("dump_sig_p", "f8", "1-sigma of a dump's delta-v direction error per cross axis [rad]"),
+    ("dump_dur", "f8", "thrust arc: engine-off time per dump [s] (world.dump_duration_s)"),
+    ("g_rrw", "f8", "gyro rate random walk [rad/s/sqrt(s)] (world.gyro_rrw)"),
+    ("g_arw", "f8", "gyro angle random walk [rad/sqrt(s)] (world.gyro_arw)"),
+    ("g_bias", "f8", "1-sigma of the gyro bias per axis [rad/s] (world.gyro_bias_rad_s)"),
     # pulsars
     ("det_half_fov", "f8", "detector half field of view [rad] (detector_fov_deg / 2)"),
     ("sun_avoid", "f8", "detector Sun-avoidance angle [rad] (detector.sun_avoidance_deg)"),
@@ -180,6 +204,7 @@ class CoreParams(NamedTuple):
     stars: tuple  # star_tracker.StarFixTables
     q_bias: np.ndarray  # (4,) fixed star-tracker misalignment composed with every fix (identity: none)
     obs_blocks: np.ndarray  # (len(OBSERVATION_BLOCKS),) int64 first index of each optional block (-1: off)
+    arms: np.ndarray  # (2, 3) [m, body]: the SRP centre-of-pressure offset, the thrust line's offset
 
 
 class RowState(NamedTuple):
@@ -255,6 +280,11 @@ class Scratch(NamedTuple):
     q_fix: np.ndarray  # (4,)
     sub: np.ndarray  # (4,) uint64: a per-step noise stream (noise_streams "per_step")
     light: np.ndarray  # (5, 3) light path (core.light_path.LIGHT_ROWS): velocities, direction, estimate
+    att_v: np.ndarray  # (5, 3) attitude loop: external torque, its part, estimated rate, work, total momentum
+    att_q: np.ndarray  # (4, 4) attitude loop: the attitude at the step's and the sub-step's start, work
+    att_m: np.ndarray  # (4, 6, 6) attitude filter: transition, work, gain (6 x 3 in the first columns)
+    dump: np.ndarray  # (4, 3) the step's dump delta-v in truth and on board, and their position moments
+    dump_p: np.ndarray  # (6, 6) the covariance of the step's dump delta-v errors
 
 
 @njit(cache=True)
@@ -280,6 +310,8 @@ def make_scratch(prm: CoreParams) -> Scratch:  # pragma: no cover - compiled
         noise3=np.empty(3), sub=np.empty(crng.STATE_WORDS, np.uint64),
         star_idx=np.empty(n_s, np.int64), star_noise=np.empty((n_s, 3)), star_work=np.empty(FIX_WORK_SHAPE),
         q_fix=np.empty(4), light=np.empty((5, 3)),
+        att_v=np.empty((5, 3)), att_q=np.empty((4, 4)), att_m=np.empty((4, 6, 6)), dump=np.empty((4, 3)),
+        dump_p=np.empty((6, 6)),
     )  # fmt: skip
 
 
@@ -340,5 +372,6 @@ def scratch_row(rows: Scratch, n: int) -> Scratch:  # pragma: no cover - compile
         r_tile=rows.r_tile[n],
         q_tile=rows.q_tile[n], feat=rows.feat[n], noise3=rows.noise3[n], star_idx=rows.star_idx[n],
         star_noise=rows.star_noise[n], star_work=rows.star_work[n], q_fix=rows.q_fix[n], sub=rows.sub[n],
-        light=rows.light[n],
+        light=rows.light[n], att_v=rows.att_v[n], att_q=rows.att_q[n], att_m=rows.att_m[n],
+        dump=rows.dump[n], dump_p=rows.dump_p[n],
     )  # fmt: skip

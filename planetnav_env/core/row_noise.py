@@ -22,6 +22,9 @@ NOISE_DRIFT = 9
 #: The thrust execution error's Gauss-Markov driving noise (``world.thrust_gauss_markov``): always a
 #: stream of its own (:func:`own_stream_begin`), so that switching it on moves no other draw.
 NOISE_THRUST_GM = 6
+#: The flight world's attitude loop: the gyro's random walks over a step, a momentum dump's delta-v error.
+NOISE_GYRO = 10
+NOISE_DUMP = 11
 
 
 @row_kernel

@@ -17,6 +17,7 @@ from planetnav_env.core.layout import (
     F_COB_LAST,
     F_COB_MODEL,
     F_DRIFT,
+    F_GB,
     F_INTEGRATED,
     F_NIS,
     F_PIX,
@@ -153,12 +154,16 @@ def _apply_bias(prm, q, q_fix, qe, err) -> float:  # pragma: no cover - compiled
 
 @row_kernel
 def rate_measurement(prm, st, n, sc):  # pragma: no cover - compiled
-    """Gyro rates of row ``n`` [rad/s]: the true rates plus white noise of sigma ``rate_noise``."""
+    """Gyro rates of row ``n`` [rad/s]: the true rates plus white noise of sigma ``rate_noise``, and in the
+    flight world's attitude loop the gyro's bias ``F_GB`` (zero unless ``world.gyro_bias_deg_h``)."""
     f, i, rng = st.f, st.i, st.rng
     sig = prm.scalars[0].rate_noise
     noise_begin(prm, i, rng, n, NOISE_RATE, sc)
     for j in range(3):
         f[n, F_WM + j] = f[n, F_W + j] + sig * next_normal(prm, rng, n, sc)
+    if prm.scalars[0].att_on:
+        for j in range(3):
+            f[n, F_WM + j] += f[n, F_GB + j]
 
 
 @row_kernel

@@ -9,11 +9,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from planetnav_env.config import EnvConfig
+from planetnav_env.config import OPTION_PAGES, EnvConfig
 from planetnav_env.core.ephemeris_table import SEGMENT_S
 from planetnav_env.errors import ConfigError, OptionError, OptionTypeError, UnknownOptionError
 from planetnav_env.kernel_params import SCALAR_FIELDS, SCALARS_DTYPE
-from planetnav_env.options import kernel_fields, kernel_values, option, option_table, replace_table, walk
+from planetnav_env.options import kernel_fields, kernel_values, option, replace_table, walk
 
 DOCS = Path(__file__).resolve().parents[2] / "docs" / "environment.md"
 LEAVES = [(path, opt) for path, opt, _ in walk(EnvConfig) if opt.kind != "section"]
@@ -171,12 +171,18 @@ def test_integral_numbers_and_yaml_lists_are_normalised_but_numbers_keep_their_t
     )
 
 
-def test_docs_option_table_is_the_generated_one() -> None:
-    text = DOCS.read_text()
-    assert replace_table(text, option_table(EnvConfig)) == text, (
-        "docs/environment.md's option table differs from the declarations: "
-        "python -m planetnav_env.config docs/environment.md"
+@pytest.mark.parametrize("page", sorted(OPTION_PAGES))
+def test_docs_option_tables_are_the_generated_ones(page: str) -> None:
+    text = (DOCS.parents[1] / page).read_text()
+    assert replace_table(text, OPTION_PAGES[page]()) == text, (
+        f"{page}'s option table differs from the declarations: python -m planetnav_env.config"
     )
+
+
+def test_every_option_is_in_one_generated_table() -> None:
+    tables = "".join(make() for make in OPTION_PAGES.values())
+    for path, _, _ in walk(EnvConfig):
+        assert tables.count(f"| `{path}` |") == 1, path
 
 
 def test_kernel_scalars_copied_from_options() -> None:
