@@ -324,10 +324,10 @@ class WorldConfig:
     wheel_speed_limit_rpm: float | None = option(
         None,
         kind="float",
-        gt=0.0,
+        ge=0.0,
         le=1e5,
         unit="rpm",
-        doc="wheel no-load speed (back EMF)",
+        doc="wheel no-load speed (back EMF); 0: no speed limit",
     )
     momentum_dumping: bool | None = option(None, kind="bool", doc="momentum dumps by thrusters")
     dump_threshold_n_m_s: float = option(
@@ -544,6 +544,8 @@ class WorldConfig:
     def wheel_speed_limit_rad_s(self) -> float:
         """The wheels' no-load speed [rad/s] (inf: no speed limit)."""
         rpm = self._flight_or(self.wheel_speed_limit_rpm, FLIGHT_WHEEL_SPEED_LIMIT_RPM, math.inf)
+        if rpm == 0.0:
+            return math.inf
         return float(rpm) * 2.0 * math.pi / 60.0
 
     @property
@@ -619,28 +621,42 @@ class WorldConfig:
         )
 
 
-#: Each effect of the flight world, by its option, and the value that switches it off alone (its matched
-#: value); what a study of one effect's share sets (:func:`flight_effects`).
-EFFECTS_OFF: dict[str, Any] = {
-    "light_time": False,
-    "aberration": False,
-    "third_bodies": False,
-    "srp": False,
-    "truth_ephemeris": "de421",
-    "thrust_gauss_markov": False,
-    "pulsar_shapiro": False,
-    "image_errors": False,
-    "lambert_cob": False,
-    "oblate_planets": False,
-    "boresight_drift": False,
+#: Each effect of the flight world, by name, and the options that switch it off alone (their matched
+#: values); what a study of one effect's share sets (:func:`flight_effects`). The attitude loop's options
+#: come in groups: the disturbance torques, the wheels' friction and speed limit, the gyro's errors.
+EFFECTS_OFF: dict[str, dict[str, Any]] = {
+    "light_time": {"light_time": False},
+    "aberration": {"aberration": False},
+    "third_bodies": {"third_bodies": False},
+    "srp": {"srp": False},
+    "truth_ephemeris": {"truth_ephemeris": "de421"},
+    "thrust_gauss_markov": {"thrust_gauss_markov": False},
+    "pulsar_shapiro": {"pulsar_shapiro": False},
+    "image_errors": {"image_errors": False},
+    "lambert_cob": {"lambert_cob": False},
+    "oblate_planets": {"oblate_planets": False},
+    "boresight_drift": {"boresight_drift": False},
+    "disturbance_torques": {
+        "cp_offset_m": (0.0, 0.0, 0.0),
+        "gravity_gradient": False,
+        "thrust_offset_m": (0.0, 0.0, 0.0),
+    },
+    "wheel_friction_and_speed_limit": {
+        "wheel_coulomb_n_m": 0.0,
+        "wheel_viscous_n_m_s": 0.0,
+        "wheel_speed_limit_rpm": 0.0,
+    },
+    "momentum_dumping": {"momentum_dumping": False},
+    "gyro_errors": {"gyro_bias_deg_h": 0.0, "gyro_rrw_deg_h_rt_h": 0.0, "gyro_arw_deg_rt_h": 0.0},
+    "pointing_from_estimate": {"pointing_from_estimate": False},
 }
 
 #: The effects that act only where the scenario has the sensor or the manoeuvre they concern.
 _NEEDS = {"thrust_gauss_markov": "thrust", "pulsar_shapiro": "pulsars"}
 
 
-def flight_effects(thrust: bool = True, pulsars: bool = True) -> dict[str, Any]:
-    """The effects the ``flight`` preset turns on, each option mapped to the value that switches it off
+def flight_effects(thrust: bool = True, pulsars: bool = True) -> dict[str, dict[str, Any]]:
+    """The effects the ``flight`` preset turns on, each name mapped to the options that switch it off
     alone; ``thrust`` / ``pulsars`` False leaves out those that act only on a thrust arc / on pulsar
     timing (a scenario without them, where switching them off changes nothing)."""
     has = {"thrust": thrust, "pulsars": pulsars}

@@ -220,7 +220,7 @@ def effects_off(scenario: str) -> dict[str, dict[str, Any]]:
 
     cfg = _config(Case(scenario, "baseline", "flight", 0))
     effects = flight_effects(thrust=cfg.operations is not None, pulsars=bool(cfg.pulsars))
-    return {name: {"preset": "flight", name: off} for name, off in effects.items()}
+    return {name: {"preset": "flight", **off} for name, off in effects.items()}
 
 
 def shares_table(args: argparse.Namespace) -> dict[str, Any]:
