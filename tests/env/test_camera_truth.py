@@ -106,6 +106,30 @@ def test_the_onboard_photometric_model_removes_the_offset_up_to_its_scale_error(
     assert _angle(sc.los, sc.los_true) == pytest.approx(abs(1.0 - scale) * offset, rel=1e-6, abs=1e-15)
 
 
+def test_the_onboard_correction_on_the_mars_approach_frame():
+    """On the Mars approach (the state relative to Mars, the central body) the correction, from an
+    estimate at the truth with the model's scale 1, removes the offset; the row's own reset geometry."""
+    base = {**ENV_IDS["planetnav/MarsApproach-Tasking-v2"], "episode_steps": 8, "camera": QUIET_CAMERA}
+    cfg = EnvConfig.from_dict({**base, "world": {"lambert_cob": True}})
+    core = BatchCore(cfg, 1)
+    core.reset_rows(np.array([0]), [np.random.default_rng(4)])
+    f = core.f
+    f[0, L.F_XE : L.F_XE + 6] = f[0, L.F_X : L.F_X + 6]
+    f[0, L.F_QE : L.F_QE + 4] = f[0, L.F_Q : L.F_Q + 4]
+    f[0, L.F_COB_MODEL] = 1.0
+    mars = core.body_positions(0)["central"]
+    prm, st = core.params, core.state
+    sc = make_scratch(prm)
+    sc.central[:] = mars
+    sc.planets[0] = mars
+    sc.r1[0] = f[0, L.F_X : L.F_X + 3] + mars
+    sc.t1[0] = mars
+    sc.q1[0] = f[0, L.F_Q : L.F_Q + 4]
+    sensing.measure_planet(prm, st, 0, 0, sc)
+    assert f[0, L.F_COB_LAST] > 100.0 * ARCSEC  # a resolved crescent: hundreds of arcsec
+    assert _angle(sc.los, sc.los_true) < 1e-9 * f[0, L.F_COB_LAST]
+
+
 def test_the_model_scale_is_drawn_per_planet_and_episode_in_its_bound():
     core = _core({"preset": "flight", "cob_model_error": 0.2}, rows=64)
     n_p = core.config.n_planets
