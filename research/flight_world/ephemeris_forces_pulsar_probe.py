@@ -8,10 +8,12 @@ error does each one make, on the scenario it touches?
 Command:
 
     python research/flight_world/ephemeris_forces_pulsar_probe.py            # 20 seeds per case
-    python research/flight_world/ephemeris_forces_pulsar_probe.py --seeds 8
+    python research/flight_world/ephemeris_forces_pulsar_probe.py --seeds 8 --ids ThrustArc-TCM-v2
 
 Per case: the baseline rule agent (nearest planet by the estimate; the patent's hybrid schedule with a
-pulsar detector) over whole episodes of the v2 id, seeds 5000.. (``planetnav_train.evaluate``): the mean
+pulsar detector) over whole episodes of the v2 id, seeds 5000.. (``planetnav_train.evaluate``); on the
+thrust arc, where the baseline never leaves the planets and so never thrusts, the benchmark's periodic
+schedule (a 2-h imaging session every 3 days, thrusting between them) instead. Printed: the mean
 position error over the episode [km] with its 95 % interval, the final error [km], the final 1-sigma
 [km] and, on the thrust arc, the objective J [km]. Each "flight without X" switches one effect off in
 the flight preset. A magnitude probe, not the 100-seed study with intervals per agent.
@@ -46,18 +48,26 @@ CASES = {
 }
 
 
+#: The rule agent per id (the baseline, but on the thrust arc a schedule that thrusts).
+AGENTS = {"planetnav/ThrustArc-TCM-v2": "periodic:period=432,session=12,phase=108,cycle=0-1-2"}
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--seeds", type=int, default=20)
     ap.add_argument("--seed", type=int, default=5000)
+    ap.add_argument("--ids", nargs="*", default=None, help="only these ids (e.g. ThrustArc-TCM-v2)")
     args = ap.parse_args()
     for env_id, cases in CASES.items():
-        print(f"\n{env_id}, baseline agent, {args.seeds} seeds from {args.seed}\n")
+        if args.ids and env_id.split("/")[-1] not in args.ids:
+            continue
+        agent = AGENTS.get(env_id, "baseline")
+        print(f"\n{env_id}, {agent}, {args.seeds} seeds from {args.seed}\n")
         print("| world | mean error [km] (95 %) | final error [km] | final 1-sigma [km] | J [km] |")
         print("|---|---|---|---|---|")
         for name, world in cases.items():
             cfg = get_version(env_id).config(world=world)
-            m = evaluate_agent("baseline", cfg, args.seeds, args.seed, progress=False).metrics
+            m = evaluate_agent(agent, cfg, args.seeds, args.seed, progress=False).metrics
             lo, hi = m["mean_pos_err_ci95_km"]
             j = m["objective_mean"] if cfg.operations is not None else float("nan")
             print(
