@@ -92,7 +92,10 @@ class WorldConfig:
 
     The resolved values the core reads are :attr:`light_time_on`, :attr:`aberration_on`,
     :attr:`light_time_corrected`, :attr:`aberration_corrected`, :attr:`centroid_bias_bound` and
-    :attr:`pulsar_frequency_error_bound`."""
+    :attr:`pulsar_frequency_error_bound`, and those of the attitude loop (:attr:`attitude_world_on`:
+    :attr:`cp_offset`, :attr:`gravity_gradient_on`, :attr:`thrust_offset`, :attr:`wheel_coulomb`,
+    :attr:`wheel_viscous`, :attr:`wheel_speed_limit_rad_s`, :attr:`dumping_on`, :meth:`dump_mass`,
+    :attr:`gyro_bias_rad_s`, :attr:`gyro_rrw`, :attr:`gyro_arw`, :attr:`estimate_pointing_on`)."""
 
     preset: str = option(
         "matched",
