@@ -106,7 +106,10 @@ class WorldConfig:
     :attr:`shapiro_corrected`, :attr:`process_noise_tuned`, :attr:`centroid_bias_bound`,
     :attr:`pulsar_frequency_error_bound`, :attr:`image_errors_on`, :attr:`lambert_cob_on`,
     :attr:`lambert_cob_corrected`, :attr:`oblate_on` and :attr:`drift_on` (with the camera effects'
-    parameters as set)."""
+    parameters as set), and those of the attitude loop (:attr:`attitude_world_on`: :attr:`cp_offset`,
+    :attr:`gravity_gradient_on`, :attr:`thrust_offset`, :attr:`wheel_coulomb`, :attr:`wheel_viscous`,
+    :attr:`wheel_speed_limit_rad_s`, :attr:`dumping_on`, :meth:`dump_mass`, :attr:`gyro_bias_rad_s`,
+    :attr:`gyro_rrw`, :attr:`gyro_arw`, :attr:`estimate_pointing_on`)."""
 
     preset: str = option(
         "matched",

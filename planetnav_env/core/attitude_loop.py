@@ -164,8 +164,9 @@ def external_torque(prm, f, n, y, thrusting, sc, out) -> None:  # pragma: no cov
 
 
 @row_kernel
-def _dump(prm, st, n, y, hw, tau, sc) -> None:  # pragma: no cover - compiled
-    """Unload row ``n``'s wheels: ``hw <- 0`` (the body's rate ``y[4:]`` unchanged), the dump's delta-v
+def _dump(prm, st, n, y, hw, dh, tau, sc) -> None:  # pragma: no cover - compiled
+    """Unload row ``n``'s momentum ``dh`` [N m s, body; the total ``J omega + h_w``]: ``hw <- hw - dh``
+    (the body's rate ``y[4:]`` unchanged; ``dh`` may alias ``sc.att_v[_PART]``), the dump's delta-v
     into ``sc.dump`` (truth: with its errors, rotated by the true attitude; on board: nominal, rotated by
     the estimate) and its error's covariance into ``sc.dump_p``, mapped to the step's end ``tau`` [s]
     later. Counts the dump and its nominal delta-v [m/s]; on the thrust arc the engine stops for
@@ -177,9 +178,10 @@ def _dump(prm, st, n, y, hw, tau, sc) -> None:  # pragma: no cover - compiled
     # Thrusters firing along body axis k + 1 at lever arm l along k + 2 torque about axis k; unloading h_k
     # takes the impulse h_k / l along axis k + 1 (dump_delta_v gives each axis's magnitude).
     for k in range(3):
-        h = hw[(k + 2) % 3]
+        h = dh[(k + 2) % 3]
         v[k] = math.copysign(dump_delta_v(abs(h), l_arm, ps.mass), h)  # [km/s], body
-        hw[(k + 2) % 3] = 0.0
+    for k in range(3):
+        hw[k] -= dh[k]
     dv = math.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
     if dv == 0.0:
         return
@@ -334,13 +336,18 @@ def flight_substeps(
             qh[k] = qw[k] / nn
         rotate_by(qh, (gb[0] - bh[0]) * h_dt, (gb[1] - bh[1]) * h_dt, (gb[2] - bh[2]) * h_dt, qw)
         if ps.dump_on:
-            top = max(abs(hw[0]), abs(hw[1]), abs(hw[2]))
-            if top > ps.dump_thr:
-                # The thrusters take the wheels' momentum out of the total (the body's rate unchanged).
+            # The momentum the wheels hold once the body is at rest, J omega + h_w (body axes): a slew moves
+            # momentum between body and wheels but does not call for a dump.
+            hb = sc.att_v[_PART]
+            jm = plant.jm
+            for a in range(3):
+                hb[a] = jm[a, 0] * y[4] + jm[a, 1] * y[5] + jm[a, 2] * y[6] + hw[a]
+            if max(abs(hb[0]), abs(hb[1]), abs(hb[2])) > ps.dump_thr:
+                # The thrusters take it out of the total; the wheels end at -J omega, the rate unchanged.
                 dcm_body_to_inertial_kernel(y[0], y[1], y[2], y[3], sc.rq)
                 for a in range(3):
-                    htot[a] -= sc.rq[a, 0] * hw[0] + sc.rq[a, 1] * hw[1] + sc.rq[a, 2] * hw[2]
-                _dump(prm, st, n, y, hw, dt - (j + 1) * h_dt, sc)
+                    htot[a] -= sc.rq[a, 0] * hb[0] + sc.rq[a, 1] * hb[1] + sc.rq[a, 2] * hb[2]
+                _dump(prm, st, n, y, hw, hb, dt - (j + 1) * h_dt, sc)
         if abs(hw[0]) >= ps.h_sat or abs(hw[1]) >= ps.h_sat or abs(hw[2]) >= ps.h_sat:
             f[n, F_SAT_S] += h_dt
         if ops:

@@ -3,6 +3,7 @@ seeds with 95 % intervals of the mean (Student t):
 
     python research/commands/attitude_tables.py                 # 100 seeds, every scenario
     python research/commands/attitude_tables.py --seeds 20 --scenarios cruise
+    python research/commands/attitude_tables.py --references --seeds 20   # the torque tasks' references
 
 Columns: momentum dumps per day and the delta-v they spent [m/s per day] (the nominal impulses), the
 share of the episode a wheel spent at 99 % of its momentum capacity, the camera's true pointing error
@@ -10,7 +11,10 @@ against the PD law's direction (each seed's median over the steps the PD law poi
 navigation error that follows (the true position error at the episode's end [km]). Each scenario runs its
 v2 id under a fixed schedule (the same actions in both worlds): the targets in turn, each held 60 physics
 steps; on the thrust arc one imaging decision in 12, else the mission attitude. Rows are the seeds
-``seed0 .. seed0 + N - 1`` of one vector env per world.
+``seed0 .. seed0 + N - 1`` of one vector env per world. ``--references``: the wheel-torque tasks' rule
+references (greedy executed by the PD law on ``Cruise-TorqueControl-v1``, the planner on
+``Cruise-Torque-v2``) in both worlds, the mean position error over the episode [km]
+(``planetnav_train.evaluate.evaluate_agent``, the same seeds).
 """
 
 from __future__ import annotations
@@ -78,6 +82,29 @@ def run(scenario: str, world: str, seeds: int, seed0: int) -> dict[str, np.ndarr
     }
 
 
+#: The torque tasks' references: (agent, id).
+REFERENCES = (("greedy-pd", "Cruise-TorqueControl-v1"), ("planner", "Cruise-Torque-v2"))
+
+
+def references(seeds: int, seed0: int) -> None:
+    """Print the torque tasks' references in both worlds (mean episode position error, 95 % interval)."""
+    import dataclasses
+
+    from planetnav_env.tasks import get_version
+    from planetnav_train.evaluate import evaluate_agent
+
+    print("| reference | id | world | mean position error [km] |")
+    print("|---|---|---|---|")
+    for agent, name in REFERENCES:
+        base = get_version(f"planetnav/{name}").config()
+        for w in WORLDS:
+            cfg = dataclasses.replace(base, world=w)
+            res = evaluate_agent(agent, cfg, seeds, seed0, progress=False)
+            print(
+                f"| {agent} | {name} | {w} | {mean_ci(res.episode_mean_err).format('{:.1f}')} |", flush=True
+            )
+
+
 def _cell(x: np.ndarray, fmt: str) -> str:
     x = x[np.isfinite(x)]
     if x.size == 0:
@@ -92,7 +119,11 @@ def main() -> None:
     ap.add_argument("--seeds", type=int, default=100)
     ap.add_argument("--seed0", type=int, default=1000)
     ap.add_argument("--scenarios", nargs="+", default=list(SCENARIOS), choices=list(SCENARIOS))
+    ap.add_argument("--references", action="store_true", help="the torque tasks' references instead")
     args = ap.parse_args()
+    if args.references:
+        references(args.seeds, args.seed0)
+        return
     print(f"{args.seeds} seeds from {args.seed0}; mean [95 % interval]")
     print()
     print(
