@@ -146,6 +146,11 @@ def observe_row(prm, f, p, i, eph, obs, n, sc, bodies_ready) -> None:  # pragma:
         _residual_log(prm, f, n, o, blocks[OB_RESIDUAL_LOG])
     if blocks[OB_POSITION_CORRELATION] >= 0:
         _position_correlation(pm, o, blocks[OB_POSITION_CORRELATION])
+    if ps.obs_unit:
+        # Every column to order 1 (observation_scaling 'unit'): (value - offset) / scale, fixed constants.
+        aff = prm.obs_affine
+        for c in range(aff.shape[1]):
+            o[c] = (o[c] - aff[0, c]) / aff[1, c]
 
 
 @row_kernel
