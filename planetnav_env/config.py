@@ -423,12 +423,6 @@ class EnvConfig:
                 f"prior_long_sigma_km must be 0 (a spherical prior) or at least filter.sigma_pos0 "
                 f"({self.filter.sigma_pos0} km), got {self.prior_long_sigma_km}"
             )
-        if len(self.reward_baseline_km) > self.episode_steps:
-            raise OptionError(
-                "reward_baseline_km",
-                f"at most episode_steps ({self.episode_steps}) entries, one per bin of physics steps",
-                f"{len(self.reward_baseline_km)} entries",
-            )
         _check_ephemeris_span(self)
         if self.scenario == "mars-approach" and self.world.srp is True:
             raise OptionError(

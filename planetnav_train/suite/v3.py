@@ -486,7 +486,7 @@ def normalization(task: str, path: Path = NORMALIZATION_FILE) -> dict[str, Any]:
     rec = read_json(path)["tasks"].get(task)
     if rec is None:
         raise ConfigError(f"no published normalization for {task!r} in {path}: run `python -m "
-                          "planetnav_train.suite.v3 normalize --tasks {task}`")  # fmt: skip
+                          f"planetnav_train.suite.v3 normalize --tasks {task}`")  # fmt: skip
     return rec
 
 

@@ -70,7 +70,7 @@ def test_unit_scaling_writes_each_column_as_its_declared_affine_of_the_raw_one()
 
 
 def test_bad_posing_options_name_the_option_through_make():
-    for bad in ({"reward_baseline_km": (1.0, math.nan)}, {"reward_baseline_km": (0.0,) * 1441},
+    for bad in ({"reward_baseline_km": (1.0, math.nan)}, {"reward_baseline_km": (1.0, math.inf)},
                 {"observation_scaling": "standard"}, {"reward_baseline_km": "fast"}):  # fmt: skip
         name = next(iter(bad))
         with pytest.raises(OptionError, match=name):
