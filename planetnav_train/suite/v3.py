@@ -590,7 +590,7 @@ def normalize(env_id: str, episodes: int, blind: dict[str, Any], log=print) -> d
     jz = roll_out(cfg, finalists[blind["winner"]], range(EVAL_SEED, EVAL_SEED + episodes)).objective
     log(f"{env_id}: zero {blind['winner']}: {jz.mean():.2f} km")
     refs = {}
-    for spec in V3_TASKS[env_id]:
+    for spec in V3_TASKS[env_id.split("/", 1)[-1]]:
         try:
             refs[spec] = policy_objective(cfg, spec, *seeds)
         except Exception as exc:  # a reference that cannot act here is reported, not fatal
@@ -668,6 +668,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     lr.add_argument("--episodes", type=int, default=100, help="evaluation seeds from EVAL_SEED")
     lr.add_argument("--episode-steps", type=int, default=None, help="shorter episodes (smoke runs only)")
     lr.add_argument("--out", default=None, help="write the rows as JSON here")
+    lr.add_argument(
+        "--target-actions",
+        default=None,
+        choices=("absolute", "relative"),
+        help="override the task's absolute target actions (the relative-action measurement)",
+    )
     for q in (r, s, n):
         q.add_argument("--tasks", nargs="*", default=None)
         q.add_argument("--out", default=None, help="the file to write (default: the published one)")
@@ -679,7 +685,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.cmd == "learners":
         from planetnav_train.suite.v3_learners import learner_rows
 
-        rows = learner_rows(args.task, args.budget, args.seed, args.episodes, args.episode_steps)
+        rows = learner_rows(
+            args.task,
+            args.budget,
+            args.seed,
+            args.episodes,
+            args.episode_steps,
+            target_actions=args.target_actions,
+        )
         print(json.dumps(rows, indent=1))
         if args.out:
             write_json(Path(args.out), rows)

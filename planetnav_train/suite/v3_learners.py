@@ -55,22 +55,33 @@ def _row(name: str, j: np.ndarray, entropy: float, task: str, extra: dict[str, A
 
 
 def learner_rows(
-    task: str, budget: int, seed: int = 0, episodes: int = 100, episode_steps: int | None = None
+    task: str,
+    budget: int,
+    seed: int = 0,
+    episodes: int = 100,
+    episode_steps: int | None = None,
+    ppo_overrides: dict[str, Any] | None = None,
+    target_actions: str | None = None,
 ) -> dict[str, Any]:
     """PPO (SB3 defaults via ``make_vec_env``), the untrained network and uniform random on v3 ``task``
-    (``Cruise-Target-v3``): J on ``episodes`` evaluation seeds, entropy, score; ``episode_steps`` shortens
-    the episodes (smoke runs; the score is then not the task's)."""
+    (``Cruise-Target-v3``): J on ``episodes`` evaluation seeds, entropy, score. ``episode_steps`` shortens
+    the episodes and ``ppo_overrides`` changes PPO's arguments: smoke runs only (the command passes
+    neither, and a row made with them is not the task's). ``target_actions``: ``relative`` to measure
+    relative target actions against the task's absolute ones (same seeds, same budget)."""
     from stable_baselines3 import PPO
     from stable_baselines3.common.env_util import make_vec_env
 
     env_id = f"planetnav/{task}"
-    over = {"episode_steps": episode_steps} if episode_steps else {}
+    over: dict[str, Any] = {"episode_steps": episode_steps} if episode_steps else {}
+    if target_actions:  # the absolute-versus-relative measurement (docs/tasks_v3.md)
+        over["target_actions"] = target_actions
     cfg: EnvConfig = v3.eval_config(env_id, **over)
     seeds = range(v3.EVAL_SEED, v3.EVAL_SEED + episodes)
     venv = make_vec_env(env_id, seed=seed, env_kwargs=over)
-    model = PPO("MlpPolicy", venv, seed=seed, verbose=0)
-    rows: dict[str, Any] = {"task": task, "budget_decisions": budget, "seed": seed, "episodes": episodes,
-                            "episode_steps": cfg.episode_steps, "rows": []}  # fmt: skip
+    model = PPO("MlpPolicy", venv, seed=seed, verbose=0, **(ppo_overrides or {}))
+    rows: dict[str, Any] = {"task": task, "target_actions": cfg.target_actions, "budget_decisions": budget,
+                            "seed": seed, "episodes": episodes, "episode_steps": cfg.episode_steps,
+                            "rows": []}  # fmt: skip
     ent: list[float] = []
     j = v3.roll_out(cfg, _policy_fn(model, ent), seeds).objective
     rows["rows"].append(_row("untrained network", j, float(np.mean(ent)), task, {}))

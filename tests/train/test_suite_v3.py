@@ -101,3 +101,16 @@ def test_the_run_score_is_the_formula_with_a_bootstrap_over_the_seeds():
         and two["lo"] == pytest.approx(0.5)
         and two["hi"] == pytest.approx(1.0)
     )
+
+
+def test_the_learner_rows_train_sb3_ppo_through_make_vec_env_and_report_entropies():
+    from planetnav_train.suite.v3_learners import learner_rows
+
+    rows = learner_rows("Cruise-Target-v3", 64, episodes=2, episode_steps=20,
+                        ppo_overrides={"n_steps": 32, "batch_size": 32, "n_epochs": 1})  # fmt: skip
+    by = {r["policy"]: r for r in rows["rows"]}
+    assert set(by) == {"untrained network", "uniform random", "SB3 PPO (defaults, make_vec_env)"}
+    assert by["uniform random"]["entropy_nats"] == pytest.approx(np.log(3))
+    # SB3's initial policy is near uniform (its last layer's gain is 0.01).
+    assert by["untrained network"]["entropy_nats"] == pytest.approx(np.log(3), abs=0.01)
+    assert all(np.isfinite(r["J"]["mean"]) for r in rows["rows"])
