@@ -173,7 +173,7 @@ def target_candidates(cfg: EnvConfig) -> list[BlindTargets]:
     n_t = cfg.n_targets
     out: list[BlindTargets] = []
     for w in itertools.product((0, 1, 2), repeat=n_a):
-        if sum(w) == 0:
+        if sum(w) == 0 or math.gcd(*w) > 1:  # (2, 2, 0) is (1, 1, 0): each distribution once
             continue
         p = np.tile(np.asarray(w, float) / sum(w), (d_n, 1))
         for hold in (1, 3, 6):

@@ -47,6 +47,9 @@ def test_the_families_cover_the_interface():
     names = [c.name for c in v3.target_candidates(cfg)]
     for kind in ("weighted:", "cycle:", "sessions:", "deadlines:"):
         assert any(n.startswith(kind) for n in names), kind
+    weighted = [c for c in v3.target_candidates(cfg) if c.name.startswith("weighted:")]
+    rows = {(tuple(np.round(c.probs[0], 9)), c.hold) for c in weighted}
+    assert len(rows) == len(weighted)  # no distribution twice
     for c in v3.target_candidates(cfg):
         assert c.probs.shape == (cfg.episode_decisions, 4)
         np.testing.assert_allclose(c.probs.sum(axis=1), 1.0)
