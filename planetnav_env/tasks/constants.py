@@ -6,7 +6,7 @@ order 1. Both are measured, not tuned: ``b`` is uniform random's mean error term
 steps and ``s`` the standard deviation of uniform random's per-decision sums of ``e_k - b(k)``, over the
 normalization seeds (:data:`planetnav_train.suite.v3.NORMALIZATION_SEED`), in the world the task is
 simulated in. ``python -m planetnav_train.suite.v3 reward`` writes them to
-``planetnav_env/data/tasks_v3_reward.json``; the declarations read them here, once, at import.
+``planetnav_env/tasks/tasks_v3_reward.json``; the declarations read them here, once, at import.
 
 A task missing from the file gets no baseline and the scale :data:`FALLBACK_SCALE_KM` (the reward is then
 the v2 form on the true error), so a fresh tree registers every id before the command has run.
@@ -22,7 +22,7 @@ from typing import Any
 from planetnav_env.tasks.spec import Reward
 
 #: The file the reward command writes (package data).
-REWARD_FILE = Path(__file__).parents[1] / "data" / "tasks_v3_reward.json"
+REWARD_FILE = Path(__file__).with_name("tasks_v3_reward.json")
 #: What every v3 target task's card note says of its posing.
 V3_POSING = (
     "in the flight world (`world: flight`: the truth apart from the onboard model, "

@@ -107,7 +107,7 @@ def test_the_run_score_is_the_formula_with_a_bootstrap_over_the_seeds():
 
 
 def test_the_learner_rows_train_sb3_ppo_through_make_vec_env_and_report_entropies():
-    from planetnav_train.suite.v3_learners import learner_rows
+    from planetnav_train.suite.v3 import learner_rows
 
     rows = learner_rows("Cruise-Target-v3", 64, episodes=2, episode_steps=20,
                         ppo_overrides={"n_steps": 32, "batch_size": 32, "n_epochs": 1})  # fmt: skip
