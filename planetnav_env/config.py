@@ -41,6 +41,10 @@ SCENARIOS = ("cruise", "random-cruise", "mars-approach")
 ACTION_MODES = ("target", "torque", "target+torque", "hybrid")
 REWARDS = ("truth", "covariance")
 TARGET_ACTIONS = ("absolute", "relative")
+#: How the env scales its observation: ``raw`` (each block's own scale, the v0-v2 observation) or ``unit``
+#: (every column brought to order 1 by the fixed per-block constants of
+#: :func:`planetnav_env.core.layout.unit_scaling`).
+OBSERVATION_SCALINGS = ("raw", "unit")
 NOISE_STREAMS = ("sequential", "per_step")
 
 
@@ -221,6 +225,18 @@ class EnvConfig:
         "true error mapped to the encounter (``truth``) or its 1-sigma the filter predicts (``covariance``)",
     )
     reward_scale_km: float = option(1000.0, gt=0, unit="km", kernel="reward_scale", doc="reward scale")
+    reward_baseline_km: tuple[float, ...] = option(
+        (),
+        kind="floats",
+        unit="km",
+        doc="a baseline that depends on time only, subtracted from each physics step's error term before "
+        "the scale: the reward becomes -(e_k - b(k)) / reward_scale_km, e_k the step's error (or, with "
+        "``operations``, the objective's increment), b the entry of physics step k when the L entries "
+        "split the episode's ``episode_steps`` physics steps into L equal bins (entry floor((k - 1) L / "
+        "episode_steps) for k = 1..episode_steps). Its sum over an episode is a constant, so the optimal "
+        "policy is unchanged, and the return measures what the policy controls instead of the error's "
+        "decay. Empty: no baseline (the v0-v2 reward)",
+    )
     torque_penalty: float = option(
         0.0, ge=0, kernel="torque_penalty", doc="reward penalty per squared commanded torque fraction"
     )
@@ -268,6 +284,14 @@ class EnvConfig:
         doc="``absolute``: action k points at target k; ``relative``: 0 keeps the current target and k moves "
         "k places along the target order (planets, then pulsars; from target 0 after a reset). Needs "
         "action_mode ``target`` and no idle_action",
+    )
+    observation_scaling: str = option(
+        "raw",
+        choices=OBSERVATION_SCALINGS,
+        doc="``raw``: each block in its own scale (the table of ``ObservationLayout``); ``unit``: every "
+        "column c written as (value - offset_c) / scale_c with fixed constants per block and scenario "
+        "(``planetnav_env.core.layout.unit_scaling``, docs/tasks_v3.md), so a learner sees values of order "
+        "1. Part of the decision interface: the rule agents read the raw observation",
     )
     observe_since_measured: bool = option(
         False,
@@ -466,13 +490,20 @@ class EnvConfig:
 
     def at_physics_step(self) -> EnvConfig:
         """This configuration with the decision interface at its defaults (one physics step per decision,
-        absolute target actions, no ``since_measured`` block): the same physics, seeds and objective, in
-        the interface the rule agents act through (a ``-v1`` id's references run there)."""
-        if (self.decision_steps, self.target_actions, self.observe_since_measured) == (1, "absolute", False):
+        absolute target actions, no ``since_measured`` block, the raw observation): the same physics, seeds
+        and objective, in the interface the rule agents act through (a ``-v1`` id's references run there)."""
+        interface = (
+            self.decision_steps,
+            self.target_actions,
+            self.observe_since_measured,
+            self.observation_scaling,
+        )
+        if interface == (1, "absolute", False, "raw"):
             return self
         return dataclasses.replace(
-            self, decision_steps=1, target_actions="absolute", observe_since_measured=False
-        )
+            self, decision_steps=1, target_actions="absolute", observe_since_measured=False,
+            observation_scaling="raw",
+        )  # fmt: skip
 
     @property
     def episode_decisions(self) -> int:

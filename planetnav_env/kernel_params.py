@@ -138,6 +138,8 @@ def build_params(
         det_half_fov=math.radians(0.5 * cfg.detector_fov_deg),
         sun_avoid=math.radians(cfg.detector.sun_avoidance_deg),
         reward_truth=cfg.reward == "truth",
+        reward_base_n=len(cfg.reward_baseline_km),
+        obs_unit=cfg.observation_scaling == "unit",
         n_planets=cfg.n_planets,
         n_pulsars=cfg.n_pulsars,
         n_targets=cfg.n_targets,
@@ -215,4 +217,10 @@ def build_params(
         q_bias=bias_quaternion(cfg.star_tracker_bias_arcsec),
         obs_blocks=layout.block_starts(),
         arms=np.array([world.cp_offset, world.thrust_offset], dtype=float),
+        reward_base=np.array(cfg.reward_baseline_km or (0.0,), dtype=float),
+        obs_affine=(
+            np.ascontiguousarray(L.unit_scaling(layout, cfg.scenario), dtype=float)
+            if cfg.observation_scaling == "unit"
+            else np.zeros((2, 0))
+        ),
     )

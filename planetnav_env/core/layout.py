@@ -505,3 +505,55 @@ def observation_scales(scenario: str) -> tuple[float, float]:
     from planetnav_env.astro.bodies import AU_KM
 
     return (1.0e6, 5.0) if scenario == "mars-approach" else (AU_KM, 30.0)
+
+
+#: The fixed constants of ``observation_scaling: unit`` (:func:`unit_scaling`): per scenario kind
+#: (``heliocentric``: the cruises and the thrust arc; ``approach``: Mars-centred) and block, one
+#: ``(offset, scale)`` per column, a column written as ``(raw - offset) / scale``; a block or column not
+#: listed keeps ``(0, 1)`` (its raw scale is already of order 1: unit vectors, quaternions, 0/1 flags,
+#: fractions, the history blocks). Chosen from the raw columns' ranges under uniform random actions in the
+#: flight world (``research/tasks_v3/probe_obs.py``), so that each listed column spans about -2..2, and
+#: then fixed: they are part of a task version's definition, not a running statistic.
+UNIT_SCALING: dict[str, dict[str, tuple[tuple[float, float], ...]]] = {
+    "heliocentric": {
+        # log10(km) / 4 of the position 1-sigma (~0.4-0.9 over a cruise), then log10(m/s) / 4 (~0).
+        "log_sigma": ((0.6, 0.15),) * 3 + ((0.0, 0.05),) * 3,
+        "rates": ((0.0, 2.0),) * 3,  # deg/s: torque tasks' tumbles reach ~3.6
+        # direction (3), log10(distance / AU), size / noise (sub-pixel disks: ~0-1), observable, log sigma.
+        "planet": ((0.0, 1.0),) * 3 + ((0.0, 0.5), (0.0, 1.0), (0.0, 1.0), (0.6, 0.15)),
+        # days to each deadline / 10 (0-2 on the thrust arc), delta-v lost / 10 m/s (~27 if always imaging),
+        # thrusting: the delta-v column divided by 5 more (~0.2 for the rules' sessions).
+        "operations_dv": ((0.0, 5.0),),
+    },
+    "approach": {
+        "log_sigma": ((0.2, 0.15),) * 3 + ((-0.3, 0.15),) * 3,
+        "rates": ((0.0, 2.0),) * 3,
+        # log10(distance / AU) from -3.8 to -2.2 on the last 94 h; Mars's disk from 10 to 385 noise widths.
+        "planet": ((0.0, 1.0),) * 3 + ((-3.0, 0.5), (100.0, 100.0), (0.0, 1.0), (0.2, 0.2)),
+        # direction (3), progress 0..1, log10 phase 1-sigma [cycles] (-4..-0.7), observable, log sigma.
+        "pulsar": ((0.0, 1.0),) * 3 + ((0.0, 1.0), (-2.0, 1.0), (0.0, 1.0), (0.2, 0.2)),
+    },
+}
+
+
+def unit_scaling(layout: ObservationLayout, scenario: str) -> np.ndarray:
+    """(2, size) offset and scale of every column of ``layout``'s observation under ``observation_scaling:
+    unit`` for ``scenario`` (:data:`UNIT_SCALING`; the kernels write ``(raw - offset) / scale``)."""
+    table = UNIT_SCALING["approach" if scenario == "mars-approach" else "heliocentric"]
+    out = np.zeros((2, layout.size))
+    out[1] = 1.0
+
+    def put(start: int, pairs: tuple[tuple[float, float], ...]) -> None:
+        for j, (off, scale) in enumerate(pairs):
+            out[0, start + j], out[1, start + j] = off, scale
+
+    starts = _block_starts()
+    for name in ("log_sigma", "rates"):
+        put(starts[name], table[name])
+    for p in range(layout.n_planets):
+        put(layout.planets_start + TARGET_FEATURES * p, table["planet"])
+    for q in range(layout.n_pulsars):
+        put(layout.pulsars_start + TARGET_FEATURES * q, table.get("pulsar", ()))
+    if layout.n_deadlines is not None and "operations_dv" in table:
+        put(layout.operations_start + layout.n_deadlines, table["operations_dv"])
+    return out

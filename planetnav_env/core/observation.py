@@ -149,6 +149,11 @@ def observe_row(prm, f, p, i, eph, obs, n, sc, bodies_ready) -> None:  # pragma:
         _position_correlation(pm, o, blocks[OB_POSITION_CORRELATION])
     if blocks[OB_MOMENTUM] >= 0:
         _momentum(prm, f, n, qe, sc, o, blocks[OB_MOMENTUM])
+    if ps.obs_unit:
+        # Every column to order 1 (observation_scaling 'unit'): (value - offset) / scale, fixed constants.
+        aff = prm.obs_affine
+        for c in range(aff.shape[1]):
+            o[c] = (o[c] - aff[0, c]) / aff[1, c]
 
 
 @row_kernel

@@ -107,6 +107,9 @@ CORE_SCALAR_FIELDS: tuple[tuple[str, str, str], ...] = (
     ("sun_avoid", "f8", "detector Sun-avoidance angle [rad] (detector.sun_avoidance_deg)"),
     # reward and termination
     ("reward_truth", "i8", "1: reward from the true error, 0: from the filter's sigma (reward)"),
+    ("reward_base_n", "i8", "entries L of CoreParams.reward_base (reward_baseline_km; 0: no baseline)"),
+    ("obs_unit", "i8", "1: the observation's columns scaled by CoreParams.obs_affine (observation_scaling "
+     "'unit')"),
     # counts and ephemeris channels
     ("n_planets", "i8", "planets P"),
     ("n_pulsars", "i8", "pulsars Q"),
@@ -205,6 +208,10 @@ class CoreParams(NamedTuple):
     q_bias: np.ndarray  # (4,) fixed star-tracker misalignment composed with every fix (identity: none)
     obs_blocks: np.ndarray  # (len(OBSERVATION_BLOCKS),) int64 first index of each optional block (-1: off)
     arms: np.ndarray  # (2, 3) [m, body]: the SRP centre-of-pressure offset, the thrust line's offset
+    reward_base: (
+        np.ndarray
+    )  # (max(L, 1),) the reward's time-only baseline per bin of steps [km] (L = 0: none)
+    obs_affine: np.ndarray  # (2, D) offset and scale of each observation column ('unit'; else (2, 0))
 
 
 class RowState(NamedTuple):

@@ -31,7 +31,9 @@ def score_row(prm, st, n, torque, sc) -> None:  # pragma: no cover - compiled
     step (``torque``: the step's torque action, fractions of the wheel limit).
 
     Operations scenarios (``ops``): the reward is ``-(w * dv_step + sum of the deadline terms reached
-    this step) / reward_scale_km`` (:func:`planetnav_env.core.operations.score_operations`), km and m/s."""
+    this step) / reward_scale_km`` (:func:`planetnav_env.core.operations.score_operations`), km and m/s.
+    With a baseline (``reward_base_n`` > 0) the error term less the baseline of the step's bin, ``b_j``
+    [km] with ``j = floor((k - 1) L / episode_steps)``, is scaled instead: a function of time only."""
     f, p, i = st.f, st.p, st.i
     ps = prm.scalars[0]
     x = f[n, F_X : F_X + 6]
@@ -49,10 +51,12 @@ def score_row(prm, st, n, torque, sc) -> None:  # pragma: no cover - compiled
     term = not (math.isfinite(pos_err) and math.isfinite(sig)) or pos_err > ps.divergence
     i[n, I_TERMINATED] = term
     i[n, I_TRUNCATED] = i[n, I_K] >= ps.episode_steps and not term
-    if ps.ops:
-        r = -score_operations(prm, f, p, i, n) / ps.reward_scale
+    err = score_operations(prm, f, p, i, n) if ps.ops else (pos_err if ps.reward_truth else sig)
+    if ps.reward_base_n > 0:
+        # The time-only baseline of this physics step's bin (reward_baseline_km): k = 1..episode_steps.
+        j = min(max((i[n, I_K] - 1) * ps.reward_base_n // ps.episode_steps, 0), ps.reward_base_n - 1)
+        r = -(err - prm.reward_base[j]) / ps.reward_scale
     else:
-        err = pos_err if ps.reward_truth else sig
         r = -err / ps.reward_scale
     if ps.mode != MODE_TARGET and ps.torque_penalty > 0.0:
         r -= ps.torque_penalty * ps.torque_scale**2 * (torque[0] ** 2 + torque[1] ** 2 + torque[2] ** 2)

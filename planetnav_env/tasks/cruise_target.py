@@ -28,6 +28,9 @@ Version history
       the ``since_measured`` block; the physics, seeds and objective of v0.
     - v2: v1 with image failures the filter does not model: each planet's images yield a fix with a
       probability drawn uniformly from [0, 1] per episode, and the observation carries the image log.
+    - v3: v2's conditions in the flight world, posed for learners (docs/tasks_v3.md): the true-error reward
+      less a time-only baseline at a measured scale, absolute targets, unit-scaled observation with the
+      residual log.
 
 The card, ``docs/tasks/Cruise-Target.md``, is generated from :data:`CRUISE_TARGET`
 (``python -m planetnav_train.suite.cards``).
@@ -35,6 +38,7 @@ The card, ``docs/tasks/Cruise-Target.md``, is generated from :data:`CRUISE_TARGE
 
 from __future__ import annotations
 
+from planetnav_env.tasks.constants import V3_POSING, v3_reward
 from planetnav_env.tasks.spec import Card, Interface, Layout, Params, Reward, TaskSpec, TaskVersion
 
 CRUISE_TARGET = TaskSpec(
@@ -68,6 +72,18 @@ CRUISE_TARGET = TaskSpec(
             "per episode (`image_success_min: 0`), told neither to the filter nor to the agent (a failed "
             'image gives no measurement, `info["visibility"] == "image_failed"`), and the observation '
             "carries the image log ([tasks_v2.md](../tasks_v2.md)); benchmarked in suite version 2",
+        ),
+        TaskVersion(
+            3,
+            layout=Layout(
+                "cruise", ("venus", "mars", "earth"), "target", blocks=("image_log", "residual_log")
+            ),
+            params=Params(step_s=60.0, episode_steps=1440, image_success_min=0.0, world="flight"),
+            reward=v3_reward("Cruise-Target"),
+            interface=Interface(decision_steps=10, since_measured=True, observation_scaling="unit"),
+            note="v2's per-episode conditions (each planet's image success rate drawn uniformly from [0, 1]) "
+            + V3_POSING
+            + "; suite version 3",
         ),
     ),
     card=Card(

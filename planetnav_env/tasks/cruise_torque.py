@@ -28,6 +28,7 @@ Version history
     - v2 (Cruise-Torque only): v1 with an action of 1 commanding 5 % of the wheel torque limit. A pointing
       torque held for a 60-s step is ~0.5 % of the limit, so at v1's scale a policy had to resolve its
       output to ~1e-3.
+    - v3 (Cruise-Torque only): v2 in the flight world, posed for learners (docs/tasks_v3.md).
 
 The cards, ``docs/tasks/Cruise-Torque.md`` and ``docs/tasks/Cruise-TargetTorque.md``, are generated from
 :data:`CRUISE_TORQUE` and :data:`CRUISE_TARGET_TORQUE` (``python -m planetnav_train.suite.cards``).
@@ -35,6 +36,7 @@ The cards, ``docs/tasks/Cruise-Torque.md`` and ``docs/tasks/Cruise-TargetTorque.
 
 from __future__ import annotations
 
+from planetnav_env.tasks.constants import v3_reward
 from planetnav_env.tasks.spec import Card, Interface, Layout, Params, Reward, TaskSpec, TaskVersion
 
 _PLANETS = ("venus", "mars", "earth")
@@ -70,6 +72,17 @@ CRUISE_TORQUE = TaskSpec(
             "0.05`, 0.0005 N m per body axis), so a pointing torque is resolvable: held for a 60-s step it "
             "is ~0.5 % of v1's range; nothing is drawn that v1 does not draw "
             '([tasks_v2.md](../tasks_v2.md), "Posing fixes"); benchmarked in suite version 2',
+        ),
+        TaskVersion(
+            3,
+            layout=Layout("cruise", _PLANETS, "torque", blocks=("residual_log",)),
+            params=Params(step_s=60.0, episode_steps=1440, torque_action_scale=0.05, world="flight"),
+            reward=v3_reward("Cruise-Torque"),
+            interface=Interface(since_measured=True, observation_scaling="unit"),
+            note="v2's torque scale in the flight world, posed for learners: the true-error reward less a "
+            "time-only baseline at a measured scale (`python -m planetnav_train.suite.v3 reward`), the "
+            "observation in unit scaling with the `residual_log` block ([tasks_v3.md](../tasks_v3.md)); "
+            "suite version 3",
         ),
     ),
     card=Card(

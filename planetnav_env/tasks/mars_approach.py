@@ -24,6 +24,7 @@ Version history
     - v1: posed for learners: the covariance reward, decisions held 4 steps (20 min, a pulsar integration
       is ~1,000 s), relative target actions and the ``since_measured`` block.
     - v2: v1 with image failures of Mars the filter does not model, its image log observed.
+    - v3: v2's conditions in the flight world, posed for learners (docs/tasks_v3.md).
 
 The card, ``docs/tasks/MarsApproach-Tasking.md``, is generated from :data:`MARS_APPROACH_TASKING`
 (``python -m planetnav_train.suite.cards``).
@@ -32,6 +33,7 @@ The card, ``docs/tasks/MarsApproach-Tasking.md``, is generated from :data:`MARS_
 from __future__ import annotations
 
 from planetnav_env.estimation.ekf import FilterConfig
+from planetnav_env.tasks.constants import V3_POSING, v3_reward
 from planetnav_env.tasks.spec import Card, Interface, Layout, Params, Reward, TaskSpec, TaskVersion
 
 _PULSARS = ("B0531+21", "B1937+21")
@@ -69,6 +71,20 @@ MARS_APPROACH_TASKING = TaskSpec(
             "episode (`image_success_min: 0`), told neither to the filter nor to the agent, and the "
             "observation carries Mars's image log ([tasks_v2.md](../tasks_v2.md)); benchmarked in suite "
             "version 2",
+        ),
+        TaskVersion(
+            3,
+            layout=Layout(
+                "mars-approach", ("mars",), "target", pulsars=_PULSARS, blocks=("image_log", "residual_log")
+            ),
+            params=Params(
+                step_s=300.0, episode_steps=1128, filter=_FILTER, image_success_min=0.0, world="flight"
+            ),
+            reward=v3_reward("MarsApproach-Tasking"),
+            interface=Interface(decision_steps=4, since_measured=True, observation_scaling="unit"),
+            note="v2's per-episode conditions (Mars's image success rate drawn from [0, 1]) "
+            + V3_POSING
+            + "; suite version 3",
         ),
     ),
     card=Card(

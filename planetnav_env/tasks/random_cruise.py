@@ -31,6 +31,7 @@ Version history
     - v2: v1 with image failures the filter does not model (a success rate per planet drawn uniformly from
       [0, 1] per episode, the image log observed) and a prior shaped by a navigation history (long along a
       drawn direction, its correlations observed).
+    - v3: v2's conditions in the flight world, posed for learners (docs/tasks_v3.md).
 
 The card, ``docs/tasks/RandomCruise-Target.md``, is generated from :data:`RANDOM_CRUISE_TARGET`
 (``python -m planetnav_train.suite.cards``).
@@ -39,6 +40,7 @@ The card, ``docs/tasks/RandomCruise-Target.md``, is generated from :data:`RANDOM
 from __future__ import annotations
 
 from planetnav_env.estimation.ekf import FilterConfig
+from planetnav_env.tasks.constants import V3_POSING, v3_reward
 from planetnav_env.tasks.spec import Card, Interface, Layout, Params, Reward, TaskSpec, TaskVersion
 
 _PLANETS = ("venus", "mars", "earth")
@@ -82,6 +84,27 @@ RANDOM_CRUISE_TARGET = TaskSpec(
             "it (`prior_long_sigma_km: 5000`, `filter.sigma_pos0: 50`: the filter's P0, so the observed "
             "`position_correlation` says which way the error lies) ([tasks_v2.md](../tasks_v2.md)); "
             "benchmarked in suite version 2",
+        ),
+        TaskVersion(
+            3,
+            layout=Layout(
+                "random-cruise",
+                _PLANETS,
+                "target",
+                blocks=("image_log", "residual_log", "position_correlation"),
+            ),
+            params=Params(
+                step_s=60.0,
+                episode_steps=1440,
+                image_success_min=0.0,
+                prior_long_sigma_km=5000.0,
+                filter=FilterConfig(sigma_pos0=50.0),
+                world="flight",
+            ),
+            reward=v3_reward("RandomCruise-Target"),
+            interface=Interface(decision_steps=10, since_measured=True, observation_scaling="unit"),
+            note="v2's per-episode conditions (image success rates drawn per planet, the prior shaped by a "
+            "navigation history) " + V3_POSING + "; suite version 3",
         ),
     ),
     card=Card(

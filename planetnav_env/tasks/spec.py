@@ -18,6 +18,7 @@ from typing import Any
 
 from planetnav_env.config import (
     ACTION_MODES,
+    OBSERVATION_SCALINGS,
     REWARDS,
     SCENARIOS,
     TARGET_ACTIONS,
@@ -133,18 +134,24 @@ class Reward:
     (the filter's predicted RMS position error, computable on board). With :attr:`Params.operations` the
     reward is the increment of the scenario's objective J instead, ``-(w * delta-v lost + the deadline
     terms reached) / scale_km``, and kind picks the deadline term: the true error mapped to the encounter
-    or the 1-sigma the filter predicts."""
+    or the 1-sigma the filter predicts. ``baseline_km``: a time-only baseline subtracted from each step's
+    error term before the scale (``EnvConfig.reward_baseline_km``; empty: none)."""
 
     kind: str
     scale_km: float
+    baseline_km: tuple[float, ...] = ()
 
     def __post_init__(self) -> None:
         _choice("reward.kind", self.kind, REWARDS)
         if not self.scale_km > 0:
             raise ConfigError(f"reward.scale_km must be > 0 km, got {self.scale_km!r}")
+        object.__setattr__(self, "baseline_km", tuple(float(b) for b in self.baseline_km))
 
     def options(self) -> dict[str, Any]:
-        return {"reward": self.kind, "reward_scale_km": self.scale_km}
+        out: dict[str, Any] = {"reward": self.kind, "reward_scale_km": self.scale_km}
+        if self.baseline_km:
+            out["reward_baseline_km"] = self.baseline_km
+        return out
 
 
 @dataclass(frozen=True)
@@ -152,15 +159,18 @@ class Interface:
     """How decisions map onto physics steps: ``decision_steps`` physics steps per decision (the action
     held, the rewards summed), ``absolute`` or ``relative`` target actions (0 keeps the target, k moves k
     places along the target order), and ``since_measured``, the observation block of what the spacecraft
-    knows of its own measurement history. The default is one physics step per decision, absolute targets,
-    no history block."""
+    knows of its own measurement history, and ``observation_scaling`` (``raw``, or ``unit``: every column
+    to order 1 by fixed constants). The default is one physics step per decision, absolute targets, no
+    history block, the raw observation."""
 
     decision_steps: int = 1
     target_actions: str = "absolute"
     since_measured: bool = False
+    observation_scaling: str = "raw"
 
     def __post_init__(self) -> None:
         _choice("interface.target_actions", self.target_actions, TARGET_ACTIONS)
+        _choice("interface.observation_scaling", self.observation_scaling, OBSERVATION_SCALINGS)
         if not (isinstance(self.decision_steps, int) and self.decision_steps >= 1):
             raise ConfigError(f"interface.decision_steps must be an int >= 1, got {self.decision_steps!r}")
 
@@ -169,6 +179,7 @@ class Interface:
             "decision_steps": self.decision_steps,
             "target_actions": self.target_actions,
             "observe_since_measured": self.since_measured,
+            "observation_scaling": self.observation_scaling,
         }
 
 

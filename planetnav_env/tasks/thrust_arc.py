@@ -29,6 +29,8 @@ Version history
     - v2: v1 deciding once per 2-h imaging session (12 steps), so a discount of 0.995 per decision spans
       ~17 days and every knowledge deadline (7, 16 and 19.5 days from the start) lies within reach of the
       decision that pays for it.
+    - v3: v2 in the flight world, the true mapped error at the deadlines, posed for learners
+      (docs/tasks_v3.md).
 
 The card, ``docs/tasks/ThrustArc-TCM.md``, is generated from :data:`THRUST_ARC_TCM`
 (``python -m planetnav_train.suite.cards``).
@@ -36,8 +38,12 @@ The card, ``docs/tasks/ThrustArc-TCM.md``, is generated from :data:`THRUST_ARC_T
 
 from __future__ import annotations
 
+import dataclasses
+
 from planetnav_env.config import OperationsSettings
+from planetnav_env.tasks.constants import v3_reward
 from planetnav_env.tasks.spec import Card, Interface, Layout, Params, Reward, TaskSpec, TaskVersion
+from planetnav_env.world import WorldConfig
 
 _LAYOUT = Layout("random-cruise", ("venus", "mars", "earth"), "target", idle_action=True)
 #: The arc: 600-s steps over 21 days; the engine and its execution errors, the deadlines and the exchange
@@ -88,6 +94,23 @@ THRUST_ARC_TCM = TaskSpec(
             "per decision (~17 days) reaches the knowledge deadlines at 7, 16 and 19.5 days; nothing is "
             'drawn that v1 does not draw ([tasks_v2.md](../tasks_v2.md), "Posing fixes"); benchmarked in '
             "suite version 2",
+        ),
+        TaskVersion(
+            3,
+            layout=Layout(
+                "random-cruise",
+                ("venus", "mars", "earth"),
+                "target",
+                idle_action=True,
+                blocks=("residual_log",),
+            ),
+            params=dataclasses.replace(_ARC, world=WorldConfig.coerce("flight")),
+            reward=v3_reward("ThrustArc-TCM"),
+            interface=Interface(decision_steps=12, since_measured=True, observation_scaling="unit"),
+            note="v2's arc and 2-h sessions in the flight world, the deadline terms the true error mapped to "
+            "the encounter (`reward: truth`), less a time-only baseline at a measured scale (`python -m "
+            "planetnav_train.suite.v3 reward`), the observation in unit scaling with the `residual_log` "
+            "block ([tasks_v3.md](../tasks_v3.md)); suite version 3",
         ),
     ),
     card=Card(

@@ -163,7 +163,8 @@ def render(spec: TaskSpec) -> str:
     objective, commands."""
     module = spec.module.replace(".", "/") + ".py"
     latest = suite_task(spec.env_id(spec.latest.version))
-    objective = OBJECTIVES[latest.objective if latest else "mean_pos_err_km"]
+    fallback = "operations_J_km" if spec.latest.params.operations is not None else "mean_pos_err_km"
+    objective = OBJECTIVES[latest.objective if latest else fallback]
     lines = [
         f"# {spec.name}",
         "",

@@ -49,7 +49,7 @@ def test_the_comparison_can_fail():
 
 def test_the_same_ids_are_registered():
     assert set(VERSIONS) == set(ORACLE) == set(ENV_IDS)
-    assert len(VERSIONS) == 21
+    assert len(VERSIONS) == 26
     assert all(env_id in gym.registry for env_id in ORACLE)
 
 
@@ -85,7 +85,7 @@ def test_v0_and_v1_differ_only_in_reward_and_interface():
 
 def test_lookups_and_bad_declarations_name_the_value():
     assert get_version("Cruise-Target-v2") is get_version("planetnav/Cruise-Target-v2")
-    assert get_task("Cruise-Target").latest.version == 2
+    assert get_task("Cruise-Target").latest.version == 3
     with pytest.raises(ConfigError, match="Cruise-Target-v9"):
         get_version("Cruise-Target-v9")
     with pytest.raises(ConfigError, match="'orbit'"):

@@ -1,0 +1,837 @@
+"""Suite version 3: the flight-world tasks' blind zero, reward constants, normalization and learner rows.
+
+Every number this module publishes comes out of one of its commands, so that it can be printed again
+after the flight world changes (docs/tasks_v3.md gives each number beside its command)::
+
+    python -m planetnav_train.suite.v3 reward     [--tasks ...] [--episodes N]  # reward baseline and scale
+    python -m planetnav_train.suite.v3 search     [--tasks ...]                 # the blind-zero search
+    python -m planetnav_train.suite.v3 normalize  [--tasks ...] [--episodes N]  # J_zero, J_best, the gap
+    python -m planetnav_train.suite.v3 learners   --task ID --budget N          # PPO, untrained, random
+
+**Blind policies** ignore the observation. Every target-choice one is a time-indexed action distribution
+``P[d, a]`` over the task's decisions ``d`` with a hold ``h``: a fresh action is drawn from ``P[d]`` at
+every ``h``-th decision and held in between (:class:`BlindTargets`): fixed schedules (one-hot rows), weighted
+random targets, dwell lengths, deadline-anchored sessions, and the cross-entropy method's optimized
+distributions are all of this form. A torque one is a time-indexed torque ``U[d]`` plus optional uniform
+noise (:class:`BlindTorques`): zero, random, constant spins, pulses that leave a tumble, sinusoidal scans,
+and the cross-entropy method's optimized sequence. Each plays the task's own decision interface.
+
+**Seeds** (declared, disjoint, and held so by ``tests/suite/test_v3.py``): search :data:`SEARCH_SEED`..,
+the search's second stage :data:`FINAL_SEED`.., the reward constants :data:`NORMALIZATION_SEED`.., the
+published evaluation :data:`EVAL_SEED`.. (:data:`EVAL_EPISODES` = 1,000 by default); learners train on
+seeds below 10,000 (SB3's and the single-file PPO's env seeds). Every evaluation uses per-step noise
+streams, so two policies on one seed draw the same sensor noise where they make the same measurement.
+
+**The objective J** of an episode: the mean over its physics steps of the true position error [km]
+(target and torque tasks), or the thrust arc's J at its end (knowledge mapped to the encounter at the
+deadlines plus w x delta-v lost) [km]: what :func:`planetnav_train.evaluate.evaluate_agent` reports, so
+the rule references and the blind policies are scored alike.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import math
+import subprocess
+import sys
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from planetnav_env.config import EnvConfig
+from planetnav_env.core import layout as L
+from planetnav_env.errors import ConfigError
+from planetnav_env.tasks import get_version
+
+#: The search's first stage: every candidate on these seeds.
+SEARCH_SEED = 110_000
+SEARCH_EPISODES = 32
+#: The search's second stage: the best :data:`FINALISTS` again on fresh seeds, which pick the winner.
+FINAL_SEED = 115_000
+FINAL_EPISODES = 100
+FINALISTS = 5
+#: The reward's baseline and scale (planetnav_env.tasks.constants).
+NORMALIZATION_SEED = 120_000
+NORMALIZATION_EPISODES = 200
+#: The published evaluation: J_zero, J_best, the gap, and every run's score.
+EVAL_SEED = 130_000
+EVAL_EPISODES = 1000
+#: The seed blocks: (name, first seed, the block's size); tests hold them disjoint.
+SEED_BLOCKS = (
+    ("training", 0, 10_000),
+    ("search", SEARCH_SEED, 5_000),
+    ("search final", FINAL_SEED, 5_000),
+    ("normalization", NORMALIZATION_SEED, 10_000),
+    ("evaluation", EVAL_SEED, 20_000),
+)
+#: The v3 ids and their non-privileged references (rule agents; the lowest J on the evaluation seeds is
+#: J_best): the v2 tasks' references.
+_EVENT_REFS = ("greedy", "greedy:success=observed")
+V3_TASKS: dict[str, tuple[str, ...]] = {
+    "Cruise-Target-v3": _EVENT_REFS,
+    "RandomCruise-Target-v3": _EVENT_REFS,
+    "MarsApproach-Tasking-v3": _EVENT_REFS,
+    "ThrustArc-TCM-v3": (
+        "periodic:period=432,session=12,phase=108,cycle=0-1-2",
+        "periodic:lead=0,session=24-42-12,start=6,dwell=3,cycle=0-1-2",
+        "greedy:threshold=4",
+        "optimum",
+    ),
+    "Cruise-Torque-v3": ("greedy", "periodic", "planner", "baseline"),
+}
+#: The headline rule: a closed-loop gap of at least 25 %, its interval's lower bound at least 15 %.
+HEADLINE_GAP, HEADLINE_GAP_LO = 0.25, 0.15
+#: Bins of the reward baseline of a task that decides every physics step (one bin per 10 steps).
+TORQUE_BASELINE_BINS = 144
+BOOTSTRAP_REPS, BOOTSTRAP_SEED = 10_000, 0
+ROOT = Path(__file__).resolve().parents[2]
+#: The versioned files the commands write (suite version 3): the search's candidates and winner, and the
+#: normalization constants the suite reads.
+BLIND_FILE = ROOT / "docs" / "tasks_v3_blind.json"
+NORMALIZATION_FILE = ROOT / "docs" / "tasks_v3_normalization.json"
+SUITE_VERSION = 3
+
+
+def eval_config(env_id: str, **overrides: Any) -> EnvConfig:
+    """The evaluation environment of v3 task ``env_id``: the registered one with per-step noise streams."""
+    cfg = get_version(env_id).config()
+    return EnvConfig.from_dict(cfg.to_dict(), noise_streams="per_step", **overrides)
+
+
+# ---------------------------------------------------------------------------------------------------------
+# Blind policies
+# ---------------------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class BlindTargets:
+    """A blind target-choice policy: at decision ``d`` (every ``hold``-th, held in between) an action drawn
+    from ``probs[d]`` ((D, A), rows summing to 1; one-hot rows: a fixed schedule)."""
+
+    name: str
+    probs: np.ndarray
+    hold: int = 1
+
+    def entropy(self) -> float:
+        """Mean entropy per decision [nats] of the drawn actions (0 for a fixed schedule)."""
+        p = self.probs[:: self.hold]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return float(-np.nansum(np.where(p > 0, p * np.log(p), 0.0), axis=1).mean())
+
+    def actions(self, d: int, u: np.ndarray, last: np.ndarray) -> np.ndarray:
+        """The rows' actions at decision ``d`` from their uniform draws ``u`` (N,) and last actions."""
+        if d % self.hold and d > 0:
+            return last
+        cdf = np.cumsum(self.probs[min(d, len(self.probs) - 1)])
+        return np.minimum(np.searchsorted(cdf, u * cdf[-1], side="right"), len(cdf) - 1)
+
+
+@dataclass(frozen=True)
+class BlindTorques:
+    """A blind torque policy: ``torques[d]`` ((D, 3), in [-1, 1]) plus, with ``noise`` > 0, a uniform draw
+    of that half-width, clipped to [-1, 1]."""
+
+    name: str
+    torques: np.ndarray
+    noise: float = 0.0
+
+    def actions(self, d: int, u: np.ndarray) -> np.ndarray:
+        base = self.torques[min(d, len(self.torques) - 1)]
+        return np.clip(base[None, :] + self.noise * (2.0 * u - 1.0), -1.0, 1.0)
+
+
+def _one_hot(seq: Sequence[int], n_actions: int) -> np.ndarray:
+    out = np.zeros((len(seq), n_actions))
+    out[np.arange(len(seq)), np.asarray(seq)] = 1.0
+    return out
+
+
+def _n_actions(cfg: EnvConfig) -> int:
+    return cfg.n_targets + (1 if cfg.idle_action else 0)
+
+
+def target_candidates(cfg: EnvConfig) -> list[BlindTargets]:
+    """The blind target-choice family of ``cfg`` (without the cross-entropy method's, :func:`cem_targets`):
+
+    - uniform random, and weighted random over every weight vector with entries in {0, 1, 2} (not all
+      zero), each held 1, 3 or 6 decisions (dwell lengths);
+    - every cycle of 1-3 targets at dwells of 1, 2, 3, 4, 6 and 12 decisions;
+    - with the camera-off action (the thrust arc): sessions of 1 or 2 decisions on each target of a cycle
+      with 11, 35 or 71 decisions off between, at four phases; and clock-anchored sessions, a block of 1-4
+      decisions per target ending ``lead`` decisions before each knowledge deadline (lead 0, 1, 3, 6, 12),
+      with optional periodic sessions between.
+    """
+    import itertools
+
+    n_a, d_n = _n_actions(cfg), cfg.episode_decisions
+    n_t = cfg.n_targets
+    out: list[BlindTargets] = []
+    for w in itertools.product((0, 1, 2), repeat=n_a):
+        if sum(w) == 0 or math.gcd(*w) > 1:  # (2, 2, 0) is (1, 1, 0): each distribution once
+            continue
+        p = np.tile(np.asarray(w, float) / sum(w), (d_n, 1))
+        for hold in (1, 3, 6):
+            out.append(BlindTargets(f"weighted:w={'-'.join(map(str, w))},hold={hold}", p, hold))
+    cycles: list[tuple[int, ...]] = [(t,) for t in range(n_a)]
+    cycles += list(itertools.combinations(range(n_t), 2))
+    for a, b, c in itertools.combinations(range(n_t), 3):
+        cycles += [(a, b, c), (a, c, b)]
+    for cycle in cycles:
+        for dwell in (1, 2, 3, 4, 6, 12) if len(cycle) > 1 else (1,):
+            seq = [cycle[(d // dwell) % len(cycle)] for d in range(d_n)]
+            out.append(BlindTargets(f"cycle:{'-'.join(map(str, cycle))},dwell={dwell}", _one_hot(seq, n_a)))
+    if cfg.idle_action:
+        off = n_a - 1
+        for cycle in cycles:
+            if off in cycle:
+                continue
+            for on, gap in itertools.product((1, 2), (11, 35, 71)):
+                block = [t for t in cycle for t in [t] * on + [off] * gap]
+                for phase in (0.0, 0.25, 0.5, 0.75):
+                    shift = round(phase * (on + gap))
+                    seq = [block[(d + shift) % len(block)] for d in range(d_n)]
+                    out.append(BlindTargets(f"sessions:{'-'.join(map(str, cycle))},on={on},gap={gap},"
+                                            f"phase={phase}", _one_hot(seq, n_a)))  # fmt: skip
+        if cfg.operations is not None:
+            dec_s = cfg.decision_steps * cfg.step_s
+            deadlines = [int(t // dec_s) for t in cfg.operations.deadlines_s]
+            for cycle in [c for c in cycles if off not in c and len(c) > 1]:
+                for on, lead, between in itertools.product((1, 2, 4), (0, 1, 3, 6, 12), (0, 36, 72)):
+                    seq = [off] * d_n
+                    if between:
+                        for s0 in range(between // 2, d_n, between):
+                            for j, t in enumerate(cycle):
+                                if s0 + j < d_n:
+                                    seq[s0 + j] = t
+                    for dl in deadlines:
+                        end = dl - lead
+                        start = end - on * len(cycle)
+                        for j in range(on * len(cycle)):
+                            if 0 <= start + j < d_n:
+                                seq[start + j] = cycle[j // on]
+                    out.append(BlindTargets(f"deadlines:{'-'.join(map(str, cycle))},on={on},lead={lead},"
+                                            f"between={between}", _one_hot(seq, n_a)))  # fmt: skip
+    return out
+
+
+def torque_candidates(cfg: EnvConfig) -> list[BlindTorques]:
+    """The blind torque family: zero; uniform random (half-width 1, 0.3, 0.1); a constant torque along
+    each signed body axis and the diagonal (1, 0.3, 0.1 of the action range: a spin-up that saturates the
+    wheels, then a constant tumble); a full-scale pulse of 1, 3, 10 or 30 decisions along each axis, then
+    zero (a tumble at the rate the pulse left); a sinusoidal scan about each axis with periods of 10, 30,
+    120 and 480 decisions."""
+    d_n = cfg.episode_decisions
+    out = [BlindTorques("zero", np.zeros((d_n, 3)))]
+    out += [BlindTorques(f"random:halfwidth={h}", np.zeros((d_n, 3)), h) for h in (1.0, 0.3, 0.1)]
+    axes = {f"{s}{n}": s_v * np.eye(3)[i] for i, n in enumerate("xyz") for s, s_v in (("+", 1), ("-", -1))}
+    axes["+xyz"] = np.ones(3) / math.sqrt(3.0)
+    for name, ax in axes.items():
+        for mag in (1.0, 0.3, 0.1):
+            out.append(BlindTorques(f"spin:{name},mag={mag}", np.tile(mag * ax, (d_n, 1))))
+        for n in (1, 3, 10, 30):
+            u = np.zeros((d_n, 3))
+            u[:n] = ax
+            out.append(BlindTorques(f"pulse:{name},decisions={n}", u))
+    t = np.arange(d_n)[:, None]
+    for i, n in enumerate("xyz"):
+        for period in (10, 30, 120, 480):
+            out.append(
+                BlindTorques(f"scan:{n},period={period}", np.sin(2 * np.pi * t / period) * np.eye(3)[i])
+            )
+    return out
+
+
+# ---------------------------------------------------------------------------------------------------------
+# Rolling blind policies out
+# ---------------------------------------------------------------------------------------------------------
+
+
+@dataclass
+class Rollout:
+    """Per-episode objective J [km] and, when asked, each physics step's error term e_k [km] ((N, K);
+    the reward's e: the true error, or on the thrust arc the objective's increment)."""
+
+    objective: np.ndarray
+    terms: np.ndarray | None = None
+
+
+class _Recorder:
+    """Called after every physics step with the mask of the rows it advanced: sums each row's true error,
+    and, with ``k_max`` > 0, keeps each step's error term (the objective's increment on the thrust arc)."""
+
+    def __init__(self, f: np.ndarray, n: int, k_max: int, ops: bool) -> None:
+        self.f, self.ops = f, ops
+        self.err_sum, self.steps = np.zeros(n), np.zeros(n, np.int64)
+        self.e = np.zeros((n, k_max)) if k_max else None
+        self.prev_obj = np.zeros(n)
+
+    def __call__(self, stepped: np.ndarray) -> None:
+        rows = np.flatnonzero(stepped)
+        f = self.f
+        self.err_sum[rows] += f[rows, L.F_POS_ERR]
+        if self.e is not None:
+            k = self.steps[rows]
+            if self.ops:
+                self.e[rows, k] = f[rows, L.F_OBJECTIVE] - self.prev_obj[rows]
+                self.prev_obj[rows] = f[rows, L.F_OBJECTIVE]
+            else:
+                self.e[rows, k] = f[rows, L.F_POS_ERR]
+        self.steps[rows] += 1
+
+
+def roll_out(
+    cfg: EnvConfig,
+    policy: BlindTargets | BlindTorques | Callable[[int, np.ndarray], np.ndarray],
+    seeds: Sequence[int],
+    terms: bool = False,
+    batch: int = 256,
+) -> Rollout:
+    """Episodes of ``policy`` on ``seeds`` (one vector-env row per seed, ``batch`` rows at a time) in
+    ``cfg``'s decision interface. A callable policy gets ``(decision, observations)`` and returns actions.
+    Each row's action draws come from its own generator seeded ``(seed, 3)`` (apart from the env's)."""
+    from planetnav_env.envs.vector_env import PlanetNavVectorEnv
+
+    js, ts = [], []
+    k_max = cfg.episode_steps
+    for start in range(0, len(seeds), batch):
+        chunk = list(seeds[start : start + batch])
+        n = len(chunk)
+        env = PlanetNavVectorEnv(n, cfg, autoreset_mode="disabled")
+        obs, _ = env.reset(seed=chunk)
+        gens = [np.random.default_rng([s, 3]) for s in chunk]
+        rec = _Recorder(env.core.f, n, k_max if terms else 0, cfg.operations is not None)
+        done = np.zeros(n, bool)
+        last = np.zeros(n, np.int64)
+        d = 0
+        while not done.all():
+            if isinstance(policy, BlindTargets):
+                u = np.array([g.random() for g in gens])
+                act = last = policy.actions(d, u, last)
+            elif isinstance(policy, BlindTorques):
+                u = np.stack([g.random(3) for g in gens])
+                act = policy.actions(d, u)
+            else:
+                act = policy(d, obs)
+            _, term, trunc = env.step_rows(act, ~done, on_step=rec)
+            done |= term | trunc
+            obs = env.observations()
+            d += 1
+        if cfg.operations is not None:
+            js.append(env.core.f[:, L.F_OBJECTIVE].copy())
+        else:
+            js.append(rec.err_sum / np.maximum(rec.steps, 1))
+        if rec.e is not None:
+            ts.append(rec.e)
+        env.close()
+    return Rollout(np.concatenate(js), np.concatenate(ts) if terms else None)
+
+
+def policy_objective(cfg: EnvConfig, policy: Any, seed: int, episodes: int) -> np.ndarray:
+    """Per-episode J of a blind policy, or of a rule agent (a spec string, by the suite's evaluator)."""
+    if isinstance(policy, str):
+        from planetnav_train.suite.blind import evaluate_objective
+
+        return evaluate_objective(policy, cfg, episodes, seed)
+    return roll_out(cfg, policy, range(seed, seed + episodes)).objective
+
+
+# ---------------------------------------------------------------------------------------------------------
+# The cross-entropy method over time-indexed action distributions
+# ---------------------------------------------------------------------------------------------------------
+
+
+def _bins(d_n: int, n_bins: int) -> np.ndarray:
+    """The bin of each of ``d_n`` decisions when they split into ``n_bins`` equal spans of time."""
+    return np.minimum(np.arange(d_n) * n_bins // d_n, n_bins - 1)
+
+
+def cem_targets(
+    cfg: EnvConfig, seeds: Sequence[int], bins: int = 12, population: int = 16, iterations: int = 4,
+    elite: float = 0.25, log: Callable[[str], None] = print,
+) -> list[BlindTargets]:  # fmt: skip
+    """Cross-entropy method over ``bins`` x A logits (a time-indexed action distribution, a fresh draw
+    every decision), Gaussian proposals of mean and standard deviation updated from the ``elite`` share of
+    each ``population``, every proposal scored on the same ``seeds`` (the search seeds: common random
+    numbers). Returns two candidates: the final mean's distribution, and its most likely action per bin
+    (a fixed schedule)."""
+    n_a, d_n = _n_actions(cfg), cfg.episode_decisions
+    idx = _bins(d_n, bins)
+    rng = np.random.default_rng(BOOTSTRAP_SEED)
+    mu, sd = np.zeros((bins, n_a)), np.full((bins, n_a), 2.0)
+
+    def probs(theta: np.ndarray) -> np.ndarray:
+        z = np.exp(theta - theta.max(axis=1, keepdims=True))
+        return (z / z.sum(axis=1, keepdims=True))[idx]
+
+    n_elite = max(2, round(elite * population))
+    for it in range(iterations):
+        thetas = mu + sd * rng.standard_normal((population, bins, n_a))
+        scores = np.array(
+            [roll_out(cfg, BlindTargets("cem", probs(t)), seeds).objective.mean() for t in thetas]
+        )
+        best = thetas[np.argsort(scores)[:n_elite]]
+        mu, sd = best.mean(axis=0), best.std(axis=0) + 0.1
+        log(
+            f"  cem {it + 1}/{iterations}: best {scores.min():.2f}, "
+            f"elite mean {np.sort(scores)[:n_elite].mean():.2f}"
+        )
+    mode = probs(mu).argmax(axis=1)
+    return [BlindTargets(f"cem:bins={bins},distribution", probs(mu)),
+            BlindTargets(f"cem:bins={bins},mode", _one_hot(mode, n_a))]  # fmt: skip
+
+
+def cem_torques(
+    cfg: EnvConfig, seeds: Sequence[int], bins: int = 12, population: int = 16, iterations: int = 4,
+    elite: float = 0.25, log: Callable[[str], None] = print,
+) -> list[BlindTorques]:  # fmt: skip
+    """Cross-entropy method over a ``bins`` x 3 open-loop torque sequence (held over each bin's
+    decisions, in [-1, 1] by tanh), scored on the same ``seeds``; returns the final mean's sequence."""
+    d_n = cfg.episode_decisions
+    idx = _bins(d_n, bins)
+    rng = np.random.default_rng(BOOTSTRAP_SEED)
+    mu, sd = np.zeros((bins, 3)), np.full((bins, 3), 1.0)
+    n_elite = max(2, round(elite * population))
+    for it in range(iterations):
+        thetas = mu + sd * rng.standard_normal((population, bins, 3))
+        scores = np.array([roll_out(cfg, BlindTorques("cem", np.tanh(t)[idx]), seeds).objective.mean()
+                           for t in thetas])  # fmt: skip
+        best = thetas[np.argsort(scores)[:n_elite]]
+        mu, sd = best.mean(axis=0), best.std(axis=0) + 0.05
+        log(
+            f"  cem {it + 1}/{iterations}: best {scores.min():.2f}, "
+            f"elite mean {np.sort(scores)[:n_elite].mean():.2f}"
+        )
+    return [BlindTorques(f"cem:bins={bins}", np.tanh(mu)[idx])]
+
+
+# ---------------------------------------------------------------------------------------------------------
+# Statistics
+# ---------------------------------------------------------------------------------------------------------
+
+
+def mean_interval(values: np.ndarray) -> dict[str, float]:
+    """Mean and 95 % percentile-bootstrap interval over the seeds."""
+    v = np.asarray(values, float)
+    rng = np.random.default_rng(BOOTSTRAP_SEED)
+    means = v[rng.integers(0, v.size, (BOOTSTRAP_REPS, v.size))].mean(axis=1)
+    return {"mean": float(v.mean()), "lo": float(np.quantile(means, 0.025)),
+            "hi": float(np.quantile(means, 0.975)), "episodes": int(v.size)}  # fmt: skip
+
+
+def paired_difference(a: np.ndarray, b: np.ndarray) -> dict[str, float]:
+    """mean(a - b) over the same seeds with its 95 % paired bootstrap interval."""
+    return mean_interval(np.asarray(a, float) - np.asarray(b, float))
+
+
+def run_score(j: np.ndarray | Sequence[np.ndarray], j_zero: float, j_best: float) -> dict[str, float]:
+    """A run's blind-zero score ``(J_zero - J) / (J_zero - J_best)`` against the published constants, its
+    95 % interval a bootstrap over the evaluation seeds (and, given several runs' per-seed arrays, over
+    the runs too): the evaluation seeds' spread is in it; the constants are fixed per suite version."""
+    if j_zero == j_best:
+        raise ConfigError(f"J_zero equals J_best ({j_zero!r}): the score has no scale")
+    runs = [np.asarray(x, float) for x in (j if isinstance(j, (list, tuple)) else [j])]
+    rng = np.random.default_rng(BOOTSTRAP_SEED)
+    draws = np.zeros(BOOTSTRAP_REPS)
+    for _ in range(1):
+        pick = rng.integers(0, len(runs), (BOOTSTRAP_REPS,))
+        for r_i, r in enumerate(runs):
+            sel = pick == r_i
+            draws[sel] = r[rng.integers(0, r.size, (int(sel.sum()), r.size))].mean(axis=1)
+    score = (j_zero - draws) / (j_zero - j_best)
+    mean = float(np.mean([x.mean() for x in runs]))
+    return {"score": (j_zero - mean) / (j_zero - j_best), "lo": float(np.quantile(score, 0.025)),
+            "hi": float(np.quantile(score, 0.975)), "J": mean}  # fmt: skip
+
+
+# ---------------------------------------------------------------------------------------------------------
+# Provenance and files
+# ---------------------------------------------------------------------------------------------------------
+
+
+def provenance() -> dict[str, Any]:
+    """The commit, whether the tree was clean, and when (what a published number was printed from)."""
+
+    def git(*args: str) -> str:
+        try:
+            return subprocess.run(["git", *args], cwd=ROOT, capture_output=True, text=True, check=True).stdout
+        except (OSError, subprocess.CalledProcessError):
+            return ""
+
+    return {"commit": git("rev-parse", "HEAD").strip(), "dirty": bool(git("status", "--porcelain").strip()),
+            "utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
+            "command": " ".join(sys.argv)}  # fmt: skip
+
+
+def _world(cfg: EnvConfig) -> dict[str, Any]:
+    return {g.name: getattr(cfg.world, g.name) for g in dataclasses.fields(cfg.world) if g.init}
+
+
+def read_json(path: Path) -> dict[str, Any]:
+    return json.loads(path.read_text()) if path.exists() else {"suite_version": SUITE_VERSION, "tasks": {}}
+
+
+def write_json(path: Path, data: dict[str, Any]) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(data, indent=1) + "\n")
+
+
+def normalization(task: str, path: Path = NORMALIZATION_FILE) -> dict[str, Any]:
+    """The published J_zero and J_best of v3 ``task`` (``Cruise-Target-v3``) from the versioned file."""
+    rec = read_json(path)["tasks"].get(task)
+    if rec is None:
+        raise ConfigError(f"no published normalization for {task!r} in {path}: run `python -m "
+                          f"planetnav_train.suite.v3 normalize --tasks {task}`")  # fmt: skip
+    return rec
+
+
+# ---------------------------------------------------------------------------------------------------------
+# The commands
+# ---------------------------------------------------------------------------------------------------------
+
+
+def reward_constants(
+    env_id: str, episodes: int, seed: int = NORMALIZATION_SEED, **overrides: Any
+) -> dict[str, Any]:
+    """The reward baseline and scale of v3 task ``env_id`` (planetnav_env.tasks.constants): uniform random
+    in the task's interface on ``episodes`` normalization seeds; ``b`` the mean error term per bin of
+    physics steps (one bin per decision; :data:`TORQUE_BASELINE_BINS` for a task deciding every step),
+    ``s`` the standard deviation of a decision's sum of ``e_k - b(k)`` (``overrides``: options over the
+    task's, for smoke runs)."""
+    cfg = eval_config(env_id, reward_baseline_km=(), **overrides)
+    pol = (BlindTorques("random", np.zeros((cfg.episode_decisions, 3)), 1.0) if cfg.action_mode == "torque"
+           else BlindTargets("uniform", np.full((cfg.episode_decisions, _n_actions(cfg)),
+                                                1.0 / _n_actions(cfg))))  # fmt: skip
+    e = roll_out(cfg, pol, range(seed, seed + episodes), terms=True).terms
+    k_n = cfg.episode_steps
+    n_bins = cfg.episode_decisions if cfg.decision_steps > 1 else min(TORQUE_BASELINE_BINS, k_n)
+    bin_of = (np.arange(k_n) * n_bins) // k_n  # physics step k = 1..K is column k - 1
+    base = np.array([e[:, bin_of == j].mean() for j in range(n_bins)])
+    resid = e - base[bin_of][None, :]
+    dec = np.arange(k_n) // cfg.decision_steps
+    per_decision = np.stack([resid[:, dec == j].sum(axis=1) for j in range(cfg.episode_decisions)], axis=1)
+    scale = float(per_decision.std())
+    raw = e.sum(axis=1)
+    return {
+        "scale_km": scale, "baseline_km": [round(float(b), 6) for b in base], "bins": n_bins,
+        "policy": pol.name, "seed": seed, "episodes": episodes, "world": _world(cfg),
+        # What the posing does: a decision's reward under uniform random, raw (v2's form) and posed.
+        "per_decision_raw_std": float((-e.reshape(episodes, -1, cfg.decision_steps).sum(axis=2)
+                                       / 1000.0).std()) if k_n % cfg.decision_steps == 0 else None,
+        "per_decision_posed_std": 1.0,
+        "episode_error_sum_km": mean_interval(raw),
+    }  # fmt: skip
+
+
+def search(env_id: str, episodes: int, final_episodes: int, cem: dict[str, int], log=print) -> dict[str, Any]:
+    """The blind-zero search of v3 task ``env_id``: every candidate of the task's family and the
+    cross-entropy method's (optimized on the search seeds) on ``episodes`` search seeds; the best
+    :data:`FINALISTS` again on ``final_episodes`` fresh seeds, the lowest mean there wins."""
+    cfg = eval_config(env_id)
+    seeds = range(SEARCH_SEED, SEARCH_SEED + episodes)
+    if cfg.action_mode == "torque":
+        cands: list[Any] = torque_candidates(cfg)
+        cands += cem_torques(
+            cfg, seeds[: cem["episodes"]], cem["bins"], cem["population"], cem["iterations"], log=log
+        )
+    else:
+        cands = target_candidates(cfg)
+        cands += cem_targets(
+            cfg, seeds[: cem["episodes"]], cem["bins"], cem["population"], cem["iterations"], log=log
+        )
+    by_name = {c.name: c for c in cands}
+    first: dict[str, float] = {}
+    t0 = time.time()
+    for c in cands:
+        first[c.name] = float(roll_out(cfg, c, seeds).objective.mean())
+    log(f"{env_id}: {len(cands)} candidates on {episodes} search seeds in {time.time() - t0:.0f} s")
+    final: dict[str, float] = {}
+    for name in sorted(first, key=first.__getitem__)[:FINALISTS]:
+        final[name] = float(
+            roll_out(cfg, by_name[name], range(FINAL_SEED, FINAL_SEED + final_episodes)).objective.mean()
+        )
+        log(f"  final {name}: {final[name]:.2f} km (search {first[name]:.2f})")
+    winner = min(final, key=final.__getitem__)
+    return {"winner": winner, "finalists": final, "candidates": first, "search_seed": SEARCH_SEED,
+            "search_episodes": episodes, "final_seed": FINAL_SEED, "final_episodes": final_episodes,
+            "cem": cem, "world": _world(cfg),
+            "policies": {n: _policy_record(by_name[n]) for n in final}}  # fmt: skip
+
+
+def _policy_record(p: Any) -> dict[str, Any]:
+    """A finalist as data (the winner is rebuilt from it by :func:`policy_from_record`)."""
+    if isinstance(p, BlindTorques):
+        return {"kind": "torques", "torques": np.round(p.torques, 6).tolist(), "noise": p.noise}
+    return {"kind": "targets", "probs": np.round(p.probs, 6).tolist(), "hold": p.hold}
+
+
+def policy_from_record(name: str, rec: dict[str, Any]) -> BlindTargets | BlindTorques:
+    if rec["kind"] == "torques":
+        return BlindTorques(name, np.asarray(rec["torques"], float), float(rec["noise"]))
+    probs = np.asarray(rec["probs"], float)
+    return BlindTargets(name, probs / probs.sum(axis=1, keepdims=True), int(rec["hold"]))
+
+
+def normalize(env_id: str, episodes: int, blind: dict[str, Any], log=print) -> dict[str, Any]:
+    """J_zero (the search's winner) and J_best (the best non-privileged reference) of v3 task ``env_id`` on
+    ``episodes`` evaluation seeds from :data:`EVAL_SEED`, with their intervals; the closed-loop gap with its
+    paired interval and the headline flag; and every finalist against the winner, paired (the check that
+    no searched candidate beats the published zero on unseen seeds)."""
+    from planetnav_train.suite.blind import paired_ratio_ci
+
+    cfg = eval_config(env_id)
+    seeds = (EVAL_SEED, episodes)
+    finalists = {n: policy_from_record(n, r) for n, r in blind["policies"].items()}
+    jz = roll_out(cfg, finalists[blind["winner"]], range(EVAL_SEED, EVAL_SEED + episodes)).objective
+    log(f"{env_id}: zero {blind['winner']}: {jz.mean():.2f} km")
+    refs = {}
+    for spec in V3_TASKS[env_id.split("/", 1)[-1]]:
+        try:
+            refs[spec] = policy_objective(cfg, spec, *seeds)
+        except Exception as exc:  # a reference that cannot act here is reported, not fatal
+            log(f"  reference {spec}: not evaluated ({type(exc).__name__}: {exc})")
+            continue
+        log(f"  reference {spec}: {refs[spec].mean():.2f} km")
+    best = min(refs, key=lambda s: refs[s].mean())
+    jb = refs[best]
+    gap = paired_ratio_ci(jz, jb)
+    checks = {}
+    for name, pol in finalists.items():
+        if name == blind["winner"]:
+            continue
+        jc = roll_out(cfg, pol, range(EVAL_SEED, EVAL_SEED + episodes)).objective
+        diff = paired_difference(jc, jz)
+        checks[name] = {**diff, "zero_holds": diff["hi"] >= 0.0}
+        log(f"  finalist {name}: {jc.mean():.2f} km, paired minus zero {diff['mean']:+.2f} "
+            f"[{diff['lo']:+.2f}, {diff['hi']:+.2f}]")  # fmt: skip
+    return {
+        "J_zero": mean_interval(jz), "zero": blind["winner"], "J_best": mean_interval(jb),
+        "best_reference": best,
+        "references": {s: mean_interval(v) for s, v in refs.items()},
+        "closed_loop_gap": gap,
+        "headline": bool(gap["gap"] >= HEADLINE_GAP and gap["gap_lo"] >= HEADLINE_GAP_LO),
+        "finalists_vs_zero": checks, "eval_seed": EVAL_SEED, "eval_episodes": episodes, "world": _world(cfg),
+        "per_seed": {"zero": np.round(jz, 4).tolist(), "best": np.round(jb, 4).tolist()},
+    }  # fmt: skip
+
+
+ID_OPTIONS = ROOT / "tests" / "golden" / "id_options.json"
+
+
+def record_ids(path: Path = ID_OPTIONS) -> None:
+    """Write the v3 ids' resolved options into the id oracle (their reward constants are measured, so
+    their entries follow the reward command); every other id's entry is kept as it is."""
+    from planetnav_env.envs.registration import id_options
+
+    data = json.loads(path.read_text())
+    for task in V3_TASKS:
+        env_id = f"planetnav/{task}"
+        data["ids"][env_id] = {"options": EnvConfig.from_dict(id_options(env_id)).to_dict()}
+    path.write_text(json.dumps(data, indent=1))
+
+
+# ---------------------------------------------------------------------------------------------------------
+# Learner rows
+# ---------------------------------------------------------------------------------------------------------
+#
+# Learner rows of suite version 3: off-the-shelf PPO, an untrained network and uniform random, each with
+# its policy's entropy, scored against the published constants (docs/tasks_v3_normalization.json).
+#
+# - **PPO**: Stable-Baselines3's ``PPO("MlpPolicy", env)`` with every default, ``env =
+#   make_vec_env("planetnav/<id>")`` (SB3's own helper, its default of one env), trained for ``budget``
+#   decisions (SB3 timesteps) from ``seed``. Nothing is tuned per task.
+# - **untrained**: the same network before training (SB3's initialization from the same seed).
+# - **uniform**: uniform random actions in the task's interface.
+#
+# Each is evaluated with sampled actions on the evaluation seeds (:data:`EVAL_SEED`.., per-step noise
+# streams) by :func:`roll_out`; its entropy [nats] is the mean of
+# the action distribution's entropy over the observations it meets there (uniform: ``log A``; for a torque
+# task the Gaussian's differential entropy, SB3's own ``entropy()``). With a published normalization the
+# row has its blind-zero score and interval (:func:`run_score`).
+
+
+def _policy_fn(model: Any, entropies: list[float]):
+    """(decision, observations) -> sampled actions of an SB3 model, recording each batch's mean entropy."""
+    import torch
+
+    def act(d: int, obs: np.ndarray) -> np.ndarray:
+        with torch.no_grad():
+            t, _ = model.policy.obs_to_tensor(obs)
+            dist = model.policy.get_distribution(t)
+            entropies.append(float(dist.entropy().mean()))
+            a = dist.get_actions(deterministic=False).cpu().numpy()
+        if model.action_space.shape:
+            a = np.clip(a, model.action_space.low, model.action_space.high)
+        return a
+
+    return act
+
+
+def _row(name: str, j: np.ndarray, entropy: float, task: str, extra: dict[str, Any]) -> dict[str, Any]:
+    row = {"policy": name, "J": mean_interval(j), "entropy_nats": entropy, **extra}
+    try:
+        norm = normalization(task)
+    except Exception:  # no published constants yet: the row carries J only
+        row["score"] = None
+    else:
+        row["score"] = run_score(j, norm["J_zero"]["mean"], norm["J_best"]["mean"])
+    return row
+
+
+def learner_rows(
+    task: str,
+    budget: int,
+    seed: int = 0,
+    episodes: int = 100,
+    episode_steps: int | None = None,
+    ppo_overrides: dict[str, Any] | None = None,
+    target_actions: str | None = None,
+) -> dict[str, Any]:
+    """PPO (SB3 defaults via ``make_vec_env``), the untrained network and uniform random on v3 ``task``
+    (``Cruise-Target-v3``): J on ``episodes`` evaluation seeds, entropy, score. ``episode_steps`` shortens
+    the episodes and ``ppo_overrides`` changes PPO's arguments: smoke runs only (the command passes
+    neither, and a row made with them is not the task's). ``target_actions``: ``relative`` to measure
+    relative target actions against the task's absolute ones (same seeds, same budget)."""
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.env_util import make_vec_env
+
+    env_id = f"planetnav/{task}"
+    over: dict[str, Any] = {"episode_steps": episode_steps} if episode_steps else {}
+    if target_actions:  # the absolute-versus-relative measurement (docs/tasks_md)
+        over["target_actions"] = target_actions
+    cfg: EnvConfig = eval_config(env_id, **over)
+    seeds = range(EVAL_SEED, EVAL_SEED + episodes)
+    venv = make_vec_env(env_id, seed=seed, env_kwargs=over)
+    model = PPO("MlpPolicy", venv, seed=seed, verbose=0, **(ppo_overrides or {}))
+    rows: dict[str, Any] = {"task": task, "target_actions": cfg.target_actions, "budget_decisions": budget,
+                            "seed": seed, "episodes": episodes, "episode_steps": cfg.episode_steps,
+                            "rows": []}  # fmt: skip
+    ent: list[float] = []
+    j = roll_out(cfg, _policy_fn(model, ent), seeds).objective
+    rows["rows"].append(_row("untrained network", j, float(np.mean(ent)), task, {}))
+    if cfg.action_mode == "torque":
+        uniform = BlindTorques("uniform", np.zeros((cfg.episode_decisions, 3)), 1.0)
+        h_uniform = 3 * math.log(2.0)  # differential entropy of U(-1, 1)^3
+    else:
+        n_a = cfg.n_targets + (1 if cfg.idle_action else 0)
+        uniform = BlindTargets("uniform", np.full((cfg.episode_decisions, n_a), 1.0 / n_a))
+        h_uniform = math.log(n_a)
+    j = roll_out(cfg, uniform, seeds).objective
+    rows["rows"].append(_row("uniform random", j, h_uniform, task, {}))
+    t0 = time.time()
+    model.learn(total_timesteps=budget)
+    train_s = time.time() - t0
+    ent = []
+    j = roll_out(cfg, _policy_fn(model, ent), seeds).objective
+    rows["rows"].append(_row("SB3 PPO (defaults, make_vec_env)", j, float(np.mean(ent)), task,
+                             {"train_seconds": train_s}))  # fmt: skip
+    venv.close()
+    rows["provenance"] = provenance()
+    return rows
+
+
+def _tasks(arg: Sequence[str] | None) -> list[str]:
+    names = list(arg) if arg else list(V3_TASKS)
+    bad = [t for t in names if t not in V3_TASKS]
+    if bad:
+        raise ConfigError(f"not v3 tasks: {bad}; the v3 tasks are {list(V3_TASKS)}")
+    return names
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    p = argparse.ArgumentParser(prog="python -m planetnav_train.suite.v3", description=__doc__.split("\n")[0])
+    sub = p.add_subparsers(dest="cmd", required=True)
+    r = sub.add_parser(
+        "reward", help="the reward baseline and scale (planetnav_env/tasks/tasks_v3_reward.json)"
+    )
+    r.add_argument("--episodes", type=int, default=NORMALIZATION_EPISODES)
+    s = sub.add_parser("search", help="the blind-zero search (docs/tasks_v3_blind.json)")
+    s.add_argument("--episodes", type=int, default=SEARCH_EPISODES)
+    s.add_argument("--final-episodes", type=int, default=FINAL_EPISODES)
+    s.add_argument("--cem-episodes", type=int, default=8)
+    s.add_argument("--cem-bins", type=int, default=12)
+    s.add_argument("--cem-population", type=int, default=16)
+    s.add_argument("--cem-iterations", type=int, default=4)
+    n = sub.add_parser("normalize", help="J_zero and J_best (docs/tasks_v3_normalization.json)")
+    n.add_argument("--episodes", type=int, default=EVAL_EPISODES)
+    lr = sub.add_parser(
+        "learners", help="SB3 PPO (defaults, make_vec_env), an untrained network, uniform random"
+    )
+    lr.add_argument("--task", required=True)
+    lr.add_argument("--budget", type=int, default=300_000, help="decisions")
+    lr.add_argument("--seed", type=int, default=0)
+    lr.add_argument("--episodes", type=int, default=100, help="evaluation seeds from EVAL_SEED")
+    lr.add_argument("--episode-steps", type=int, default=None, help="shorter episodes (smoke runs only)")
+    lr.add_argument("--out", default=None, help="write the rows as JSON here")
+    lr.add_argument(
+        "--target-actions",
+        default=None,
+        choices=("absolute", "relative"),
+        help="override the task's absolute target actions (the relative-action measurement)",
+    )
+    for q in (r, s, n):
+        q.add_argument("--tasks", nargs="*", default=None)
+        q.add_argument("--out", default=None, help="the file to write (default: the published one)")
+    sub.add_parser("record-ids", help="the v3 ids' entries of tests/golden/id_options.json (after `reward`)")
+    args = p.parse_args(argv)
+    if args.cmd == "record-ids":
+        record_ids()
+        return 0
+    if args.cmd == "learners":
+        rows = learner_rows(
+            args.task,
+            args.budget,
+            args.seed,
+            args.episodes,
+            args.episode_steps,
+            target_actions=args.target_actions,
+        )
+        print(json.dumps(rows, indent=1))
+        if args.out:
+            write_json(Path(args.out), rows)
+        return 0
+    if args.cmd == "reward":
+        from planetnav_env.tasks.constants import REWARD_FILE
+
+        path = Path(args.out) if args.out else REWARD_FILE
+        data = read_json(path)
+        for task in _tasks(args.tasks):
+            rec = reward_constants(f"planetnav/{task}", args.episodes)
+            data["tasks"][task.rsplit("-v", 1)[0]] = rec
+            print(f"{task}: scale {rec['scale_km']:.2f} km, baseline {rec['baseline_km'][0]:.1f} .. "
+                  f"{rec['baseline_km'][-1]:.1f} km over {rec['bins']} bins; a decision's raw reward std "
+                  f"{rec['per_decision_raw_std']}, posed 1")  # fmt: skip
+        data["provenance"] = provenance()
+        write_json(path, data)
+        return 0
+    path = Path(args.out) if args.out else (BLIND_FILE if args.cmd == "search" else NORMALIZATION_FILE)
+    data = read_json(path)
+    for task in _tasks(args.tasks):
+        if args.cmd == "search":
+            cem = {"episodes": args.cem_episodes, "bins": args.cem_bins, "population": args.cem_population,
+                   "iterations": args.cem_iterations}  # fmt: skip
+            data["tasks"][task] = search(f"planetnav/{task}", args.episodes, args.final_episodes, cem)
+        else:
+            blind = read_json(BLIND_FILE)["tasks"].get(task)
+            if blind is None:
+                raise ConfigError(f"{task}: no blind search in {BLIND_FILE}; run the search first")
+            rec = normalize(f"planetnav/{task}", args.episodes, blind)
+            data["tasks"][task] = rec
+            g = rec["closed_loop_gap"]
+            jz, jb = rec["J_zero"], rec["J_best"]
+            print(f"{task}: J_zero {jz['mean']:.2f} [{jz['lo']:.2f}, {jz['hi']:.2f}]"
+                  f", J_best {jb['mean']:.2f} [{jb['lo']:.2f}, {jb['hi']:.2f}] "
+                  f"({rec['best_reference']}), gap {g['gap']:.1%} [{g['gap_lo']:.1%}, {g['gap_hi']:.1%}], "
+                  f"headline {rec['headline']}")  # fmt: skip
+        data["provenance"] = provenance()
+        write_json(path, data)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

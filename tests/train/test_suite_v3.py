@@ -1,0 +1,119 @@
+"""Suite version 3's machinery (planetnav_train.suite.v3) on short episodes: the seed blocks, the blind
+policies' draws against their definition, the fast roll-out against the suite's evaluator, the reward
+constants against the environment that applies them, and the run score against its formula."""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+import pytest
+
+from planetnav_env.envs.vector_env import PlanetNavVectorEnv
+from planetnav_train.suite import v3
+
+STEPS = 40
+
+
+def test_the_seed_blocks_are_disjoint_and_the_evaluation_has_a_thousand_seeds():
+    spans = sorted((a, a + n, name) for name, a, n in v3.SEED_BLOCKS)
+    for (_, b0, n0), (a1, _, n1) in itertools.pairwise(spans):
+        assert b0 <= a1, (n0, n1)
+    blocks = {name: (a, a + n) for name, a, n in v3.SEED_BLOCKS}
+    for name, first, count in (("search", v3.SEARCH_SEED, v3.SEARCH_EPISODES),
+                               ("search final", v3.FINAL_SEED, v3.FINAL_EPISODES),
+                               ("normalization", v3.NORMALIZATION_SEED, v3.NORMALIZATION_EPISODES),
+                               ("evaluation", v3.EVAL_SEED, v3.EVAL_EPISODES)):  # fmt: skip
+        lo, hi = blocks[name]
+        assert lo <= first and first + count <= hi, name
+    assert v3.EVAL_EPISODES >= 1000
+
+
+def test_a_time_indexed_distribution_draws_its_probabilities_and_holds_its_draws():
+    p = np.tile([0.5, 0.3, 0.2], (6, 1))
+    pol = v3.BlindTargets("w", p, hold=3)
+    rng = np.random.default_rng(1)
+    a0 = pol.actions(0, rng.random(200_000), np.zeros(200_000, np.int64))
+    np.testing.assert_allclose(np.bincount(a0, minlength=3) / a0.size, p[0], atol=0.005)
+    a1 = pol.actions(1, rng.random(a0.size), a0)
+    assert (a1 == a0).all()  # held
+    a3 = pol.actions(3, rng.random(a0.size), a0)
+    assert (a3 != a0).mean() == pytest.approx(1 - (p[0] ** 2).sum(), abs=0.005)  # a fresh draw
+    assert pol.entropy() == pytest.approx(-(p[0] * np.log(p[0])).sum())
+
+
+def test_the_families_cover_the_interface():
+    cfg = v3.eval_config("planetnav/ThrustArc-TCM-v3")
+    names = [c.name for c in v3.target_candidates(cfg)]
+    for kind in ("weighted:", "cycle:", "sessions:", "deadlines:"):
+        assert any(n.startswith(kind) for n in names), kind
+    weighted = [c for c in v3.target_candidates(cfg) if c.name.startswith("weighted:")]
+    rows = {(tuple(np.round(c.probs[0], 9)), c.hold) for c in weighted}
+    assert len(rows) == len(weighted)  # no distribution twice
+    for c in v3.target_candidates(cfg):
+        assert c.probs.shape == (cfg.episode_decisions, 4)
+        np.testing.assert_allclose(c.probs.sum(axis=1), 1.0)
+    tq = v3.torque_candidates(v3.eval_config("planetnav/Cruise-Torque-v3"))
+    for kind in ("zero", "random:", "spin:", "pulse:", "scan:"):
+        assert any(c.name.startswith(kind) for c in tq), kind
+    assert all(np.abs(c.torques).max() <= 1.0 for c in tq)
+
+
+def test_a_blind_schedule_rolled_out_scores_what_the_suite_evaluator_gives_its_rule_agent():
+    from planetnav_train.suite.blind import evaluate_objective
+
+    cfg = v3.eval_config("planetnav/Cruise-Target-v3", episode_steps=STEPS)
+    seq = [(d // 1) % 3 for d in range(cfg.episode_decisions)]
+    pol = v3.BlindTargets("cycle", v3._one_hot(seq, 3))
+    ours = v3.roll_out(cfg, pol, range(v3.SEARCH_SEED, v3.SEARCH_SEED + 3)).objective
+    theirs = evaluate_objective("schedule:targets=0-1-2,steps=10", cfg, 3, v3.SEARCH_SEED)
+    np.testing.assert_allclose(ours, theirs, rtol=1e-9)
+
+
+def test_the_reward_constants_centre_and_scale_the_rewards_the_env_pays():
+    over = {"episode_steps": STEPS}
+    rec = v3.reward_constants("planetnav/Cruise-Target-v3", 4, seed=v3.NORMALIZATION_SEED, **over)
+    assert len(rec["baseline_km"]) == STEPS // 10 and rec["scale_km"] > 0
+    cfg = v3.eval_config("planetnav/Cruise-Target-v3", reward_baseline_km=tuple(rec["baseline_km"]),
+                         reward_scale_km=rec["scale_km"], **over)  # fmt: skip
+    env = PlanetNavVectorEnv(4, cfg, autoreset_mode="disabled")
+    env.reset(seed=v3.NORMALIZATION_SEED)
+    gens = [np.random.default_rng([s, 3]) for s in range(v3.NORMALIZATION_SEED, v3.NORMALIZATION_SEED + 4)]
+    pol = v3.BlindTargets("uniform", np.full((cfg.episode_decisions, 3), 1 / 3))
+    rewards, last = [], np.zeros(4, np.int64)
+    for d in range(cfg.episode_decisions):
+        last = pol.actions(d, np.array([g.random() for g in gens]), last)
+        r, _, _ = env.step_rows(last, np.ones(4, bool))
+        rewards.append(r)
+    env.close()
+    r = np.array(rewards)
+    # The uniform policy the constants were measured with: mean 0 and standard deviation 1 per decision.
+    assert abs(r.mean()) < 1e-6 and r.std() == pytest.approx(1.0, rel=1e-6)
+
+
+def test_the_run_score_is_the_formula_with_a_bootstrap_over_the_seeds():
+    j = np.array([8.0, 9.0, 10.0, 11.0, 12.0])
+    s = v3.run_score(j, j_zero=20.0, j_best=10.0)
+    assert s["score"] == pytest.approx((20.0 - 10.0) / 10.0)
+    assert s["lo"] < s["score"] < s["hi"]
+    flat = v3.run_score(np.full(5, 15.0), 20.0, 10.0)
+    assert flat["lo"] == flat["hi"] == pytest.approx(0.5)
+    two = v3.run_score([np.full(5, 15.0), np.full(5, 10.0)], 20.0, 10.0)
+    assert (
+        two["score"] == pytest.approx(0.75)
+        and two["lo"] == pytest.approx(0.5)
+        and two["hi"] == pytest.approx(1.0)
+    )
+
+
+def test_the_learner_rows_train_sb3_ppo_through_make_vec_env_and_report_entropies():
+    from planetnav_train.suite.v3 import learner_rows
+
+    rows = learner_rows("Cruise-Target-v3", 64, episodes=2, episode_steps=20,
+                        ppo_overrides={"n_steps": 32, "batch_size": 32, "n_epochs": 1})  # fmt: skip
+    by = {r["policy"]: r for r in rows["rows"]}
+    assert set(by) == {"untrained network", "uniform random", "SB3 PPO (defaults, make_vec_env)"}
+    assert by["uniform random"]["entropy_nats"] == pytest.approx(np.log(3))
+    # SB3's initial policy is near uniform (its last layer's gain is 0.01).
+    assert by["untrained network"]["entropy_nats"] == pytest.approx(np.log(3), abs=0.01)
+    assert all(np.isfinite(r["J"]["mean"]) for r in rows["rows"])
