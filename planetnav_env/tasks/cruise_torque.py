@@ -75,14 +75,14 @@ CRUISE_TORQUE = TaskSpec(
         ),
         TaskVersion(
             3,
-            layout=Layout("cruise", _PLANETS, "torque", blocks=("residual_log",)),
+            layout=Layout("cruise", _PLANETS, "torque", blocks=("residual_log", "momentum")),
             params=Params(step_s=60.0, episode_steps=1440, torque_action_scale=0.05, world="flight"),
             reward=v3_reward("Cruise-Torque"),
             interface=Interface(since_measured=True, observation_scaling="unit"),
             note="v2's torque scale in the flight world, posed for learners: the true-error reward less a "
             "time-only baseline at a measured scale (`python -m planetnav_train.suite.v3 reward`), the "
-            "observation in unit scaling with the `residual_log` block ([tasks_v3.md](../tasks_v3.md)); "
-            "suite version 3",
+            "observation in unit scaling with the `residual_log` block and the wheel momentum (`momentum`) "
+            "([tasks_v3.md](../tasks_v3.md)); suite version 3",
         ),
     ),
     card=Card(

@@ -102,7 +102,7 @@ THRUST_ARC_TCM = TaskSpec(
                 ("venus", "mars", "earth"),
                 "target",
                 idle_action=True,
-                blocks=("residual_log",),
+                blocks=("residual_log", "momentum"),
             ),
             params=dataclasses.replace(_ARC, world=WorldConfig.coerce("flight")),
             reward=v3_reward("ThrustArc-TCM"),
@@ -110,7 +110,8 @@ THRUST_ARC_TCM = TaskSpec(
             note="v2's arc and 2-h sessions in the flight world, the deadline terms the true error mapped to "
             "the encounter (`reward: truth`), less a time-only baseline at a measured scale (`python -m "
             "planetnav_train.suite.v3 reward`), the observation in unit scaling with the `residual_log` "
-            "block ([tasks_v3.md](../tasks_v3.md)); suite version 3",
+            "block and the wheel momentum (`momentum`: a dump costs engine time) "
+            "([tasks_v3.md](../tasks_v3.md)); suite version 3",
         ),
     ),
     card=Card(
