@@ -157,7 +157,7 @@ def test_position_correlation_of_any_covariance_equals_numpy() -> None:
 
 # --- one declaration per block ---
 def _code_names(tree: ast.AST) -> set[str]:
-    """Identifiers and string constants of a module's code, docstrings left out."""
+    """Identifiers of a module's code and the identifiers its string constants hold, docstrings left out."""
     docstrings = {
         id(node.body[0].value)
         for node in ast.walk(tree)
@@ -179,7 +179,12 @@ def _code_names(tree: ast.AST) -> set[str]:
         elif isinstance(node, ast.keyword) and node.arg:
             names.add(node.arg)
         elif isinstance(node, ast.Constant) and isinstance(node.value, str) and id(node) not in docstrings:
-            names.update(re.findall(r"[A-Za-z_][A-Za-z0-9_]*", node.value))
+            # A string names a block as data when it is an identifier ("momentum", "OB_MOMENTUM"), or holds
+            # one with an underscore ("observe_momentum=..."); prose ("momentum dumps by thrusters") does not.
+            if re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", node.value):
+                names.add(node.value)
+            else:
+                names.update(w for w in re.findall(r"[A-Za-z_][A-Za-z0-9_]*", node.value) if "_" in w)
     return names
 
 
