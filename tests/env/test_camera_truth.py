@@ -122,6 +122,8 @@ def test_the_onboard_correction_on_the_mars_approach_frame():
     sc = make_scratch(prm)
     sc.central[:] = mars
     sc.planets[0] = mars
+    sc.tcentral[:] = mars  # truth and onboard alike: the geometry is the test's own
+    sc.tplanets[0] = mars
     sc.r1[0] = f[0, L.F_X : L.F_X + 3] + mars
     sc.t1[0] = mars
     sc.q1[0] = f[0, L.F_Q : L.F_Q + 4]
