@@ -63,13 +63,13 @@ def test_readme_python_block_runs_without_warnings(index: int) -> None:
 def test_an_old_id_fails() -> None:
     """The check can fail: the first block on the -v0 id raises Gymnasium's "out of date" warning."""
     block = PYTHON_BLOCKS[0]
-    assert "Cruise-Target-v2" in block
-    done = run_strict(block.replace("Cruise-Target-v2", "Cruise-Target-v0"))
+    assert "Cruise-Target-v3" in block
+    done = run_strict(block.replace("Cruise-Target-v3", "Cruise-Target-v0"))
     assert done.returncode != 0 and "out of date" in done.stderr, done.stderr
 
 
 def test_an_unregistered_id_fails() -> None:
-    done = run_strict(PYTHON_BLOCKS[0].replace("Cruise-Target-v2", "Cruise-Target-v99"))
+    done = run_strict(PYTHON_BLOCKS[0].replace("Cruise-Target-v3", "Cruise-Target-v99"))
     assert done.returncode != 0
 
 
