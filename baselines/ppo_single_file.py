@@ -44,7 +44,6 @@ import planetnav_env  # noqa: F401  (registers the planetnav/* ids)
 from planetnav_env.config import EnvConfig
 from planetnav_env.envs.registration import id_options
 from planetnav_env.envs.vector_env import PlanetNavVectorEnv
-from planetnav_train.suite import v3
 from planetnav_train.suite.blind import evaluate_objective, paired_ratio_ci
 
 BLIND_JSON = Path(__file__).resolve().parents[1] / "docs" / "tasks_v2_blind.json"
@@ -370,9 +369,6 @@ def evaluate_and_score(agent: Agent, args: argparse.Namespace, out: dict) -> dic
     if args.eval_episodes <= 0:
         return out
 
-    task = args.env_id.split("/", 1)[-1]
-    if task in v3.V3_TASKS:
-        return score_v3(agent, args, out, task)
     seed, n = 50_000, args.eval_episodes
     cfg = eval_config(args)
     seeds = list(range(seed, seed + n))
@@ -395,36 +391,6 @@ def evaluate_and_score(agent: Agent, args: argparse.Namespace, out: dict) -> dic
     out.update(score=s["score"], score_lo=s["score_lo"], score_hi=s["score_hi"], J_blind=jb, J_best=jr)
     print(f"blind-zero score: {s['score']:+.3f} [{s['score_lo']:+.3f}, {s['score_hi']:+.3f}] (95 % paired "
           f"bootstrap over {n} seeds; 0 = best blind, 1 = best reference)")  # fmt: skip
-    return out
-
-
-def score_v3(agent: Agent, args: argparse.Namespace, out: dict, task: str) -> dict:
-    """A v3 task: sampled actions on suite version 3's evaluation seeds (``v3.EVAL_SEED``..), the task's
-    own objective (``v3.roll_out``: the thrust arc's J there), scored against the published constants
-    (docs/tasks_v3_normalization.json) with a bootstrap over the evaluation seeds."""
-    cfg = eval_config(args)
-    seeds = list(range(v3.EVAL_SEED, v3.EVAL_SEED + args.eval_episodes))
-    act, entropies = sampled_policy(agent, seeds), []
-
-    def policy(d: int, obs: np.ndarray) -> np.ndarray:
-        with torch.no_grad():
-            entropies.append(float(Categorical(logits=agent.actor(torch.as_tensor(obs))).entropy().mean()))
-        return act(obs)
-
-    j = v3.roll_out(cfg, policy, seeds).objective
-    out["J"], out["entropy"] = j, float(np.mean(entropies))
-    print(f"evaluation: {len(seeds)} episodes on seeds {seeds[0]}.. (suite v3), J {j.mean():.2f} km, "
-          f"policy entropy {out['entropy']:.3f} nats")  # fmt: skip
-    try:
-        norm = v3.normalization(task)
-    except Exception as exc:  # the constants are published by `python -m planetnav_train.suite.v3 normalize`
-        print(f"no blind-zero score: {exc}")
-        return out
-    s = v3.run_score(j, norm["J_zero"]["mean"], norm["J_best"]["mean"])
-    out.update(score=s["score"], score_lo=s["lo"], score_hi=s["hi"])
-    jz, jb = norm["J_zero"]["mean"], norm["J_best"]["mean"]
-    print(f"blind-zero score: {s['score']:+.3f} [{s['lo']:+.3f}, {s['hi']:+.3f}] (published J_zero "
-          f"{jz:.2f}, J_best {jb:.2f}; bootstrap over the seeds)")  # fmt: skip
     return out
 
 
