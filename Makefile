@@ -56,8 +56,9 @@ test: $(STAMP)
 # no gymnasium either (test_ci_split.py holds that too). `make test-ray-all` runs the whole suite there.
 RAY_TESTS := tests/rl tests/env tests/train/test_client_sb3_contrib.py tests/train/test_training_golden.py \
 	tests/train/test_vec_training.py tests/project/test_install_extras.py
-RAY_SAME := approach attitude camera config_options core_ephemeris core_rng ekf ephemeris measurements \
-	numba_cache orbit pointing pulsar quaternion star_fix_kernels star_tracker wahba
+RAY_SAME := apparent approach attitude camera config_options core_ephemeris core_rng device_occupancy \
+	cuda_ptx device_preflight disturbances ekf ephemeris ephemeris_velocity figure gauss_markov measurements numba_cache \
+	orbit photometry pointing pulsar quaternion same_numbers star_fix_kernels star_tracker thrust_gauss_markov wahba
 
 test-ray: $(RAY_STAMP)
 	RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER=0 $(RAY_BIN)/python -m pytest -m "not cpu_settings" $(RAY_TESTS) \

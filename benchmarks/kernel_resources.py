@@ -36,7 +36,6 @@ from planetnav_env.core.cuda_entry import ENTRY_POINTS, entry_argtypes
 from planetnav_env.device import occupancy as O
 from planetnav_env.device.cuda_kernels import autoreset_argtypes, autoreset_kernel
 from planetnav_env.device.kernel_resources import assemble, find_ptxas, innermost_loops, memory_ops
-from planetnav_env.device.vector_env import THREADS_PER_BLOCK
 from planetnav_env.envs.registration import ENV_IDS
 from planetnav_env.numerics.cuda_target import DEFAULT_CC, compile_ptx
 
@@ -59,9 +58,9 @@ def _occupancy(regs: int, limits: O.SmLimits) -> dict:
     at_best = O.warps_per_sm(regs, best, limits)
     more = [(r, w) for r, w in O.register_steps(limits) if w > at_best]
     return {
-        "threads_per_block": THREADS_PER_BLOCK,
-        "warps_per_sm": O.warps_per_sm(regs, THREADS_PER_BLOCK, limits),
-        "occupancy": O.occupancy(regs, THREADS_PER_BLOCK, limits),
+        "threads_per_block": O.THREADS_PER_BLOCK,
+        "warps_per_sm": O.warps_per_sm(regs, O.THREADS_PER_BLOCK, limits),
+        "occupancy": O.occupancy(regs, O.THREADS_PER_BLOCK, limits),
         "best_threads_per_block": best,
         "warps_per_sm_at_best": at_best,
         "next_step": {"registers_at_most": more[0][0], "warps_per_sm": more[0][1]} if more else None,

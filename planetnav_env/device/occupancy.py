@@ -55,6 +55,10 @@ SM_80 = SmLimits(name="compute capability 8.0 (A100)")
 #: The limits by compute capability.
 SM_LIMITS: dict[tuple[int, int], SmLimits] = {(9, 0): SM_90, (8, 0): SM_80}
 
+#: Threads per block of the device env's kernels. The step's 200 registers per thread leave 8 warps per SM
+#: at any block size that fits (``python benchmarks/kernel_resources.py``); 128 holds them in 2 blocks.
+THREADS_PER_BLOCK = 128
+
 
 def limits_for(cc: tuple[int, int]) -> SmLimits:
     """The :class:`SmLimits` of compute capability ``cc``, or an error naming the ones known."""

@@ -80,7 +80,7 @@ from planetnav_env.core.records import (
 from planetnav_env.device import rows as R
 from planetnav_env.device.bank import BankRows, EpisodeBank, global_episode
 from planetnav_env.device.draw_pool import DrawPool
-from planetnav_env.device.occupancy import SM_90
+from planetnav_env.device.occupancy import SM_90, THREADS_PER_BLOCK
 from planetnav_env.device.refill import DEFAULT_CHUNK, BankRefill, check_refill
 from planetnav_env.envs.env import check_reset_options, resolve_config
 from planetnav_env.envs.spaces import action_size, action_space, observation_space
@@ -88,9 +88,6 @@ from planetnav_env.errors import InvalidParameterError, require_count
 
 #: ``autoreset_mode`` choices.
 AUTORESET_MODES = ("next_step", "same_step")
-#: Threads per block of the kernels. The step's 200 registers per thread leave 8 warps per SM at any
-#: block size that fits (``python benchmarks/kernel_resources.py``); 128 holds them in 2 blocks.
-THREADS_PER_BLOCK = 128
 
 
 def check_launch(threads_per_block: int, max_registers: int | None) -> None:

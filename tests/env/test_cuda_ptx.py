@@ -9,12 +9,12 @@ What a machine without a GPU can check (the rules are in :mod:`planetnav_env.num
   the CPU and looped over the rows, equal the chunked step bit for bit on every id;
 * :mod:`planetnav_env.numerics.portable_math`'s scalar ``remainder`` and ``rint`` equal numba's
   ``np.remainder`` and ``np.rint`` bit for bit;
-* with numba-cuda installed: the argument types compiled are those a launch compiles (numba-cuda's
-  typing of the records with device arrays); every entry point (step, reset; autoreset is a reset of the
+* with numba-cuda installed: every entry point (step, reset; autoreset is a reset of the
   finished rows) compiles to PTX for every registered id, the compute capability supplied (9.0), with no
   unresolved external function. It does not run the PTX: only a device checks the numbers (the CUDA
   simulator runs the ``@njit`` functions a kernel calls as CPU code, so it would compare the CPU with
-  itself).
+  itself). That the argument types compiled are those a launch compiles is
+  tests/env/test_device_argtypes.py's check (it builds the device env, hence reaches gymnasium).
 """
 
 from __future__ import annotations
@@ -24,18 +24,20 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from gymnasium import spaces
 from numba import njit
 
 from planetnav_env.batch import BatchCore
 from planetnav_env.config import EnvConfig
 from planetnav_env.core import kernels as K
-from planetnav_env.core.records import Actions, map_arrays, rows_innermost_like, scratch_rows
-from planetnav_env.envs.registration import ENV_IDS
-from planetnav_env.envs.spaces import action_size, action_space
+from planetnav_env.core.decoding import raw_action_size
+from planetnav_env.core.records import Actions, rows_innermost_like, scratch_rows
 from planetnav_env.numerics import portable_math as pm
+from planetnav_env.tasks import VERSIONS
 
 PACKAGE = Path(__file__).resolve().parents[2] / "planetnav_env"
+# The ids' options from their declarations, not from the registration: this file reaches no gymnasium, so
+# the [ray] pass (another gymnasium, the same numba) leaves it out (the Makefile's RAY_SAME).
+ENV_IDS = {env_id: v.options() for env_id, (_, v) in VERSIONS.items()}
 #: Every registered id, and the flight world on a cruise and on the Mars approach (its light-path branches).
 CONFIGS = {
     **ENV_IDS,
@@ -153,17 +155,18 @@ def test_thread_functions_equal_the_chunked_step_bit_for_bit(env_id: str, monkey
     st = rows_innermost_like(threads.state)
     assert st.f.strides[0] == 8 and st.p.strides[0] == 8
     rng = np.random.default_rng(3)
-    space = action_space(cfg)
+    width = raw_action_size(int(threads.params.scalars[0]["mode"]), cfg.n_planets)
     decoded = (np.zeros(ROWS, np.int64), np.zeros((ROWS, 3)))  # the chunked step's decoding buffers
-    act = rows_innermost_like(Actions(raw=np.zeros((ROWS, action_size(space))), targets=decoded[0],
+    act = rows_innermost_like(Actions(raw=np.zeros((ROWS, width)), targets=decoded[0],
                                       torques=decoded[1], active=np.ones(ROWS, np.bool_)))  # fmt: skip
     for k in range(STEPS):
-        if isinstance(space, spaces.Discrete):
+        if cfg.action_mode == "target":
             # Hold each action a few steps (slews, settling, pulsar integration), change it now and then.
             if k % 4 == 0:
-                raw = rng.integers(0, space.n, (ROWS, 1)).astype(float)
+                # Every action of the Discrete space, the idle action included.
+                raw = rng.integers(0, cfg.n_targets + int(cfg.idle_action), (ROWS, 1)).astype(float)
         else:  # Box actions, some outside [-1, 1] (the decoding clips them)
-            raw = rng.uniform(-1.2, 1.2, (ROWS, action_size(space)))
+            raw = rng.uniform(-1.2, 1.2, (ROWS, width))
         active = np.ones(ROWS, dtype=np.bool_)
         active[k % ROWS] = k % 5 != 0  # an inactive row now and then
         K.step_range_arrays(
@@ -219,20 +222,6 @@ def test_entry_point_compiles_to_ptx(env_id: str, entry: str, ptx_by_signature) 
     assert ".extern" not in ptx
 
 
-def _as_launched(value):
-    """``value`` with every non-empty numpy array replaced by numba-cuda's own device array of its shape,
-    strides and dtype (the memory a stand-in: typing reads none), as the device env passes its records;
-    an empty array by a writable one (numba-cuda's needs a context to exist)."""
-    from numba.cuda.cudadrv.devicearray import DeviceNDArray
-
-    def device(a: np.ndarray):
-        if a.size == 0:
-            return np.zeros(a.shape, a.dtype)
-        return DeviceNDArray(a.shape, a.strides, a.dtype, gpu_data=object())
-
-    return map_arrays(device, value)
-
-
 def test_device_typeof_makes_every_array_writable() -> None:
     """Read-only arrays anywhere in plain, uniform and named tuples become writable; the rest is kept."""
     import numba
@@ -248,36 +237,6 @@ def test_device_typeof_makes_every_array_writable() -> None:
     want = (np.zeros((2, 3)), (np.zeros((2, 3)),) * 2, act._replace(torques=np.zeros((2, 3))), 1.5)
     assert "readonly" in str(numba.typeof(value))
     assert device_typeof(value) == numba.typeof(want)
-
-
-@pytest.mark.parametrize("env_id", list(CONFIGS))
-def test_argument_types_are_the_launchs(env_id: str) -> None:
-    """The PTX checks compile the types a launch compiles: numba-cuda's typing of the records the device
-    env passes (its host mode's arrays: the same shapes, dtypes and strides, rows innermost), with device
-    arrays, which are writable where the host's are read-only (the star catalogue's)."""
-    _numba_cuda()
-    import numba
-
-    from planetnav_env.core import cuda_entry
-    from planetnav_env.device.bank import BankRows
-    from planetnav_env.device.cuda_kernels import autoreset_argtypes
-    from planetnav_env.device.vector_env import DeviceVectorEnv
-
-    core = BatchCore(EnvConfig.from_dict(CONFIGS[env_id]), 2)
-    n = core.num_rows
-    dev = DeviceVectorEnv(CONFIGS[env_id], n, device="cpu")
-    prm, st, act, rows = dev._prm, dev._state, dev._act, dev._scratch
-    bank = BankRows(f=core.f, p=core.p, rng=core.rng, eph=core.eph)  # as EpisodeBank.rows: rows outermost
-    launched = {
-        "step": (prm, st, act, rows),
-        "autoreset": (prm, st, bank, dev._slots_view, dev._mask_view, rows),
-    }
-    compiled = {**cuda_entry.entry_argtypes(core), "autoreset": autoreset_argtypes(core)}
-    for entry, args in launched.items():
-        assert compiled[entry] == tuple(numba.typeof(_as_launched(a)) for a in args), entry
-    host = numba.typeof(core.params)
-    if "readonly" in str(host):  # ids with a star catalogue: the host's types are not the launch's
-        assert compiled["step"][0] != host and "readonly" not in str(compiled["step"][0])
 
 
 def test_compute_capability_is_supplied_only_inside_the_block() -> None:
@@ -307,8 +266,7 @@ def test_entry_point_assembles_for_sm_90(entry: str, ptx_by_signature) -> None:
     """ptxas accepts the PTX (as the driver must at the first launch), and a block of the device env's
     size launches with the registers it reports. The ids share one PTX per entry (the fixture's check)."""
     from planetnav_env.device.kernel_resources import assemble
-    from planetnav_env.device.occupancy import SM_90, require_launchable
-    from planetnav_env.device.vector_env import THREADS_PER_BLOCK
+    from planetnav_env.device.occupancy import SM_90, THREADS_PER_BLOCK, require_launchable
 
     ptxas = _ptxas()
     found = assemble(ptx_by_signature("planetnav/Cruise-Target-v1", entry), ptxas=ptxas)

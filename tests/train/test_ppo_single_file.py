@@ -40,7 +40,7 @@ def run(tmp_path_factory: pytest.TempPathFactory) -> tuple[subprocess.CompletedP
     model = tmp_path_factory.mktemp("ppo") / "agent.pt"
     proc = subprocess.run(
         [sys.executable, str(SCRIPT), *TINY, "--save-model", str(model)],
-        cwd=ROOT, capture_output=True, text=True, timeout=300, check=False,
+        cwd=ROOT, capture_output=True, text=True, timeout=900, check=False,
     )  # fmt: skip
     return proc, model
 

@@ -34,7 +34,7 @@ def smoke_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
     proc = subprocess.run(
         [sys.executable, str(ROOT / "train.py"), "train", "--config", str(ROOT / "configs" / "smoke.yaml"),
          "--run-dir", str(run_dir), "--no-progress"],
-        capture_output=True, text=True, timeout=120, cwd=ROOT,
+        capture_output=True, text=True, timeout=600, cwd=ROOT,
     )  # fmt: skip
     assert proc.returncode == 0, proc.stdout + proc.stderr
     return run_dir
