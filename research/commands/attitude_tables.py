@@ -6,7 +6,8 @@ seeds with 95 % intervals of the mean (Student t):
     python research/commands/attitude_tables.py --references --seeds 20   # the torque tasks' references
 
 Columns: momentum dumps per day and the delta-v they spent [m/s per day] (the nominal impulses), the
-share of the episode a wheel spent at 99 % of its momentum capacity, the camera's true pointing error
+share of the episode a wheel spent at 99 % of its momentum capacity (and, on the thrust arc, the share the
+engine was off for dumps, printed below the table), the camera's true pointing error
 against the PD law's direction (each seed's median over the steps the PD law points; arcsec), and the
 navigation error that follows (the true position error at the episode's end [km]). Each scenario runs its
 v2 id under a fixed schedule (the same actions in both worlds): the targets in turn, each held 60 physics
@@ -68,7 +69,8 @@ def run(scenario: str, world: str, seeds: int, seed0: int) -> dict[str, np.ndarr
             pos_err = np.where(done & np.isnan(pos_err), info["pos_err_km"], pos_err)
             break
     f = env.core.f
-    days = cfg.episode_steps * cfg.step_s / 86400.0
+    span_s = cfg.episode_steps * cfg.step_s
+    days = span_s / 86400.0
     e = np.array(errs)
     point = np.array(
         [np.nanmedian(e[:, r]) if np.any(np.isfinite(e[:, r])) else np.nan for r in range(seeds)]
@@ -76,7 +78,9 @@ def run(scenario: str, world: str, seeds: int, seed0: int) -> dict[str, np.ndarr
     return {
         "dumps_per_day": f[:, L.F_DUMPS] / days,
         "dump_dv_per_day": f[:, L.F_DUMP_DV] / days,
-        "saturated_pct": 100.0 * f[:, L.F_SAT_S] / (cfg.episode_steps * cfg.step_s),
+        "saturated_pct": 100.0 * f[:, L.F_SAT_S] / span_s,
+        # The engine stays off for dump_duration_s after each dump on the thrust arc: time the arc loses.
+        "dump_engine_off_pct": 100.0 * f[:, L.F_DUMPS] * cfg.world.dump_duration_s / span_s * ops,
         "pointing_arcsec": np.degrees(point) * 3600.0,
         "pos_err_km": pos_err,
     }
@@ -131,6 +135,7 @@ def main() -> None:
         'pointing error ["] | position error at the end [km] |'
     )
     print("|---|---|---|---|---|---|---|")
+    off: list[str] = []
     for sc in args.scenarios:
         for w in WORLDS:
             r = run(sc, w, args.seeds, args.seed0)
@@ -142,6 +147,11 @@ def main() -> None:
                 _cell(r["pos_err_km"], "{:.1f}"),
             ]
             print(f"| {sc} | {w} | " + " | ".join(cells) + " |", flush=True)
+            if SCENARIOS[sc].startswith("ThrustArc"):
+                off.append(f"{sc}, {w}: {_cell(r['dump_engine_off_pct'], '{:.2f}')} % of the arc")
+    if off:
+        print()
+        print("Engine off for momentum dumps (dumps x dump_duration_s over the episode):", "; ".join(off))
 
 
 if __name__ == "__main__":
