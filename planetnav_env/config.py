@@ -519,9 +519,15 @@ class EnvConfig:
     # ------------------------------------------------------------------------------------------
     @classmethod
     def from_dict(cls, data: Mapping[str, Any] | None = None, **overrides: Any) -> EnvConfig:
-        """Build from a (YAML) mapping; nested ``camera``/``filter``/``attitude`` mappings allowed."""
+        """Build from a (YAML) mapping; nested ``camera``/``filter``/``attitude``/``world`` mappings allowed.
+
+        An override of a section given as a mapping updates that section of ``data`` key by key, as
+        ``gym.make(id, filter={"accel_psd": q})`` means: it changes ``accel_psd`` and keeps the id's other
+        filter options (its prior, say). Over a preset's name (``world: flight``) it is that preset with
+        the keys given. Any other override replaces ``data``'s value."""
         merged = dict(data or {})
-        merged.update(overrides)
+        for key, value in overrides.items():
+            merged[key] = _override(key, merged.get(key), value)
         known = {f.name: f for f in fields(cls)}
         kwargs: dict[str, Any] = {}
         for key, value in merged.items():
@@ -574,6 +580,18 @@ class EnvConfig:
 
 #: The nested settings records (``camera``: CameraConfig, ...), from their declarations.
 _SECTIONS = {name: opt.section for name, opt in declared(EnvConfig) if opt.kind == "section"}
+
+
+def _override(key: str, base: Any, value: Any) -> Any:
+    """``value`` over ``base`` for option ``key`` (:meth:`EnvConfig.from_dict`): a section's mapping
+    updates a mapping or a preset's name; anything else replaces."""
+    if key not in _SECTIONS or not isinstance(value, Mapping):
+        return value
+    if isinstance(base, Mapping):
+        return {**base, **value}
+    if isinstance(base, str):  # a preset's name is shorthand for {preset: name}
+        return {"preset": base, **value}
+    return value
 
 
 def _plain(v: Any) -> Any:

@@ -79,13 +79,14 @@ class TrainConfig:
     )  # behaviour-cloning warm start (planetnav_train/pretrain.py)
 
     def env_config(self) -> EnvConfig:
-        """The environment configuration: the ``env_id``'s defaults overridden by ``env``."""
+        """The environment configuration: the ``env_id``'s defaults overridden by ``env`` (a section given
+        there, ``filter: {accel_psd: ...}``, updates the id's section key by key)."""
         base: dict[str, Any] = {}
         if self.env_id is not None:
             if self.env_id not in ENV_IDS:
                 raise ConfigError(f"env_id {self.env_id!r} is not one of {sorted(ENV_IDS)}")
             base = dict(ENV_IDS[self.env_id])
-        return EnvConfig.from_dict({**base, **self.env})
+        return EnvConfig.from_dict(base, **self.env)
 
     def to_dict(self) -> dict[str, Any]:
         """The configuration as plain YAML-able data (what ``config.yaml`` of a run holds)."""

@@ -208,3 +208,24 @@ def test_kernel_scalars_copied_from_options() -> None:
 def test_a_declaration_needs_a_kind_it_cannot_infer() -> None:
     with pytest.raises(TypeError, match="declare it with kind="):
         option((1.0, 2.0), doc="a pair")
+
+
+def test_a_section_override_updates_the_ids_section_and_a_presets_name() -> None:
+    """``gym.make(id, filter={...})`` changes the keys given and keeps the id's other filter options; a
+    world mapping over an id's preset name is that preset with the keys given."""
+    from planetnav_env.tasks import get_version
+
+    opts = get_version("planetnav/RandomCruise-Target-v2").options()
+    assert opts["filter"]["sigma_pos0"] != EnvConfig().filter.sigma_pos0  # the id's own prior
+    cfg = EnvConfig.from_dict(opts, filter={"accel_psd": 1e-12})
+    assert cfg.filter.accel_psd == 1e-12
+    assert cfg.filter.sigma_pos0 == opts["filter"]["sigma_pos0"]
+    v3 = get_version("planetnav/Cruise-Target-v3").options()
+    assert EnvConfig.from_dict(v3).world.preset == "flight"
+    for base in (v3, {"world": "flight"}):  # the id's world section, and a preset's name
+        cfg = EnvConfig.from_dict(base, world={"lambert_cob": False})
+        assert cfg.world.preset == "flight" and cfg.world.lambert_cob is False
+        assert EnvConfig.from_dict(base, world={"preset": "matched"}).world.preset == "matched"
+        assert EnvConfig.from_dict(base, world="matched").world.preset == "matched"  # a name replaces
+    with pytest.raises(OptionError, match="world"):
+        EnvConfig.from_dict({"world": "nowhere"}, world={"srp": True})
