@@ -375,7 +375,11 @@ def parser() -> argparse.ArgumentParser:
         "--planner-seeds", type=int, default=100, help="seeds of the planner, the slowest agent (default 100)"
     )
     ap.add_argument(
-        "--psd", type=float, nargs="+", default=[1e-20, 1e-18, 1e-16, 1e-14], help="accel_psd values swept"
+        "--psd",
+        type=float,
+        nargs="+",
+        default=[1e-16, 1e-14, 1e-12, 1e-10, 1e-9, 1e-8],
+        help="accel_psd values swept",
     )
     ap.add_argument("--episode-steps", type=int, help="shorter episodes (a smoke run); default: the ids' own")
     ap.add_argument("--workers", type=int, default=1, help="processes (default 1)")
