@@ -433,8 +433,13 @@ def run_score(j: np.ndarray | Sequence[np.ndarray], j_zero: float, j_best: float
     """A run's blind-zero score ``(J_zero - J) / (J_zero - J_best)`` against the published constants, its
     95 % interval a bootstrap over the evaluation seeds (and, given several runs' per-seed arrays, over
     the runs too): the evaluation seeds' spread is in it; the constants are fixed per suite version."""
-    if j_zero == j_best:
-        raise ConfigError(f"J_zero equals J_best ({j_zero!r}): the score has no scale")
+    if not j_best < j_zero:
+        # A reference no better than the blind zero leaves no closed-loop gap to scale by: the formula
+        # would rank a policy that beats the zero below it.
+        raise ConfigError(
+            f"J_best ({j_best!r}) is not below J_zero ({j_zero!r}): the best reference does not beat the "
+            "blind zero, so the blind-zero score is undefined; compare J with both"
+        )
     runs = [np.asarray(x, float) for x in (j if isinstance(j, (list, tuple)) else [j])]
     rng = np.random.default_rng(BOOTSTRAP_SEED)
     draws = np.zeros(BOOTSTRAP_REPS)
@@ -679,7 +684,10 @@ def _row(name: str, j: np.ndarray, entropy: float, task: str, extra: dict[str, A
     except Exception:  # no published constants yet: the row carries J only
         row["score"] = None
     else:
-        row["score"] = run_score(j, norm["J_zero"]["mean"], norm["J_best"]["mean"])
+        try:
+            row["score"] = run_score(j, norm["J_zero"]["mean"], norm["J_best"]["mean"])
+        except ConfigError as exc:  # the task's references lose to its zero: J is the row's figure
+            row["score"], row["score_undefined"] = None, str(exc)
     return row
 
 

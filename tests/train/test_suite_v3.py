@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from planetnav_env.envs.vector_env import PlanetNavVectorEnv
+from planetnav_env.errors import ConfigError
 from planetnav_train.suite import v3
 
 STEPS = 40
@@ -89,6 +90,14 @@ def test_the_reward_constants_centre_and_scale_the_rewards_the_env_pays():
     r = np.array(rewards)
     # The uniform policy the constants were measured with: mean 0 and standard deviation 1 per decision.
     assert abs(r.mean()) < 1e-6 and r.std() == pytest.approx(1.0, rel=1e-6)
+
+
+def test_the_run_score_refuses_a_reference_that_does_not_beat_the_zero():
+    """J_best at or above J_zero (the flight world's covariance rules can lose to a blind cycle) leaves no
+    scale: a policy better than the zero would score below 0, so the score is refused, named."""
+    for j_best in (20.0, 25.0):
+        with pytest.raises(ConfigError, match="does not beat the blind zero"):
+            v3.run_score(np.full(5, 15.0), j_zero=20.0, j_best=j_best)
 
 
 def test_the_run_score_is_the_formula_with_a_bootstrap_over_the_seeds():
