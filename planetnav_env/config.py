@@ -516,6 +516,11 @@ class EnvConfig:
         """Planets and pulsars: the discrete target actions (before the optional idle action)."""
         return len(self.planets) + len(self.pulsars)
 
+    @property
+    def n_target_actions(self) -> int:
+        """The target mode's ``Discrete`` actions: the targets, and no target with ``idle_action``."""
+        return self.n_targets + (1 if self.idle_action else 0)
+
     # ------------------------------------------------------------------------------------------
     @classmethod
     def from_dict(cls, data: Mapping[str, Any] | None = None, **overrides: Any) -> EnvConfig:

@@ -18,14 +18,14 @@ from typing import Any
 import gymnasium as gym
 
 from planetnav_env.errors import ConfigError
-from planetnav_env.tasks import VERSIONS
+from planetnav_env.tasks import ID_OPTIONS
 
 #: The single environment's entry point (a spec with another one is not a planetnav environment).
 ENTRY_POINT = "planetnav_env.envs.env:PlanetNavEnv"
 
 #: Every registered id's options (``gym.make(id)`` passes them), from the task declarations
 #: (:mod:`planetnav_env.tasks`): all ``-v0`` ids, then ``-v1``, then ``-v2``.
-ENV_IDS: dict[str, dict[str, Any]] = {env_id: v.options() for env_id, (_, v) in VERSIONS.items()}
+ENV_IDS: dict[str, dict[str, Any]] = ID_OPTIONS
 
 
 def id_options(env_id: str) -> dict[str, Any]:

@@ -29,7 +29,7 @@ def action_space(cfg: EnvConfig) -> spaces.Space:
     ``Box(-1, 1, (P + 3,))`` in target+torque mode, ``Box(-1, 1, (P + 1 + 3,))`` in hybrid mode
     (decoded by :mod:`planetnav_env.core.decoding`)."""
     if cfg.action_mode == "target":
-        return spaces.Discrete(cfg.n_targets + (1 if cfg.idle_action else 0))
+        return spaces.Discrete(cfg.n_target_actions)
     if cfg.action_mode == "torque":
         return spaces.Box(-1.0, 1.0, (3,), dtype=np.float32)
     if cfg.action_mode == "hybrid":

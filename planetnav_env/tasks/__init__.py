@@ -59,6 +59,9 @@ VERSIONS: dict[str, tuple[TaskSpec, TaskVersion]] = {
     for v in task.versions[n : n + 1]
 }
 
+#: Every registered id's options (``gym.make(id)`` passes them), in the order of :data:`VERSIONS`.
+ID_OPTIONS: dict[str, dict] = {env_id: v.options() for env_id, (_, v) in VERSIONS.items()}
+
 
 def get_task(name: str) -> TaskSpec:
     """A task by name (``Cruise-Target``); :class:`ConfigError` naming the tasks otherwise."""
@@ -79,6 +82,6 @@ def get_version(env_id: str) -> TaskVersion:
 
 
 __all__ = [
-    "PHYSICS_STEP", "TASKS", "VERSIONS", "Card", "Interface", "Layout", "Params", "Reward", "TaskSpec",
-    "TaskVersion", "get_task", "get_version",
+    "ID_OPTIONS", "PHYSICS_STEP", "TASKS", "VERSIONS", "Card", "Interface", "Layout", "Params", "Reward",
+    "TaskSpec", "TaskVersion", "get_task", "get_version",
 ]  # fmt: skip

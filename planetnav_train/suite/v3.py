@@ -152,10 +152,6 @@ def _one_hot(seq: Sequence[int], n_actions: int) -> np.ndarray:
     return out
 
 
-def _n_actions(cfg: EnvConfig) -> int:
-    return cfg.n_targets + (1 if cfg.idle_action else 0)
-
-
 def target_candidates(cfg: EnvConfig) -> list[BlindTargets]:
     """The blind target-choice family of ``cfg`` (without the cross-entropy method's, :func:`cem_targets`):
 
@@ -169,7 +165,7 @@ def target_candidates(cfg: EnvConfig) -> list[BlindTargets]:
     """
     import itertools
 
-    n_a, d_n = _n_actions(cfg), cfg.episode_decisions
+    n_a, d_n = cfg.n_target_actions, cfg.episode_decisions
     n_t = cfg.n_targets
     out: list[BlindTargets] = []
     for w in itertools.product((0, 1, 2), repeat=n_a):
@@ -360,7 +356,7 @@ def cem_targets(
     each ``population``, every proposal scored on the same ``seeds`` (the search seeds: common random
     numbers). Returns two candidates: the final mean's distribution, and its most likely action per bin
     (a fixed schedule)."""
-    n_a, d_n = _n_actions(cfg), cfg.episode_decisions
+    n_a, d_n = cfg.n_target_actions, cfg.episode_decisions
     idx = _bins(d_n, bins)
     rng = np.random.default_rng(BOOTSTRAP_SEED)
     mu, sd = np.zeros((bins, n_a)), np.full((bins, n_a), 2.0)
@@ -510,8 +506,8 @@ def reward_constants(
     task's, for smoke runs)."""
     cfg = eval_config(env_id, reward_baseline_km=(), **overrides)
     pol = (BlindTorques("random", np.zeros((cfg.episode_decisions, 3)), 1.0) if cfg.action_mode == "torque"
-           else BlindTargets("uniform", np.full((cfg.episode_decisions, _n_actions(cfg)),
-                                                1.0 / _n_actions(cfg))))  # fmt: skip
+           else BlindTargets("uniform", np.full((cfg.episode_decisions, cfg.n_target_actions),
+                                                1.0 / cfg.n_target_actions)))  # fmt: skip
     e = roll_out(cfg, pol, range(seed, seed + episodes), terms=True).terms
     k_n = cfg.episode_steps
     n_bins = cfg.episode_decisions if cfg.decision_steps > 1 else min(TORQUE_BASELINE_BINS, k_n)
@@ -726,7 +722,7 @@ def learner_rows(
         uniform = BlindTorques("uniform", np.zeros((cfg.episode_decisions, 3)), 1.0)
         h_uniform = 3 * math.log(2.0)  # differential entropy of U(-1, 1)^3
     else:
-        n_a = cfg.n_targets + (1 if cfg.idle_action else 0)
+        n_a = cfg.n_target_actions
         uniform = BlindTargets("uniform", np.full((cfg.episode_decisions, n_a), 1.0 / n_a))
         h_uniform = math.log(n_a)
     j = roll_out(cfg, uniform, seeds).objective

@@ -32,12 +32,11 @@ from planetnav_env.core import kernels as K
 from planetnav_env.core.decoding import raw_action_size
 from planetnav_env.core.records import Actions, rows_innermost_like, scratch_rows
 from planetnav_env.numerics import portable_math as pm
-from planetnav_env.tasks import VERSIONS
+from planetnav_env.tasks import ID_OPTIONS as ENV_IDS
 
 PACKAGE = Path(__file__).resolve().parents[2] / "planetnav_env"
-# The ids' options from their declarations, not from the registration: this file reaches no gymnasium, so
-# the [ray] pass (another gymnasium, the same numba) leaves it out (the Makefile's RAY_SAME).
-ENV_IDS = {env_id: v.options() for env_id, (_, v) in VERSIONS.items()}
+# The ids' options from the declarations, not the registration: this file reaches no gymnasium, so the
+# [ray] pass (another gymnasium, the same numba) leaves it out (the Makefile's RAY_SAME).
 #: Every registered id, and the flight world on a cruise and on the Mars approach (its light-path branches).
 CONFIGS = {
     **ENV_IDS,
@@ -163,8 +162,7 @@ def test_thread_functions_equal_the_chunked_step_bit_for_bit(env_id: str, monkey
         if cfg.action_mode == "target":
             # Hold each action a few steps (slews, settling, pulsar integration), change it now and then.
             if k % 4 == 0:
-                # Every action of the Discrete space, the idle action included.
-                raw = rng.integers(0, cfg.n_targets + int(cfg.idle_action), (ROWS, 1)).astype(float)
+                raw = rng.integers(0, cfg.n_target_actions, (ROWS, 1)).astype(float)
         else:  # Box actions, some outside [-1, 1] (the decoding clips them)
             raw = rng.uniform(-1.2, 1.2, (ROWS, width))
         active = np.ones(ROWS, dtype=np.bool_)
