@@ -674,7 +674,7 @@ def _policy_fn(model: Any, entropies: list[float]):
 
 
 def _row(name: str, j: np.ndarray, entropy: float, task: str, extra: dict[str, Any]) -> dict[str, Any]:
-    row = {"policy": name, "J": mean_interval(j), "entropy_nats": entropy, **extra}
+    row = {"policy": name, "J": mean_interval(j), "entropy_nats": entropy, "_j": np.asarray(j), **extra}
     try:
         norm = normalization(task)
     except Exception:  # no published constants yet: the row carries J only
@@ -685,6 +685,32 @@ def _row(name: str, j: np.ndarray, entropy: float, task: str, extra: dict[str, A
         except ConfigError as exc:  # the task's references lose to its zero: J is the row's figure
             row["score"], row["score_undefined"] = None, str(exc)
     return row
+
+
+def _paired_with_published(rows: dict[str, Any], cfg: EnvConfig, task: str, seeds: range) -> None:
+    """Add the published zero (the search's winner) and, where the task is normalized, its best
+    reference as rows on the same seeds, and each learner row's paired difference from them [km]
+    (``minus_zero``, ``minus_best_reference``: negative is better). Where the blind-zero score is
+    undefined (the references lose to the zero), these are the rows' comparisons."""
+    per_seed = {r["policy"]: r.pop("_j") for r in rows["rows"]}
+    blind = read_json(BLIND_FILE)["tasks"].get(task)
+    others: dict[str, np.ndarray] = {}
+    if blind is not None:
+        zero = policy_from_record(blind["winner"], blind["policies"][blind["winner"]])
+        others["zero"] = roll_out(cfg, zero, seeds).objective
+        rows["rows"].append({"policy": f"blind zero ({blind['winner']})", "J": mean_interval(others["zero"])})
+    try:
+        best = normalization(task)["best_reference"]
+    except Exception:  # not normalized yet: no reference row
+        best = None
+    if best is not None:
+        others["best_reference"] = policy_objective(cfg, best, seeds.start, len(seeds))
+        rows["rows"].append({"policy": f"best reference ({best})", "J": mean_interval(others["best_reference"])})
+    for r in rows["rows"]:
+        j = per_seed.get(r["policy"])
+        if j is not None:
+            for name, other in others.items():
+                r[f"minus_{name}"] = paired_difference(j, other)
 
 
 def learner_rows(
@@ -735,6 +761,7 @@ def learner_rows(
     rows["rows"].append(_row("SB3 PPO (defaults, make_vec_env)", j, float(np.mean(ent)), task,
                              {"train_seconds": train_s}))  # fmt: skip
     venv.close()
+    _paired_with_published(rows, cfg, task, seeds)
     rows["provenance"] = provenance()
     return rows
 

@@ -121,7 +121,15 @@ def test_the_learner_rows_train_sb3_ppo_through_make_vec_env_and_report_entropie
     rows = learner_rows("Cruise-Target-v3", 64, episodes=2, episode_steps=20,
                         ppo_overrides={"n_steps": 32, "batch_size": 32, "n_epochs": 1})  # fmt: skip
     by = {r["policy"]: r for r in rows["rows"]}
-    assert set(by) == {"untrained network", "uniform random", "SB3 PPO (defaults, make_vec_env)"}
+    learners = {"untrained network", "uniform random", "SB3 PPO (defaults, make_vec_env)"}
+    published = {"blind zero (cycle:0-1-2,dwell=1)", "best reference (greedy:success=observed)"}
+    assert set(by) == learners | published
+    # Each learner row is paired with the published zero and the best reference on the same seeds.
+    for name in learners:
+        for other, key in zip(sorted(published), ("minus_best_reference", "minus_zero")):
+            d = by[name][key]
+            assert d["mean"] == pytest.approx(by[name]["J"]["mean"] - by[other]["J"]["mean"])
+            assert d["lo"] <= d["mean"] <= d["hi"]
     assert by["uniform random"]["entropy_nats"] == pytest.approx(np.log(3))
     # SB3's initial policy is near uniform (its last layer's gain is 0.01).
     assert by["untrained network"]["entropy_nats"] == pytest.approx(np.log(3), abs=0.01)
