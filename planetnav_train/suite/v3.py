@@ -705,7 +705,8 @@ def _paired_with_published(rows: dict[str, Any], cfg: EnvConfig, task: str, seed
         best = None
     if best is not None:
         others["best_reference"] = policy_objective(cfg, best, seeds.start, len(seeds))
-        rows["rows"].append({"policy": f"best reference ({best})", "J": mean_interval(others["best_reference"])})
+        j_best = others["best_reference"]
+        rows["rows"].append({"policy": f"best reference ({best})", "J": mean_interval(j_best)})
     for r in rows["rows"]:
         j = per_seed.get(r["policy"])
         if j is not None:

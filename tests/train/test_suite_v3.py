@@ -126,7 +126,7 @@ def test_the_learner_rows_train_sb3_ppo_through_make_vec_env_and_report_entropie
     assert set(by) == learners | published
     # Each learner row is paired with the published zero and the best reference on the same seeds.
     for name in learners:
-        for other, key in zip(sorted(published), ("minus_best_reference", "minus_zero")):
+        for other, key in zip(sorted(published), ("minus_best_reference", "minus_zero"), strict=True):
             d = by[name][key]
             assert d["mean"] == pytest.approx(by[name]["J"]["mean"] - by[other]["J"]["mean"])
             assert d["lo"] <= d["mean"] <= d["hi"]
