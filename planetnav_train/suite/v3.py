@@ -645,7 +645,8 @@ def record_ids(path: Path = ID_OPTIONS) -> None:
 #
 # - **PPO**: Stable-Baselines3's ``PPO("MlpPolicy", env)`` with every default, ``env =
 #   make_vec_env("planetnav/<id>")`` (SB3's own helper, its default of one env), trained for ``budget``
-#   decisions (SB3 timesteps) from ``seed``. Nothing is tuned per task.
+#   decisions (SB3 timesteps) from ``seed``. Nothing is tuned per task. DQN (discrete tasks) and SAC (the
+#   torque task) the same way, with ``--algo`` (:data:`LEARNERS`).
 # - **untrained**: the same network before training (SB3's initialization from the same seed).
 # - **uniform**: uniform random actions in the task's interface.
 #
@@ -653,14 +654,27 @@ def record_ids(path: Path = ID_OPTIONS) -> None:
 # streams) by :func:`roll_out`; its entropy [nats] is the mean of
 # the action distribution's entropy over the observations it meets there (uniform: ``log A``; for a torque
 # task the Gaussian's differential entropy, SB3's own ``entropy()``). With a published normalization the
-# row has its blind-zero score and interval (:func:`run_score`).
+# row has its blind-zero score and interval (:func:`run_score`). Beside them, on the same seeds, the
+# published blind zero and the best reference, and each row's paired difference from both.
 
 
-def _policy_fn(model: Any, entropies: list[float]):
-    """(decision, observations) -> sampled actions of an SB3 model, recording each batch's mean entropy."""
+#: The learners a row can train: SB3 class name, and how the row acts. PPO's stochastic policy is scored
+#: with sampled actions (its argmax can collapse to one action); DQN's and SAC's with their deterministic
+#: actions (DQN's greedy action, SAC's mean), the policies those algorithms are meant to be evaluated with.
+LEARNERS: dict[str, tuple[str, str]] = {"ppo": ("PPO", "sampled"), "dqn": ("DQN", "deterministic"),
+                                        "sac": ("SAC", "deterministic")}  # fmt: skip
+
+
+def _policy_fn(model: Any, entropies: list[float], deterministic: bool = False):
+    """(decision, observations) -> actions of an SB3 model: sampled, recording each batch's mean entropy;
+    or ``deterministic`` (entropy 0 recorded: the policy scored is deterministic)."""
     import torch
 
     def act(d: int, obs: np.ndarray) -> np.ndarray:
+        if deterministic:
+            entropies.append(0.0)
+            a, _ = model.predict(obs, deterministic=True)
+            return np.asarray(a)
         with torch.no_grad():
             t, _ = model.policy.obs_to_tensor(obs)
             dist = model.policy.get_distribution(t)
@@ -722,14 +736,21 @@ def learner_rows(
     episode_steps: int | None = None,
     ppo_overrides: dict[str, Any] | None = None,
     target_actions: str | None = None,
+    algo: str = "ppo",
 ) -> dict[str, Any]:
     """PPO (SB3 defaults via ``make_vec_env``), the untrained network and uniform random on v3 ``task``
     (``Cruise-Target-v3``): J on ``episodes`` evaluation seeds, entropy, score. ``episode_steps`` shortens
     the episodes and ``ppo_overrides`` changes PPO's arguments: smoke runs only (the command passes
     neither, and a row made with them is not the task's). ``target_actions``: ``relative`` to measure
-    relative target actions against the task's absolute ones (same seeds, same budget)."""
-    from stable_baselines3 import PPO
+    relative target actions against the task's absolute ones (same seeds, same budget). ``algo``: a key of
+    :data:`LEARNERS` (``dqn`` on a discrete task, ``sac`` on the torque task), SB3's defaults as for PPO;
+    ``ppo_overrides`` then applies to it."""
+    import stable_baselines3
     from stable_baselines3.common.env_util import make_vec_env
+
+    if algo not in LEARNERS:
+        raise ConfigError(f"algo {algo!r}: one of {sorted(LEARNERS)}")
+    cls_name, acting = LEARNERS[algo]
 
     env_id = f"planetnav/{task}"
     over: dict[str, Any] = {"episode_steps": episode_steps} if episode_steps else {}
@@ -737,13 +758,19 @@ def learner_rows(
         over["target_actions"] = target_actions
     cfg: EnvConfig = eval_config(env_id, **over)
     seeds = range(EVAL_SEED, EVAL_SEED + episodes)
+    discrete = cfg.action_mode != "torque"
+    if (algo == "dqn" and not discrete) or (algo == "sac" and discrete):
+        raise ConfigError(f"algo {algo!r} does not fit {task}'s {'discrete' if discrete else 'Box'} actions")
     venv = make_vec_env(env_id, seed=seed, env_kwargs=over)
-    model = PPO("MlpPolicy", venv, seed=seed, verbose=0, **(ppo_overrides or {}))
-    rows: dict[str, Any] = {"task": task, "target_actions": cfg.target_actions, "budget_decisions": budget,
-                            "seed": seed, "episodes": episodes, "episode_steps": cfg.episode_steps,
+    cls = getattr(stable_baselines3, cls_name)
+    model = cls("MlpPolicy", venv, seed=seed, verbose=0, **(ppo_overrides or {}))
+    det = acting == "deterministic"
+    rows: dict[str, Any] = {"task": task, "algo": algo, "acting": acting,
+                            "target_actions": cfg.target_actions, "budget_decisions": budget, "seed": seed,
+                            "episodes": episodes, "episode_steps": cfg.episode_steps,
                             "rows": []}  # fmt: skip
     ent: list[float] = []
-    j = roll_out(cfg, _policy_fn(model, ent), seeds).objective
+    j = roll_out(cfg, _policy_fn(model, ent, det), seeds).objective
     rows["rows"].append(_row("untrained network", j, float(np.mean(ent)), task, {}))
     if cfg.action_mode == "torque":
         uniform = BlindTorques("uniform", np.zeros((cfg.episode_decisions, 3)), 1.0)
@@ -758,8 +785,8 @@ def learner_rows(
     model.learn(total_timesteps=budget)
     train_s = time.time() - t0
     ent = []
-    j = roll_out(cfg, _policy_fn(model, ent), seeds).objective
-    rows["rows"].append(_row("SB3 PPO (defaults, make_vec_env)", j, float(np.mean(ent)), task,
+    j = roll_out(cfg, _policy_fn(model, ent, det), seeds).objective
+    rows["rows"].append(_row(f"SB3 {cls_name} (defaults, make_vec_env)", j, float(np.mean(ent)), task,
                              {"train_seconds": train_s}))  # fmt: skip
     venv.close()
     _paired_with_published(rows, cfg, task, seeds)
@@ -806,6 +833,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         choices=("absolute", "relative"),
         help="override the task's absolute target actions (the relative-action measurement)",
     )
+    lr.add_argument("--algo", default="ppo", choices=sorted(LEARNERS), help="the SB3 learner (its defaults)")
     for q in (r, s, n):
         q.add_argument("--tasks", nargs="*", default=None)
         q.add_argument("--out", default=None, help="the file to write (default: the published one)")
@@ -822,6 +850,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             args.episodes,
             args.episode_steps,
             target_actions=args.target_actions,
+            algo=args.algo,
         )
         print(json.dumps(rows, indent=1))
         if args.out:

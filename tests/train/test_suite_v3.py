@@ -134,3 +134,18 @@ def test_the_learner_rows_train_sb3_ppo_through_make_vec_env_and_report_entropie
     # SB3's initial policy is near uniform (its last layer's gain is 0.01).
     assert by["untrained network"]["entropy_nats"] == pytest.approx(np.log(3), abs=0.01)
     assert all(np.isfinite(r["J"]["mean"]) for r in rows["rows"])
+
+
+def test_the_learner_rows_train_dqn_on_a_discrete_task_and_refuse_a_misfit() -> None:
+    from planetnav_train.suite.v3 import learner_rows
+
+    rows = learner_rows("Cruise-Target-v3", 64, episodes=2, episode_steps=20, algo="dqn",
+                        ppo_overrides={"learning_starts": 16, "buffer_size": 1000})  # fmt: skip
+    by = {r["policy"]: r for r in rows["rows"]}
+    assert rows["acting"] == "deterministic"
+    assert by["SB3 DQN (defaults, make_vec_env)"]["entropy_nats"] == 0.0
+    assert np.isfinite(by["SB3 DQN (defaults, make_vec_env)"]["minus_zero"]["mean"])
+    with pytest.raises(ConfigError, match="'sac' does not fit Cruise-Target-v3's discrete"):
+        learner_rows("Cruise-Target-v3", 64, episodes=2, episode_steps=20, algo="sac")
+    with pytest.raises(ConfigError, match="algo 'a2c'"):
+        learner_rows("Cruise-Target-v3", 64, algo="a2c")
