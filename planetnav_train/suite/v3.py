@@ -794,6 +794,45 @@ def learner_rows(
     return rows
 
 
+SINGLE_FILE_PPO = ROOT / "baselines" / "ppo_single_file.py"
+
+
+def agent_rows(task: str, agent_path: str | Path, episodes: int = 100, seed: int = 0) -> dict[str, Any]:
+    """The single-file PPO's saved agent (``baselines/ppo_single_file.py --save-model``) on v3 ``task``:
+    sampled actions (one torch generator seeded ``seed``) on the evaluation seeds, its entropy, score, and
+    its paired difference from the published zero and best reference, as :func:`learner_rows` reports."""
+    import importlib.util
+
+    import torch
+    from torch.distributions import Categorical
+
+    spec = importlib.util.spec_from_file_location("ppo_single_file", SINGLE_FILE_PPO)
+    script = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(script)
+    agent = script.load_agent(agent_path)
+    cfg = eval_config(f"planetnav/{task}")
+    n_a = agent.actor[-1].out_features
+    if cfg.action_mode == "torque" or n_a != cfg.n_target_actions:
+        raise ConfigError(f"{agent_path}: an agent of {n_a} discrete actions does not fit {task}")
+    gen = torch.Generator().manual_seed(seed)
+    ent: list[float] = []
+
+    def act(d: int, obs: np.ndarray) -> np.ndarray:
+        with torch.no_grad():
+            dist = Categorical(logits=agent.actor(torch.as_tensor(obs, dtype=torch.float32)))
+            ent.append(float(dist.entropy().mean()))
+            return torch.multinomial(dist.probs, 1, True, generator=gen)[:, 0].numpy()
+
+    seeds = range(EVAL_SEED, EVAL_SEED + episodes)
+    j = roll_out(cfg, act, seeds).objective
+    row = _row("single-file PPO", j, float(np.mean(ent)), task, {})
+    rows: dict[str, Any] = {"task": task, "algo": "ppo_single_file", "acting": "sampled",
+                            "agent": str(agent_path), "episodes": episodes, "rows": [row]}  # fmt: skip
+    _paired_with_published(rows, cfg, task, seeds)
+    rows["provenance"] = provenance()
+    return rows
+
+
 def _tasks(arg: Sequence[str] | None) -> list[str]:
     names = list(arg) if arg else list(V3_TASKS)
     bad = [t for t in names if t not in V3_TASKS]
@@ -834,6 +873,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         help="override the task's absolute target actions (the relative-action measurement)",
     )
     lr.add_argument("--algo", default="ppo", choices=sorted(LEARNERS), help="the SB3 learner (its defaults)")
+    ag = sub.add_parser(
+        "agent-rows", help="score a saved single-file PPO agent (baselines/ppo_single_file.py)"
+    )
+    ag.add_argument("--task", required=True)
+    ag.add_argument("--agent", required=True, help="the state_dict that --save-model wrote")
+    ag.add_argument("--episodes", type=int, default=100, help="evaluation seeds from EVAL_SEED")
+    ag.add_argument("--out", default=None, help="write the rows as JSON here")
     for q in (r, s, n):
         q.add_argument("--tasks", nargs="*", default=None)
         q.add_argument("--out", default=None, help="the file to write (default: the published one)")
@@ -841,6 +887,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = p.parse_args(argv)
     if args.cmd == "record-ids":
         record_ids()
+        return 0
+    if args.cmd == "agent-rows":
+        rows = agent_rows(args.task, args.agent, args.episodes)
+        print(json.dumps(rows, indent=1))
+        if args.out:
+            write_json(Path(args.out), rows)
         return 0
     if args.cmd == "learners":
         rows = learner_rows(

@@ -149,3 +149,27 @@ def test_the_learner_rows_train_dqn_on_a_discrete_task_and_refuse_a_misfit() -> 
         learner_rows("Cruise-Target-v3", 64, episodes=2, episode_steps=20, algo="sac")
     with pytest.raises(ConfigError, match="algo 'a2c'"):
         learner_rows("Cruise-Target-v3", 64, algo="a2c")
+
+
+def test_a_saved_single_file_ppo_agent_is_scored_on_the_v3_seeds_beside_the_published_rows(tmp_path) -> None:
+    import importlib.util
+
+    import torch
+
+    spec = importlib.util.spec_from_file_location("ppo_single_file", v3.SINGLE_FILE_PPO)
+    script = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(script)
+    obs_dim = PlanetNavVectorEnv(
+        1, v3.eval_config("planetnav/Cruise-Target-v3")
+    ).single_observation_space.shape[0]
+    torch.manual_seed(0)
+    torch.save(script.Agent(obs_dim, 3).state_dict(), tmp_path / "agent.pt")
+    rows = v3.agent_rows("Cruise-Target-v3", tmp_path / "agent.pt", episodes=2)
+    agent, zero = rows["rows"][0], rows["rows"][1]
+    assert agent["policy"] == "single-file PPO" and zero["policy"].startswith("blind zero")
+    # An untrained agent's last layer has gain 0.01: near uniform.
+    assert agent["entropy_nats"] == pytest.approx(np.log(3), abs=0.01)
+    assert agent["minus_zero"]["mean"] == pytest.approx(agent["J"]["mean"] - zero["J"]["mean"])
+    torch.save(script.Agent(obs_dim, 4).state_dict(), tmp_path / "four.pt")
+    with pytest.raises(ConfigError, match="4 discrete actions does not fit Cruise-Target-v3"):
+        v3.agent_rows("Cruise-Target-v3", tmp_path / "four.pt", episodes=2)
