@@ -704,15 +704,18 @@ def _row(name: str, j: np.ndarray, entropy: float, task: str, extra: dict[str, A
 def _paired_with_published(rows: dict[str, Any], cfg: EnvConfig, task: str, seeds: range) -> None:
     """Add the published zero (the search's winner) and, where the task is normalized, its best
     reference as rows on the same seeds, and each learner row's paired difference from them [km]
-    (``minus_zero``, ``minus_best_reference``: negative is better). Where the blind-zero score is
+    (``minus_zero``, ``minus_best_reference``: negative is better); ``per_seed`` keeps each row's J per
+    evaluation seed (runs pooled over training seeds pair on them). Where the blind-zero score is
     undefined (the references lose to the zero), these are the rows' comparisons."""
     per_seed = {r["policy"]: r.pop("_j") for r in rows["rows"]}
+    rows["per_seed"] = {name: np.round(j, 4).tolist() for name, j in per_seed.items()}
     blind = read_json(BLIND_FILE)["tasks"].get(task)
     others: dict[str, np.ndarray] = {}
     if blind is not None:
         zero = policy_from_record(blind["winner"], blind["policies"][blind["winner"]])
         others["zero"] = roll_out(cfg, zero, seeds).objective
         rows["rows"].append({"policy": f"blind zero ({blind['winner']})", "J": mean_interval(others["zero"])})
+        rows["per_seed"]["zero"] = np.round(others["zero"], 4).tolist()
     try:
         best = normalization(task)["best_reference"]
     except Exception:  # not normalized yet: no reference row

@@ -125,6 +125,10 @@ def test_the_learner_rows_train_sb3_ppo_through_make_vec_env_and_report_entropie
     published = {"blind zero (cycle:0-1-2,dwell=1)", "best reference (greedy:success=observed)"}
     assert set(by) == learners | published
     # Each learner row is paired with the published zero and the best reference on the same seeds.
+    assert set(rows["per_seed"]) == learners | {"zero"}
+    assert np.mean(rows["per_seed"]["uniform random"]) == pytest.approx(
+        by["uniform random"]["J"]["mean"], abs=1e-3
+    )
     for name in learners:
         for other, key in zip(sorted(published), ("minus_best_reference", "minus_zero"), strict=True):
             d = by[name][key]
