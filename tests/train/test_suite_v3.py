@@ -177,3 +177,17 @@ def test_a_saved_single_file_ppo_agent_is_scored_on_the_v3_seeds_beside_the_publ
     torch.save(script.Agent(obs_dim, 4).state_dict(), tmp_path / "four.pt")
     with pytest.raises(ConfigError, match="4 discrete actions does not fit Cruise-Target-v3"):
         v3.agent_rows("Cruise-Target-v3", tmp_path / "four.pt", episodes=2)
+
+
+def test_the_published_rows_act_in_the_tasks_own_interface_when_the_learner_takes_relative_actions() -> None:
+    from planetnav_train.suite.v3 import learner_rows
+
+    small = {
+        "episodes": 2,
+        "episode_steps": 200,
+        "ppo_overrides": {"n_steps": 32, "batch_size": 32, "n_epochs": 1},
+    }
+    absolute = learner_rows("Cruise-Target-v3", 32, **small)
+    relative = learner_rows("Cruise-Target-v3", 32, target_actions="relative", **small)
+    assert relative["target_actions"] == "relative"
+    assert relative["per_seed"]["zero"] == absolute["per_seed"]["zero"]
