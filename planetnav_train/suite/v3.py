@@ -688,7 +688,7 @@ def _policy_fn(model: Any, entropies: list[float], deterministic: bool = False):
 
 
 def _row(name: str, j: np.ndarray, entropy: float, task: str, extra: dict[str, Any]) -> dict[str, Any]:
-    row = {"policy": name, "J": mean_interval(j), "entropy_nats": entropy, "_j": np.asarray(j), **extra}
+    row = {"policy": name, "J": mean_interval(j), "entropy_nats": entropy, **extra}
     try:
         norm = normalization(task)
     except Exception:  # no published constants yet: the row carries J only
@@ -701,13 +701,14 @@ def _row(name: str, j: np.ndarray, entropy: float, task: str, extra: dict[str, A
     return row
 
 
-def _paired_with_published(rows: dict[str, Any], cfg: EnvConfig, task: str, seeds: range) -> None:
+def _paired_with_published(
+    rows: dict[str, Any], per_seed: dict[str, np.ndarray], cfg: EnvConfig, task: str, seeds: range
+) -> None:
     """Add the published zero (the search's winner) and, where the task is normalized, its best
     reference as rows on the same seeds, and each learner row's paired difference from them [km]
     (``minus_zero``, ``minus_best_reference``: negative is better); ``per_seed`` keeps each row's J per
     evaluation seed (runs pooled over training seeds pair on them). Where the blind-zero score is
     undefined (the references lose to the zero), these are the rows' comparisons."""
-    per_seed = {r["policy"]: r.pop("_j") for r in rows["rows"]}
     rows["per_seed"] = {name: np.round(j, 4).tolist() for name, j in per_seed.items()}
     blind = read_json(BLIND_FILE)["tasks"].get(task)
     others: dict[str, np.ndarray] = {}
@@ -773,7 +774,7 @@ def learner_rows(
                             "episodes": episodes, "episode_steps": cfg.episode_steps,
                             "rows": []}  # fmt: skip
     ent: list[float] = []
-    j = roll_out(cfg, _policy_fn(model, ent, det), seeds).objective
+    per_seed = {"untrained network": (j := roll_out(cfg, _policy_fn(model, ent, det), seeds).objective)}
     rows["rows"].append(_row("untrained network", j, float(np.mean(ent)), task, {}))
     if cfg.action_mode == "torque":
         uniform = BlindTorques("uniform", np.zeros((cfg.episode_decisions, 3)), 1.0)
@@ -782,20 +783,20 @@ def learner_rows(
         n_a = cfg.n_target_actions
         uniform = BlindTargets("uniform", np.full((cfg.episode_decisions, n_a), 1.0 / n_a))
         h_uniform = math.log(n_a)
-    j = roll_out(cfg, uniform, seeds).objective
+    per_seed["uniform random"] = j = roll_out(cfg, uniform, seeds).objective
     rows["rows"].append(_row("uniform random", j, h_uniform, task, {}))
     t0 = time.time()
     model.learn(total_timesteps=budget)
     train_s = time.time() - t0
     ent = []
-    j = roll_out(cfg, _policy_fn(model, ent, det), seeds).objective
-    rows["rows"].append(_row(f"SB3 {cls_name} (defaults, make_vec_env)", j, float(np.mean(ent)), task,
-                             {"train_seconds": train_s}))  # fmt: skip
+    name = f"SB3 {cls_name} (defaults, make_vec_env)"
+    per_seed[name] = j = roll_out(cfg, _policy_fn(model, ent, det), seeds).objective
+    rows["rows"].append(_row(name, j, float(np.mean(ent)), task, {"train_seconds": train_s}))
     venv.close()
     # The published policies act in the task's own interface: a blind cycle's action indices would mean
     # other targets under relative actions.
     published_cfg = eval_config(env_id, **{k: v for k, v in over.items() if k != "target_actions"})
-    _paired_with_published(rows, published_cfg, task, seeds)
+    _paired_with_published(rows, per_seed, published_cfg, task, seeds)
     rows["provenance"] = provenance()
     return rows
 
@@ -803,19 +804,24 @@ def learner_rows(
 SINGLE_FILE_PPO = ROOT / "baselines" / "ppo_single_file.py"
 
 
-def agent_rows(task: str, agent_path: str | Path, episodes: int = 100, seed: int = 0) -> dict[str, Any]:
-    """The single-file PPO's saved agent (``baselines/ppo_single_file.py --save-model``) on v3 ``task``:
-    sampled actions (one torch generator seeded ``seed``) on the evaluation seeds, its entropy, score, and
-    its paired difference from the published zero and best reference, as :func:`learner_rows` reports."""
+def single_file_ppo() -> Any:
+    """``baselines/ppo_single_file.py`` as a module (a script, not a package: loaded from its path)."""
     import importlib.util
-
-    import torch
-    from torch.distributions import Categorical
 
     spec = importlib.util.spec_from_file_location("ppo_single_file", SINGLE_FILE_PPO)
     script = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(script)
-    agent = script.load_agent(agent_path)
+    return script
+
+
+def agent_rows(task: str, agent_path: str | Path, episodes: int = 100, seed: int = 0) -> dict[str, Any]:
+    """The single-file PPO's saved agent (``baselines/ppo_single_file.py --save-model``) on v3 ``task``:
+    sampled actions (one torch generator seeded ``seed``) on the evaluation seeds, its entropy, score, and
+    its paired difference from the published zero and best reference, as :func:`learner_rows` reports."""
+    import torch
+    from torch.distributions import Categorical
+
+    agent = single_file_ppo().load_agent(agent_path)
     cfg = eval_config(f"planetnav/{task}")
     n_a = agent.actor[-1].out_features
     if cfg.action_mode == "torque" or n_a != cfg.n_target_actions:
@@ -834,7 +840,7 @@ def agent_rows(task: str, agent_path: str | Path, episodes: int = 100, seed: int
     row = _row("single-file PPO", j, float(np.mean(ent)), task, {})
     rows: dict[str, Any] = {"task": task, "algo": "ppo_single_file", "acting": "sampled",
                             "agent": str(agent_path), "episodes": episodes, "rows": [row]}  # fmt: skip
-    _paired_with_published(rows, cfg, task, seeds)
+    _paired_with_published(rows, {"single-file PPO": j}, cfg, task, seeds)
     rows["provenance"] = provenance()
     return rows
 

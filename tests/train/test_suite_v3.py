@@ -156,13 +156,9 @@ def test_the_learner_rows_train_dqn_on_a_discrete_task_and_refuse_a_misfit() -> 
 
 
 def test_a_saved_single_file_ppo_agent_is_scored_on_the_v3_seeds_beside_the_published_rows(tmp_path) -> None:
-    import importlib.util
-
     import torch
 
-    spec = importlib.util.spec_from_file_location("ppo_single_file", v3.SINGLE_FILE_PPO)
-    script = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(script)
+    script = v3.single_file_ppo()
     obs_dim = PlanetNavVectorEnv(
         1, v3.eval_config("planetnav/Cruise-Target-v3")
     ).single_observation_space.shape[0]
