@@ -251,10 +251,13 @@ def torque_candidates(cfg: EnvConfig) -> list[BlindTorques]:
 @dataclass
 class Rollout:
     """Per-episode objective J [km] and, when asked, each physics step's error term e_k [km] ((N, K);
-    the reward's e: the true error, or on the thrust arc the objective's increment)."""
+    the reward's e: the true error, or on the thrust arc the objective's increment) and each row's state
+    at its episode's end (``final``: the core's ``f`` rows, columns ``planetnav_env.core.layout.F_*``:
+    fix counts, dumps, saturation, ...)."""
 
     objective: np.ndarray
     terms: np.ndarray | None = None
+    final: np.ndarray | None = None
 
 
 class _Recorder:
@@ -287,13 +290,14 @@ def roll_out(
     seeds: Sequence[int],
     terms: bool = False,
     batch: int = 256,
+    final: bool = False,
 ) -> Rollout:
     """Episodes of ``policy`` on ``seeds`` (one vector-env row per seed, ``batch`` rows at a time) in
     ``cfg``'s decision interface. A callable policy gets ``(decision, observations)`` and returns actions.
     Each row's action draws come from its own generator seeded ``(seed, 3)`` (apart from the env's)."""
     from planetnav_env.envs.vector_env import PlanetNavVectorEnv
 
-    js, ts = [], []
+    js, ts, fs = [], [], []
     k_max = cfg.episode_steps
     for start in range(0, len(seeds), batch):
         chunk = list(seeds[start : start + batch])
@@ -324,8 +328,12 @@ def roll_out(
             js.append(rec.err_sum / np.maximum(rec.steps, 1))
         if rec.e is not None:
             ts.append(rec.e)
+        if final:
+            fs.append(env.core.f.copy())
         env.close()
-    return Rollout(np.concatenate(js), np.concatenate(ts) if terms else None)
+    return Rollout(
+        np.concatenate(js), np.concatenate(ts) if terms else None, np.concatenate(fs) if final else None
+    )
 
 
 def policy_objective(cfg: EnvConfig, policy: Any, seed: int, episodes: int) -> np.ndarray:
@@ -578,22 +586,42 @@ def policy_from_record(name: str, rec: dict[str, Any]) -> BlindTargets | BlindTo
     return BlindTargets(name, probs / probs.sum(axis=1, keepdims=True), int(rec["hold"]))
 
 
+def zero_check(env_id: str, episodes: int, blind: dict[str, Any], log=print) -> dict[str, Any]:
+    """The search's winner of v3 task ``env_id`` on ``episodes`` unseen evaluation seeds from
+    :data:`EVAL_SEED` (J_zero with its interval), and every other finalist against it, paired: the zero
+    holds where the interval of finalist minus zero reaches 0 or above. Blind roll-outs only (no
+    reference), so it runs where the references' cost keeps a task from :func:`normalize`."""
+    cfg = eval_config(env_id)
+    seeds = range(EVAL_SEED, EVAL_SEED + episodes)
+    finalists = {n: policy_from_record(n, r) for n, r in blind["policies"].items()}
+    jz = roll_out(cfg, finalists[blind["winner"]], seeds).objective
+    log(f"{env_id}: zero {blind['winner']}: {jz.mean():.2f} km")
+    checks = {}
+    for name, pol in finalists.items():
+        if name == blind["winner"]:
+            continue
+        diff = paired_difference(roll_out(cfg, pol, seeds).objective, jz)
+        checks[name] = {**diff, "zero_holds": diff["hi"] >= 0.0}
+        log(f"  finalist {name}: paired minus zero {diff['mean']:+.2f} "
+            f"[{diff['lo']:+.2f}, {diff['hi']:+.2f}]")  # fmt: skip
+    return {"jz": jz, "J_zero": mean_interval(jz), "zero": blind["winner"], "finalists_vs_zero": checks,
+            "eval_seed": EVAL_SEED, "eval_episodes": episodes, "world": _world(cfg)}  # fmt: skip
+
+
 def normalize(env_id: str, episodes: int, blind: dict[str, Any], log=print) -> dict[str, Any]:
     """J_zero (the search's winner) and J_best (the best non-privileged reference) of v3 task ``env_id`` on
     ``episodes`` evaluation seeds from :data:`EVAL_SEED`, with their intervals; the closed-loop gap with its
     paired interval and the headline flag; and every finalist against the winner, paired (the check that
-    no searched candidate beats the published zero on unseen seeds)."""
+    no searched candidate beats the published zero on unseen seeds, :func:`zero_check`)."""
     from planetnav_train.suite.blind import paired_ratio_ci
 
     cfg = eval_config(env_id)
-    seeds = (EVAL_SEED, episodes)
-    finalists = {n: policy_from_record(n, r) for n, r in blind["policies"].items()}
-    jz = roll_out(cfg, finalists[blind["winner"]], range(EVAL_SEED, EVAL_SEED + episodes)).objective
-    log(f"{env_id}: zero {blind['winner']}: {jz.mean():.2f} km")
+    zero = zero_check(env_id, episodes, blind, log)
+    jz = zero.pop("jz")
     refs = {}
     for spec in V3_TASKS[env_id.split("/", 1)[-1]]:
         try:
-            refs[spec] = policy_objective(cfg, spec, *seeds)
+            refs[spec] = policy_objective(cfg, spec, EVAL_SEED, episodes)
         except Exception as exc:  # a reference that cannot act here is reported, not fatal
             log(f"  reference {spec}: not evaluated ({type(exc).__name__}: {exc})")
             continue
@@ -601,22 +629,13 @@ def normalize(env_id: str, episodes: int, blind: dict[str, Any], log=print) -> d
     best = min(refs, key=lambda s: refs[s].mean())
     jb = refs[best]
     gap = paired_ratio_ci(jz, jb)
-    checks = {}
-    for name, pol in finalists.items():
-        if name == blind["winner"]:
-            continue
-        jc = roll_out(cfg, pol, range(EVAL_SEED, EVAL_SEED + episodes)).objective
-        diff = paired_difference(jc, jz)
-        checks[name] = {**diff, "zero_holds": diff["hi"] >= 0.0}
-        log(f"  finalist {name}: {jc.mean():.2f} km, paired minus zero {diff['mean']:+.2f} "
-            f"[{diff['lo']:+.2f}, {diff['hi']:+.2f}]")  # fmt: skip
     return {
-        "J_zero": mean_interval(jz), "zero": blind["winner"], "J_best": mean_interval(jb),
-        "best_reference": best,
+        "J_zero": zero["J_zero"], "zero": zero["zero"], "J_best": mean_interval(jb), "best_reference": best,
         "references": {s: mean_interval(v) for s, v in refs.items()},
         "closed_loop_gap": gap,
         "headline": bool(gap["gap"] >= HEADLINE_GAP and gap["gap_lo"] >= HEADLINE_GAP_LO),
-        "finalists_vs_zero": checks, "eval_seed": EVAL_SEED, "eval_episodes": episodes, "world": _world(cfg),
+        "finalists_vs_zero": zero["finalists_vs_zero"], "eval_seed": EVAL_SEED, "eval_episodes": episodes,
+        "world": zero["world"],
         "per_seed": {"zero": np.round(jz, 4).tolist(), "best": np.round(jb, 4).tolist()},
     }  # fmt: skip
 
@@ -741,6 +760,7 @@ def learner_rows(
     ppo_overrides: dict[str, Any] | None = None,
     target_actions: str | None = None,
     algo: str = "ppo",
+    save_model: str | Path | None = None,
 ) -> dict[str, Any]:
     """PPO (SB3 defaults via ``make_vec_env``), the untrained network and uniform random on v3 ``task``
     (``Cruise-Target-v3``): J on ``episodes`` evaluation seeds, entropy, score. ``episode_steps`` shortens
@@ -748,7 +768,8 @@ def learner_rows(
     neither, and a row made with them is not the task's). ``target_actions``: ``relative`` to measure
     relative target actions against the task's absolute ones (same seeds, same budget). ``algo``: a key of
     :data:`LEARNERS` (``dqn`` on a discrete task, ``sac`` on the torque task), SB3's defaults as for PPO;
-    ``ppo_overrides`` then applies to it."""
+    ``ppo_overrides`` then applies to it. ``save_model``: where to save the trained model (SB3's zip), to
+    study its behaviour afterwards."""
     import stable_baselines3
     from stable_baselines3.common.env_util import make_vec_env
 
@@ -793,6 +814,9 @@ def learner_rows(
     per_seed[name] = j = roll_out(cfg, _policy_fn(model, ent, det), seeds).objective
     rows["rows"].append(_row(name, j, float(np.mean(ent)), task, {"train_seconds": train_s}))
     venv.close()
+    if save_model is not None:
+        model.save(save_model)
+        rows["model"] = str(save_model)
     # The published policies act in the task's own interface: a blind cycle's action indices would mean
     # other targets under relative actions.
     published_cfg = eval_config(env_id, **{k: v for k, v in over.items() if k != "target_actions"})
@@ -869,6 +893,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     s.add_argument("--cem-iterations", type=int, default=4)
     n = sub.add_parser("normalize", help="J_zero and J_best (docs/tasks_v3_normalization.json)")
     n.add_argument("--episodes", type=int, default=EVAL_EPISODES)
+    z = sub.add_parser(
+        "zero-check", help="the search's winner and finalists on unseen seeds (blind roll-outs, no reference)"
+    )
+    z.add_argument("--episodes", type=int, default=EVAL_EPISODES)
     lr = sub.add_parser(
         "learners", help="SB3 PPO (defaults, make_vec_env), an untrained network, uniform random"
     )
@@ -885,6 +913,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         help="override the task's absolute target actions (the relative-action measurement)",
     )
     lr.add_argument("--algo", default="ppo", choices=sorted(LEARNERS), help="the SB3 learner (its defaults)")
+    lr.add_argument("--save-model", default=None, help="save the trained model here (SB3's zip)")
     ag = sub.add_parser(
         "agent-rows", help="score a saved single-file PPO agent (baselines/ppo_single_file.py)"
     )
@@ -895,6 +924,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     for q in (r, s, n):
         q.add_argument("--tasks", nargs="*", default=None)
         q.add_argument("--out", default=None, help="the file to write (default: the published one)")
+    z.add_argument("--tasks", nargs="*", default=None)
+    z.add_argument("--out", default=None, help="write the checks as JSON here")
     sub.add_parser("record-ids", help="the v3 ids' entries of tests/golden/id_options.json (after `reward`)")
     args = p.parse_args(argv)
     if args.cmd == "record-ids":
@@ -915,10 +946,28 @@ def main(argv: Sequence[str] | None = None) -> int:
             args.episode_steps,
             target_actions=args.target_actions,
             algo=args.algo,
+            save_model=args.save_model,
         )
         print(json.dumps(rows, indent=1))
         if args.out:
             write_json(Path(args.out), rows)
+        return 0
+    if args.cmd == "zero-check":
+        blinds = read_json(BLIND_FILE)["tasks"]
+        out: dict[str, Any] = {"suite_version": SUITE_VERSION, "tasks": {}}
+        for task in _tasks(args.tasks):
+            if task not in blinds:
+                raise ConfigError(f"{task}: no blind search in {BLIND_FILE}; run the search first")
+            rec = zero_check(f"planetnav/{task}", args.episodes, blinds[task])
+            rec["per_seed_zero"] = np.round(rec.pop("jz"), 4).tolist()
+            out["tasks"][task] = rec
+            held = all(c["zero_holds"] for c in rec["finalists_vs_zero"].values())
+            jz = rec["J_zero"]
+            print(f"{task}: J_zero {jz['mean']:.2f} [{jz['lo']:.2f}, {jz['hi']:.2f}] ({rec['zero']}); "
+                  f"no finalist beats it: {held}")  # fmt: skip
+        out["provenance"] = provenance()
+        if args.out:
+            write_json(Path(args.out), out)
         return 0
     if args.cmd == "reward":
         from planetnav_env.tasks.constants import REWARD_FILE

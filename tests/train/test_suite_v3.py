@@ -71,6 +71,34 @@ def test_a_blind_schedule_rolled_out_scores_what_the_suite_evaluator_gives_its_r
     np.testing.assert_allclose(ours, theirs, rtol=1e-9)
 
 
+def test_a_roll_out_keeps_each_rows_final_state_its_fix_counts_those_of_its_targets():
+    from planetnav_env.core import layout as L
+
+    cfg = v3.eval_config("planetnav/Cruise-Target-v3", episode_steps=STEPS)
+    pol = v3.BlindTargets("cycle:0-1", v3._one_hot([d % 2 for d in range(cfg.episode_decisions)], 3))
+    out = v3.roll_out(cfg, pol, range(v3.SEARCH_SEED, v3.SEARCH_SEED + 3), final=True)
+    assert out.final.shape[0] == 3 and v3.roll_out(cfg, pol, [v3.SEARCH_SEED]).final is None
+    fixes = out.final[:, L.F_RES_LOG : L.F_RES_LOG + 3]
+    assert (fixes[:, 2] == 0).all()  # never pointed at
+    assert (fixes[:, :2].sum(axis=1) > 0).all() and (fixes <= cfg.episode_steps).all()
+
+
+def test_the_zero_check_pairs_every_finalist_with_the_winner_on_the_evaluation_seeds():
+    cfg = v3.eval_config("planetnav/Cruise-Target-v3")
+    d_n = cfg.episode_decisions
+    cycle = v3.BlindTargets("cycle:0-1-2,dwell=1", v3._one_hot([d % 3 for d in range(d_n)], 3))
+    stare = v3.BlindTargets("cycle:0,dwell=1", v3._one_hot([0] * d_n, 3))
+    blind = {"winner": cycle.name, "policies": {p.name: v3._policy_record(p) for p in (cycle, stare)}}
+    rec = v3.zero_check("planetnav/Cruise-Target-v3", 2, blind, log=lambda *_: None)
+    seeds = range(v3.EVAL_SEED, v3.EVAL_SEED + 2)
+    jz, js = v3.roll_out(cfg, cycle, seeds).objective, v3.roll_out(cfg, stare, seeds).objective
+    np.testing.assert_allclose(rec["jz"], jz)
+    check = rec["finalists_vs_zero"]["cycle:0,dwell=1"]
+    assert check["mean"] == pytest.approx(float(np.mean(js - jz)))
+    assert check["zero_holds"] == (check["hi"] >= 0.0)
+    assert set(rec["finalists_vs_zero"]) == {"cycle:0,dwell=1"}
+
+
 def test_the_reward_constants_centre_and_scale_the_rewards_the_env_pays():
     over = {"episode_steps": STEPS}
     rec = v3.reward_constants("planetnav/Cruise-Target-v3", 4, seed=v3.NORMALIZATION_SEED, **over)
@@ -138,6 +166,22 @@ def test_the_learner_rows_train_sb3_ppo_through_make_vec_env_and_report_entropie
     # SB3's initial policy is near uniform (its last layer's gain is 0.01).
     assert by["untrained network"]["entropy_nats"] == pytest.approx(np.log(3), abs=0.01)
     assert all(np.isfinite(r["J"]["mean"]) for r in rows["rows"])
+
+
+def test_the_learner_rows_save_the_trained_model_that_scored_the_row(tmp_path) -> None:
+    import stable_baselines3
+
+    from planetnav_train.suite.v3 import learner_rows
+
+    path = tmp_path / "dqn.zip"
+    rows = learner_rows("Cruise-Target-v3", 64, episodes=2, episode_steps=20, algo="dqn", save_model=path,
+                        ppo_overrides={"learning_starts": 16, "buffer_size": 1000})  # fmt: skip
+    assert rows["model"] == str(path)
+    model = stable_baselines3.DQN.load(path, device="cpu")
+    cfg = v3.eval_config("planetnav/Cruise-Target-v3", episode_steps=20)
+    # DQN's row acts deterministically: the saved network, rolled out again, scores the row's J per seed.
+    j = v3.roll_out(cfg, v3._policy_fn(model, [], True), range(v3.EVAL_SEED, v3.EVAL_SEED + 2)).objective
+    np.testing.assert_allclose(j, rows["per_seed"]["SB3 DQN (defaults, make_vec_env)"], atol=1e-3)
 
 
 def test_the_learner_rows_train_dqn_on_a_discrete_task_and_refuse_a_misfit() -> None:

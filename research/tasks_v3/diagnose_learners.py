@@ -1,0 +1,109 @@
+"""Diagnosis of a trained learner on a v3 task: what it does, beside the blind zero and uniform random on
+the same evaluation seeds.
+
+Train and save one first (the suite's learner run with ``--save-model``):
+
+    python -m planetnav_train.suite.v3 learners --task RandomCruise-Target-v3 --seed 0 --save-model M.zip
+    python research/tasks_v3/diagnose_learners.py --task RandomCruise-Target-v3 --model M.zip
+
+Per policy: J [km]; fixes per target per episode and their mean normalized NIS (the filter's own
+consistency per beacon); on target tasks, how often the action changes between decisions and the action
+frequencies in each third of the episode; on the torque task, the mean |torque| command, momentum dumps
+and wheel-saturation time per episode.
+"""
+
+from __future__ import annotations
+
+import argparse
+
+import numpy as np
+
+from planetnav_env.core import layout as L
+from planetnav_train.suite import v3
+
+
+class Recorder:
+    """Wraps a decision-interface policy and keeps every decision's actions ((D, N) or (D, N, 3))."""
+
+    def __init__(self, policy):
+        self.policy, self.actions = policy, []
+
+    def __call__(self, d, obs):
+        a = np.asarray(self.policy(d, obs))
+        self.actions.append(a.copy())
+        return a
+
+
+def blind_as_callable(policy, seeds):
+    gens = [np.random.default_rng([s, 3]) for s in seeds]  # the same draws as v3.roll_out's
+    last = np.zeros(len(seeds), np.int64)
+
+    def act(d, obs):
+        nonlocal last
+        if isinstance(policy, v3.BlindTargets):
+            last = policy.actions(d, np.array([g.random() for g in gens]), last)
+            return last
+        return policy.actions(d, np.stack([g.random(3) for g in gens]))
+
+    return act
+
+
+def describe(name, cfg, rec: Recorder, out: v3.Rollout) -> None:
+    f = out.final
+    t = cfg.n_targets
+    fixes = f[:, L.F_RES_LOG : L.F_RES_LOG + t]
+    nis = f[:, L.F_RES_LOG + L.MAX_TARGETS : L.F_RES_LOG + L.MAX_TARGETS + t] / np.maximum(fixes, 1)
+    names = [*cfg.planets, *cfg.pulsars]
+    print(f"{name}: J {out.objective.mean():.1f} km")
+    print(
+        "   fixes / episode: " + ", ".join(f"{n} {m:.1f}" for n, m in zip(names, fixes.mean(0), strict=True))
+    )
+    print("   mean NIS / dof:  " + ", ".join(f"{n} {m:.2f}" for n, m in zip(names, nis.mean(0), strict=True)))
+    a = np.stack(rec.actions)  # (D, N[, 3])
+    if cfg.action_mode == "torque":
+        print(
+            f"   mean |u| {np.abs(a).mean():.3f}; dumps / episode {f[:, L.F_DUMPS].mean():.2f}; "
+            f"saturated {f[:, L.F_SAT_S].mean():.0f} s / episode"
+        )
+        return
+    switch = (a[1:] != a[:-1]).mean()
+    print(f"   action changes at {switch:.1%} of decisions")
+    for k, part in enumerate(np.array_split(a, 3)):
+        freq = np.bincount(part.ravel().astype(int), minlength=cfg.n_target_actions) / part.size
+        print(f"   third {k + 1}: " + " ".join(f"{x:.2f}" for x in freq))
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--task", required=True)
+    ap.add_argument("--model", required=True, help="SB3 zip from `learners --save-model`")
+    ap.add_argument("--algo", default="ppo", choices=sorted(v3.LEARNERS))
+    ap.add_argument("--episodes", type=int, default=100)
+    args = ap.parse_args()
+    import stable_baselines3
+
+    cfg = v3.eval_config(f"planetnav/{args.task}")
+    seeds = range(v3.EVAL_SEED, v3.EVAL_SEED + args.episodes)
+    cls_name, acting = v3.LEARNERS[args.algo]
+    model = getattr(stable_baselines3, cls_name).load(args.model, device="cpu")
+    blind = v3.read_json(v3.BLIND_FILE)["tasks"][args.task]
+    zero = v3.policy_from_record(blind["winner"], blind["policies"][blind["winner"]])
+    if cfg.action_mode == "torque":
+        uniform = v3.BlindTorques("uniform", np.zeros((cfg.episode_decisions, 3)), 1.0)
+    else:
+        n_a = cfg.n_target_actions
+        uniform = v3.BlindTargets("uniform", np.full((cfg.episode_decisions, n_a), 1.0 / n_a))
+    ent: list[float] = []
+    policies = {
+        f"{cls_name} ({acting})": v3._policy_fn(model, ent, acting == "deterministic"),
+        f"{cls_name} (argmax / mean)": v3._policy_fn(model, [], True),
+        f"blind zero ({blind['winner']})": blind_as_callable(zero, seeds),
+        "uniform random": blind_as_callable(uniform, seeds),
+    }
+    for name, pol in policies.items():
+        rec = Recorder(pol)
+        describe(name, cfg, rec, v3.roll_out(cfg, rec, seeds, batch=len(seeds), final=True))
+
+
+if __name__ == "__main__":
+    main()
