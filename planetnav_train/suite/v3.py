@@ -1005,6 +1005,8 @@ def main(argv: Sequence[str] | None = None) -> int:
                   f", J_best {jb['mean']:.2f} [{jb['lo']:.2f}, {jb['hi']:.2f}] "
                   f"({rec['best_reference']}), gap {g['gap']:.1%} [{g['gap_lo']:.1%}, {g['gap_hi']:.1%}], "
                   f"headline {rec['headline']}")  # fmt: skip
+        # Each task's record carries the run that wrote it: tasks of one file come from runs apart.
+        data["tasks"][task]["provenance"] = provenance()
         data["provenance"] = provenance()
         write_json(path, data)
     return 0

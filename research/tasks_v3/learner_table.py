@@ -7,6 +7,9 @@ mean J over the runs [km], the range of the runs' J, the mean entropy [nats], an
 from the published blind zero and from the best reference on the same 100 evaluation seeds: the mean
 over runs with a 95 % interval over the training seeds (Student t on the runs' paired means; the
 evaluation seeds are the same in every run, so their own spread is each run's interval in the JSON).
+Where the task's published blind-zero score is defined, each row's score (J_zero - J) / (J_zero - J_best)
+follows: with the runs' per-seed J, ``v3.run_score``'s bootstrap over training and evaluation seeds;
+for rows written before they carried it, a t-interval over the training seeds alone (marked).
 Runs are grouped by task, learner and target actions; where a task has PPO runs with absolute and with
 relative target actions, the relative minus absolute J per training seed follows (same seeds, budget).
 A relative run written before the published rows acted in the task's own interface has a zero row that
@@ -24,12 +27,25 @@ import numpy as np
 from scipy import stats
 
 
-def interval(x: list[float]) -> str:
+def interval(x: list[float], fmt: str = ".1f") -> str:
     a = np.asarray(x, float)
     if a.size < 2:
-        return f"{a.mean():+.1f}"
+        return f"{a.mean():+{fmt}}"
     h = stats.t.ppf(0.975, a.size - 1) * a.std(ddof=1) / np.sqrt(a.size)
-    return f"{a.mean():+.1f} [{a.mean() - h:+.1f}, {a.mean() + h:+.1f}]"
+    return f"{a.mean():+{fmt}} [{a.mean() - h:+{fmt}}, {a.mean() + h:+{fmt}}]"
+
+
+def _scale(task: str) -> tuple[float, float] | None:
+    """The published (J_zero, J_best) of ``task`` where its blind-zero score is defined (J_best below
+    J_zero), else None."""
+    from planetnav_train.suite import v3
+
+    try:
+        norm = v3.normalization(task)
+    except Exception:  # not normalized
+        return None
+    jz, jb = norm["J_zero"]["mean"], norm["J_best"]["mean"]
+    return (jz, jb) if jb < jz else None
 
 
 def main(paths: list[str]) -> None:
@@ -59,6 +75,18 @@ def main(paths: list[str]) -> None:
             for key in ("minus_zero", "minus_best_reference"):
                 if key in rows[0] and not (stale and key == "minus_zero"):
                     line += f", {key} {interval([x[key]['mean'] for x in rows])}"
+            scale = _scale(task)
+            if scale is not None:
+                jz, jb = scale
+                seeds = [run.get("per_seed", {}).get(name) for run in runs]
+                if all(x is not None for x in seeds):  # a bootstrap over training and evaluation seeds
+                    from planetnav_train.suite import v3
+
+                    sc = v3.run_score([np.asarray(x) for x in seeds], jz, jb)
+                    line += f", score {sc['score']:+.2f} [{sc['lo']:+.2f}, {sc['hi']:+.2f}]"
+                else:  # rows without per-seed J: the runs' spread only
+                    per_run = [(jz - x) / (jz - jb) for x in j]
+                    line += f", score {interval(per_run, '.2f')} (over training seeds)"
             t = [x["train_seconds"] for x in rows if "train_seconds" in x]
             if t:
                 line += f", train {np.mean(t):.0f} s"
