@@ -99,6 +99,24 @@ def test_the_zero_check_pairs_every_finalist_with_the_winner_on_the_evaluation_s
     assert set(rec["finalists_vs_zero"]) == {"cycle:0,dwell=1"}
 
 
+def test_the_second_stage_reruns_on_more_seeds_and_picks_the_lowest_finalist_there():
+    cfg = v3.eval_config("planetnav/Cruise-Target-v3")
+    d_n = cfg.episode_decisions
+    cycle = v3.BlindTargets("cycle:0-1-2,dwell=1", v3._one_hot([d % 3 for d in range(d_n)], 3))
+    stare = v3.BlindTargets("cycle:0,dwell=1", v3._one_hot([0] * d_n, 3))
+    record = {"winner": stare.name, "finalists": {stare.name: 1.0, cycle.name: 2.0},
+              "candidates": {stare.name: 1.0, cycle.name: 2.0}, "final_episodes": 1,
+              "policies": {p.name: v3._policy_record(p) for p in (cycle, stare)}}  # fmt: skip
+    out = v3.refinal("planetnav/Cruise-Target-v3", record, 2, log=lambda *_: None)
+    seeds = range(v3.FINAL_SEED, v3.FINAL_SEED + 2)
+    for p in (cycle, stare):
+        assert out["finalists"][p.name] == pytest.approx(v3.roll_out(cfg, p, seeds).objective.mean())
+    assert out["winner"] == min(out["finalists"], key=out["finalists"].get)
+    assert out["final_episodes"] == 2 and out["candidates"] == record["candidates"]
+    with pytest.raises(ConfigError, match="final_episodes=6000"):
+        v3.refinal("planetnav/Cruise-Target-v3", record, 6000)
+
+
 def test_the_reward_constants_centre_and_scale_the_rewards_the_env_pays():
     over = {"episode_steps": STEPS}
     rec = v3.reward_constants("planetnav/Cruise-Target-v3", 4, seed=v3.NORMALIZATION_SEED, **over)
