@@ -254,13 +254,16 @@ def torque_candidates(cfg: EnvConfig) -> list[BlindTorques]:
 @dataclass
 class Rollout:
     """Per-episode objective J [km] and, when asked, each physics step's error term e_k [km] ((N, K);
-    the reward's e: the true error, or on the thrust arc the objective's increment) and each row's state
-    at its episode's end (``final``: the core's ``f`` rows, columns ``planetnav_env.core.layout.F_*``:
-    fix counts, dumps, saturation, ...)."""
+    the reward's e: the true error, or on the thrust arc the objective's increment), the actions taken,
+    and each row's state at its episode's end (``final``: the core's ``f`` rows, columns
+    ``planetnav_env.core.layout.F_*``: fix counts, dumps, saturation, ...)."""
 
     objective: np.ndarray
     terms: np.ndarray | None = None
     final: np.ndarray | None = None
+    #: With ``actions=True``: every decision's actions, (D, N) or (D, N, 3) (the rows of a finished
+    #: episode keep their last decisions' until the longest episode of their batch ends).
+    actions: np.ndarray | None = None
 
 
 class _Recorder:
@@ -294,13 +297,14 @@ def roll_out(
     terms: bool = False,
     batch: int = 256,
     final: bool = False,
+    actions: bool = False,
 ) -> Rollout:
     """Episodes of ``policy`` on ``seeds`` (one vector-env row per seed, ``batch`` rows at a time) in
     ``cfg``'s decision interface. A callable policy gets ``(decision, observations)`` and returns actions.
     Each row's action draws come from its own generator seeded ``(seed, 3)`` (apart from the env's)."""
     from planetnav_env.envs.vector_env import PlanetNavVectorEnv
 
-    js, ts, fs = [], [], []
+    js, ts, fs, acts = [], [], [], []
     k_max = cfg.episode_steps
     for start in range(0, len(seeds), batch):
         chunk = list(seeds[start : start + batch])
@@ -312,6 +316,7 @@ def roll_out(
         done = np.zeros(n, bool)
         last = np.zeros(n, np.int64)
         d = 0
+        chunk_acts = []
         while not done.all():
             if isinstance(policy, BlindTargets):
                 u = np.array([g.random() for g in gens])
@@ -321,6 +326,8 @@ def roll_out(
                 act = policy.actions(d, u)
             else:
                 act = policy(d, obs)
+            if actions:
+                chunk_acts.append(np.array(act, copy=True))
             _, term, trunc = env.step_rows(act, ~done, on_step=rec)
             done |= term | trunc
             obs = env.observations()
@@ -333,10 +340,13 @@ def roll_out(
             ts.append(rec.e)
         if final:
             fs.append(env.core.f.copy())
+        if actions:
+            acts.append(np.stack(chunk_acts))
         env.close()
     return Rollout(
-        np.concatenate(js), np.concatenate(ts) if terms else None, np.concatenate(fs) if final else None
-    )
+        np.concatenate(js), np.concatenate(ts) if terms else None, np.concatenate(fs) if final else None,
+        np.concatenate(acts, axis=1) if actions else None,
+    )  # fmt: skip
 
 
 def policy_objective(cfg: EnvConfig, policy: Any, seed: int, episodes: int) -> np.ndarray:
@@ -562,17 +572,26 @@ def search(env_id: str, episodes: int, final_episodes: int, cem: dict[str, int],
     for c in cands:
         first[c.name] = float(roll_out(cfg, c, seeds).objective.mean())
     log(f"{env_id}: {len(cands)} candidates on {episodes} search seeds in {time.time() - t0:.0f} s")
-    final: dict[str, float] = {}
-    for name in sorted(first, key=first.__getitem__)[:FINALISTS]:
-        final[name] = float(
-            roll_out(cfg, by_name[name], range(FINAL_SEED, FINAL_SEED + final_episodes)).objective.mean()
-        )
-        log(f"  final {name}: {final[name]:.2f} km (search {first[name]:.2f})")
+    names = sorted(first, key=first.__getitem__)[:FINALISTS]
+    final = _second_stage(cfg, {n: by_name[n] for n in names}, first, final_episodes, log)
     winner = min(final, key=final.__getitem__)
     return {"winner": winner, "finalists": final, "candidates": first, "search_seed": SEARCH_SEED,
             "search_episodes": episodes, "final_seed": FINAL_SEED, "final_episodes": final_episodes,
             "cem": cem, "world": _world(cfg),
             "policies": {n: _policy_record(by_name[n]) for n in final}}  # fmt: skip
+
+
+def _second_stage(
+    cfg: EnvConfig, finalists: dict[str, Any], first: dict[str, float], final_episodes: int, log=print
+) -> dict[str, float]:
+    """Each finalist's mean J on ``final_episodes`` seeds from :data:`FINAL_SEED` (``first``: its
+    stage-one mean, logged beside it)."""
+    seeds = range(FINAL_SEED, FINAL_SEED + final_episodes)
+    final: dict[str, float] = {}
+    for name, pol in finalists.items():
+        final[name] = float(roll_out(cfg, pol, seeds).objective.mean())
+        log(f"  final {name}: {final[name]:.2f} km (search {first[name]:.2f})")
+    return final
 
 
 def refinal(env_id: str, record: dict[str, Any], final_episodes: int, log=print) -> dict[str, Any]:
@@ -584,11 +603,8 @@ def refinal(env_id: str, record: dict[str, Any], final_episodes: int, log=print)
     if final_episodes > NORMALIZATION_SEED - FINAL_SEED:
         raise ConfigError(f"final_episodes={final_episodes}: the block from {FINAL_SEED} holds "
                           f"{NORMALIZATION_SEED - FINAL_SEED} seeds")  # fmt: skip
-    final: dict[str, float] = {}
-    seeds = range(FINAL_SEED, FINAL_SEED + final_episodes)
-    for name, rec in record["policies"].items():
-        final[name] = float(roll_out(cfg, policy_from_record(name, rec), seeds).objective.mean())
-        log(f"  final {name}: {final[name]:.2f} km (search {record['candidates'][name]:.2f})")
+    finalists = {n: policy_from_record(n, r) for n, r in record["policies"].items()}
+    final = _second_stage(cfg, finalists, record["candidates"], final_episodes, log)
     out = {**record, "winner": min(final, key=final.__getitem__), "finalists": final,
            "final_episodes": final_episodes}  # fmt: skip
     if "provenance" in record:  # the run of the first stage, kept beside this one's
@@ -1036,8 +1052,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                   f"({rec['best_reference']}), gap {g['gap']:.1%} [{g['gap_lo']:.1%}, {g['gap_hi']:.1%}], "
                   f"headline {rec['headline']}")  # fmt: skip
         # Each task's record carries the run that wrote it: tasks of one file come from runs apart.
-        data["tasks"][task]["provenance"] = provenance()
-        data["provenance"] = provenance()
+        data["tasks"][task]["provenance"] = data["provenance"] = provenance()
         write_json(path, data)
     return 0
 

@@ -22,33 +22,7 @@ from planetnav_env.core import layout as L
 from planetnav_train.suite import v3
 
 
-class Recorder:
-    """Wraps a decision-interface policy and keeps every decision's actions ((D, N) or (D, N, 3))."""
-
-    def __init__(self, policy):
-        self.policy, self.actions = policy, []
-
-    def __call__(self, d, obs):
-        a = np.asarray(self.policy(d, obs))
-        self.actions.append(a.copy())
-        return a
-
-
-def blind_as_callable(policy, seeds):
-    gens = [np.random.default_rng([s, 3]) for s in seeds]  # the same draws as v3.roll_out's
-    last = np.zeros(len(seeds), np.int64)
-
-    def act(d, obs):
-        nonlocal last
-        if isinstance(policy, v3.BlindTargets):
-            last = policy.actions(d, np.array([g.random() for g in gens]), last)
-            return last
-        return policy.actions(d, np.stack([g.random(3) for g in gens]))
-
-    return act
-
-
-def describe(name, cfg, rec: Recorder, out: v3.Rollout) -> None:
+def describe(name, cfg, out: v3.Rollout) -> None:
     f = out.final
     t = cfg.n_targets
     fixes = f[:, L.F_RES_LOG : L.F_RES_LOG + t]
@@ -59,7 +33,7 @@ def describe(name, cfg, rec: Recorder, out: v3.Rollout) -> None:
         "   fixes / episode: " + ", ".join(f"{n} {m:.1f}" for n, m in zip(names, fixes.mean(0), strict=True))
     )
     print("   mean NIS / dof:  " + ", ".join(f"{n} {m:.2f}" for n, m in zip(names, nis.mean(0), strict=True)))
-    a = np.stack(rec.actions)  # (D, N[, 3])
+    a = out.actions  # (D, N[, 3])
     if cfg.action_mode == "torque":
         print(
             f"   mean |u| {np.abs(a).mean():.3f}; dumps / episode {f[:, L.F_DUMPS].mean():.2f}; "
@@ -93,16 +67,14 @@ def main() -> None:
     else:
         n_a = cfg.n_target_actions
         uniform = v3.BlindTargets("uniform", np.full((cfg.episode_decisions, n_a), 1.0 / n_a))
-    ent: list[float] = []
     policies = {
-        f"{cls_name} ({acting})": v3._policy_fn(model, ent, acting == "deterministic"),
+        f"{cls_name} ({acting})": v3._policy_fn(model, [], acting == "deterministic"),
         f"{cls_name} (argmax / mean)": v3._policy_fn(model, [], True),
-        f"blind zero ({blind['winner']})": blind_as_callable(zero, seeds),
-        "uniform random": blind_as_callable(uniform, seeds),
+        f"blind zero ({blind['winner']})": zero,
+        "uniform random": uniform,
     }
     for name, pol in policies.items():
-        rec = Recorder(pol)
-        describe(name, cfg, rec, v3.roll_out(cfg, rec, seeds, batch=len(seeds), final=True))
+        describe(name, cfg, v3.roll_out(cfg, pol, seeds, final=True, actions=True))
 
 
 if __name__ == "__main__":

@@ -26,6 +26,8 @@ from pathlib import Path
 import numpy as np
 from scipy import stats
 
+from planetnav_train.suite import v3
+
 
 def interval(x: list[float], fmt: str = ".1f") -> str:
     a = np.asarray(x, float)
@@ -38,8 +40,6 @@ def interval(x: list[float], fmt: str = ".1f") -> str:
 def _scale(task: str) -> tuple[float, float] | None:
     """The published (J_zero, J_best) of ``task`` where its blind-zero score is defined (J_best below
     J_zero), else None."""
-    from planetnav_train.suite import v3
-
     try:
         norm = v3.normalization(task)
     except Exception:  # not normalized
@@ -80,8 +80,6 @@ def main(paths: list[str]) -> None:
                 jz, jb = scale
                 seeds = [run.get("per_seed", {}).get(name) for run in runs]
                 if all(x is not None for x in seeds):  # a bootstrap over training and evaluation seeds
-                    from planetnav_train.suite import v3
-
                     sc = v3.run_score([np.asarray(x) for x in seeds], jz, jb)
                     line += f", score {sc['score']:+.2f} [{sc['lo']:+.2f}, {sc['hi']:+.2f}]"
                 else:  # rows without per-seed J: the runs' spread only

@@ -76,8 +76,10 @@ def test_a_roll_out_keeps_each_rows_final_state_its_fix_counts_those_of_its_targ
 
     cfg = v3.eval_config("planetnav/Cruise-Target-v3", episode_steps=STEPS)
     pol = v3.BlindTargets("cycle:0-1", v3._one_hot([d % 2 for d in range(cfg.episode_decisions)], 3))
-    out = v3.roll_out(cfg, pol, range(v3.SEARCH_SEED, v3.SEARCH_SEED + 3), final=True)
+    out = v3.roll_out(cfg, pol, range(v3.SEARCH_SEED, v3.SEARCH_SEED + 3), final=True, actions=True)
     assert out.final.shape[0] == 3 and v3.roll_out(cfg, pol, [v3.SEARCH_SEED]).final is None
+    want = np.tile(np.arange(cfg.episode_decisions)[:, None] % 2, (1, 3))
+    np.testing.assert_array_equal(out.actions, want)  # the schedule's actions, each decision, each row
     fixes = out.final[:, L.F_RES_LOG : L.F_RES_LOG + 3]
     assert (fixes[:, 2] == 0).all()  # never pointed at
     assert (fixes[:, :2].sum(axis=1) > 0).all() and (fixes <= cfg.episode_steps).all()
