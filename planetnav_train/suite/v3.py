@@ -460,11 +460,11 @@ def run_score(j: np.ndarray | Sequence[np.ndarray], j_zero: float, j_best: float
     runs = [np.asarray(x, float) for x in (j if isinstance(j, (list, tuple)) else [j])]
     rng = np.random.default_rng(BOOTSTRAP_SEED)
     draws = np.zeros(BOOTSTRAP_REPS)
-    for _ in range(1):
-        pick = rng.integers(0, len(runs), (BOOTSTRAP_REPS,))
-        for r_i, r in enumerate(runs):
-            sel = pick == r_i
-            draws[sel] = r[rng.integers(0, r.size, (int(sel.sum()), r.size))].mean(axis=1)
+    # Each draw picks a run, then resamples that run's evaluation seeds.
+    pick = rng.integers(0, len(runs), (BOOTSTRAP_REPS,))
+    for r_i, r in enumerate(runs):
+        sel = pick == r_i
+        draws[sel] = r[rng.integers(0, r.size, (int(sel.sum()), r.size))].mean(axis=1)
     score = (j_zero - draws) / (j_zero - j_best)
     mean = float(np.mean([x.mean() for x in runs]))
     return {"score": (j_zero - mean) / (j_zero - j_best), "lo": float(np.quantile(score, 0.025)),
