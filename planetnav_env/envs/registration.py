@@ -30,7 +30,8 @@ ENV_IDS: dict[str, dict[str, Any]] = ID_OPTIONS
 
 def id_options(env_id: str) -> dict[str, Any]:
     """The environment options that the registered id ``env_id`` stands for (a copy of its spec's
-    kwargs), as ``gym.make(env_id)`` passes them; ``"module:id"`` is accepted as ``gym.make`` accepts it.
+    ``config`` kwarg), as ``gym.make(env_id)`` passes them; ``"module:id"`` is accepted as ``gym.make``
+    accepts it.
 
     Raises :class:`~planetnav_env.errors.ConfigError` naming the id when it is not registered or is not a
     planetnav environment.
@@ -49,7 +50,7 @@ def id_options(env_id: str) -> dict[str, Any]:
             f"{env_id!r} is not a planetnav environment (entry point {entry_name!r}); "
             f"the planetnav ids are {sorted(ENV_IDS)}"
         )
-    return dict(spec.kwargs)
+    return dict(spec.kwargs["config"])
 
 
 def register_envs() -> None:
@@ -64,6 +65,10 @@ def register_envs() -> None:
             # gym.make_vec(id, num_envs=N) builds the native vector env over the batch core (the id's
             # kwargs are passed to it); vectorization_mode="sync" still gives a SyncVectorEnv.
             vector_entry_point="planetnav_env.envs.vector_env:PlanetNavVectorEnv",
-            kwargs=dict(kwargs),
+            # The options travel as one ``config`` mapping, not flattened: gym.make updates the spec's
+            # kwargs shallowly, so a flattened ``world`` would be replaced whole by a caller's partial
+            # ``world={...}`` (the task's preset silently lost); as keyword overrides of ``config`` the
+            # env merges them into the id's options (``EnvConfig.from_dict``).
+            kwargs={"config": dict(kwargs)},
             disable_env_checker=True,  # the env validates its own actions; check_env runs in the tests
         )

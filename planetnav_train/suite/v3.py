@@ -784,6 +784,7 @@ def _paired_with_published(
         others["best_reference"] = policy_objective(cfg, best, seeds.start, len(seeds))
         j_best = others["best_reference"]
         rows["rows"].append({"policy": f"best reference ({best})", "J": mean_interval(j_best)})
+        rows["per_seed"]["best_reference"] = np.round(j_best, 4).tolist()
     for r in rows["rows"]:
         j = per_seed.get(r["policy"])
         if j is not None:
@@ -801,6 +802,7 @@ def learner_rows(
     target_actions: str | None = None,
     algo: str = "ppo",
     save_model: str | Path | None = None,
+    world: dict[str, Any] | None = None,
 ) -> dict[str, Any]:
     """PPO (SB3 defaults via ``make_vec_env``), the untrained network and uniform random on v3 ``task``
     (``Cruise-Target-v3``): J on ``episodes`` evaluation seeds, entropy, score. ``episode_steps`` shortens
@@ -809,7 +811,9 @@ def learner_rows(
     relative target actions against the task's absolute ones (same seeds, same budget). ``algo``: a key of
     :data:`LEARNERS` (``dqn`` on a discrete task, ``sac`` on the torque task), SB3's defaults as for PPO;
     ``ppo_overrides`` then applies to it. ``save_model``: where to save the trained model (SB3's zip), to
-    study its behaviour afterwards."""
+    study its behaviour afterwards. ``world``: world options merged into the task's flight world for
+    training and every row alike (a regime sweep, e.g. ``{"boresight_drift": False}``; a row made with it
+    is not the task's, and its score against the task's constants is not one)."""
     import stable_baselines3
     from stable_baselines3.common.env_util import make_vec_env
 
@@ -821,6 +825,8 @@ def learner_rows(
     over: dict[str, Any] = {"episode_steps": episode_steps} if episode_steps else {}
     if target_actions:  # the absolute-versus-relative measurement (docs/tasks_md)
         over["target_actions"] = target_actions
+    if world:
+        over["world"] = dict(world)
     cfg: EnvConfig = eval_config(env_id, **over)
     seeds = range(EVAL_SEED, EVAL_SEED + episodes)
     discrete = cfg.action_mode != "torque"
@@ -833,7 +839,7 @@ def learner_rows(
     rows: dict[str, Any] = {"task": task, "algo": algo, "acting": acting,
                             "target_actions": cfg.target_actions, "budget_decisions": budget, "seed": seed,
                             "episodes": episodes, "episode_steps": cfg.episode_steps,
-                            "rows": []}  # fmt: skip
+                            "world_overrides": dict(world or {}), "rows": []}  # fmt: skip
     ent: list[float] = []
     per_seed = {"untrained network": (j := roll_out(cfg, _policy_fn(model, ent, det), seeds).objective)}
     rows["rows"].append(_row("untrained network", j, float(np.mean(ent)), task, {}))
@@ -861,6 +867,13 @@ def learner_rows(
     # other targets under relative actions.
     published_cfg = eval_config(env_id, **{k: v for k, v in over.items() if k != "target_actions"})
     _paired_with_published(rows, per_seed, published_cfg, task, seeds)
+    if world:  # the task's constants belong to its own world: no score on another's
+        for r in rows["rows"]:
+            if "score" in r:
+                r["score"], r["score_undefined"] = (
+                    None,
+                    f"world overrides {dict(world)}: not the task's world",
+                )
     rows["provenance"] = provenance()
     return rows
 

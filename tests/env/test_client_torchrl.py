@@ -32,7 +32,7 @@ from torchrl.envs import GymEnv, GymWrapper
 from torchrl.envs.utils import check_env_specs
 
 import planetnav_env  # noqa: F401  (registers the ids)
-from planetnav_env.envs.registration import ENV_IDS
+from planetnav_env.envs.registration import ENV_IDS, id_options
 
 needs_disabled = pytest.mark.skipif(
     not hasattr(gym.vector.AutoresetMode, "DISABLED"),
@@ -42,7 +42,7 @@ needs_disabled = pytest.mark.skipif(
 
 @pytest.mark.parametrize("env_id", sorted(ENV_IDS))
 def test_gym_env_builds_and_rolls_out_every_id(env_id: str) -> None:
-    hold = gym.spec(env_id).kwargs.get("decision_steps", 1)  # a v1 id's decisions hold several steps
+    hold = id_options(env_id).get("decision_steps", 1)  # a v1 id's decisions hold several steps
     env = GymEnv(env_id, episode_steps=8 * hold)  # 8 decisions
     check_env_specs(env)  # TorchRL's own conformance check (a short rollout against the specs)
     td = env.rollout(10, break_when_any_done=False)

@@ -10,7 +10,7 @@ from gymnasium.utils.env_checker import check_env as gym_check_env
 import planetnav_env  # noqa: F401  (registers the ids)
 from planetnav_env.config import EnvConfig
 from planetnav_env.envs.env import PlanetNavEnv
-from planetnav_env.envs.registration import ENV_IDS
+from planetnav_env.envs.registration import ENV_IDS, id_options
 from planetnav_env.errors import ConfigError, InvalidParameterError, NonFiniteError, UnknownOptionError
 
 SHORT = {"episode_steps": 50}
@@ -315,6 +315,20 @@ def test_env_accepts_a_registered_id_as_config():
         PlanetNavEnv("CartPole-v1")
     with pytest.raises(ConfigError, match="got 5 of type int"):
         PlanetNavEnv(5)
+
+
+def test_make_merges_a_partial_nested_override_into_the_ids_options():
+    """``gym.make(id, world={...})`` changes the named world options of the id's world and keeps the
+    rest (its preset); gym.make's own shallow update of the spec's kwargs would drop them."""
+    env_id = "planetnav/Cruise-Target-v3"
+    made = gym.make(env_id, world={"boresight_drift": False}).unwrapped.config
+    direct = EnvConfig.from_dict(id_options(env_id), world={"boresight_drift": False})
+    assert made == direct
+    assert (made.world.preset, made.world.boresight_drift) == ("flight", False)
+    assert gym.make(env_id).unwrapped.config.world.boresight_drift is None  # the id itself unchanged
+    vec = gym.make_vec(env_id, num_envs=2, world={"drift_sigma_arcsec": 0.5})
+    assert (vec.config.world.preset, vec.config.world.drift_sigma_arcsec) == ("flight", 0.5)
+    vec.close()
 
 
 def test_single_env_bad_input_names_the_value_not_a_row():

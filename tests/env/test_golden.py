@@ -24,7 +24,7 @@ import numpy as np
 import pytest
 
 import planetnav_env  # noqa: F401  (registers the ids)
-from planetnav_env.envs.registration import ENV_IDS
+from planetnav_env.envs.registration import ENV_IDS, id_options
 
 GOLDEN = Path(__file__).parents[1] / "golden" / "rollout_hashes.json"
 UPDATE = os.environ.get("PLANETNAV_UPDATE_GOLDEN") == "1"
@@ -91,7 +91,7 @@ def _record_step(h: _Hashes, obs: Any, reward: Any, terminated: Any, truncated: 
 
 
 def _steps(env_id: str) -> int:
-    kw = gym.spec(env_id).kwargs
+    kw = id_options(env_id)
     return -(-int(kw.get("episode_steps", 1440)) // int(kw.get("decision_steps", 1))) + 5
 
 

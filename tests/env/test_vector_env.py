@@ -14,7 +14,7 @@ import planetnav_env  # noqa: F401  (registers the ids)
 from planetnav_env.batch import PARALLEL_MIN_ROWS
 from planetnav_env.core import layout as L
 from planetnav_env.envs.env import PlanetNavEnv
-from planetnav_env.envs.registration import ENV_IDS
+from planetnav_env.envs.registration import ENV_IDS, id_options
 from planetnav_env.envs.vector_env import PlanetNavVectorEnv
 from planetnav_env.errors import ConfigError, InvalidParameterError, NonFiniteError, UnknownOptionError
 
@@ -335,7 +335,7 @@ def test_vector_info_has_the_single_env_keys_row_for_row(env_id: str) -> None:
     (names as object arrays, the filter as (N, 6) and (N, 6, 6)), each value equal to the single env's
     row; the README's ``info["target"]`` works on both."""
     n, seed = 3, 21
-    steps = 8 * gym.spec(env_id).kwargs.get("decision_steps", 1)  # 8 decisions
+    steps = 8 * id_options(env_id).get("decision_steps", 1)  # 8 decisions
     venv = gym.make_vec(env_id, num_envs=n, episode_steps=steps)
     singles = [gym.make(env_id, episode_steps=steps) for _ in range(n)]
     keys = INFO_KEYS | (OPERATIONS_INFO_KEYS if venv.unwrapped.config.operations is not None else set())
