@@ -329,6 +329,10 @@ def test_make_merges_a_partial_nested_override_into_the_ids_options():
     vec = gym.make_vec(env_id, num_envs=2, world={"drift_sigma_arcsec": 0.5})
     assert (vec.config.world.preset, vec.config.world.drift_sigma_arcsec) == ("flight", 0.5)
     vec.close()
+    # Any section alike: the id's filter prior (50 km, not the default 1,000 km) survives one key's override.
+    v2 = gym.make("planetnav/RandomCruise-Target-v2", filter={"accel_psd": 1e-12}).unwrapped.config.filter
+    assert (v2.sigma_pos0, v2.accel_psd) == (50.0, 1e-12)
+    assert EnvConfig().filter.sigma_pos0 != 50.0
 
 
 def test_single_env_bad_input_names_the_value_not_a_row():
