@@ -12,11 +12,11 @@ the blind zero of the task and its best reference (greedy with observed success 
 The task's reward constants stay the published ones (measured at the flight value): a time-only baseline,
 so the reward's optimum is still the objective's at every drift.
 
-``table`` pools the runs of each drift: PPO's J, and its paired difference from the zero and from the
-reference [km, negative is better], the mean over runs with a 95 % interval from a two-level bootstrap
-(pick a training run, then resample its evaluation seeds), so both spreads are in it; each run's own
-difference beside. A row whose interval lies below 0 against the reference is a learned policy beating
-the best non-privileged rule at that drift.
+``table`` pools the runs of each drift: PPO's J, and its paired difference from the zero, from the
+reference and from uniform random [km, negative is better], the mean over runs with a 95 % interval
+from a two-level bootstrap (pick a training run, then resample its evaluation seeds), so both spreads
+are in it; each run's own difference from the reference beside. A row whose interval lies below 0
+against the reference is a learned policy beating the best non-privileged rule at that drift.
 """
 
 from __future__ import annotations
@@ -36,6 +36,7 @@ from planetnav_train.suite import v3
 
 TASK = "Cruise-Target-v3"
 PPO = "SB3 PPO (defaults, make_vec_env)"
+UNIFORM = "uniform random"
 
 
 def two_level(diffs: list[np.ndarray], reps: int = 10_000, seed: int = 0) -> tuple[float, float, float]:
@@ -61,7 +62,7 @@ def run(args: argparse.Namespace) -> None:
     v3.write_json(Path(args.out), rows)
     for r in rows["rows"]:
         extra = "".join(
-            f"  {k} {r[k]['mean']:+.1f} [{r[k]['low']:+.1f}, {r[k]['high']:+.1f}]"
+            f"  {k} {r[k]['mean']:+.1f} [{r[k]['lo']:+.1f}, {r[k]['hi']:+.1f}]"
             for k in ("minus_zero", "minus_best_reference")
             if k in r
         )
@@ -73,44 +74,23 @@ def table(paths: list[str]) -> None:
     for p in paths:
         d = json.loads(Path(p).read_text())
         by_sigma[float(d["drift_sigma_arcsec"])].append(d)
-    head = [
-        "drift sigma [arcsec]",
-        "runs",
-        "J zero",
-        "J reference",
-        "PPO J (runs)",
-        "PPO - zero",
-        "PPO - reference",
-        "per run: PPO - reference",
-    ]
+    head = ["drift sigma [arcsec]", "runs", "J zero", "J reference", "J uniform", "PPO J (runs)",
+            "PPO - zero", "PPO - reference", "PPO - uniform", "per run: PPO - reference"]  # fmt: skip
     print("| " + " | ".join(head) + " |")
-    print("|---" * 8 + "|")
+    print("|---" * len(head) + "|")
     for sigma, runs in sorted(by_sigma.items()):
-        seeds = {tuple(r["per_seed"]["zero"]) for r in runs}
-        if len(seeds) != 1:
+        if len({tuple(r["per_seed"]["zero"]) for r in runs}) != 1:
             raise SystemExit(f"drift {sigma}: the runs' zero rows differ (other seeds or world)")
-        ref_name = next(r["policy"] for r in runs[0]["rows"] if r["policy"].startswith("best reference"))
         ps = [{k: np.asarray(v, float) for k, v in r["per_seed"].items()} for r in runs]
-        j_ref = np.mean([next(x for x in r["rows"] if x["policy"] == ref_name)["J"]["mean"] for r in runs])
-        j_ppo = [p[PPO] for p in ps]
-        d_zero = [p[PPO] - p["zero"] for p in ps]
+        jp = [p[PPO].mean() for p in ps]
+        cells = [f"{sigma:g}", str(len(runs))]
+        cells += [f"{ps[0][k].mean():.1f}" for k in ("zero", "best_reference", UNIFORM)]
+        cells.append(f"{np.mean(jp):.1f} ({min(jp):.1f}..{max(jp):.1f})")
+        for other in ("zero", "best_reference", UNIFORM):
+            m, lo, hi = two_level([p[PPO] - p[other] for p in ps])
+            cells.append(f"{m:+.1f} [{lo:+.1f}, {hi:+.1f}]")
         d_ref_run = [next(x for x in r["rows"] if x["policy"] == PPO)["minus_best_reference"] for r in runs]
-        jp = [x.mean() for x in j_ppo]
-        mz = two_level(d_zero)
-        cells = [
-            f"{sigma:g}",
-            str(len(runs)),
-            f"{ps[0]['zero'].mean():.1f}",
-            f"{j_ref:.1f}",
-            f"{np.mean(jp):.1f} ({min(jp):.1f}..{max(jp):.1f})",
-            f"{mz[0]:+.1f} [{mz[1]:+.1f}, {mz[2]:+.1f}]",
-        ]
-        if all("best_reference" in p for p in ps):
-            mr = two_level([p[PPO] - p["best_reference"] for p in ps])
-            cells.append(f"{mr[0]:+.1f} [{mr[1]:+.1f}, {mr[2]:+.1f}]")
-        else:
-            cells.append("-")
-        cells.append(", ".join(f"{d['mean']:+.1f} [{d['low']:+.1f}, {d['high']:+.1f}]" for d in d_ref_run))
+        cells.append(", ".join(f"{d['mean']:+.1f} [{d['lo']:+.1f}, {d['hi']:+.1f}]" for d in d_ref_run))
         print("| " + " | ".join(cells) + " |")
 
 
