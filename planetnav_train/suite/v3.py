@@ -34,7 +34,6 @@ import argparse
 import dataclasses
 import json
 import math
-import subprocess
 import sys
 import time
 from collections.abc import Callable, Sequence
@@ -48,6 +47,7 @@ from planetnav_env.config import EnvConfig
 from planetnav_env.core import layout as L
 from planetnav_env.errors import ConfigError
 from planetnav_env.tasks import get_version
+from planetnav_train.provenance import git_state, utc_now
 
 #: The search's first stage: every candidate on these seeds.
 SEARCH_SEED = 110_000
@@ -477,17 +477,12 @@ def run_score(j: np.ndarray | Sequence[np.ndarray], j_zero: float, j_best: float
 
 
 def provenance() -> dict[str, Any]:
-    """The commit, whether the tree was clean, and when (what a published number was printed from)."""
-
-    def git(*args: str) -> str:
-        try:
-            return subprocess.run(["git", *args], cwd=ROOT, capture_output=True, text=True, check=True).stdout
-        except (OSError, subprocess.CalledProcessError):
-            return ""
-
-    return {"commit": git("rev-parse", "HEAD").strip(), "dirty": bool(git("status", "--porcelain").strip()),
-            "utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
-            "command": " ".join(sys.argv)}  # fmt: skip
+    """The commit, whether the tree was clean, what differed from the commit (``changes``: ``git status
+    --porcelain`` lines, so result files written beside a run read as such), when, and the command: what
+    a published number was printed from."""
+    git = git_state(ROOT)
+    return {"commit": git["git_commit"], "dirty": git["git_dirty"], "changes": git["git_changes"],
+            "utc": utc_now(), "command": " ".join(sys.argv)}  # fmt: skip
 
 
 def _world(cfg: EnvConfig) -> dict[str, Any]:

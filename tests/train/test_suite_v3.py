@@ -251,3 +251,25 @@ def test_the_published_rows_act_in_the_tasks_own_interface_when_the_learner_take
     relative = learner_rows("Cruise-Target-v3", 32, target_actions="relative", **small)
     assert relative["target_actions"] == "relative"
     assert relative["per_seed"]["zero"] == absolute["per_seed"]["zero"]
+
+
+def test_provenance_names_what_differs_from_the_commit(tmp_path, monkeypatch):
+    """A run's record says which files differed from its commit, so result files written beside a run in a
+    clean checkout read as such, and code changes as code changes."""
+    import subprocess
+
+    def git(*args: str) -> str:
+        return subprocess.run(["git", *args], cwd=tmp_path, check=True, capture_output=True, text=True).stdout
+
+    git("init", "-q")
+    (tmp_path / "code.py").write_text("x = 1\n")
+    git("add", "code.py")
+    git("-c", "user.name=t", "-c", "user.email=t@t", "commit", "-q", "-m", "c")
+    monkeypatch.setattr(v3, "ROOT", tmp_path)
+    clean = v3.provenance()
+    head = git("rev-parse", "HEAD").strip()
+    assert (clean["commit"], clean["dirty"], clean["changes"]) == (head, False, [])
+    (tmp_path / "rows.json").write_text("{}")
+    (tmp_path / "code.py").write_text("x = 2\n")
+    dirty = v3.provenance()
+    assert dirty["dirty"] is True and sorted(dirty["changes"]) == [" M code.py", "?? rows.json"]
