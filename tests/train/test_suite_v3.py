@@ -173,10 +173,9 @@ def test_the_learner_rows_train_sb3_ppo_through_make_vec_env_and_report_entropie
     published = {"blind zero (cycle:0-1-2,dwell=1)", "best reference (greedy:success=observed)"}
     assert set(by) == learners | published
     # Each learner row is paired with the published zero and the best reference on the same seeds.
-    assert set(rows["per_seed"]) == learners | {"zero"}
-    assert np.mean(rows["per_seed"]["uniform random"]) == pytest.approx(
-        by["uniform random"]["J"]["mean"], abs=1e-3
-    )
+    assert set(rows["per_seed"]) == learners | {"zero", "best_reference"}
+    for name, row in (("uniform random", "uniform random"), ("best_reference", sorted(published)[0])):
+        assert np.mean(rows["per_seed"][name]) == pytest.approx(by[row]["J"]["mean"], abs=1e-3)
     for name in learners:
         for other, key in zip(sorted(published), ("minus_best_reference", "minus_zero"), strict=True):
             d = by[name][key]
@@ -186,6 +185,25 @@ def test_the_learner_rows_train_sb3_ppo_through_make_vec_env_and_report_entropie
     # SB3's initial policy is near uniform (its last layer's gain is 0.01).
     assert by["untrained network"]["entropy_nats"] == pytest.approx(np.log(3), abs=0.01)
     assert all(np.isfinite(r["J"]["mean"]) for r in rows["rows"])
+
+
+def test_the_learner_rows_in_another_world_are_made_there_and_carry_no_score() -> None:
+    """A regime sweep's rows: trained and scored in the task's flight world with the named options
+    changed, and no blind-zero score, since the task's constants belong to its own world."""
+    from planetnav_train.suite.v3 import learner_rows
+
+    world = {"boresight_drift": False}
+    rows = learner_rows("Cruise-Torque-v3", 64, episodes=2, episode_steps=20, world=world,
+                        ppo_overrides={"n_steps": 32, "batch_size": 32, "n_epochs": 1})  # fmt: skip
+    assert rows["world_overrides"] == world
+    scored = [r for r in rows["rows"] if "score" in r]
+    assert scored and all(r["score"] is None and "world overrides" in r["score_undefined"] for r in scored)
+    blind = v3.read_json(v3.BLIND_FILE)["tasks"]["Cruise-Torque-v3"]
+    zero = v3.policy_from_record(blind["winner"], blind["policies"][blind["winner"]])
+    seeds = range(v3.EVAL_SEED, v3.EVAL_SEED + 2)
+    there = v3.eval_config("planetnav/Cruise-Torque-v3", episode_steps=20, world=world)
+    assert there.world.preset == "flight" and there.world.boresight_drift is False
+    np.testing.assert_allclose(rows["per_seed"]["zero"], v3.roll_out(there, zero, seeds).objective, atol=1e-3)
 
 
 def test_the_learner_rows_save_the_trained_model_that_scored_the_row(tmp_path) -> None:
