@@ -457,18 +457,31 @@ def run_score(j: np.ndarray | Sequence[np.ndarray], j_zero: float, j_best: float
             f"J_best ({j_best!r}) is not below J_zero ({j_zero!r}): the best reference does not beat the "
             "blind zero, so the blind-zero score is undefined; compare J with both"
         )
-    runs = [np.asarray(x, float) for x in (j if isinstance(j, (list, tuple)) else [j])]
+    mean, draws = _pooled_draws(j if isinstance(j, (list, tuple)) else [j])
+    score = (j_zero - draws) / (j_zero - j_best)
+    return {"score": (j_zero - mean) / (j_zero - j_best), "lo": float(np.quantile(score, 0.025)),
+            "hi": float(np.quantile(score, 0.975)), "J": mean}  # fmt: skip
+
+
+def _pooled_draws(runs: Sequence[np.ndarray]) -> tuple[float, np.ndarray]:
+    """The mean over runs of each run's mean over its evaluation seeds, and bootstrap draws of it: each
+    draw picks a run, then resamples that run's seeds (both spreads in the draws)."""
+    runs = [np.asarray(x, float) for x in runs]
     rng = np.random.default_rng(BOOTSTRAP_SEED)
     draws = np.zeros(BOOTSTRAP_REPS)
-    # Each draw picks a run, then resamples that run's evaluation seeds.
     pick = rng.integers(0, len(runs), (BOOTSTRAP_REPS,))
     for r_i, r in enumerate(runs):
         sel = pick == r_i
         draws[sel] = r[rng.integers(0, r.size, (int(sel.sum()), r.size))].mean(axis=1)
-    score = (j_zero - draws) / (j_zero - j_best)
-    mean = float(np.mean([x.mean() for x in runs]))
-    return {"score": (j_zero - mean) / (j_zero - j_best), "lo": float(np.quantile(score, 0.025)),
-            "hi": float(np.quantile(score, 0.975)), "J": mean}  # fmt: skip
+    return float(np.mean([x.mean() for x in runs])), draws
+
+
+def pooled_mean_interval(runs: Sequence[np.ndarray]) -> dict[str, float]:
+    """Several training runs' per-seed values (e.g. paired differences [km]) pooled: the mean over runs
+    and its 95 % interval from the two-level bootstrap of :func:`run_score` (a run, then its seeds)."""
+    mean, draws = _pooled_draws(runs)
+    return {"mean": mean, "lo": float(np.quantile(draws, 0.025)), "hi": float(np.quantile(draws, 0.975)),
+            "runs": len(runs)}  # fmt: skip
 
 
 # ---------------------------------------------------------------------------------------------------------
@@ -741,8 +754,15 @@ def _policy_fn(model: Any, entropies: list[float], deterministic: bool = False):
     return act
 
 
-def _row(name: str, j: np.ndarray, entropy: float, task: str, extra: dict[str, Any]) -> dict[str, Any]:
+def _row(
+    name: str, j: np.ndarray, entropy: float, task: str, extra: dict[str, Any], unscored: str | None = None
+) -> dict[str, Any]:
+    """A learner row: J, entropy and the blind-zero score against ``task``'s constants; ``unscored``: why
+    the row has no score though the task has constants (it was made in another world)."""
     row = {"policy": name, "J": mean_interval(j), "entropy_nats": entropy, **extra}
+    if unscored is not None:
+        row["score"], row["score_undefined"] = None, unscored
+        return row
     try:
         norm = normalization(task)
     except Exception:  # no published constants yet: the row carries J only
@@ -820,8 +840,10 @@ def learner_rows(
     over: dict[str, Any] = {"episode_steps": episode_steps} if episode_steps else {}
     if target_actions:  # the absolute-versus-relative measurement (docs/tasks_md)
         over["target_actions"] = target_actions
-    if world:
+    unscored = None
+    if world:  # the task's constants belong to its own world: no score on another's
         over["world"] = dict(world)
+        unscored = f"world overrides {dict(world)}: not the task's world"
     cfg: EnvConfig = eval_config(env_id, **over)
     seeds = range(EVAL_SEED, EVAL_SEED + episodes)
     discrete = cfg.action_mode != "torque"
@@ -837,7 +859,7 @@ def learner_rows(
                             "world_overrides": dict(world or {}), "rows": []}  # fmt: skip
     ent: list[float] = []
     per_seed = {"untrained network": (j := roll_out(cfg, _policy_fn(model, ent, det), seeds).objective)}
-    rows["rows"].append(_row("untrained network", j, float(np.mean(ent)), task, {}))
+    rows["rows"].append(_row("untrained network", j, float(np.mean(ent)), task, {}, unscored))
     if cfg.action_mode == "torque":
         uniform = BlindTorques("uniform", np.zeros((cfg.episode_decisions, 3)), 1.0)
         h_uniform = 3 * math.log(2.0)  # differential entropy of U(-1, 1)^3
@@ -846,14 +868,14 @@ def learner_rows(
         uniform = BlindTargets("uniform", np.full((cfg.episode_decisions, n_a), 1.0 / n_a))
         h_uniform = math.log(n_a)
     per_seed["uniform random"] = j = roll_out(cfg, uniform, seeds).objective
-    rows["rows"].append(_row("uniform random", j, h_uniform, task, {}))
+    rows["rows"].append(_row("uniform random", j, h_uniform, task, {}, unscored))
     t0 = time.time()
     model.learn(total_timesteps=budget)
     train_s = time.time() - t0
     ent = []
     name = f"SB3 {cls_name} (defaults, make_vec_env)"
     per_seed[name] = j = roll_out(cfg, _policy_fn(model, ent, det), seeds).objective
-    rows["rows"].append(_row(name, j, float(np.mean(ent)), task, {"train_seconds": train_s}))
+    rows["rows"].append(_row(name, j, float(np.mean(ent)), task, {"train_seconds": train_s}, unscored))
     venv.close()
     if save_model is not None:
         model.save(save_model)
@@ -862,13 +884,6 @@ def learner_rows(
     # other targets under relative actions.
     published_cfg = eval_config(env_id, **{k: v for k, v in over.items() if k != "target_actions"})
     _paired_with_published(rows, per_seed, published_cfg, task, seeds)
-    if world:  # the task's constants belong to its own world: no score on another's
-        for r in rows["rows"]:
-            if "score" in r:
-                r["score"], r["score_undefined"] = (
-                    None,
-                    f"world overrides {dict(world)}: not the task's world",
-                )
     rows["provenance"] = provenance()
     return rows
 

@@ -39,22 +39,6 @@ PPO = "SB3 PPO (defaults, make_vec_env)"
 UNIFORM = "uniform random"
 
 
-def two_level(diffs: list[np.ndarray], reps: int = 10_000, seed: int = 0) -> tuple[float, float, float]:
-    """Mean over runs of each run's mean paired difference, and a 95 % bootstrap interval that picks a
-    run, then resamples its evaluation seeds."""
-    rng = np.random.default_rng(seed)
-    pick = rng.integers(0, len(diffs), reps)
-    draws = np.empty(reps)
-    for i, d in enumerate(diffs):
-        sel = pick == i
-        draws[sel] = d[rng.integers(0, d.size, (int(sel.sum()), d.size))].mean(axis=1)
-    return (
-        float(np.mean([d.mean() for d in diffs])),
-        float(np.quantile(draws, 0.025)),
-        float(np.quantile(draws, 0.975)),
-    )
-
-
 def run(args: argparse.Namespace) -> None:
     rows = v3.learner_rows(TASK, args.budget, args.seed, args.episodes, world=world_for(args.sigma))
     rows["drift_sigma_arcsec"] = args.sigma
@@ -87,8 +71,8 @@ def table(paths: list[str]) -> None:
         cells += [f"{ps[0][k].mean():.1f}" for k in ("zero", "best_reference", UNIFORM)]
         cells.append(f"{np.mean(jp):.1f} ({min(jp):.1f}..{max(jp):.1f})")
         for other in ("zero", "best_reference", UNIFORM):
-            m, lo, hi = two_level([p[PPO] - p[other] for p in ps])
-            cells.append(f"{m:+.1f} [{lo:+.1f}, {hi:+.1f}]")
+            d = v3.pooled_mean_interval([p[PPO] - p[other] for p in ps])
+            cells.append(f"{d['mean']:+.1f} [{d['lo']:+.1f}, {d['hi']:+.1f}]")
         d_ref_run = [next(x for x in r["rows"] if x["policy"] == PPO)["minus_best_reference"] for r in runs]
         cells.append(", ".join(f"{d['mean']:+.1f} [{d['lo']:+.1f}, {d['hi']:+.1f}]" for d in d_ref_run))
         print("| " + " | ".join(cells) + " |")
