@@ -5,25 +5,22 @@
 In the style of CleanRL's ppo.py: read it top to bottom. The arguments, the agent (two 64-64 tanh MLPs),
 the rollout / GAE / clipped-update loop on ``gym.make_vec(id, num_envs=N)`` (the batch-first compiled
 :class:`~planetnav_env.envs.vector_env.PlanetNavVectorEnv`, not a SyncVectorEnv), then the evaluation.
+Box actions (the torque tasks): baselines/ppo_continuous.py, this loop with a Gaussian head.
 
 The defaults are the suite's PPO settings for the target-choice tasks (configs/v2/cruise_target_v2_ppo.yaml;
 Stable-Baselines3's PPO defaults otherwise): 64 envs x 64 decisions per update, 4 minibatches of 1,024,
 5 epochs, discount 0.95 per decision, GAE lambda 0.95, clip 0.2, entropy 0.01, Adam at 3e-4. A timestep is
-one decision of one env (a vector-env step), which the -v1/-v2 target tasks hold for ``decision_steps``
-physics steps (10 on the cruise: 300,000 decisions = the suite's budget of 3M physics steps). A truncated
-episode is bootstrapped from the value of its last observation, as Stable-Baselines3 does.
+one decision of one env (a vector-env step; 300,000 decisions = the suite's budget). A truncated episode
+is bootstrapped from the value of its last observation, as Stable-Baselines3 does.
 
-Evaluation, the suite's protocol: sampled actions on the evaluation seeds (50,000.., one vector-env row
-per seed) with per-step noise streams, each episode's draws seeded with its seed as the suite seeds them
-(so a policy scores here what it scores in the suite, draw for draw); the objective J is each episode's
-mean true position error [km] over its physics steps. The blind-zero score ``(J_blind - J) / (J_blind -
-J_best)`` (0: the best blind policy, 1: the best non-privileged reference) and its 95 % paired bootstrap
-interval come from the suite's scorer (:func:`planetnav_train.suite.blind.paired_ratio_ci`), paired with
-the per-seed values of the best blind policy and the best reference stored in docs/tasks_v2_blind.json
-(100 seeds: ``--eval-episodes`` up to 100 uses their prefix). With ``--episode-steps``, or beyond the
-stored seeds, the two references are evaluated here on the same seeds by the suite's evaluator
-(:func:`planetnav_train.suite.blind.evaluate_objective`). Training results differ across CPUs (torch picks
-its kernels per CPU); the environment and the stored references do not.
+Evaluation, suite v2's protocol: sampled actions on its evaluation seeds (50,000.., one row per seed) with
+per-step noise streams, each episode's draws seeded as the suite seeds them (a policy scores here what it
+scores in the suite, draw for draw); J is each episode's mean true position error [km]. The blind-zero
+score ``(J_blind - J) / (J_blind - J_best)`` and its 95 % paired bootstrap interval come from the suite's
+scorer (:func:`planetnav_train.suite.blind.paired_ratio_ci`), against the per-seed values stored in
+docs/tasks_v2_blind.json (its 100 seeds' prefix), or evaluated here by the suite's evaluator with
+``--episode-steps`` or beyond them. Suite v3 scores a saved agent: ``python -m planetnav_train.suite.v3
+agent-rows``. Training results differ across CPUs (torch picks its kernels per CPU); the env does not.
 """
 
 from __future__ import annotations
@@ -87,8 +84,8 @@ def finish_args(args: argparse.Namespace) -> argparse.Namespace:
     return args
 
 
-def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
-    return finish_args(make_parser().parse_args(argv))
+def parse_args(argv: list[str] | None = None, parser=None) -> argparse.Namespace:
+    return finish_args((parser or make_parser()).parse_args(argv))
 
 
 def layer_init(layer: nn.Linear, std: float = math.sqrt(2), bias_const: float = 0.0) -> nn.Linear:
@@ -99,6 +96,8 @@ def layer_init(layer: nn.Linear, std: float = math.sqrt(2), bias_const: float = 
 
 class Agent(nn.Module):
     """Separate actor and critic MLPs (64-64, tanh, orthogonal init): Stable-Baselines3's MlpPolicy."""
+
+    action_shape, action_dtype = (), torch.long  # a row's action (the rollout's storage): one index
 
     def __init__(self, obs_dim: int, n_actions: int) -> None:
         super().__init__()
@@ -118,8 +117,7 @@ class Agent(nn.Module):
 
     def get_action_and_value(self, x: torch.Tensor, action: torch.Tensor | None = None):
         probs = Categorical(logits=self.actor(x))
-        if action is None:
-            action = probs.sample()
+        action = probs.sample() if action is None else action
         return action, probs.log_prob(action), probs.entropy(), self.critic(x)
 
 
@@ -221,19 +219,24 @@ def shuffler(rng: np.random.Generator, inds: np.ndarray):
     return permutation
 
 
-def train(args: argparse.Namespace) -> Agent:
+def discrete_agent(space: gym.Space, obs_dim: int) -> Agent:
+    """The agent of a Discrete action space (baselines/ppo_continuous.py builds a Box's)."""
+    if not isinstance(space, gym.spaces.Discrete):
+        raise ValueError(f"this PPO takes Discrete actions, not {space} (a Box: baselines/ppo_continuous.py)")
+    return Agent(obs_dim, int(space.n))
+
+
+def train(args: argparse.Namespace, build=discrete_agent) -> Agent:
     envs = gym.make_vec(args.env_id, num_envs=args.num_envs, autoreset_mode="same_step", **env_options(args))
     assert isinstance(envs, PlanetNavVectorEnv), f"not the native vector env: {type(envs).__name__}"
-    assert isinstance(envs.single_action_space, gym.spaces.Discrete), "this PPO takes Discrete actions"
     obs_dim = int(np.prod(envs.single_observation_space.shape))
-    agent = Agent(obs_dim, int(envs.single_action_space.n))
+    agent = build(envs.single_action_space, obs_dim)
     optimizer = torch.optim.Adam(agent.parameters(), lr=args.learning_rate, eps=1e-5)
     rng = np.random.default_rng(args.seed)  # minibatch shuffling
 
-    # Rollout storage
-    T, N = args.num_steps, args.num_envs
+    T, N = args.num_steps, args.num_envs  # the rollout's storage
     obs = torch.zeros((T, N, obs_dim))
-    actions = torch.zeros((T, N), dtype=torch.long)
+    actions = torch.zeros((T, N, *agent.action_shape), dtype=agent.action_dtype)
     logprobs, rewards, dones, values = (torch.zeros((T, N)) for _ in range(4))
 
     global_step, start = 0, time.time()
@@ -273,7 +276,7 @@ def train(args: argparse.Namespace) -> Agent:
         b_values = values.reshape(-1)
         b_returns = returns.reshape(-1)
         permutation = shuffler(rng, np.arange(args.batch_size))
-        st = ppo_update(agent, optimizer, args, b_obs, actions.reshape(-1), logprobs.reshape(-1),
+        st = ppo_update(agent, optimizer, args, b_obs, actions.flatten(0, 1), logprobs.reshape(-1),
                         advantages.reshape(-1), b_returns, permutation)  # fmt: skip
         pg_loss, v_loss, entropy_loss, approx_kl = st["pg_loss"], st["v_loss"], st["entropy"], st["approx_kl"]
         clipfracs = [st["clipfrac"].item()]
@@ -345,18 +348,19 @@ def references(args: argparse.Namespace, cfg: EnvConfig, seed: int, n: int):
     return blind, evaluate_objective(blind, cfg, n, seed), best, evaluate_objective(best, cfg, n, seed), where
 
 
-def main(argv: list[str] | None = None) -> dict:
-    args = parse_args(argv)
+def main(argv: list[str] | None = None, parser=None, build=discrete_agent, policy=sampled_policy) -> dict:
+    """Train, save, evaluate; a Box's PPO (baselines/ppo_continuous.py) brings its parser, agent, policy."""
+    args = parse_args(argv, parser)
     torch.set_num_threads(args.torch_threads)
     torch.manual_seed(args.seed)
     t0 = time.time()
-    agent = train(args)
+    agent = train(args, build)
     print(f"trained {args.num_iterations} updates ({args.num_iterations * args.batch_size} decisions) "
           f"in {time.time() - t0:.0f} s")  # fmt: skip
     if args.save_model:
         torch.save(agent.state_dict(), args.save_model)
         print(f"saved {args.save_model}")
-    return evaluate_and_score(agent, args, {"agent": agent})
+    return evaluate_and_score(agent, args, {"agent": agent}, policy)
 
 
 def eval_config(args: argparse.Namespace) -> EnvConfig:
@@ -364,16 +368,14 @@ def eval_config(args: argparse.Namespace) -> EnvConfig:
     return EnvConfig.from_dict({**id_options(args.env_id), **env_options(args)}, noise_streams="per_step")
 
 
-def evaluate_and_score(agent: Agent, args: argparse.Namespace, out: dict) -> dict:
+def evaluate_and_score(agent: Agent, args: argparse.Namespace, out: dict, policy=sampled_policy) -> dict:
     """The suite's evaluation of ``agent`` (on the CPU) and its blind-zero score, added to ``out``."""
     if args.eval_episodes <= 0:
         return out
-
     seed, n = 50_000, args.eval_episodes
     cfg = eval_config(args)
     seeds = list(range(seed, seed + n))
-    j = evaluate(sampled_policy(agent, seeds), cfg, seeds)
-    out["J"] = j
+    out["J"] = j = evaluate(policy(agent, seeds), cfg, seeds)
     print(f"evaluation: {n} episodes on seeds {seed}..{seed + n - 1}, per-step noise streams, sampled "
           f"actions (the suite's draws), {cfg.episode_steps} physics steps each")  # fmt: skip
     print(f"  PPO (this run)       {j.mean():9.2f} km")

@@ -889,45 +889,83 @@ def learner_rows(
 
 
 SINGLE_FILE_PPO = ROOT / "baselines" / "ppo_single_file.py"
+CONTINUOUS_PPO = ROOT / "baselines" / "ppo_continuous.py"
 
 
-def single_file_ppo() -> Any:
-    """``baselines/ppo_single_file.py`` as a module (a script, not a package: loaded from its path)."""
+def _script(path: Path) -> Any:
+    """A baselines/ script as a module (a script, not a package: loaded from its path)."""
     import importlib.util
 
-    spec = importlib.util.spec_from_file_location("ppo_single_file", SINGLE_FILE_PPO)
+    spec = importlib.util.spec_from_file_location(path.stem, path)
     script = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(script)
     return script
 
 
-def agent_rows(task: str, agent_path: str | Path, episodes: int = 100, seed: int = 0) -> dict[str, Any]:
-    """The single-file PPO's saved agent (``baselines/ppo_single_file.py --save-model``) on v3 ``task``:
-    sampled actions (one torch generator seeded ``seed``) on the evaluation seeds, its entropy, score, and
-    its paired difference from the published zero and best reference, as :func:`learner_rows` reports."""
+def single_file_ppo() -> Any:
+    """``baselines/ppo_single_file.py`` as a module."""
+    return _script(SINGLE_FILE_PPO)
+
+
+def continuous_ppo() -> Any:
+    """``baselines/ppo_continuous.py`` (the single-file PPO with a Gaussian head) as a module."""
+    return _script(CONTINUOUS_PPO)
+
+
+def _single_file_actor(agent_path: str | Path, cfg: EnvConfig, task: str, gen: Any, ent: list[float]):
+    """(name, act) of a saved single-file agent: a Categorical one on a target task, a Gaussian one
+    (ppo_continuous's, its state holding ``log_std``) on a torque task; ``act`` samples with ``gen`` and
+    records each batch's mean entropy (nats; a Gaussian's differential entropy, summed over its axes)."""
+    import pickle
+
     import torch
     from torch.distributions import Categorical
 
-    agent = single_file_ppo().load_agent(agent_path)
-    cfg = eval_config(f"planetnav/{task}")
+    try:
+        state = torch.load(agent_path, map_location="cpu")
+    except (OSError, RuntimeError, EOFError, pickle.UnpicklingError) as e:
+        raise ConfigError(f"{agent_path}: not a saved agent ({str(e).splitlines()[0]})") from e
+    if not isinstance(state, dict) or "actor.0.weight" not in state:
+        raise ConfigError(f"{agent_path}: not a saved agent (no actor.0.weight in its state)")
+    gaussian = "log_std" in state
+    agent = (continuous_ppo() if gaussian else single_file_ppo()).load_agent(agent_path)
     n_a = agent.actor[-1].out_features
-    if cfg.action_mode == "torque" or n_a != cfg.n_target_actions:
+    if gaussian and (cfg.action_mode != "torque" or n_a != 3):
+        raise ConfigError(f"{agent_path}: a Gaussian agent of {n_a} action dimensions does not fit {task}")
+    if not gaussian and (cfg.action_mode == "torque" or n_a != cfg.n_target_actions):
         raise ConfigError(f"{agent_path}: an agent of {n_a} discrete actions does not fit {task}")
-    gen = torch.Generator().manual_seed(seed)
-    ent: list[float] = []
 
     def act(d: int, obs: np.ndarray) -> np.ndarray:
         with torch.no_grad():
-            dist = Categorical(logits=agent.actor(torch.as_tensor(obs, dtype=torch.float32)))
+            x = torch.as_tensor(obs, dtype=torch.float32)
+            if gaussian:
+                dist = agent.distribution(x)
+                ent.append(float(dist.entropy().sum(-1).mean()))
+                return (dist.loc + torch.randn(dist.loc.shape, generator=gen) * dist.scale).numpy()
+            dist = Categorical(logits=agent.actor(x))
             ent.append(float(dist.entropy().mean()))
             return torch.multinomial(dist.probs, 1, True, generator=gen)[:, 0].numpy()
 
+    return ("single-file PPO (Gaussian)" if gaussian else "single-file PPO"), act
+
+
+def agent_rows(task: str, agent_path: str | Path, episodes: int = 100, seed: int = 0) -> dict[str, Any]:
+    """The single-file PPO's saved agent (``baselines/ppo_single_file.py --save-model``, or
+    ``baselines/ppo_continuous.py``'s on the torque task) on v3 ``task``: sampled actions (one torch
+    generator seeded ``seed``; the env clips a Gaussian's to the Box) on the evaluation seeds, its
+    entropy, score, and its paired difference from the published zero and best reference, as
+    :func:`learner_rows` reports."""
+    import torch
+
+    cfg = eval_config(f"planetnav/{task}")
+    ent: list[float] = []
+    name, act = _single_file_actor(agent_path, cfg, task, torch.Generator().manual_seed(seed), ent)
     seeds = range(EVAL_SEED, EVAL_SEED + episodes)
     j = roll_out(cfg, act, seeds).objective
-    row = _row("single-file PPO", j, float(np.mean(ent)), task, {})
+    row = _row(name, j, float(np.mean(ent)), task, {})
     rows: dict[str, Any] = {"task": task, "algo": "ppo_single_file", "acting": "sampled",
                             "agent": str(agent_path), "episodes": episodes, "rows": [row]}  # fmt: skip
-    _paired_with_published(rows, {"single-file PPO": j}, cfg, task, seeds)
+    _paired_with_published(rows, {name: j}, cfg, task, seeds)
     rows["provenance"] = provenance()
     return rows
 

@@ -257,6 +257,36 @@ def test_a_saved_single_file_ppo_agent_is_scored_on_the_v3_seeds_beside_the_publ
         v3.agent_rows("Cruise-Target-v3", tmp_path / "four.pt", episodes=2)
 
 
+def test_a_saved_gaussian_agent_is_scored_on_the_torque_task_and_refused_elsewhere(tmp_path) -> None:
+    """ppo_continuous's agent on Cruise-Torque-v3: its row is a Gaussian's (the differential entropy of
+    its initial unit spread, summed over three axes), paired with the published rows; a Gaussian agent on
+    a target task, a Categorical one on the torque task and a file that is no agent are refused by name."""
+    import math
+
+    import torch
+
+    cont = v3.continuous_ppo()
+    obs_dim = PlanetNavVectorEnv(
+        1, v3.eval_config("planetnav/Cruise-Torque-v3")
+    ).single_observation_space.shape[0]
+    torch.manual_seed(0)
+    torch.save(cont.GaussianAgent(obs_dim, 3).state_dict(), tmp_path / "gauss.pt")
+    rows = v3.agent_rows("Cruise-Torque-v3", tmp_path / "gauss.pt", episodes=2)
+    agent, zero = rows["rows"][0], rows["rows"][1]
+    assert agent["policy"] == "single-file PPO (Gaussian)" and zero["policy"].startswith("blind zero")
+    assert agent["entropy_nats"] == pytest.approx(3 * 0.5 * math.log(2 * math.pi * math.e), rel=1e-6)
+    assert agent["minus_zero"]["mean"] == pytest.approx(agent["J"]["mean"] - zero["J"]["mean"])
+    assert agent["score"] is not None  # the torque task is normalized
+    with pytest.raises(ConfigError, match="Gaussian agent of 3 action dimensions does not fit Cruise-Target"):
+        v3.agent_rows("Cruise-Target-v3", tmp_path / "gauss.pt", episodes=2)
+    torch.save(v3.single_file_ppo().Agent(obs_dim, 3).state_dict(), tmp_path / "cat.pt")
+    with pytest.raises(ConfigError, match="3 discrete actions does not fit Cruise-Torque-v3"):
+        v3.agent_rows("Cruise-Torque-v3", tmp_path / "cat.pt", episodes=2)
+    (tmp_path / "junk.pt").write_text("not a model")
+    with pytest.raises(ConfigError, match=r"junk\.pt: not a saved agent"):
+        v3.agent_rows("Cruise-Torque-v3", tmp_path / "junk.pt", episodes=2)
+
+
 def test_the_published_rows_act_in_the_tasks_own_interface_when_the_learner_takes_relative_actions() -> None:
     from planetnav_train.suite.v3 import learner_rows
 
