@@ -114,7 +114,9 @@ def test_sampled_evaluation_draws_the_suites_draws(tmp_path: Path) -> None:
     assert (np.abs(other - j) > 1e-3 * j).all(), (other, j)
 
 
-def test_training_loop_equals_stable_baselines3s_ppo_on_its_draws(monkeypatch: pytest.MonkeyPatch) -> None:
+def test_training_loop_equals_stable_baselines3s_ppo_on_its_draws(
+    monkeypatch: pytest.MonkeyPatch, sb3_learn, sb3_order
+) -> None:
     """ppo_single_file's loop with the Gaussian agent against Stable-Baselines3's PPO on the Box: three
     updates of 8 rows x 16 decisions with 40-decision episodes (so time limits are bootstrapped). Given
     SB3's initial weights, torch's generator where SB3's first draw finds it, and SB3's minibatch order,
@@ -124,45 +126,22 @@ def test_training_loop_equals_stable_baselines3s_ppo_on_its_draws(monkeypatch: p
     single = mod.single
     torch.set_num_threads(1)
     T, N, updates, seed = 16, 8, 3, 3
-    model = _sb3_ppo(T, N, seed=seed, gamma=0.95)
-    before = {k: v.clone() for k, v in model.policy.state_dict().items()}
+    before, after, at_first_draw = sb3_learn(_sb3_ppo(T, N, seed=seed, gamma=0.95), T * N * updates)
     names = {**single.SB3_NAMES, "log_std": "log_std"}
-    at_first_draw: dict = {}
-    collect = model.collect_rollouts
 
-    def record_collect(*a, **kw):
-        at_first_draw.setdefault("torch", torch.get_rng_state())
-        at_first_draw.setdefault("numpy", np.random.get_state())  # noqa: NPY002
-        return collect(*a, **kw)
+    def sb3_initialized(space, obs_dim):
+        agent = mod.box_agent(space, obs_dim)
+        agent.load_state_dict({ours: before[theirs] for ours, theirs in names.items()})
+        torch.set_rng_state(at_first_draw["torch"])  # the initialization above drew from it
+        return agent
 
-    monkeypatch.setattr(model, "collect_rollouts", record_collect)
-    state = np.random.get_state()  # noqa: NPY002
-    try:
-        model.learn(T * N * updates)
-        after = model.policy.state_dict()
-
-        def sb3_initialized(space, obs_dim):
-            agent = mod.box_agent(space, obs_dim)
-            agent.load_state_dict({ours: before[theirs] for ours, theirs in names.items()})
-            torch.set_rng_state(at_first_draw["torch"])  # the initialization above drew from it
-            return agent
-
-        def sb3_order(_rng, _inds):
-            def permutation() -> np.ndarray:
-                k = np.random.permutation(T * N)  # noqa: NPY002 - SB3's minibatches' generator
-                return (k % T) * N + k // T
-
-            return permutation
-
-        monkeypatch.setattr(single, "shuffler", sb3_order)
-        np.random.set_state(at_first_draw["numpy"])  # noqa: NPY002
-        args = single.parse_args(["--env-id", TASK, "--num-envs", str(N), "--num-steps", str(T),
-                                  "--num-minibatches", "4", "--update-epochs", "2", "--seed", str(seed),
-                                  "--learning-rate", str(LR), "--episode-steps", "40", "--eval-episodes",
-                                  "0", "--total-timesteps", str(T * N * updates)])  # fmt: skip
-        agent = single.train(args, sb3_initialized)
-    finally:
-        np.random.set_state(state)  # noqa: NPY002
+    monkeypatch.setattr(single, "shuffler", sb3_order(T, N))
+    np.random.set_state(at_first_draw["numpy"])  # noqa: NPY002
+    args = single.parse_args(["--env-id", TASK, "--num-envs", str(N), "--num-steps", str(T),
+                              "--num-minibatches", "4", "--update-epochs", "2", "--seed", str(seed),
+                              "--learning-rate", str(LR), "--episode-steps", "40", "--eval-episodes", "0",
+                              "--total-timesteps", str(T * N * updates)])  # fmt: skip
+    agent = single.train(args, sb3_initialized)
     for ours, theirs in names.items():
         moved = (after[theirs] - before[theirs]).abs().max().item()
         assert moved > 1e-4, (theirs, moved)

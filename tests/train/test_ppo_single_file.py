@@ -220,7 +220,9 @@ def test_gae_and_update_equal_stable_baselines3s_ppo(monkeypatch: pytest.MonkeyP
         torch.testing.assert_close(agent.state_dict()[ours], after[theirs], rtol=0, atol=1e-6, msg=ours)
 
 
-def test_training_loop_equals_stable_baselines3s_ppo_on_its_draws(monkeypatch: pytest.MonkeyPatch) -> None:
+def test_training_loop_equals_stable_baselines3s_ppo_on_its_draws(
+    monkeypatch: pytest.MonkeyPatch, sb3_learn, sb3_order
+) -> None:
     """The whole loop against Stable-Baselines3's PPO: rollout, same-step autoreset, bootstrapped time
     limits, GAE and update, three updates of 8 rows x 16 decisions with 4-decision episodes. Given SB3's
     initial weights, torch's global generator where SB3's first action draw finds it, and SB3's
@@ -229,45 +231,22 @@ def test_training_loop_equals_stable_baselines3s_ppo_on_its_draws(monkeypatch: p
     mod = _module()
     torch.set_num_threads(1)
     T, N, updates, seed = 16, 8, 3, 3
-    model = _sb3_ppo(T, N, seed=seed, gamma=0.95)
-    before = {k: v.clone() for k, v in model.policy.state_dict().items()}
-    at_first_draw: dict = {}
-    collect = model.collect_rollouts
+    before, after, at_first_draw = sb3_learn(_sb3_ppo(T, N, seed=seed, gamma=0.95), T * N * updates)
 
-    def record_collect(*a, **kw):
-        at_first_draw.setdefault("torch", torch.get_rng_state())
-        at_first_draw.setdefault("numpy", np.random.get_state())  # noqa: NPY002
-        return collect(*a, **kw)
+    class SB3Initialized(mod.Agent):
+        def __init__(self, *a) -> None:
+            super().__init__(*a)
+            self.load_state_dict({ours: before[theirs] for ours, theirs in mod.SB3_NAMES.items()})
+            torch.set_rng_state(at_first_draw["torch"])  # the initialization above drew from it
 
-    monkeypatch.setattr(model, "collect_rollouts", record_collect)
-    state = np.random.get_state()  # noqa: NPY002
-    try:
-        model.learn(T * N * updates)
-        after = model.policy.state_dict()
-
-        class SB3Initialized(mod.Agent):
-            def __init__(self, *a) -> None:
-                super().__init__(*a)
-                self.load_state_dict({ours: before[theirs] for ours, theirs in mod.SB3_NAMES.items()})
-                torch.set_rng_state(at_first_draw["torch"])  # the initialization above drew from it
-
-        def sb3_order(_rng, _inds):
-            def permutation() -> np.ndarray:  # SB3 flattens (T, N) row after row; the single file t after t
-                k = np.random.permutation(T * N)  # noqa: NPY002 - SB3's minibatches' generator
-                return (k % T) * N + k // T
-
-            return permutation
-
-        monkeypatch.setattr(mod, "Agent", SB3Initialized)
-        monkeypatch.setattr(mod, "shuffler", sb3_order)
-        np.random.set_state(at_first_draw["numpy"])  # noqa: NPY002
-        args = mod.parse_args(["--num-envs", str(N), "--num-steps", str(T), "--num-minibatches", "4",
-                               "--update-epochs", "2", "--learning-rate", str(LR), "--seed", str(seed),
-                               "--episode-steps", "40", "--total-timesteps", str(T * N * updates),
-                               "--eval-episodes", "0"])  # fmt: skip
-        agent = mod.train(args)
-    finally:
-        np.random.set_state(state)  # noqa: NPY002
+    monkeypatch.setattr(mod, "Agent", SB3Initialized)
+    monkeypatch.setattr(mod, "shuffler", sb3_order(T, N))
+    np.random.set_state(at_first_draw["numpy"])  # noqa: NPY002
+    args = mod.parse_args(["--num-envs", str(N), "--num-steps", str(T), "--num-minibatches", "4",
+                           "--update-epochs", "2", "--learning-rate", str(LR), "--seed", str(seed),
+                           "--episode-steps", "40", "--total-timesteps", str(T * N * updates),
+                           "--eval-episodes", "0"])  # fmt: skip
+    agent = mod.train(args)
     for ours, theirs in mod.SB3_NAMES.items():
         moved = (after[theirs] - before[theirs]).abs().max().item()
         assert moved > 1e-4, (theirs, moved)  # every tensor moved, by 100x the tolerance or more
