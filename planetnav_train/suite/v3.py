@@ -860,13 +860,7 @@ def learner_rows(
     ent: list[float] = []
     per_seed = {"untrained network": (j := roll_out(cfg, _policy_fn(model, ent, det), seeds).objective)}
     rows["rows"].append(_row("untrained network", j, float(np.mean(ent)), task, {}, unscored))
-    if cfg.action_mode == "torque":
-        uniform = BlindTorques("uniform", np.zeros((cfg.episode_decisions, 3)), 1.0)
-        h_uniform = 3 * math.log(2.0)  # differential entropy of U(-1, 1)^3
-    else:
-        n_a = cfg.n_target_actions
-        uniform = BlindTargets("uniform", np.full((cfg.episode_decisions, n_a), 1.0 / n_a))
-        h_uniform = math.log(n_a)
+    uniform, h_uniform = _uniform(cfg)
     per_seed["uniform random"] = j = roll_out(cfg, uniform, seeds).objective
     rows["rows"].append(_row("uniform random", j, h_uniform, task, {}, unscored))
     t0 = time.time()
@@ -912,14 +906,12 @@ def continuous_ppo() -> Any:
     return _script(CONTINUOUS_PPO)
 
 
-def _single_file_actor(agent_path: str | Path, cfg: EnvConfig, task: str, gen: Any, ent: list[float]):
-    """(name, act) of a saved single-file agent: a Categorical one on a target task, a Gaussian one
-    (ppo_continuous's, its state holding ``log_std``) on a torque task; ``act`` samples with ``gen`` and
-    records each batch's mean entropy (nats; a Gaussian's differential entropy, summed over its axes)."""
+def _load_single_file(agent_path: str | Path, cfg: EnvConfig, task: str) -> tuple[Any, Any]:
+    """(agent, its script) of a saved single-file agent: a Categorical one on a target task, a Gaussian
+    one (ppo_continuous's, its state holding ``log_std``) on a torque task; anything else refused."""
     import pickle
 
     import torch
-    from torch.distributions import Categorical
 
     try:
         state = torch.load(agent_path, map_location="cpu")
@@ -928,12 +920,25 @@ def _single_file_actor(agent_path: str | Path, cfg: EnvConfig, task: str, gen: A
     if not isinstance(state, dict) or "actor.0.weight" not in state:
         raise ConfigError(f"{agent_path}: not a saved agent (no actor.0.weight in its state)")
     gaussian = "log_std" in state
-    agent = (continuous_ppo() if gaussian else single_file_ppo()).load_agent(agent_path)
+    script = continuous_ppo() if gaussian else single_file_ppo()
+    agent = script.load_agent(agent_path)
     n_a = agent.actor[-1].out_features
     if gaussian and (cfg.action_mode != "torque" or n_a != 3):
         raise ConfigError(f"{agent_path}: a Gaussian agent of {n_a} action dimensions does not fit {task}")
     if not gaussian and (cfg.action_mode == "torque" or n_a != cfg.n_target_actions):
         raise ConfigError(f"{agent_path}: an agent of {n_a} discrete actions does not fit {task}")
+    return agent, script
+
+
+def _sampler(agent: Any, seed: int, ent: list[float]):
+    """(decision, observations) -> a single-file agent's sampled actions, from one torch generator seeded
+    ``seed``, recording each batch's mean entropy (nats; a Gaussian's differential entropy summed over its
+    axes). The env clips a Gaussian's sample to the Box."""
+    import torch
+    from torch.distributions import Categorical
+
+    gen = torch.Generator().manual_seed(seed)
+    gaussian = hasattr(agent, "log_std")
 
     def act(d: int, obs: np.ndarray) -> np.ndarray:
         with torch.no_grad():
@@ -946,26 +951,53 @@ def _single_file_actor(agent_path: str | Path, cfg: EnvConfig, task: str, gen: A
             ent.append(float(dist.entropy().mean()))
             return torch.multinomial(dist.probs, 1, True, generator=gen)[:, 0].numpy()
 
-    return ("single-file PPO (Gaussian)" if gaussian else "single-file PPO"), act
+    return act
 
 
-def agent_rows(task: str, agent_path: str | Path, episodes: int = 100, seed: int = 0) -> dict[str, Any]:
+def _uniform(cfg: EnvConfig) -> tuple[BlindTargets | BlindTorques, float]:
+    """Uniform random actions in ``cfg``'s interface and their entropy [nats] (a torque box's: the
+    differential entropy of U(-1, 1)^3)."""
+    if cfg.action_mode == "torque":
+        return BlindTorques("uniform", np.zeros((cfg.episode_decisions, 3)), 1.0), 3 * math.log(2.0)
+    n_a = cfg.n_target_actions
+    return BlindTargets("uniform", np.full((cfg.episode_decisions, n_a), 1.0 / n_a)), math.log(n_a)
+
+
+def agent_rows(
+    task: str, agent_path: str | Path, episodes: int = 100, seed: int = 0, train_seed: int | None = None
+) -> dict[str, Any]:
     """The single-file PPO's saved agent (``baselines/ppo_single_file.py --save-model``, or
     ``baselines/ppo_continuous.py``'s on the torque task) on v3 ``task``: sampled actions (one torch
-    generator seeded ``seed``; the env clips a Gaussian's to the Box) on the evaluation seeds, its
-    entropy, score, and its paired difference from the published zero and best reference, as
-    :func:`learner_rows` reports."""
+    generator seeded ``seed``) on the evaluation seeds, its entropy, score, and its paired difference from
+    the published zero and best reference, as :func:`learner_rows` reports. With ``train_seed`` (the
+    script's ``--seed``), the untrained network (the script's initialization: torch seeded with it, then
+    the agent built) and uniform random come first, under the same draws."""
     import torch
 
     cfg = eval_config(f"planetnav/{task}")
-    ent: list[float] = []
-    name, act = _single_file_actor(agent_path, cfg, task, torch.Generator().manual_seed(seed), ent)
+    agent, script = _load_single_file(agent_path, cfg, task)
+    gaussian = hasattr(agent, "log_std")
+    name = "single-file PPO (Gaussian)" if gaussian else "single-file PPO"
     seeds = range(EVAL_SEED, EVAL_SEED + episodes)
-    j = roll_out(cfg, act, seeds).objective
-    row = _row(name, j, float(np.mean(ent)), task, {})
     rows: dict[str, Any] = {"task": task, "algo": "ppo_single_file", "acting": "sampled",
-                            "agent": str(agent_path), "episodes": episodes, "rows": [row]}  # fmt: skip
-    _paired_with_published(rows, {name: j}, cfg, task, seeds)
+                            "agent": str(agent_path), "episodes": episodes, "rows": []}  # fmt: skip
+    per_seed: dict[str, np.ndarray] = {}
+    if train_seed is not None:
+        rows["seed"] = train_seed
+        torch.manual_seed(train_seed)
+        obs_dim = agent.actor[0].in_features
+        n_out = 3 if gaussian else cfg.n_target_actions
+        untrained = (script.GaussianAgent if gaussian else script.Agent)(obs_dim, n_out)
+        ent: list[float] = []
+        per_seed["untrained network"] = j = roll_out(cfg, _sampler(untrained, seed, ent), seeds).objective
+        rows["rows"].append(_row("untrained network", j, float(np.mean(ent)), task, {}))
+        uniform, h_uniform = _uniform(cfg)
+        per_seed["uniform random"] = j = roll_out(cfg, uniform, seeds).objective
+        rows["rows"].append(_row("uniform random", j, h_uniform, task, {}))
+    ent = []
+    per_seed[name] = j = roll_out(cfg, _sampler(agent, seed, ent), seeds).objective
+    rows["rows"].append(_row(name, j, float(np.mean(ent)), task, {}))
+    _paired_with_published(rows, per_seed, cfg, task, seeds)
     rows["provenance"] = provenance()
     return rows
 
@@ -1021,11 +1053,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     lr.add_argument("--algo", default="ppo", choices=sorted(LEARNERS), help="the SB3 learner (its defaults)")
     lr.add_argument("--save-model", default=None, help="save the trained model here (SB3's zip)")
     ag = sub.add_parser(
-        "agent-rows", help="score a saved single-file PPO agent (baselines/ppo_single_file.py)"
+        "agent-rows",
+        help="score a saved single-file PPO agent (baselines/ppo_single_file.py, ppo_continuous.py)",
     )
     ag.add_argument("--task", required=True)
     ag.add_argument("--agent", required=True, help="the state_dict that --save-model wrote")
     ag.add_argument("--episodes", type=int, default=100, help="evaluation seeds from EVAL_SEED")
+    ag.add_argument("--train-seed", type=int, default=None,
+                    help="the script's --seed: adds its untrained network and uniform random")  # fmt: skip
     ag.add_argument("--out", default=None, help="write the rows as JSON here")
     for q in (r, s, n):
         q.add_argument("--tasks", nargs="*", default=None)
@@ -1038,7 +1073,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         record_ids()
         return 0
     if args.cmd == "agent-rows":
-        rows = agent_rows(args.task, args.agent, args.episodes)
+        rows = agent_rows(args.task, args.agent, args.episodes, train_seed=args.train_seed)
         print(json.dumps(rows, indent=1))
         if args.out:
             write_json(Path(args.out), rows)

@@ -257,6 +257,28 @@ def test_a_saved_single_file_ppo_agent_is_scored_on_the_v3_seeds_beside_the_publ
         v3.agent_rows("Cruise-Target-v3", tmp_path / "four.pt", episodes=2)
 
 
+def test_agent_rows_with_the_training_seed_add_the_scripts_initialization_and_uniform(tmp_path) -> None:
+    """With ``train_seed``, the untrained row is the script's own initialization (torch seeded, then the
+    agent built): an agent saved as that initialization scores what the untrained row scores, draw for
+    draw; uniform random is the learner rows' (the same policy on the same seeds)."""
+    import torch
+
+    script = v3.single_file_ppo()
+    obs_dim = PlanetNavVectorEnv(
+        1, v3.eval_config("planetnav/Cruise-Target-v3")
+    ).single_observation_space.shape[0]
+    torch.manual_seed(5)
+    torch.save(script.Agent(obs_dim, 3).state_dict(), tmp_path / "init5.pt")
+    rows = v3.agent_rows("Cruise-Target-v3", tmp_path / "init5.pt", episodes=2, train_seed=5)
+    names = [r["policy"] for r in rows["rows"]]
+    assert names[:3] == ["untrained network", "uniform random", "single-file PPO"], names
+    assert rows["per_seed"]["untrained network"] == rows["per_seed"]["single-file PPO"]
+    assert rows["seed"] == 5
+    other = v3.agent_rows("Cruise-Target-v3", tmp_path / "init5.pt", episodes=2, train_seed=6)
+    assert other["per_seed"]["untrained network"] != rows["per_seed"]["untrained network"]
+    assert other["per_seed"]["uniform random"] == rows["per_seed"]["uniform random"]
+
+
 def test_a_saved_gaussian_agent_is_scored_on_the_torque_task_and_refused_elsewhere(tmp_path) -> None:
     """ppo_continuous's agent on Cruise-Torque-v3: its row is a Gaussian's (the differential entropy of
     its initial unit spread, summed over three axes), paired with the published rows; a Gaussian agent on
