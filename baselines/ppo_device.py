@@ -151,9 +151,8 @@ def make_env(args):
 def train(args) -> tuple[single.Agent, list[dict]]:
     dev = torch.device(args.device)
     envs = make_env(args)
-    assert isinstance(envs.single_action_space, gym.spaces.Discrete), "this PPO takes Discrete actions"
     obs_dim = int(np.prod(envs.single_observation_space.shape))
-    agent = single.Agent(obs_dim, int(envs.single_action_space.n)).to(dev)
+    agent = single.discrete_agent(envs.single_action_space, obs_dim).to(dev)  # a Box refused by name
     optimizer = torch.optim.Adam(agent.parameters(), lr=args.learning_rate, eps=1e-5)
     gen = torch.Generator(device=dev).manual_seed(args.seed)  # minibatch shuffling
 
