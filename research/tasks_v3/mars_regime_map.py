@@ -19,7 +19,9 @@ model was picked on), with per-step noise streams, every policy on the same seed
   strength at which this learned policy beats every non-privileged rule.
 - ``learn``: the suite's DQN learner row (SB3's defaults through ``make_vec_env``, 300,000 decisions)
   trained and scored at one strength, beside the zero, the references and uniform random in that world.
-- ``table``: the ``learn`` runs pooled per strength (two-level bootstrap over training runs and seeds).
+- ``table``: the ``learn`` runs pooled per strength (two-level bootstrap over training runs and seeds);
+  the suite's own DQN runs of the task (``research/tasks_v3/learners/MarsApproach-Tasking-v3-dqn-*.json``)
+  are the flight row.
 """
 
 from __future__ import annotations
@@ -155,7 +157,12 @@ def table(paths: list[str]) -> None:
     by: dict[tuple[str, float], list[dict]] = defaultdict(list)
     for p in paths:
         d = json.loads(Path(p).read_text())
-        by[(d["effect"], float(d["strength"]))].append(d)
+        if d.get("world_overrides"):
+            by[(d["effect"], float(d["strength"]))].append(d)
+        elif d.get("algo") == "dqn" and d["task"] == TASK:  # the suite's own runs: every effect at 1
+            by[("flight", 1.0)].append(d)
+        else:
+            raise SystemExit(f"{p}: neither a `learn` run nor the suite's DQN run of {TASK}")
     head = ["effect", "strength", "runs", "J zero", "J reference", "DQN J (runs)", "DQN - zero",
             "DQN - reference", "per run: DQN - zero"]  # fmt: skip
     print("| " + " | ".join(head) + " |")
@@ -170,11 +177,12 @@ def table(paths: list[str]) -> None:
             f"{s:g}",
             str(len(runs)),
             f"{ps[0]['zero'].mean():.1f}",
-            f"{ps[0]['best_reference'].mean():.1f}",
+            f"{next(p['best_reference'] for p in ps if 'best_reference' in p).mean():.1f}",
             f"{np.mean(jd):.1f} ({min(jd):.1f}..{max(jd):.1f})",
         ]
         for other in ("zero", "best_reference"):
-            d = v3.pooled_mean_interval([p[DQN] - p[other] for p in ps])
+            # An older run wrote no reference row: the reference's difference pools the runs that did.
+            d = v3.pooled_mean_interval([p[DQN] - p[other] for p in ps if other in p])
             cells.append(f"{d['mean']:+.1f} [{d['lo']:+.1f}, {d['hi']:+.1f}]")
         cells.append(", ".join(_diff(p[DQN], p["zero"]) for p in ps))
         print("| " + " | ".join(cells) + " |")

@@ -237,13 +237,16 @@ def test_the_learner_rows_train_dqn_on_a_discrete_task_and_refuse_a_misfit() -> 
         learner_rows("Cruise-Target-v3", 64, algo="a2c")
 
 
+def _obs_dim(task: str) -> int:
+    """The width of v3 ``task``'s observation, as a saved agent's first layer takes it."""
+    return PlanetNavVectorEnv(1, v3.eval_config(f"planetnav/{task}")).single_observation_space.shape[0]
+
+
 def test_a_saved_single_file_ppo_agent_is_scored_on_the_v3_seeds_beside_the_published_rows(tmp_path) -> None:
     import torch
 
     script = v3.single_file_ppo()
-    obs_dim = PlanetNavVectorEnv(
-        1, v3.eval_config("planetnav/Cruise-Target-v3")
-    ).single_observation_space.shape[0]
+    obs_dim = _obs_dim("Cruise-Target-v3")
     torch.manual_seed(0)
     torch.save(script.Agent(obs_dim, 3).state_dict(), tmp_path / "agent.pt")
     rows = v3.agent_rows("Cruise-Target-v3", tmp_path / "agent.pt", episodes=2)
@@ -264,9 +267,7 @@ def test_agent_rows_with_the_training_seed_add_the_scripts_initialization_and_un
     import torch
 
     script = v3.single_file_ppo()
-    obs_dim = PlanetNavVectorEnv(
-        1, v3.eval_config("planetnav/Cruise-Target-v3")
-    ).single_observation_space.shape[0]
+    obs_dim = _obs_dim("Cruise-Target-v3")
     torch.manual_seed(5)
     torch.save(script.Agent(obs_dim, 3).state_dict(), tmp_path / "init5.pt")
     rows = v3.agent_rows("Cruise-Target-v3", tmp_path / "init5.pt", episodes=2, train_seed=5)
@@ -288,9 +289,7 @@ def test_a_saved_gaussian_agent_is_scored_on_the_torque_task_and_refused_elsewhe
     import torch
 
     cont = v3.continuous_ppo()
-    obs_dim = PlanetNavVectorEnv(
-        1, v3.eval_config("planetnav/Cruise-Torque-v3")
-    ).single_observation_space.shape[0]
+    obs_dim = _obs_dim("Cruise-Torque-v3")
     torch.manual_seed(0)
     torch.save(cont.GaussianAgent(obs_dim, 3).state_dict(), tmp_path / "gauss.pt")
     rows = v3.agent_rows("Cruise-Torque-v3", tmp_path / "gauss.pt", episodes=2)
