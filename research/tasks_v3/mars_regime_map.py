@@ -2,6 +2,7 @@
 
     python research/tasks_v3/mars_regime_map.py attribute --model M.zip [--episodes 100]
     python research/tasks_v3/mars_regime_map.py map --model M.zip --effect E --strengths S ...
+    python research/tasks_v3/mars_regime_map.py rules --model M.zip --specs SPEC ... [--episodes 300]
     python research/tasks_v3/mars_regime_map.py learn --effect E --strength S --seed K --out F.json
     python research/tasks_v3/mars_regime_map.py table F.json ...
 
@@ -17,6 +18,9 @@ model was picked on), with per-step noise streams, every policy on the same seed
   in the flight world), of every blind finalist and of each reference; the model's paired difference from
   the best rule at that strength (negative: the model is better). A row whose interval lies below 0 is a
   strength at which this learned policy beats every non-privileged rule.
+- ``rules``: the model against further non-privileged rules in the flight world (rule specs, e.g. the
+  adaptive ``greedy:bias=observed``, which divides a target's score by its observed mean NIS), paired,
+  with each rule's difference from the published zero.
 - ``learn``: the suite's DQN learner row (SB3's defaults through ``make_vec_env``, 300,000 decisions)
   trained and scored at one strength, beside the zero, the references and uniform random in that world.
 - ``table``: the ``learn`` runs pooled per strength (two-level bootstrap over training runs and seeds);
@@ -141,6 +145,24 @@ def regime_map(args: argparse.Namespace) -> None:
         print("| " + " | ".join(cells) + f" |  ({time.time() - t0:.0f} s)", flush=True)
 
 
+def rules(args: argparse.Namespace) -> None:
+    act = _model_act(args.model)
+    seeds = range(FIRST, FIRST + args.episodes)
+    cfg = v3.eval_config(ENV_ID)
+    jm = v3.roll_out(cfg, act, seeds).objective
+    zero = _rules(cfg, seeds, all_finalists=False)[f"blind {_zero_name()}"]
+    print(f"{TASK}: {args.model} (DQN, deterministic); seeds {seeds.start}..{seeds.stop - 1}")
+    print(f"  model: J {mean_ci(jm).format('{:.1f}')}; the zero: J {mean_ci(zero).format('{:.1f}')}")
+    for spec in args.specs:
+        j = v3.policy_objective(cfg, spec, seeds.start, len(seeds))
+        cells = f"J {mean_ci(j).format('{:.1f}')}; model - it {_diff(jm, j)}; it - zero {_diff(j, zero)}"
+        print(f"  {spec}: {cells}", flush=True)
+
+
+def _zero_name() -> str:
+    return v3.read_json(v3.BLIND_FILE)["tasks"][TASK]["winner"]
+
+
 def learn(args: argparse.Namespace) -> None:
     world = world_for(args.effect, args.strength)
     rows = v3.learner_rows(TASK, args.budget, args.seed, args.episodes, algo="dqn", world=world or None)
@@ -199,6 +221,10 @@ def main() -> None:
     m.add_argument("--effect", required=True, choices=sorted(EFFECTS))
     m.add_argument("--strengths", type=float, nargs="+", default=[0.0, 0.25, 0.5, 1.0])
     m.add_argument("--episodes", type=int, default=300)
+    r = sub.add_parser("rules")
+    r.add_argument("--model", required=True)
+    r.add_argument("--specs", nargs="+", required=True)
+    r.add_argument("--episodes", type=int, default=300)
     learn_p = sub.add_parser("learn")
     learn_p.add_argument("--effect", required=True, choices=sorted(EFFECTS))
     learn_p.add_argument("--strength", type=float, required=True)
@@ -209,7 +235,9 @@ def main() -> None:
     t = sub.add_parser("table")
     t.add_argument("paths", nargs="+")
     args = ap.parse_args()
-    {"attribute": attribute, "map": regime_map, "learn": learn}.get(args.cmd, lambda a: table(a.paths))(args)
+    {"attribute": attribute, "map": regime_map, "rules": rules, "learn": learn}.get(
+        args.cmd, lambda a: table(a.paths)
+    )(args)
 
 
 if __name__ == "__main__":
