@@ -23,12 +23,17 @@ the lead needs the observation.
 from __future__ import annotations
 
 import argparse
+import sys
 import time
+from pathlib import Path
 
 import numpy as np
 
 from planetnav_train.stats import mean_ci, paired_difference
 from planetnav_train.suite import v3
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from mars_regime_map import blind_policies  # a sibling research script
 
 TASK = "MarsApproach-Tasking-v3"
 ENV_ID = f"planetnav/{TASK}"
@@ -81,14 +86,13 @@ def main() -> None:
     act = v3._policy_fn(DQN.load(args.model, device="cpu"), [], deterministic=True)
     search = v3.roll_out(cfg, act, range(v3.SEARCH_SEED, v3.SEARCH_SEED + args.search_episodes), actions=True)
     freq = frequencies(np.asarray(search.actions), cfg.n_target_actions, args.window)
-    blind = v3.read_json(v3.BLIND_FILE)["tasks"][TASK]
     policies = {
         "distilled, sampled": v3.BlindTargets("distilled, sampled", freq),
         "distilled, fixed": v3.BlindTargets("distilled, fixed", fixed_schedule(freq)),
         "thirds": v3.BlindTargets("thirds", thirds(freq)),
     }
-    for name in [blind["winner"], *(s for s in blind["finalists"] if s != blind["winner"])]:
-        policies[f"blind {name}"] = v3.policy_from_record(name, blind["policies"][name])
+    finalists = blind_policies(TASK)
+    policies.update({f"blind {name}": p for name, p in finalists.items()})
     seeds = range(v3.EVAL_SEED + 100, v3.EVAL_SEED + 100 + args.episodes)
     print(f"{TASK}: {args.model}; frequencies from {args.search_episodes} search seeds (window "
           f"{args.window}); scored on {seeds.start}..{seeds.stop - 1}")  # fmt: skip
@@ -97,7 +101,7 @@ def main() -> None:
     print(f"  the model's frequencies per third (Mars, B0531+21, B1937+21): {rows}")
     jm = v3.roll_out(cfg, act, seeds).objective
     js = {name: v3.roll_out(cfg, policy, seeds).objective for name, policy in policies.items()}
-    zero = js[f"blind {blind['winner']}"]
+    zero = js[f"blind {next(iter(finalists))}"]
     print(f"  model: J {mean_ci(jm).format('{:.1f}')}")
     for name, j in js.items():
         dm, dz = paired_difference(jm, j), paired_difference(j, zero)

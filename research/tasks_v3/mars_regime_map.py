@@ -85,16 +85,26 @@ def _model_act(path: str):
     return v3._policy_fn(model, [], deterministic=True)
 
 
-def _rules(cfg, seeds: range, all_finalists: bool = True) -> dict[str, np.ndarray]:
-    blind = v3.read_json(v3.BLIND_FILE)["tasks"][TASK]
+def blind_policies(task: str = TASK) -> dict:
+    """The published blind finalists of ``task`` by name, the zero (the search's winner) first."""
+    blind = v3.read_json(v3.BLIND_FILE)["tasks"][task]
     names = [blind["winner"], *(s for s in blind["finalists"] if s != blind["winner"])]
-    out = {}
-    for name in names if all_finalists else names[:1]:
-        policy = v3.policy_from_record(name, blind["policies"][name])
-        out[f"blind {name}"] = v3.roll_out(cfg, policy, seeds).objective
+    return {name: v3.policy_from_record(name, blind["policies"][name]) for name in names}
+
+
+def _rules(cfg, seeds: range) -> dict[str, np.ndarray]:
+    """J per seed of every blind finalist (the zero first) and every reference of the task."""
+    out = {f"blind {n}": v3.roll_out(cfg, p, seeds).objective for n, p in blind_policies().items()}
     for spec in v3.V3_TASKS[TASK]:
         out[f"reference {spec}"] = v3.policy_objective(cfg, spec, seeds.start, len(seeds))
     return out
+
+
+def _compare(cfg, act, seeds: range) -> tuple[np.ndarray, dict[str, np.ndarray], np.ndarray, str]:
+    """The model's J, every rule's, the zero's, and the name of the best rule, on ``seeds`` in ``cfg``."""
+    jm = v3.roll_out(cfg, act, seeds).objective
+    rules = _rules(cfg, seeds)
+    return jm, rules, next(iter(rules.values())), min(rules, key=lambda k: rules[k].mean())
 
 
 def _diff(a: np.ndarray, b: np.ndarray) -> str:
@@ -112,11 +122,7 @@ def attribute(args: argparse.Namespace) -> None:
     print("|---|---|---|---|---|---|---|")
     for name, world in worlds.items():
         t0 = time.time()
-        cfg = v3.eval_config(ENV_ID, world=world)
-        jm = v3.roll_out(cfg, act, seeds).objective
-        rules = _rules(cfg, seeds)
-        zero = next(iter(rules.values()))
-        best = min(rules, key=lambda k: rules[k].mean())
+        jm, rules, zero, best = _compare(v3.eval_config(ENV_ID, world=world), act, seeds)
         jg = rules["reference greedy"]
         cells = [name, f"{jm.mean():.1f}", f"{zero.mean():.1f}", f"{rules[best].mean():.1f} ({best})",
                  f"{jg.mean():.1f}", _diff(jm, rules[best]), _diff(jg, zero)]  # fmt: skip
@@ -134,11 +140,7 @@ def regime_map(args: argparse.Namespace) -> None:
     print("|---|---|---|---|---|---|---|")
     for s in args.strengths:
         t0 = time.time()
-        cfg = v3.eval_config(ENV_ID, world=world_for(args.effect, s))
-        jm = v3.roll_out(cfg, act, seeds).objective
-        rules = _rules(cfg, seeds)
-        zero = next(iter(rules.values()))
-        best = min(rules, key=lambda k: rules[k].mean())
+        jm, rules, zero, best = _compare(v3.eval_config(ENV_ID, world=world_for(args.effect, s)), act, seeds)
         cells = [f"{s:g}", mean_ci(jm).format("{:.1f}"), f"{zero.mean():.1f}",
                  f"{rules[best].mean():.1f} ({best})", f"{rules['reference greedy'].mean():.1f}",
                  _diff(jm, rules[best]), _diff(jm, zero)]  # fmt: skip
@@ -150,17 +152,13 @@ def rules(args: argparse.Namespace) -> None:
     seeds = range(FIRST, FIRST + args.episodes)
     cfg = v3.eval_config(ENV_ID)
     jm = v3.roll_out(cfg, act, seeds).objective
-    zero = _rules(cfg, seeds, all_finalists=False)[f"blind {_zero_name()}"]
+    zero = v3.roll_out(cfg, next(iter(blind_policies().values())), seeds).objective
     print(f"{TASK}: {args.model} (DQN, deterministic); seeds {seeds.start}..{seeds.stop - 1}")
     print(f"  model: J {mean_ci(jm).format('{:.1f}')}; the zero: J {mean_ci(zero).format('{:.1f}')}")
     for spec in args.specs:
         j = v3.policy_objective(cfg, spec, seeds.start, len(seeds))
         cells = f"J {mean_ci(j).format('{:.1f}')}; model - it {_diff(jm, j)}; it - zero {_diff(j, zero)}"
         print(f"  {spec}: {cells}", flush=True)
-
-
-def _zero_name() -> str:
-    return v3.read_json(v3.BLIND_FILE)["tasks"][TASK]["winner"]
 
 
 def learn(args: argparse.Namespace) -> None:
@@ -214,18 +212,22 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     sub = ap.add_subparsers(dest="cmd", required=True)
     a = sub.add_parser("attribute")
+    a.set_defaults(func=attribute)
     a.add_argument("--model", required=True)
     a.add_argument("--episodes", type=int, default=100)
     m = sub.add_parser("map")
+    m.set_defaults(func=regime_map)
     m.add_argument("--model", required=True)
     m.add_argument("--effect", required=True, choices=sorted(EFFECTS))
     m.add_argument("--strengths", type=float, nargs="+", default=[0.0, 0.25, 0.5, 1.0])
     m.add_argument("--episodes", type=int, default=300)
     r = sub.add_parser("rules")
+    r.set_defaults(func=rules)
     r.add_argument("--model", required=True)
     r.add_argument("--specs", nargs="+", required=True)
     r.add_argument("--episodes", type=int, default=300)
     learn_p = sub.add_parser("learn")
+    learn_p.set_defaults(func=learn)
     learn_p.add_argument("--effect", required=True, choices=sorted(EFFECTS))
     learn_p.add_argument("--strength", type=float, required=True)
     learn_p.add_argument("--seed", type=int, default=0)
@@ -233,11 +235,10 @@ def main() -> None:
     learn_p.add_argument("--budget", type=int, default=300_000)
     learn_p.add_argument("--out", required=True)
     t = sub.add_parser("table")
+    t.set_defaults(func=lambda a: table(a.paths))
     t.add_argument("paths", nargs="+")
     args = ap.parse_args()
-    {"attribute": attribute, "map": regime_map, "rules": rules, "learn": learn}.get(
-        args.cmd, lambda a: table(a.paths)
-    )(args)
+    args.func(args)
 
 
 if __name__ == "__main__":
