@@ -39,9 +39,17 @@ reproduce: $(STAMP)
 	$(BIN)/python -m planetnav_validation.reproduce optical-pulsar --plots results/optical_pulsar --json results/optical_pulsar.json
 	$(BIN)/python -m planetnav_validation.reproduce gnss-magnetometer --plots results/gnss_magnetometer --json results/gnss_magnetometer.json
 
+# Two pytest processes at once, one per core: SPLIT_TESTS (the row kernels compiled as the device's thread
+# functions and to PTX: about a third of the suite's time, nearly all of it numba compiling) beside the rest.
+# Its output follows the rest's, and the target fails if either fails.
+SPLIT_TESTS := tests/env/test_cuda_ptx.py
 test: $(STAMP)
 	$(BIN)/ruff check .
-	$(BIN)/python -m pytest
+	@$(BIN)/python -m pytest $(SPLIT_TESTS) > .test-split.log 2>&1 & split=$$!; \
+	$(BIN)/python -m pytest --ignore=$(SPLIT_TESTS); rest=$$?; \
+	wait $$split; other=$$?; \
+	echo "===== $(SPLIT_TESTS) (rc $$other) ====="; cat .test-split.log; \
+	[ $$rest -eq 0 ] && [ $$other -eq 0 ]
 
 # Under the [ray] extra's gymnasium (the one RLlib pins): the Ray tests (two-node loopback clusters, RLlib
 # training and resume, Tune sweeps, node loss), the client tests (TorchRL, sb3-contrib) that the default
@@ -54,8 +62,10 @@ test: $(STAMP)
 # other package they use is the same version in both environments. A new test file under tests/env runs here
 # until it is listed. tests/validation (the reproductions, harnesses and oracles) does not run here: it reaches
 # no gymnasium either (test_ci_split.py holds that too). `make test-ray-all` runs the whole suite there.
-RAY_TESTS := tests/rl tests/env tests/train/test_client_sb3_contrib.py tests/train/test_training_golden.py \
-	tests/train/test_vec_training.py tests/project/test_install_extras.py
+# tests/rl runs last: its drivers, env runners and trials are processes of their own, and by then the
+# tests before them have written numba's cache, so they load the kernels instead of compiling them cold.
+RAY_TESTS := tests/env tests/train/test_client_sb3_contrib.py tests/train/test_training_golden.py \
+	tests/train/test_vec_training.py tests/project/test_install_extras.py tests/rl
 RAY_SAME := apparent approach attitude camera config_options core_ephemeris core_rng device_occupancy \
 	cuda_ptx device_preflight disturbances ekf ephemeris ephemeris_velocity figure gauss_markov measurements numba_cache \
 	orbit photometry pointing pulsar quaternion same_numbers star_fix_kernels star_tracker thrust_gauss_markov wahba

@@ -366,7 +366,14 @@ def map_arrays(fn: Callable[[np.ndarray], Any], record: Any) -> Any:
 @njit(inline="always", **ROW_KERNEL_OPTIONS)
 def scratch_row(rows: Scratch, n: int) -> Scratch:  # pragma: no cover - compiled
     """Row ``n`` of :func:`scratch_rows`' record: a :class:`Scratch` of views, no copy (inlined into the
-    caller, so no record of arrays is returned across a call)."""
+    caller, so no record of arrays is returned across a call).
+
+    The fields sized by the task (perturbing bodies, truth perturbers, planets) are sliced ``[n, ::1]``,
+    not indexed ``[n]``: numba types a view by the layout flags of the whole array, and a dimension of 0 or
+    1 makes ``rows_innermost`` arrays C- or F-contiguous, so ``[n]`` would give each task family its own
+    view types and every row kernel below would be compiled again for it. A stepped slice types every
+    view as non-contiguous (``A``), the same for every task (the same elements: the numbers are
+    unchanged)."""
     return Scratch(
         work=rows.work[n], rq=rows.rq[n], a=rows.a[n], frame=rows.frame[n], y=rows.y[n],
         u_cmd=rows.u_cmd[n], bias=rows.bias[n], w6=rows.w6[n], v6=rows.v6[n],
@@ -374,10 +381,10 @@ def scratch_row(rows: Scratch, n: int) -> Scratch:  # pragma: no cover - compile
         rcov=rows.rcov[n], z=rows.z[n], basis=rows.basis[n], m=rows.m[n], u6=rows.u6[n], vals=rows.vals[n],
         los=rows.los[n], los_true=rows.los_true[n], mm=rows.mm[n], pix=rows.pix[n], r1=rows.r1[n],
         q1=rows.q1[n], t1=rows.t1[n], central=rows.central[n], ssb=rows.ssb[n], dirv=rows.dirv[n],
-        roll=rows.roll[n], pert=rows.pert[n], tpert=rows.tpert[n], qrow=rows.qrow[n],
-        planets=rows.planets[n], tcentral=rows.tcentral[n], tplanets=rows.tplanets[n],
-        r_tile=rows.r_tile[n],
-        q_tile=rows.q_tile[n], feat=rows.feat[n], noise3=rows.noise3[n], star_idx=rows.star_idx[n],
+        roll=rows.roll[n], pert=rows.pert[n, ::1], tpert=rows.tpert[n, ::1], qrow=rows.qrow[n],
+        planets=rows.planets[n, ::1], tcentral=rows.tcentral[n], tplanets=rows.tplanets[n, ::1],
+        r_tile=rows.r_tile[n, ::1],
+        q_tile=rows.q_tile[n, ::1], feat=rows.feat[n, ::1], noise3=rows.noise3[n], star_idx=rows.star_idx[n],
         star_noise=rows.star_noise[n], star_work=rows.star_work[n], q_fix=rows.q_fix[n], sub=rows.sub[n],
         light=rows.light[n], att_v=rows.att_v[n], att_q=rows.att_q[n], att_m=rows.att_m[n],
         dump=rows.dump[n], dump_p=rows.dump_p[n],

@@ -30,7 +30,7 @@ from planetnav_env.batch import BatchCore
 from planetnav_env.config import EnvConfig
 from planetnav_env.core import kernels as K
 from planetnav_env.core.decoding import raw_action_size
-from planetnav_env.core.records import Actions, rows_innermost_like, scratch_rows
+from planetnav_env.core.records import Actions, rows_innermost_like, scratch_row, scratch_rows
 from planetnav_env.numerics import portable_math as pm
 from planetnav_env.tasks import ID_OPTIONS as ENV_IDS
 
@@ -131,6 +131,21 @@ def _reset_threads(prm, st, reset, rows):  # pragma: no cover - compiled
 def _step_threads(prm, st, act, rows):  # pragma: no cover - compiled
     for n in range(st.f.shape[0]):  # what thread n of cuda_entry.step_kernel runs
         K.step_thread(prm, st, act, rows, n)
+
+
+@njit
+def _row_zero(rows):  # pragma: no cover - compiled
+    return scratch_row(rows, 0)
+
+
+def test_a_rows_scratch_views_have_one_type_for_every_task() -> None:
+    """The tasks' scratch rows differ in numba type (sizes of 0 or 1 change the arrays' layout flags), and
+    the views a thread reads have one type for all of them, so the row kernels are compiled once."""
+    for kw in CONFIGS.values():
+        _row_zero(scratch_rows(BatchCore(EnvConfig.from_dict(kw), ROWS).params, ROWS))
+    signatures = _row_zero.nopython_signatures
+    assert len({s.args for s in signatures}) > 1
+    assert len({s.return_type for s in signatures}) == 1
 
 
 def _state_bytes(core: BatchCore) -> list[bytes]:
