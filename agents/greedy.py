@@ -49,7 +49,11 @@ score divided by the mean normalized NIS of its fixes this episode (the observat
 ``expected``: divided by ``1 + (delta / sigma)^2``, with ``delta`` the offset an image of it would have now at
 the prior mean scale ``world.centroid_bias_max / 2`` (the bias model is known, its size is not; phase angle
 and apparent diameter from the estimate) and ``sigma`` the filter's direction sigma. ``oracle``: the same with
-the planet's true drawn scale (privileged).
+the planet's true drawn scale (privileged). ``photometric`` (the flight world, whose onboard photometric model
+takes the Lambertian centre of brightness off each image with a scale error it does not know,
+``world.cob_model_error``): divided by ``1 + (delta / sigma)^2``, with ``delta`` the residual that error's
+rms (bound / sqrt 3, the error uniform) would leave on an image of the planet now, at the phase angle and
+apparent radius from the estimate and the onboard ephemeris. It knows the model's error bound, not its draw.
 
 ``timing`` (tasks with a pulsar timing-model error, ``world.pulsar_frequency_error_max``): how the
 score of a pulsar counts a phase drift the filter does not model. ``nominal`` (default): none. ``observed``,
@@ -80,12 +84,13 @@ from planetnav_env.core import layout as L
 from planetnav_env.core.decisions import RESIDUAL_CAP
 from planetnav_env.core.what_if import coasted_position_trace, predicted_planet_trace, predicted_pulsar_trace
 from planetnav_env.sensors.camera_kernels import centroid_offset
+from planetnav_env.sensors.photometry import lambert_cob_offset
 from planetnav_env.sensors.pulsar import ambiguity_resolvable_kernel
 
 #: How greedy counts images that yield no fix (the ``success`` option; module docstring).
 SUCCESS_MODELS = ("nominal", "observed", "oracle")
 #: How greedy counts a centroid bias (the ``bias`` option; module docstring).
-BIAS_MODELS = ("nominal", "expected", "observed", "oracle")
+BIAS_MODELS = ("nominal", "expected", "observed", "oracle", "photometric")
 #: How greedy counts a pulsar timing-model error (the ``timing`` option; module docstring).
 TIMING_MODELS = ("nominal", "observed", "oracle")
 
@@ -136,6 +141,11 @@ class GreedyAgent(TargetAgent):
         if bias in ("oracle", "expected") and self.config.scenario == "mars-approach":
             raise ValueError(
                 f"greedy: bias={bias!r} needs a heliocentric scenario (the cruises), not mars-approach"
+            )
+        if bias == "photometric" and not self.config.world.lambert_cob_corrected:
+            raise ValueError(
+                "greedy: bias='photometric' scores the onboard photometric model's error, and this "
+                "environment's world has none (world.lambert_cob off)"
             )
         self.success, self.bias, self.timing = success, bias, timing
         models = {"success": success, "bias": bias, "timing": timing}
@@ -228,7 +238,24 @@ class GreedyAgent(TargetAgent):
                 else np.full(self.n_planets, 0.5 * self.config.world.centroid_bias_bound)
             )  # fmt: skip
             w /= 1.0 + (self._offsets(obs, info, scale) / float(self._params.scalars[0]["sig_dir"])) ** 2
+        elif self.bias == "photometric":
+            sigma = float(self._params.scalars[0]["sig_dir"])
+            w /= 1.0 + (self._photometric_residuals(obs, info) / sigma) ** 2
         return w
+
+    def _photometric_residuals(self, obs: ParsedObservation, info: dict[str, Any]) -> np.ndarray:
+        """(P,) the rms residual [rad] the onboard photometric model's scale error leaves on an image of each
+        planet now: ``cob_model_error / sqrt(3)`` times the Lambertian centre-of-brightness offset at the
+        phase angle and apparent radius the spacecraft computes (its estimate, the onboard ephemeris)."""
+        bodies = self.env.unwrapped.core.body_positions(0)  # heliocentric [km], onboard ephemeris
+        sc = bodies["central"] + np.asarray(self.estimate(obs, info), dtype=float)[:3]
+        planets = np.asarray(bodies["planets"], dtype=float)
+        to_sc = sc - planets
+        dist = np.linalg.norm(to_sc, axis=1)
+        cos_phase = np.sum(-planets * to_sc, axis=1) / (np.linalg.norm(planets, axis=1) * dist)
+        radius = np.arcsin(np.minimum(self._radii / dist, 1.0))
+        cob = np.array([lambert_cob_offset(float(c)) for c in cos_phase])
+        return self.config.world.cob_model_error / math.sqrt(3.0) * cob * radius
 
     def pulsar_weights(self, obs: ParsedObservation, p: np.ndarray) -> np.ndarray | None:
         """(Q,) the factor on each pulsar's score from ``timing`` (None: nominal); ``p`` the filter's

@@ -71,8 +71,9 @@ SEED_BLOCKS = (
     ("evaluation", EVAL_SEED, 20_000),
 )
 #: The v3 ids and their non-privileged references (rule agents; the lowest J on the evaluation seeds is
-#: J_best): the v2 tasks' references.
-_EVENT_REFS = ("greedy", "greedy:success=observed")
+#: J_best): the v2 tasks' references, and greedy counting the flight world's photometric-model residual
+#: (``bias=photometric``: it knows the onboard model's error bound, not the episode's draw).
+_EVENT_REFS = ("greedy", "greedy:success=observed", "greedy:bias=photometric")
 V3_TASKS: dict[str, tuple[str, ...]] = {
     "Cruise-Target-v3": _EVENT_REFS,
     "RandomCruise-Target-v3": _EVENT_REFS,

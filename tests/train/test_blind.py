@@ -204,6 +204,42 @@ def test_greedy_timing_rules_score_pulsars_by_their_residuals_and_the_true_drift
     assert np.all((w > 0) & (w < 1))
 
 
+def test_greedy_photometric_rule_scores_the_onboard_models_residual(monkeypatch):
+    raw = PlanetNavEnv(_cfg("planetnav/Cruise-Target-v1").at_physics_step())
+    with pytest.raises(ValueError, match="lambert_cob"):
+        make_agent("greedy:bias=photometric", raw)
+    env = PlanetNavEnv(_cfg("planetnav/MarsApproach-Tasking-v3").at_physics_step())
+    agent = make_agent("greedy:bias=photometric", env)
+    assert agent.name == "greedy:bias=photometric"
+    obs, info = env.reset(seed=3)
+    from planetnav_agents.base import parse_observation
+    from planetnav_env.astro.bodies import body
+    from planetnav_env.sensors.photometry import COB_LAMBERT_QUADRATURE
+
+    # Known geometry: Mars 1.5 AU out on +x, the spacecraft 1e5 km from it on the Sun's side (full phase:
+    # no offset) or across the Sun line (quadrature: 3 pi / 16 of the disk's angular radius).
+    mars = np.array([[2.25e8, 0.0, 0.0]])
+    monkeypatch.setattr(env.core, "body_positions", lambda row: {"central": mars[0], "planets": mars})
+    p = parse_observation(obs, env)
+    for rel, cob in (([-1e5, 0.0, 0.0], 0.0), ([0.0, 1e5, 0.0], COB_LAMBERT_QUADRATURE)):
+        monkeypatch.setattr(agent, "estimate", lambda o, i, rel=rel: np.array([*rel, 0.0, 0.0, 0.0]))
+        want = 0.05 / np.sqrt(3.0) * cob * np.arcsin(body("mars").radius / 1e5)
+        np.testing.assert_allclose(agent._photometric_residuals(p, info), [want], rtol=1e-9, atol=1e-15)
+    monkeypatch.undo()
+    # In the episode: Mars's weight falls as the disk grows on the approach; an exact model weighs nothing.
+    weights = []
+    for k in range(1, 1001):
+        obs, _, _, _, info = env.step(0)
+        if k in (1, 1000):
+            weights.append(agent.planet_weights(parse_observation(obs, env), info)[0])
+    assert 0.0 < weights[1] < weights[0] < 1.0
+    world = {**ENV_IDS["planetnav/MarsApproach-Tasking-v3"]["world"], "cob_model_error": 0.0}
+    exact = PlanetNavEnv(_cfg("planetnav/MarsApproach-Tasking-v3", world=world).at_physics_step())
+    obs, info = exact.reset(seed=3)
+    exact_agent = make_agent("greedy:bias=photometric", exact)
+    assert exact_agent.planet_weights(parse_observation(obs, exact), info) == 1.0
+
+
 def test_greedy_weights_follow_the_image_log_and_the_oracle():
     env = gym.make("planetnav/Cruise-Target-v2").unwrapped
     env = PlanetNavEnv(env.config.at_physics_step())
