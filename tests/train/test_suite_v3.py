@@ -342,3 +342,31 @@ def test_provenance_names_what_differs_from_the_commit(tmp_path, monkeypatch):
     (tmp_path / "code.py").write_text("x = 2\n")
     dirty = v3.provenance()
     assert dirty["dirty"] is True and sorted(dirty["changes"]) == [" M code.py", "?? rows.json"]
+
+
+def test_an_added_reference_that_beats_j_best_becomes_it_paired_with_the_records_zero(monkeypatch):
+    rng = np.random.default_rng(0)
+    zero = 70.0 + rng.normal(0.0, 5.0, 50)
+    record = {
+        "J_zero": v3.mean_interval(zero), "J_best": {"mean": 80.0}, "best_reference": "greedy",
+        "references": {"greedy": {"mean": 80.0}}, "closed_loop_gap": {"gap": -0.14}, "headline": False,
+        "eval_seed": v3.EVAL_SEED, "eval_episodes": 50,
+        "per_seed": {"zero": zero.tolist(), "best": (zero + 10.0).tolist()},
+    }  # fmt: skip
+    seen = []
+    better = zero * 0.6  # a 40 % gap on every seed
+    task, quiet = "planetnav/MarsApproach-Tasking-v3", lambda m: None
+    monkeypatch.setattr(v3, "policy_objective", lambda cfg, spec, s, n: seen.append((spec, s, n)) or better)
+    rec = v3.add_reference(task, record, "greedy:bias=photometric", log=quiet)
+    assert seen == [("greedy:bias=photometric", v3.EVAL_SEED, 50)]  # the record's own seeds
+    assert rec["best_reference"] == "greedy:bias=photometric"
+    assert rec["J_best"]["mean"] == pytest.approx(better.mean())
+    assert rec["closed_loop_gap"]["gap"] == pytest.approx(0.4) and rec["headline"]
+    assert rec["per_seed"]["best"] == pytest.approx(better, abs=1e-4)
+    assert "commit" in rec["added_references"]["greedy:bias=photometric"]
+    with pytest.raises(ConfigError, match="in the record already"):
+        v3.add_reference(task, rec, "greedy:bias=photometric")
+    # One that does not beat J_best is listed and changes nothing else.
+    monkeypatch.setattr(v3, "policy_objective", lambda cfg, spec, seed, n: zero + 20.0)
+    rec = v3.add_reference(task, rec, "greedy:lookahead_s=60", log=quiet)
+    assert rec["best_reference"] == "greedy:bias=photometric" and "greedy:lookahead_s=60" in rec["references"]
