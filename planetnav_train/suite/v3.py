@@ -657,6 +657,11 @@ def zero_check(env_id: str, episodes: int, blind: dict[str, Any], log=print) -> 
             "eval_seed": EVAL_SEED, "eval_episodes": episodes, "world": _world(cfg)}  # fmt: skip
 
 
+def _headline(gap: dict[str, float]) -> bool:
+    """The headline rule on a closed-loop gap record: the gap and its interval's lower bound."""
+    return bool(gap["gap"] >= HEADLINE_GAP and gap["gap_lo"] >= HEADLINE_GAP_LO)
+
+
 def normalize(env_id: str, episodes: int, blind: dict[str, Any], log=print) -> dict[str, Any]:
     """J_zero (the search's winner) and J_best (the best non-privileged reference) of v3 task ``env_id`` on
     ``episodes`` evaluation seeds from :data:`EVAL_SEED`, with their intervals; the closed-loop gap with its
@@ -682,7 +687,7 @@ def normalize(env_id: str, episodes: int, blind: dict[str, Any], log=print) -> d
         "J_zero": zero["J_zero"], "zero": zero["zero"], "J_best": mean_interval(jb), "best_reference": best,
         "references": {s: mean_interval(v) for s, v in refs.items()},
         "closed_loop_gap": gap,
-        "headline": bool(gap["gap"] >= HEADLINE_GAP and gap["gap_lo"] >= HEADLINE_GAP_LO),
+        "headline": _headline(gap),
         "finalists_vs_zero": zero["finalists_vs_zero"], "eval_seed": EVAL_SEED, "eval_episodes": episodes,
         "world": zero["world"],
         "per_seed": {"zero": np.round(jz, 4).tolist(), "best": np.round(jb, 4).tolist()},
@@ -706,7 +711,7 @@ def add_reference(env_id: str, record: dict[str, Any], spec: str, log=print) -> 
         gap = paired_ratio_ci(jz, j)
         record.update(
             J_best=mean_interval(j), best_reference=spec, closed_loop_gap=gap,
-            headline=bool(gap["gap"] >= HEADLINE_GAP and gap["gap_lo"] >= HEADLINE_GAP_LO),
+            headline=_headline(gap),
         )  # fmt: skip
         record["per_seed"]["best"] = np.round(j, 4).tolist()
     record.setdefault("added_references", {})[spec] = provenance()
@@ -1155,6 +1160,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         write_json(path, data)
         return 0
     path = Path(args.out) if args.out else (BLIND_FILE if args.cmd == "search" else NORMALIZATION_FILE)
+    adding = getattr(args, "add_reference", None)  # normalize --add-reference: one reference on a record
     data = read_json(path)
     for task in _tasks(args.tasks):
         if args.cmd == "search" and args.final_only:
@@ -1166,7 +1172,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                    "iterations": args.cem_iterations}  # fmt: skip
             data["tasks"][task] = search(f"planetnav/{task}", args.episodes, args.final_episodes, cem)
         else:
-            if getattr(args, "add_reference", None):
+            if adding:
                 if task not in data["tasks"]:
                     raise ConfigError(f"{task}: no normalization in {path} to add a reference to")
                 rec = add_reference(f"planetnav/{task}", data["tasks"][task], args.add_reference)
@@ -1184,7 +1190,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                   f"headline {rec['headline']}")  # fmt: skip
         # Each task's record carries the run that wrote it: tasks of one file come from runs apart (an
         # added reference carries its own, in ``added_references``).
-        if not getattr(args, "add_reference", None):
+        if not adding:
             data["tasks"][task]["provenance"] = provenance()
         data["provenance"] = provenance()
         write_json(path, data)
