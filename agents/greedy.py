@@ -95,6 +95,19 @@ BIAS_MODELS = ("nominal", "expected", "observed", "oracle", "photometric")
 TIMING_MODELS = ("nominal", "observed", "oracle")
 
 
+def _phase_and_radius(
+    sc: np.ndarray, planets: np.ndarray, radii: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """The cosine of each planet's phase angle (Sun-planet-spacecraft) and its apparent radius [rad], (P,)
+    each, from the spacecraft's position ``sc`` (3,) and the planets' ``planets`` (P, 3), both
+    heliocentric [km], and the planets' radii (P,) [km]: the geometry the rules read from the estimate."""
+    to_sun = -planets / np.linalg.norm(planets, axis=1, keepdims=True)
+    rel = sc - planets
+    dist = np.linalg.norm(rel, axis=1)
+    cos_phase = np.sum(to_sun * (rel / dist[:, None]), axis=1)
+    return cos_phase, np.arcsin(np.minimum(radii / dist, 1.0))
+
+
 def _check_model(option: str, value: str, models: tuple[str, ...], block: str, observed: bool) -> None:
     """ValueError naming ``option`` when ``value`` is not one of ``models``, or is ``observed`` while the
     environment's observation has no ``block`` (``observed`` False)."""
@@ -249,11 +262,7 @@ class GreedyAgent(TargetAgent):
         phase angle and apparent radius the spacecraft computes (its estimate, the onboard ephemeris)."""
         bodies = self.env.unwrapped.core.body_positions(0)  # heliocentric [km], onboard ephemeris
         sc = bodies["central"] + np.asarray(self.estimate(obs, info), dtype=float)[:3]
-        planets = np.asarray(bodies["planets"], dtype=float)
-        to_sc = sc - planets
-        dist = np.linalg.norm(to_sc, axis=1)
-        cos_phase = np.sum(-planets * to_sc, axis=1) / (np.linalg.norm(planets, axis=1) * dist)
-        radius = np.arcsin(np.minimum(self._radii / dist, 1.0))
+        cos_phase, radius = _phase_and_radius(sc, np.asarray(bodies["planets"], dtype=float), self._radii)
         cob = np.array([lambert_cob_offset(float(c)) for c in cos_phase])
         return self.config.world.cob_model_error / math.sqrt(3.0) * cob * radius
 
@@ -277,12 +286,9 @@ class GreedyAgent(TargetAgent):
         """(P,) the centroid offset [rad] an image of each planet would have now at bias scales ``scale``
         (P,), the phase angle and apparent diameter from the estimate."""
         x = np.asarray(self.estimate(obs, info), dtype=float)
-        planets = obs.planet_positions(x)  # heliocentric: the cruise scenarios' frame
-        to_sun = -planets / np.linalg.norm(planets, axis=1, keepdims=True)
-        to_sc = x[:3] - planets
-        to_sc /= np.linalg.norm(to_sc, axis=1, keepdims=True)
-        cos_phase = np.sum(to_sun * to_sc, axis=1)
-        alpha = 2.0 * np.arcsin(np.minimum(self._radii / np.linalg.norm(x[:3] - planets, axis=1), 1.0))
+        # heliocentric: the cruise scenarios' frame
+        cos_phase, radius = _phase_and_radius(x[:3], obs.planet_positions(x), self._radii)
+        alpha = 2.0 * radius
         # The environment's own offset formula, planet by planet (a compiled scalar function).
         rows = zip(scale, alpha, cos_phase, strict=True)
         return np.array([centroid_offset(float(b), float(a), float(c)) for b, a, c in rows])

@@ -240,6 +240,30 @@ def test_greedy_photometric_rule_scores_the_onboard_models_residual(monkeypatch)
     assert exact_agent.planet_weights(parse_observation(obs, exact), info) == 1.0
 
 
+def test_greedy_centroid_offsets_at_known_phases(monkeypatch):
+    """The expected-bias rule's offset at three phases it can be checked by hand: quadrature (1 - cos = 1),
+    full (0) and new (2), each planet 1e5 km from the spacecraft."""
+    from planetnav_agents.base import parse_observation
+    from planetnav_env.envs.parsed_observation import ParsedObservation
+    from planetnav_env.sensors.camera_kernels import COB_UNIFORM_DISK
+
+    env = PlanetNavEnv(_cfg("planetnav/Cruise-Target-v2").at_physics_step())
+    agent = make_agent("greedy:bias=expected", env)
+    obs, info = env.reset(seed=3)
+    # The spacecraft on +x; the first planet seen at a right angle to its Sun line, the others on the x axis.
+    s, d = 2.25e8, 1e5
+    sc = np.array([s, 0.0, 0.0])
+    u = np.array([-d / s, np.sqrt(1.0 - (d / s) ** 2), 0.0])  # sc . u = -d: (P - sc) is normal to P
+    planets = np.array([sc + d * u, [s + d, 0.0, 0.0], [s - d, 0.0, 0.0]])
+    monkeypatch.setattr(ParsedObservation, "planet_positions", lambda self, x: planets)
+    monkeypatch.setattr(agent, "estimate", lambda o, i: np.array([*sc, 0.0, 0.0, 0.0]))
+    scale = np.array([1.0, 0.5, 2.0])
+    alpha = 2.0 * np.arcsin(agent._radii / d)
+    want = scale * COB_UNIFORM_DISK * 0.5 * alpha * np.array([1.0, 0.0, 2.0])
+    got = agent._offsets(parse_observation(obs, env), info, scale)
+    np.testing.assert_allclose(got, want, rtol=1e-9, atol=1e-15)
+
+
 def test_greedy_weights_follow_the_image_log_and_the_oracle():
     env = gym.make("planetnav/Cruise-Target-v2").unwrapped
     env = PlanetNavEnv(env.config.at_physics_step())
