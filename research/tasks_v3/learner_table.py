@@ -10,6 +10,9 @@ evaluation seeds are the same in every run, so their own spread is each run's in
 Where the task's published blind-zero score is defined, each row's score (J_zero - J) / (J_zero - J_best)
 follows: with the runs' per-seed J, ``v3.run_score``'s bootstrap over training and evaluation seeds;
 for rows written before they carried it, a t-interval over the training seeds alone (marked).
+Where the rows' best reference is not the one published now (a reference added to the task's
+normalization after the rows were written), the published one's J on the same seeds, from the
+normalization record's per-seed J, and each row's ``minus_published_reference`` follow.
 Runs are grouped by task, learner and target actions; where a task has PPO runs with absolute and with
 relative target actions, the relative minus absolute J per training seed follows (same seeds, budget).
 A relative run written before the published rows acted in the task's own interface has a zero row that
@@ -48,6 +51,28 @@ def _scale(task: str) -> tuple[float, float] | None:
     return (jz, jb) if jb < jz else None
 
 
+def _published_reference(task: str, runs: list[dict]) -> tuple[str, float] | None:
+    """(name, mean J on the runs' evaluation seeds) of the task's published best reference where the runs'
+    own reference row names another (rows written before a reference was added): its per-seed J from the
+    normalization record, on the same seeds. None where the rows' reference is the published one, or the
+    runs are not scored on the record's first seeds in the task's own world."""
+    try:
+        norm = v3.normalization(task)
+    except Exception:  # not normalized
+        return None
+    best = norm["best_reference"]
+    stored = [r["policy"] for r in runs[0]["rows"] if r["policy"].startswith("best reference")]
+    episodes = runs[0]["episodes"]
+    if (
+        stored == [f"best reference ({best})"]
+        or norm["eval_seed"] != v3.EVAL_SEED
+        or episodes > norm["eval_episodes"]
+        or any(run.get("world_overrides") for run in runs)
+    ):
+        return None
+    return best, float(np.mean(norm["per_seed"]["best"][:episodes]))
+
+
 def main(paths: list[str]) -> None:
     by_task: dict[tuple[str, str, str], list[dict]] = defaultdict(list)
     for p in paths:
@@ -66,6 +91,10 @@ def main(paths: list[str]) -> None:
         for r in runs[0]["rows"]:
             if "entropy_nats" not in r and not stale:
                 print(f"  {r['policy']}: J {r['J']['mean']:.1f}")
+        published = None if stale else _published_reference(task, runs)
+        if published is not None:
+            print(f"  published best reference ({published[0]}): J {published[1]:.1f} (the normalization's "
+                  "per-seed J on these seeds; the rows' own reference row predates it)")  # fmt: skip
         names = [r["policy"] for r in runs[0]["rows"] if "entropy_nats" in r]
         for name in names:
             rows = [next(x for x in run["rows"] if x["policy"] == name) for run in runs]
@@ -75,6 +104,8 @@ def main(paths: list[str]) -> None:
             for key in ("minus_zero", "minus_best_reference"):
                 if key in rows[0] and not (stale and key == "minus_zero"):
                     line += f", {key} {interval([x[key]['mean'] for x in rows])}"
+            if published is not None:  # the same seeds in every run: J minus the reference's mean
+                line += f", minus_published_reference {interval([x - published[1] for x in j])}"
             scale = _scale(task)
             if scale is not None:
                 jz, jb = scale
