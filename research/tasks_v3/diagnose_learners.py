@@ -6,6 +6,9 @@ Train and save one first (the suite's learner run with ``--save-model``):
     python -m planetnav_train.suite.v3 learners --task RandomCruise-Target-v3 --seed 0 --save-model M.zip
     python research/tasks_v3/diagnose_learners.py --task RandomCruise-Target-v3 --model M.zip
 
+``--reference SPEC`` adds a rule agent (e.g. ``greedy:bias=photometric``), played in the rules' own
+interface and sampled at the decision boundaries.
+
 Per policy: J [km]; fixes per target per episode and their mean normalized NIS (the filter's own
 consistency per beacon); on target tasks, how often the action changes between decisions and the action
 frequencies in each third of the episode; on the torque task, the mean |torque| command, momentum dumps
@@ -47,12 +50,45 @@ def describe(name, cfg, out: v3.Rollout) -> None:
         print(f"   third {k + 1}: " + " ".join(f"{x:.2f}" for x in freq))
 
 
+def rule_rollout(cfg, spec: str, seeds: range) -> v3.Rollout:
+    """Rule agent ``spec`` played in the rules' interface (every physics step), one episode per seed, as a
+    :class:`v3.Rollout`: its J per episode, each episode's final core row, and its choices sampled at the
+    task's decision boundaries ((D, N), as a learner's)."""
+    from planetnav_agents import make_agent, requires_idle_action
+    from planetnav_env.envs.env import PlanetNavEnv
+    from planetnav_train.evaluate import episode_objective
+
+    if cfg.action_mode != "target":
+        raise SystemExit(
+            f"--reference: the rules' choices are tabled on target tasks only, not {cfg.action_mode!r}"
+        )
+    env = PlanetNavEnv(cfg.at_physics_step(), **({"idle_action": True} if requires_idle_action(spec) else {}))
+    agent = make_agent(spec, env)
+    objective, final, actions = [], [], []
+    for seed in seeds:
+        agent.reset(seed=seed)
+        obs, info = env.reset(seed=seed)
+        err, chosen = [], []
+        while True:
+            a = agent.act(obs, info)
+            obs, _, terminated, truncated, info = env.step(a)
+            err.append(info["pos_err_km"])
+            chosen.append(int(a))
+            if terminated or truncated:
+                break
+        objective.append(episode_objective(info, np.asarray(err)))
+        final.append(env.core.f[0].copy())
+        actions.append(chosen[:: cfg.decision_steps][: cfg.episode_decisions])
+    return v3.Rollout(np.asarray(objective), final=np.asarray(final), actions=np.asarray(actions).T)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--task", required=True)
     ap.add_argument("--model", required=True, help="SB3 zip from `learners --save-model`")
     ap.add_argument("--algo", default="ppo", choices=sorted(v3.LEARNERS))
     ap.add_argument("--episodes", type=int, default=100)
+    ap.add_argument("--reference", action="append", default=[], help="also a rule agent's spec (repeatable)")
     args = ap.parse_args()
     import stable_baselines3
 
@@ -75,6 +111,8 @@ def main() -> None:
     }
     for name, pol in policies.items():
         describe(name, cfg, v3.roll_out(cfg, pol, seeds, final=True, actions=True))
+    for spec in args.reference:
+        describe(f"rule {spec}", cfg, rule_rollout(cfg, spec, seeds))
 
 
 if __name__ == "__main__":
