@@ -762,10 +762,20 @@ LEARNERS: dict[str, tuple[str, str]] = {"ppo": ("PPO", "sampled"), "dqn": ("DQN"
                                         "sac": ("SAC", "deterministic")}  # fmt: skip
 
 
-def _policy_fn(model: Any, entropies: list[float], deterministic: bool = False):
-    """(decision, observations) -> actions of an SB3 model: sampled, recording each batch's mean entropy;
-    or ``deterministic`` (entropy 0 recorded: the policy scored is deterministic)."""
+def _policy_fn(model: Any, entropies: list[float], deterministic: bool = False, seed: int = 0):
+    """(decision, observations) -> actions of an SB3 model: sampled from one torch generator seeded
+    ``seed`` (:func:`_draw`: a model's score is a function of the model and the seeds, not of torch's
+    global stream), recording each batch's mean entropy; or ``deterministic`` (entropy 0 recorded: the
+    policy scored is deterministic)."""
     import torch
+    from stable_baselines3.common.distributions import CategoricalDistribution, DiagGaussianDistribution
+
+    gen = torch.Generator().manual_seed(seed)
+    if not deterministic and not hasattr(model.policy, "get_distribution"):
+        raise ConfigError(
+            f"sampled actions of a {type(model.policy).__name__}: it exposes no action distribution "
+            "(an off-policy actor such as SAC's); score it deterministic"
+        )
 
     def act(d: int, obs: np.ndarray) -> np.ndarray:
         if deterministic:
@@ -776,12 +786,30 @@ def _policy_fn(model: Any, entropies: list[float], deterministic: bool = False):
             t, _ = model.policy.obs_to_tensor(obs)
             dist = model.policy.get_distribution(t)
             entropies.append(float(dist.entropy().mean()))
-            a = dist.get_actions(deterministic=False).cpu().numpy()
+            # exact types: a squashed Gaussian is a DiagGaussianDistribution whose draws need a tanh
+            if type(dist) not in (CategoricalDistribution, DiagGaussianDistribution):
+                raise ConfigError(
+                    f"sampled actions of a {type(dist).__name__}: only a categorical or a diagonal "
+                    "Gaussian policy is drawn from the evaluation's generator"
+                )
+            a = _draw(dist.distribution, gen)
         if model.action_space.shape:
             a = np.clip(a, model.action_space.low, model.action_space.high)
         return a
 
     return act
+
+
+def _draw(dist: Any, gen: Any) -> np.ndarray:
+    """One action per row from a torch ``Categorical`` or ``Normal`` (a diagonal Gaussian, (N, dim)) with
+    generator ``gen``: the one sampling rule of the learned policies' rows (SB3's and the single-file
+    PPO's), so two evaluations of one policy on the same seeds draw the same actions."""
+    import torch
+    from torch.distributions import Categorical
+
+    if isinstance(dist, Categorical):
+        return torch.multinomial(dist.probs, 1, True, generator=gen)[:, 0].numpy()
+    return (dist.loc + torch.randn(dist.loc.shape, generator=gen) * dist.scale).numpy()
 
 
 def _row(
@@ -886,7 +914,8 @@ def learner_rows(
     rows: dict[str, Any] = {"task": task, "algo": algo, "acting": acting,
                             "target_actions": cfg.target_actions, "budget_decisions": budget, "seed": seed,
                             "episodes": episodes, "episode_steps": cfg.episode_steps,
-                            "world_overrides": dict(world or {}), "rows": []}  # fmt: skip
+                            "world_overrides": dict(world or {}),
+                            "learner_overrides": dict(ppo_overrides or {}), "rows": []}  # fmt: skip
     ent: list[float] = []
     per_seed = {"untrained network": (j := roll_out(cfg, _policy_fn(model, ent, det), seeds).objective)}
     rows["rows"].append(_row("untrained network", j, float(np.mean(ent)), task, {}, unscored))
@@ -976,10 +1005,10 @@ def _sampler(agent: Any, seed: int, ent: list[float]):
             if gaussian:
                 dist = agent.distribution(x)
                 ent.append(float(dist.entropy().sum(-1).mean()))
-                return (dist.loc + torch.randn(dist.loc.shape, generator=gen) * dist.scale).numpy()
-            dist = Categorical(logits=agent.actor(x))
-            ent.append(float(dist.entropy().mean()))
-            return torch.multinomial(dist.probs, 1, True, generator=gen)[:, 0].numpy()
+            else:
+                dist = Categorical(logits=agent.actor(x))
+                ent.append(float(dist.entropy().mean()))
+            return _draw(dist, gen)
 
     return act
 

@@ -81,12 +81,17 @@ def main(paths: list[str]) -> None:
         # field, the budget the baselines script's.
         d.setdefault("seed", int(Path(p).stem.rsplit("-", 1)[-1]))
         d.setdefault("budget_decisions", 300_000)
-        by_task[(d["task"], d.get("algo", "ppo"), d.get("target_actions", "absolute"))].append(d)
+        key = (d["task"], d.get("algo", "ppo"), d.get("target_actions", "absolute"))
+        if d.get("learner_overrides"):  # another learner: its own group
+            key = (key[0], f"{key[1]} {json.dumps(d['learner_overrides'], sort_keys=True)}", key[2])
+        by_task[key].append(d)
     for (task, algo, actions), runs in sorted(by_task.items()):
         seeds = sorted(r["seed"] for r in runs)
         budget, episodes = runs[0]["budget_decisions"], runs[0]["episodes"]
+        over = runs[0].get("learner_overrides")
         print(f"## {task}, {algo}, {actions} target actions: {len(runs)} runs (seeds {seeds}), "
-              f"{budget:,} decisions, {episodes} evaluation seeds")  # fmt: skip
+              f"{budget:,} decisions, {episodes} evaluation seeds"
+              + (f"; the learner's defaults changed: {over}" if over else ""))  # fmt: skip
         stale = actions == "relative" and "per_seed" not in runs[0]
         for r in runs[0]["rows"]:
             if "entropy_nats" not in r and not stale:

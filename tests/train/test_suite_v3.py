@@ -196,6 +196,7 @@ def test_the_learner_rows_in_another_world_are_made_there_and_carry_no_score() -
     rows = learner_rows("Cruise-Torque-v3", 64, episodes=2, episode_steps=20, world=world,
                         ppo_overrides={"n_steps": 32, "batch_size": 32, "n_epochs": 1})  # fmt: skip
     assert rows["world_overrides"] == world
+    assert rows["learner_overrides"] == {"n_steps": 32, "batch_size": 32, "n_epochs": 1}  # named in the file
     scored = [r for r in rows["rows"] if "score" in r]
     assert scored and all(r["score"] is None and "world overrides" in r["score_undefined"] for r in scored)
     blind = v3.read_json(v3.BLIND_FILE)["tasks"]["Cruise-Torque-v3"]
@@ -220,6 +221,44 @@ def test_the_learner_rows_save_the_trained_model_that_scored_the_row(tmp_path) -
     # DQN's row acts deterministically: the saved network, rolled out again, scores the row's J per seed.
     j = v3.roll_out(cfg, v3._policy_fn(model, [], True), range(v3.EVAL_SEED, v3.EVAL_SEED + 2)).objective
     np.testing.assert_allclose(j, rows["per_seed"]["SB3 DQN (defaults, make_vec_env)"], atol=1e-3)
+
+
+def test_a_sampled_learner_row_is_a_function_of_the_model_not_of_torchs_global_stream(tmp_path) -> None:
+    """PPO's row samples its actions from the evaluation's own generator: the saved model, rolled out
+    again after torch's global stream has moved on, scores the row's J per seed; the draws are
+    torch.multinomial's from a generator seeded 0 over the rows' probabilities."""
+    import stable_baselines3
+    import torch
+
+    from planetnav_train.suite.v3 import learner_rows
+
+    path = tmp_path / "ppo.zip"
+    rows = learner_rows("Cruise-Target-v3", 64, episodes=3, episode_steps=40, save_model=path,
+                        ppo_overrides={"n_steps": 32, "batch_size": 32, "n_epochs": 1})  # fmt: skip
+    model = stable_baselines3.PPO.load(path, device="cpu")
+    cfg = v3.eval_config("planetnav/Cruise-Target-v3", episode_steps=40)
+    seeds = range(v3.EVAL_SEED, v3.EVAL_SEED + 3)
+    torch.manual_seed(12345)
+    torch.rand(1000)
+    j = v3.roll_out(cfg, v3._policy_fn(model, []), seeds).objective
+    np.testing.assert_allclose(j, rows["per_seed"]["SB3 PPO (defaults, make_vec_env)"], atol=1e-3)
+    obs = np.random.default_rng(0).normal(size=(5, model.observation_space.shape[0])).astype(np.float32)
+    with torch.no_grad():
+        probs = model.policy.get_distribution(model.policy.obs_to_tensor(obs)[0]).distribution.probs
+    want = torch.multinomial(probs, 1, True, generator=torch.Generator().manual_seed(0))[:, 0].numpy()
+    np.testing.assert_array_equal(v3._policy_fn(model, [])(0, obs), want)
+
+
+def test_a_sampled_row_refuses_a_policy_without_a_distribution() -> None:
+    import gymnasium as gym
+    import stable_baselines3
+
+    env = gym.make("planetnav/Cruise-Torque-v3")
+    model = stable_baselines3.SAC("MlpPolicy", env, buffer_size=100, seed=0)
+    obs = np.zeros((1, model.observation_space.shape[0]), np.float32)
+    with pytest.raises(ConfigError, match="SACPolicy"):
+        v3._policy_fn(model, [])
+    assert v3._policy_fn(model, [], deterministic=True)(0, obs).shape == (1, 3)  # SAC's row: its mean
 
 
 def test_the_learner_rows_train_dqn_on_a_discrete_task_and_refuse_a_misfit() -> None:
