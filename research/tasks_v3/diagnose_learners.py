@@ -36,6 +36,11 @@ def describe(name, cfg, out: v3.Rollout) -> None:
         "   fixes / episode: " + ", ".join(f"{n} {m:.1f}" for n, m in zip(names, fixes.mean(0), strict=True))
     )
     print("   mean NIS / dof:  " + ", ".join(f"{n} {m:.2f}" for n, m in zip(names, nis.mean(0), strict=True)))
+    if cfg.operations is not None:  # J = the deadline terms + w x delta-v lost
+        w = cfg.operations.cost_weight
+        dv = f[:, L.F_DV_LOST]
+        print(f"   delta-v lost {dv.mean():.2f} m/s (w x it {w * dv.mean():.1f} km), deadline terms "
+              f"{(f[:, L.F_OBJECTIVE] - w * dv).mean():.1f} km")  # fmt: skip
     a = out.actions  # (D, N[, 3])
     if cfg.action_mode == "torque":
         print(

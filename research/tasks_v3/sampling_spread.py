@@ -4,8 +4,8 @@ of its sampled actions, beside its argmax.
 
     python research/tasks_v3/sampling_spread.py --task MarsApproach-Tasking-v3 --model M.zip --draws 10
 
-Prints J [km] per draw seed, their mean, standard deviation and range, and per evaluation seed the
-largest J any draw gave (where the spread comes from).
+Per model (``--model`` repeats): J [km] per draw seed, their mean, standard deviation and range, and per
+evaluation seed the largest J any draw gave (where the spread comes from).
 """
 
 from __future__ import annotations
@@ -20,7 +20,9 @@ from planetnav_train.suite import v3
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--task", required=True)
-    ap.add_argument("--model", required=True, help="SB3 zip from `learners --save-model`")
+    ap.add_argument(
+        "--model", required=True, action="append", help="SB3 zip from `learners --save-model` (repeatable)"
+    )
     ap.add_argument("--algo", default="ppo", choices=sorted(v3.LEARNERS))
     ap.add_argument("--episodes", type=int, default=100)
     ap.add_argument("--draws", type=int, default=10)
@@ -29,13 +31,25 @@ def main() -> None:
 
     cfg = v3.eval_config(f"planetnav/{args.task}")
     seeds = range(v3.EVAL_SEED, v3.EVAL_SEED + args.episodes)
-    model = getattr(stable_baselines3, v3.LEARNERS[args.algo][0]).load(args.model, device="cpu")
+    cls = getattr(stable_baselines3, v3.LEARNERS[args.algo][0])
+    summary = []
+    for path in args.model:
+        print(f"## {path}")
+        summary.append((path, *_spread(cfg, cls.load(path, device="cpu"), seeds, args.draws)))
+    if len(summary) > 1:
+        print("## J over the draws, per model: mean (SD of one draw's J)")
+        for path, m, sd in summary:
+            print(f"  {path}: {m:.1f} ({sd:.1f})")
+
+
+def _spread(cfg, model, seeds: range, draws: int) -> tuple[float, float]:
+    """Print one model's J under ``draws`` draw seeds; return their mean and SD [km]."""
     per_draw = np.stack([v3.roll_out(cfg, v3._policy_fn(model, [], seed=k), seeds).objective
-                         for k in range(args.draws)])  # fmt: skip
+                         for k in range(draws)])  # fmt: skip
     means = per_draw.mean(axis=1)
     for k, m in enumerate(means):
         print(f"draw seed {k}: J {m:.1f} km")
-    print(f"{args.draws} draws on {args.episodes} evaluation seeds: J mean {means.mean():.1f}, "
+    print(f"{draws} draws on {len(seeds)} evaluation seeds: J mean {means.mean():.1f}, "
           f"SD {means.std(ddof=1):.1f}, range {means.min():.1f}..{means.max():.1f} km")  # fmt: skip
     argmax = v3.roll_out(cfg, v3._policy_fn(model, [], deterministic=True), seeds).objective
     print(f"argmax: J {argmax.mean():.1f} km")
@@ -47,6 +61,7 @@ def main() -> None:
     keep = np.setdiff1d(np.arange(len(seeds)), order)
     rest = per_draw[:, keep].mean(axis=1)
     print(f"without those five seeds: J mean {rest.mean():.1f}, SD over draws {rest.std(ddof=1):.1f} km")
+    return float(means.mean()), float(means.std(ddof=1))
 
 
 if __name__ == "__main__":
