@@ -5,7 +5,8 @@ of its sampled actions, beside its argmax.
     python research/tasks_v3/sampling_spread.py --task MarsApproach-Tasking-v3 --model M.zip --draws 10
 
 Per model (``--model`` repeats): J [km] per draw seed, their mean, standard deviation and range, and per
-evaluation seed the largest J any draw gave (where the spread comes from).
+evaluation seed the largest J any draw gave (where the spread comes from); on a normalized task, each
+model paired with the published zero and best reference on the same seeds, and its blind-zero score.
 """
 
 from __future__ import annotations
@@ -35,15 +36,50 @@ def main() -> None:
     summary = []
     for path in args.model:
         print(f"## {path}")
-        summary.append((path, *_spread(cfg, cls.load(path, device="cpu"), seeds, args.draws)))
+        summary.append((path, _spread(cfg, cls.load(path, device="cpu"), seeds, args.draws)))
     if len(summary) > 1:
         print("## J over the draws, per model: mean (SD of one draw's J)")
-        for path, m, sd in summary:
-            print(f"  {path}: {m:.1f} ({sd:.1f})")
+        for path, per_draw in summary:
+            means = per_draw.mean(axis=1)
+            print(f"  {path}: {means.mean():.1f} ({means.std(ddof=1):.1f})")
+    _against_published(args.task, seeds, summary)
 
 
-def _spread(cfg, model, seeds: range, draws: int) -> tuple[float, float]:
-    """Print one model's J under ``draws`` draw seeds; return their mean and SD [km]."""
+def _against_published(task: str, seeds: range, summary: list[tuple[str, np.ndarray]]) -> None:
+    """Each model's J (mean over its draws, per evaluation seed) minus the published zero's and best
+    reference's per-seed J on the same seeds, and its blind-zero score against the published constants
+    (a bootstrap over the draws' runs and the seeds); then all models pooled. Only where the seeds are the
+    normalization record's."""
+    try:
+        rec = v3.normalization(task)
+    except Exception:  # not normalized
+        return
+    if seeds.start != rec["eval_seed"] or len(seeds) > rec["eval_episodes"]:
+        return
+    jz, jb = rec["J_zero"]["mean"], rec["J_best"]["mean"]
+    zero = np.asarray(rec["per_seed"]["zero"][: len(seeds)])
+    best = np.asarray(rec["per_seed"]["best"][: len(seeds)])
+    print(f"## against the published constants (J_zero {jz:.1f}, J_best {jb:.1f} on 1,000 seeds; on these "
+          f"seeds the zero {zero.mean():.1f}, {rec['best_reference']} {best.mean():.1f})")  # fmt: skip
+    for path, per_draw in summary:
+        j = per_draw.mean(axis=0)
+        dz, db = v3.paired_difference(j, zero), v3.paired_difference(j, best)
+        line = f"  {path}: minus zero {_fmt(dz)}, minus best {_fmt(db)}"
+        if jb < jz:
+            sc = v3.run_score(list(per_draw), jz, jb)
+            line += f", score {sc['score']:+.2f} [{sc['lo']:+.2f}, {sc['hi']:+.2f}]"
+        print(line)
+    if len(summary) > 1 and jb < jz:
+        sc = v3.run_score([row for _, per_draw in summary for row in per_draw], jz, jb)
+        print(f"  pooled: score {sc['score']:+.2f} [{sc['lo']:+.2f}, {sc['hi']:+.2f}]")
+
+
+def _fmt(d: dict) -> str:
+    return f"{d['mean']:+.1f} [{d['lo']:+.1f}, {d['hi']:+.1f}]"
+
+
+def _spread(cfg, model, seeds: range, draws: int) -> np.ndarray:
+    """Print one model's J under ``draws`` draw seeds; return its J per draw and seed, (draws, seeds) [km]."""
     per_draw = np.stack([v3.roll_out(cfg, v3._policy_fn(model, [], seed=k), seeds).objective
                          for k in range(draws)])  # fmt: skip
     means = per_draw.mean(axis=1)
@@ -61,7 +97,7 @@ def _spread(cfg, model, seeds: range, draws: int) -> tuple[float, float]:
     keep = np.setdiff1d(np.arange(len(seeds)), order)
     rest = per_draw[:, keep].mean(axis=1)
     print(f"without those five seeds: J mean {rest.mean():.1f}, SD over draws {rest.std(ddof=1):.1f} km")
-    return float(means.mean()), float(means.std(ddof=1))
+    return per_draw
 
 
 if __name__ == "__main__":
