@@ -69,6 +69,14 @@ def _against_published(task: str, seeds: range, summary: list[tuple[str, np.ndar
             sc = v3.run_score(list(per_draw), jz, jb)
             line += f", score {sc['score']:+.2f} [{sc['lo']:+.2f}, {sc['hi']:+.2f}]"
         print(line)
+    if len(summary) > 1:
+        from scipy import stats
+
+        for name, other in (("zero", zero), ("best", best)):
+            d = np.array([per_draw.mean() - other.mean() for _, per_draw in summary])
+            h = stats.t.ppf(0.975, d.size - 1) * d.std(ddof=1) / np.sqrt(d.size)
+            print(f"  minus {name} over the {d.size} models: {d.mean():+.1f} [{d.mean() - h:+.1f}, "
+                  f"{d.mean() + h:+.1f}] km (Student t)")  # fmt: skip
     if len(summary) > 1 and jb < jz:
         sc = v3.run_score([row for _, per_draw in summary for row in per_draw], jz, jb)
         print(f"  pooled: score {sc['score']:+.2f} [{sc['lo']:+.2f}, {sc['hi']:+.2f}]")
