@@ -409,3 +409,28 @@ def test_an_added_reference_that_beats_j_best_becomes_it_paired_with_the_records
     monkeypatch.setattr(v3, "policy_objective", lambda cfg, spec, seed, n: zero + 20.0)
     rec = v3.add_reference(task, rec, "greedy:lookahead_s=60", log=quiet)
     assert rec["best_reference"] == "greedy:bias=photometric" and "greedy:lookahead_s=60" in rec["references"]
+
+
+@pytest.mark.parametrize("task", v3.V3_TASKS)
+def test_the_published_normalization_still_holds_for_the_current_code(task: str) -> None:
+    """The record's per-seed J of the zero and of the best reference, re-rolled on its first evaluation
+    seeds by the current code: the published constants (and the learner rows that pair with them from
+    the record) belong to this code, not to an older one."""
+    rec = v3.normalization(task)
+    cfg = v3.eval_config(f"planetnav/{task}")
+    blind = v3.read_json(v3.BLIND_FILE)["tasks"][task]
+    assert rec["zero"] == blind["winner"]
+    zero = v3.policy_from_record(blind["winner"], blind["policies"][blind["winner"]])
+    seeds = range(rec["eval_seed"], rec["eval_seed"] + 2)
+    np.testing.assert_allclose(
+        v3.roll_out(cfg, zero, seeds).objective, rec["per_seed"]["zero"][:2], atol=1e-3
+    )
+    best = v3.policy_objective(cfg, rec["best_reference"], rec["eval_seed"], 1)
+    np.testing.assert_allclose(best, rec["per_seed"]["best"][:1], atol=1e-3)
+    # The learner rows take these from the record on its seeds, and roll them out elsewhere.
+    got = v3._recorded_per_seed(rec, cfg, task, range(rec["eval_seed"] + 5, rec["eval_seed"] + 8))
+    np.testing.assert_array_equal(got["best"], rec["per_seed"]["best"][5:8])
+    assert v3._recorded_per_seed(rec, cfg, task, range(rec["eval_seed"] - 1, rec["eval_seed"] + 2)) is None
+    assert (
+        v3._recorded_per_seed(rec, v3.eval_config(f"planetnav/{task}", episode_steps=20), task, seeds) is None
+    )
