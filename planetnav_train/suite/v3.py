@@ -872,8 +872,8 @@ def _paired_with_published(
             others["zero"] = roll_out(cfg, zero, seeds).objective
         rows["rows"].append({"policy": f"blind zero ({blind['winner']})", "J": mean_interval(others["zero"])})
         rows["per_seed"]["zero"] = np.round(others["zero"], 4).tolist()
-    best = None if norm is None else norm["best_reference"]
-    if best is not None:
+    if norm is not None:
+        best = norm["best_reference"]
         others["best_reference"] = (
             recorded["best"] if recorded is not None else policy_objective(cfg, best, seeds.start, len(seeds))
         )

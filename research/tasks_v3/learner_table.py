@@ -62,15 +62,11 @@ def _published_reference(task: str, runs: list[dict]) -> tuple[str, float] | Non
         return None
     best = norm["best_reference"]
     stored = [r["policy"] for r in runs[0]["rows"] if r["policy"].startswith("best reference")]
-    episodes = runs[0]["episodes"]
-    if (
-        stored == [f"best reference ({best})"]
-        or norm["eval_seed"] != v3.EVAL_SEED
-        or episodes > norm["eval_episodes"]
-        or any(run.get("world_overrides") for run in runs)
-    ):
+    if stored == [f"best reference ({best})"] or any(run.get("world_overrides") for run in runs):
         return None
-    return best, float(np.mean(norm["per_seed"]["best"][:episodes]))
+    seeds = range(v3.EVAL_SEED, v3.EVAL_SEED + runs[0]["episodes"])
+    recorded = v3._recorded_per_seed(norm, v3.eval_config(f"planetnav/{task}"), task, seeds)
+    return None if recorded is None else (best, float(recorded["best"].mean()))
 
 
 def main(paths: list[str]) -> None:

@@ -42,10 +42,10 @@ def main() -> None:
         for path, per_draw in summary:
             means = per_draw.mean(axis=1)
             print(f"  {path}: {means.mean():.1f} ({means.std(ddof=1):.1f})")
-    _against_published(args.task, seeds, summary)
+    _against_published(args.task, cfg, seeds, summary)
 
 
-def _against_published(task: str, seeds: range, summary: list[tuple[str, np.ndarray]]) -> None:
+def _against_published(task: str, cfg, seeds: range, summary: list[tuple[str, np.ndarray]]) -> None:
     """Each model's J (mean over its draws, per evaluation seed) minus the published zero's and best
     reference's per-seed J on the same seeds, and its blind-zero score against the published constants
     (a bootstrap over the draws' runs and the seeds); then all models pooled. Only where the seeds are the
@@ -54,11 +54,11 @@ def _against_published(task: str, seeds: range, summary: list[tuple[str, np.ndar
         rec = v3.normalization(task)
     except Exception:  # not normalized
         return
-    if seeds.start != rec["eval_seed"] or len(seeds) > rec["eval_episodes"]:
+    recorded = v3._recorded_per_seed(rec, cfg, task, seeds)
+    if recorded is None:
         return
     jz, jb = rec["J_zero"]["mean"], rec["J_best"]["mean"]
-    zero = np.asarray(rec["per_seed"]["zero"][: len(seeds)])
-    best = np.asarray(rec["per_seed"]["best"][: len(seeds)])
+    zero, best = recorded["zero"], recorded["best"]
     print(f"## against the published constants (J_zero {jz:.1f}, J_best {jb:.1f} on 1,000 seeds; on these "
           f"seeds the zero {zero.mean():.1f}, {rec['best_reference']} {best.mean():.1f})")  # fmt: skip
     for path, per_draw in summary:
