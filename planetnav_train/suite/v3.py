@@ -7,6 +7,7 @@ after the flight world changes (docs/tasks_v3.md gives each number beside its co
     python -m planetnav_train.suite.v3 search     [--tasks ...]                 # the blind-zero search
     python -m planetnav_train.suite.v3 normalize  [--tasks ...] [--episodes N]  # J_zero, J_best, the gap
     python -m planetnav_train.suite.v3 learners   --task ID --budget N          # PPO, untrained, random
+    python -m planetnav_train.suite.v3 curves     FILE... [--plot P.png]        # their learning curves
 
 **Blind policies** ignore the observation. Every target-choice one is a time-indexed action distribution
 ``P[d, a]`` over the task's decisions ``d`` with a hold ``h``: a fresh action is drawn from ``P[d]`` at
@@ -48,6 +49,7 @@ from planetnav_env.core import layout as L
 from planetnav_env.errors import ConfigError
 from planetnav_env.tasks import get_version
 from planetnav_train.provenance import git_state, utc_now
+from planetnav_train.suite.v3_curves import CURVE_EPISODES, CURVE_POINTS, curve_callback
 
 #: The search's first stage: every candidate on these seeds.
 SEARCH_SEED = 110_000
@@ -898,6 +900,8 @@ def learner_rows(
     algo: str = "ppo",
     save_model: str | Path | None = None,
     world: dict[str, Any] | None = None,
+    curve_points: int = CURVE_POINTS,
+    curve_episodes: int = CURVE_EPISODES,
 ) -> dict[str, Any]:
     """PPO (SB3 defaults via ``make_vec_env``), the untrained network and uniform random on v3 ``task``
     (``Cruise-Target-v3``): J on ``episodes`` evaluation seeds, entropy, score. ``episode_steps`` shortens
@@ -908,7 +912,9 @@ def learner_rows(
     ``ppo_overrides`` then applies to it. ``save_model``: where to save the trained model (SB3's zip), to
     study its behaviour afterwards. ``world``: world options merged into the task's flight world for
     training and every row alike (a regime sweep, e.g. ``{"boresight_drift": False}``; a row made with it
-    is not the task's, and its score against the task's constants is not one)."""
+    is not the task's, and its score against the task's constants is not one). ``curve_points`` (0: none)
+    and ``curve_episodes``: the learning curve's points and seeds (:mod:`planetnav_train.suite.v3_curves`;
+    at most ``episodes`` seeds)."""
     import stable_baselines3
     from stable_baselines3.common.env_util import make_vec_env
 
@@ -944,9 +950,18 @@ def learner_rows(
     uniform, h_uniform = _uniform(cfg)
     per_seed["uniform random"] = j = roll_out(cfg, uniform, seeds).objective
     rows["rows"].append(_row("uniform random", j, h_uniform, task, {}, unscored))
+    callback = None
+    if curve_points:
+        curve_seeds = range(EVAL_SEED, EVAL_SEED + min(curve_episodes, episodes))
+        callback = curve_callback(
+            lambda: roll_out(cfg, _policy_fn(model, [], det), curve_seeds).objective, budget, curve_points
+        )
     t0 = time.time()
-    model.learn(total_timesteps=budget)
-    train_s = time.time() - t0
+    model.learn(total_timesteps=budget, callback=callback)
+    train_s = time.time() - t0 - (callback.seconds if callback is not None else 0.0)
+    if callback is not None:
+        rows["learning_curve"] = {"seeds": [curve_seeds.start, len(curve_seeds)], "draw_seed": 0,
+                                  "seconds": callback.seconds, **callback.curve}  # fmt: skip
     ent = []
     name = f"SB3 {cls_name} (defaults, make_vec_env)"
     per_seed[name] = j = roll_out(cfg, _policy_fn(model, ent, det), seeds).objective
@@ -1138,6 +1153,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     lr.add_argument("--algo", default="ppo", choices=sorted(LEARNERS), help="the SB3 learner (its defaults)")
     lr.add_argument("--save-model", default=None, help="save the trained model here (SB3's zip)")
+    lr.add_argument("--curve-points", type=int, default=CURVE_POINTS, help="learning-curve points (0: none)")
+    lr.add_argument("--curve-episodes", type=int, default=CURVE_EPISODES, help="evaluation seeds a point")
+    cv = sub.add_parser("curves", help="the learning curves of learners files: a table, and --plot a figure")
+    cv.add_argument("files", nargs="+", help="files the learners command wrote (--out)")
+    cv.add_argument("--plot", default=None, help="write the figure here (PNG)")
     ag = sub.add_parser(
         "agent-rows",
         help="score a saved single-file PPO agent (baselines/ppo_single_file.py, ppo_continuous.py)",
@@ -1174,10 +1194,25 @@ def main(argv: Sequence[str] | None = None) -> int:
             target_actions=args.target_actions,
             algo=args.algo,
             save_model=args.save_model,
+            curve_points=args.curve_points,
+            curve_episodes=args.curve_episodes,
         )
         print(json.dumps(rows, indent=1))
         if args.out:
             write_json(Path(args.out), rows)
+        return 0
+    if args.cmd == "curves":
+        from planetnav_train.suite import v3_curves
+
+        runs = [read_json(Path(f)) for f in args.files]
+        groups = v3_curves.group_runs([r for r in runs if r.get("learning_curve")])
+        if not groups:
+            raise ConfigError(f"none of the {len(runs)} files carries a learning_curve")
+        tables = [v3_curves.curve_table(g) for _, g in sorted(groups.items())]
+        for t in tables:
+            print("\n".join(v3_curves.format_table(t)))
+        if args.plot:
+            print(f"wrote {v3_curves.write_plot(tables, Path(args.plot))}")
         return 0
     if args.cmd == "zero-check":
         blinds = read_json(BLIND_FILE)["tasks"]
