@@ -1208,7 +1208,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         groups = v3_curves.group_runs([r for r in runs if r.get("learning_curve")])
         if not groups:
             raise ConfigError(f"none of the {len(runs)} files carries a learning_curve")
-        tables = [v3_curves.curve_table(g) for _, g in sorted(groups.items())]
+        tables = [v3_curves.curve_table(g, label=key[1]) for key, g in sorted(groups.items())]
         for t in tables:
             print("\n".join(v3_curves.format_table(t)))
         if args.plot:

@@ -83,12 +83,13 @@ def _t_interval(x: Sequence[float]) -> tuple[float, float, float]:
     return float(a.mean()), float(a.mean()) - h, float(a.mean()) + h
 
 
-def curve_table(runs: Sequence[dict[str, Any]]) -> dict[str, Any]:
+def curve_table(runs: Sequence[dict[str, Any]], label: str | None = None) -> dict[str, Any]:
     """The curve of a group of runs of one task and learner (``learners`` files with a
     ``learning_curve``), points aligned by index and cut to the shortest: per point the mean decisions,
     the mean J [km] over runs with the runs' range, J minus the published zero [km] paired on the curve's
     seeds (mean over the runs, 95 % t-interval over them) and the blind-zero score likewise where the
-    task's score is defined. Raises ConfigError where a run has no curve or the runs' seeds differ."""
+    task's score is defined; ``label`` names the learner (:func:`group_runs`' key; default its algo).
+    Raises ConfigError where a run has no curve or the runs' seeds differ."""
     from planetnav_train.suite import v3
 
     if not runs:
@@ -128,19 +129,20 @@ def curve_table(runs: Sequence[dict[str, Any]]) -> dict[str, Any]:
             jz, jb = scale
             p["score"] = _t_interval([(jz - m) / (jz - jb) for m in means])
         points.append(p)
-    return {"task": task, "algo": runs[0].get("algo", "ppo"), "runs": len(runs),
+    return {"task": task, "algo": label or runs[0].get("algo", "ppo"), "runs": len(runs),
             "seeds": [first, n], "points": points,
             "zero_on_seeds": None if recorded is None else float(recorded["zero"].mean()),
             "best_on_seeds": None if recorded is None else float(recorded["best"].mean())}  # fmt: skip
 
 
 def group_runs(files: Sequence[dict[str, Any]]) -> dict[tuple[str, str], list[dict[str, Any]]]:
-    """Runs grouped by task and learner (its changed defaults named in the learner's key)."""
+    """Runs grouped by task and learner (its budget, changed defaults and world named in the learner's
+    key)."""
     import json
 
     groups: dict[tuple[str, str], list[dict[str, Any]]] = defaultdict(list)
     for d in files:
-        algo = d.get("algo", "ppo")
+        algo = f"{d.get('algo', 'ppo')}, {d['budget_decisions']:,} decisions"
         if d.get("learner_overrides"):
             algo = f"{algo} {json.dumps(d['learner_overrides'], sort_keys=True)}"
         if d.get("world_overrides"):

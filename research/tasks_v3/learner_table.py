@@ -78,6 +78,8 @@ def main(paths: list[str]) -> None:
         d.setdefault("seed", int(Path(p).stem.rsplit("-", 1)[-1]))
         d.setdefault("budget_decisions", 300_000)
         key = (d["task"], d.get("algo", "ppo"), d.get("target_actions", "absolute"))
+        if d["budget_decisions"] != 300_000:  # another budget: its own group
+            key = (key[0], f"{key[1]} at {d['budget_decisions']:,} decisions", key[2])
         if d.get("learner_overrides"):  # another learner: its own group
             key = (key[0], f"{key[1]} {json.dumps(d['learner_overrides'], sort_keys=True)}", key[2])
         by_task[key].append(d)

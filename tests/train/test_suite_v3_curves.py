@@ -50,7 +50,8 @@ def _run(task: str, seed: int, per_seed: list[list[float]], first: int) -> dict:
         "decisions": [0, 100, 200][: len(per_seed)],
         "per_seed": per_seed,
     }
-    return {"task": task, "algo": "ppo", "seed": seed, "episode_steps": steps, "learning_curve": curve}
+    return {"task": task, "algo": "ppo", "seed": seed, "episode_steps": steps, "budget_decisions": 200,
+            "learning_curve": curve}  # fmt: skip
 
 
 def test_the_curve_table_pairs_each_point_with_the_records_zero_and_scores_it(tmp_path, capsys) -> None:
@@ -75,7 +76,8 @@ def test_the_curve_table_pairs_each_point_with_the_records_zero_and_scores_it(tm
         files[-1].write_text(json.dumps(r))
     assert v3.main(["curves", *map(str, files), "--plot", str(tmp_path / "c.png")]) == 0
     out = capsys.readouterr().out
-    assert f"## {task}, ppo: 2 runs" in out and "score" in out and (tmp_path / "c.png").stat().st_size > 0
+    assert f"## {task}, ppo, 200 decisions: 2 runs" in out and "score" in out
+    assert (tmp_path / "c.png").stat().st_size > 0
 
 
 def test_the_curve_table_refuses_runs_without_a_curve_or_on_other_seeds() -> None:
