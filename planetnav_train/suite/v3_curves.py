@@ -29,8 +29,10 @@ from planetnav_env.errors import ConfigError
 
 #: Points of a curve after the untrained one (the budget's tenths; the last at the end of training).
 CURVE_POINTS = 10
-#: Evaluation seeds of each point: the first of the evaluation's (fewer where the run evaluates fewer).
-CURVE_EPISODES = 50
+#: Evaluation seeds of each point: the first of the evaluation's (fewer where the run evaluates fewer). On
+#: the Mars approach one runaway episode (thousands of km) moves a 50-seed mean by tens of km; 200 seeds a
+#: point cost ~1 min a run there, against ~5 min of training.
+CURVE_EPISODES = 200
 
 
 def curve_callback(evaluate: Callable[[], np.ndarray], budget: int, points: int = CURVE_POINTS) -> Any:
