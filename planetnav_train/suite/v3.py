@@ -49,6 +49,7 @@ from planetnav_env.core import layout as L
 from planetnav_env.errors import ConfigError
 from planetnav_env.tasks import get_version
 from planetnav_train.provenance import git_state, utc_now
+from planetnav_train.suite import v3_curves
 from planetnav_train.suite.v3_curves import CURVE_EPISODES, CURVE_POINTS, curve_callback
 
 #: The search's first stage: every candidate on these seeds.
@@ -889,6 +890,26 @@ def _paired_with_published(
                 r[f"minus_{name}"] = paired_difference(j, other)
 
 
+def _published_on(
+    task: str, episode_steps: int, seeds: range, world: bool
+) -> tuple[dict[str, np.ndarray] | None, tuple[float, float] | None]:
+    """The published constants a learning curve pairs with (:data:`v3_curves.Published`)."""
+    try:
+        norm = normalization(task)
+    except Exception:  # not normalized: J alone
+        return None, None
+    if world:  # another world: the task's constants are not its
+        return None, None
+    cfg = eval_config(f"planetnav/{task}", episode_steps=episode_steps)
+    scale = (norm["J_zero"]["mean"], norm["J_best"]["mean"])
+    return _recorded_per_seed(norm, cfg, task, seeds), scale if scale[1] < scale[0] else None
+
+
+def curve_table(runs: Sequence[dict[str, Any]], label: str | None = None) -> dict[str, Any]:
+    """:func:`v3_curves.curve_table` against the published constants."""
+    return v3_curves.curve_table(runs, _published_on, label)
+
+
 def learner_rows(
     task: str,
     budget: int,
@@ -1202,13 +1223,11 @@ def main(argv: Sequence[str] | None = None) -> int:
             write_json(Path(args.out), rows)
         return 0
     if args.cmd == "curves":
-        from planetnav_train.suite import v3_curves
-
         runs = [read_json(Path(f)) for f in args.files]
         groups = v3_curves.group_runs([r for r in runs if r.get("learning_curve")])
         if not groups:
             raise ConfigError(f"none of the {len(runs)} files carries a learning_curve")
-        tables = [v3_curves.curve_table(g, label=key[1]) for key, g in sorted(groups.items())]
+        tables = [curve_table(g, label=key[1]) for key, g in sorted(groups.items())]
         for t in tables:
             print("\n".join(v3_curves.format_table(t)))
         if args.plot:

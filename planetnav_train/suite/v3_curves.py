@@ -85,15 +85,22 @@ def _t_interval(x: Sequence[float]) -> tuple[float, float, float]:
     return float(a.mean()), float(a.mean()) - h, float(a.mean()) + h
 
 
-def curve_table(runs: Sequence[dict[str, Any]], label: str | None = None) -> dict[str, Any]:
+#: ``(task, episode_steps, seeds, world_overridden) -> (recorded, scale)``: the normalization record's
+#: per-seed J of the zero and best reference on the seeds (None where it holds none), and the published
+#: (J_zero, J_best) where the score is defined (``v3.curve_table`` passes its own).
+Published = Callable[[str, int, range, bool], tuple[dict[str, np.ndarray] | None, tuple[float, float] | None]]
+
+
+def curve_table(
+    runs: Sequence[dict[str, Any]], published: Published, label: str | None = None
+) -> dict[str, Any]:
     """The curve of a group of runs of one task and learner (``learners`` files with a
     ``learning_curve``), points aligned by index and cut to the shortest: per point the mean decisions,
     the mean J [km] over runs with the runs' range, J minus the published zero [km] paired on the curve's
     seeds (mean over the runs, 95 % t-interval over them) and the blind-zero score likewise where the
-    task's score is defined; ``label`` names the learner (:func:`group_runs`' key; default its algo).
+    task's score is defined, from ``published``; ``label`` names the learner (:func:`group_runs`' key;
+    default its algo).
     Raises ConfigError where a run has no curve or the runs' seeds differ."""
-    from planetnav_train.suite import v3
-
     if not runs:
         raise ConfigError("a curve table of no runs")
     task = runs[0]["task"]
@@ -107,18 +114,9 @@ def curve_table(runs: Sequence[dict[str, Any]], label: str | None = None) -> dic
         raise ConfigError(f"{task}: the runs' curves are on different seeds: {[c['seeds'] for c in curves]}")
     first, n = curves[0]["seeds"]
     n_points = min(len(c["decisions"]) for c in curves)
-    try:
-        norm = v3.normalization(task)
-    except Exception:  # not normalized: J alone
-        norm = None
     world = any(run.get("world_overrides") for run in runs)
     # Pairs with the record only in the task's own configuration (a shortened smoke run's is another).
-    cfg = v3.eval_config(f"planetnav/{task}", episode_steps=runs[0]["episode_steps"])
-    seeds = range(first, first + n)
-    recorded = None if (norm is None or world) else v3._recorded_per_seed(norm, cfg, task, seeds)
-    scale = None
-    if norm is not None and not world and norm["J_best"]["mean"] < norm["J_zero"]["mean"]:
-        scale = (norm["J_zero"]["mean"], norm["J_best"]["mean"])
+    recorded, scale = published(task, runs[0]["episode_steps"], range(first, first + n), world)
     points = []
     for k in range(n_points):
         js = [np.asarray(c["per_seed"][k], float) for c in curves]

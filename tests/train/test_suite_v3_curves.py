@@ -62,7 +62,7 @@ def test_the_curve_table_pairs_each_point_with_the_records_zero_and_scores_it(tm
     rec = v3.normalization(task)
     zero = np.asarray(rec["per_seed"]["zero"][:4])
     runs = [_run(task, s, [(zero + k + 2 * s).tolist() for k in range(3)], rec["eval_seed"]) for s in (0, 1)]
-    table = v3_curves.curve_table(runs)
+    table = v3.curve_table(runs)
     jz, jb = rec["J_zero"]["mean"], rec["J_best"]["mean"]
     assert table["zero_on_seeds"] == pytest.approx(zero.mean())
     for k, p in enumerate(table["points"]):
@@ -84,9 +84,9 @@ def test_the_curve_table_refuses_runs_without_a_curve_or_on_other_seeds() -> Non
     task = "Cruise-Target-v3"
     a = _run(task, 0, [[1.0, 2.0]], v3.EVAL_SEED)
     with pytest.raises(ConfigError, match="different seeds"):
-        v3_curves.curve_table([a, _run(task, 1, [[1.0, 2.0]], v3.EVAL_SEED + 1)])
+        v3.curve_table([a, _run(task, 1, [[1.0, 2.0]], v3.EVAL_SEED + 1)])
     with pytest.raises(ConfigError, match="no learning_curve"):
-        v3_curves.curve_table([a, {"task": task, "seed": 2}])
+        v3.curve_table([a, {"task": task, "seed": 2}])
     # A cruise's score is undefined (its references lose to the zero): the paired difference alone.
-    p = v3_curves.curve_table([a])["points"][0]
+    p = v3.curve_table([a])["points"][0]
     assert "minus_zero" in p and "score" not in p
