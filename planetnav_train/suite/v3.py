@@ -50,7 +50,6 @@ from planetnav_env.errors import ConfigError
 from planetnav_env.tasks import get_version
 from planetnav_train.provenance import git_state, utc_now
 from planetnav_train.suite import v3_curves
-from planetnav_train.suite.v3_curves import CURVE_EPISODES, CURVE_POINTS, curve_callback
 
 #: The search's first stage: every candidate on these seeds.
 SEARCH_SEED = 110_000
@@ -921,8 +920,8 @@ def learner_rows(
     algo: str = "ppo",
     save_model: str | Path | None = None,
     world: dict[str, Any] | None = None,
-    curve_points: int = CURVE_POINTS,
-    curve_episodes: int = CURVE_EPISODES,
+    curve_points: int = v3_curves.CURVE_POINTS,
+    curve_episodes: int = v3_curves.CURVE_EPISODES,
 ) -> dict[str, Any]:
     """PPO (SB3 defaults via ``make_vec_env``), the untrained network and uniform random on v3 ``task``
     (``Cruise-Target-v3``): J on ``episodes`` evaluation seeds, entropy, score. ``episode_steps`` shortens
@@ -974,7 +973,7 @@ def learner_rows(
     callback = None
     if curve_points:
         curve_seeds = range(EVAL_SEED, EVAL_SEED + min(curve_episodes, episodes))
-        callback = curve_callback(
+        callback = v3_curves.curve_callback(
             lambda: roll_out(cfg, _policy_fn(model, [], det), curve_seeds).objective, budget, curve_points
         )
     t0 = time.time()
@@ -1174,8 +1173,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     lr.add_argument("--algo", default="ppo", choices=sorted(LEARNERS), help="the SB3 learner (its defaults)")
     lr.add_argument("--save-model", default=None, help="save the trained model here (SB3's zip)")
-    lr.add_argument("--curve-points", type=int, default=CURVE_POINTS, help="learning-curve points (0: none)")
-    lr.add_argument("--curve-episodes", type=int, default=CURVE_EPISODES, help="evaluation seeds a point")
+    lr.add_argument(
+        "--curve-points", type=int, default=v3_curves.CURVE_POINTS, help="learning-curve points (0: none)"
+    )
+    lr.add_argument(
+        "--curve-episodes", type=int, default=v3_curves.CURVE_EPISODES, help="evaluation seeds a point"
+    )
     cv = sub.add_parser("curves", help="the learning curves of learners files: a table, and --plot a figure")
     cv.add_argument("files", nargs="+", help="files the learners command wrote (--out)")
     cv.add_argument("--plot", default=None, help="write the figure here (PNG)")

@@ -23,9 +23,9 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from scipy import stats
 
 from planetnav_env.errors import ConfigError
+from planetnav_train.stats import mean_ci
 
 #: Points of a curve after the untrained one (the budget's tenths; the last at the end of training).
 CURVE_POINTS = 10
@@ -76,13 +76,10 @@ def curve_callback(evaluate: Callable[[], np.ndarray], budget: int, points: int 
 
 
 def _t_interval(x: Sequence[float]) -> tuple[float, float, float]:
-    """(mean, lo, hi): a 95 % Student-t interval over ``x`` (the training runs); (mean, mean, mean) for
-    one run."""
-    a = np.asarray(x, float)
-    if a.size < 2:
-        return float(a.mean()), float(a.mean()), float(a.mean())
-    h = float(stats.t.ppf(0.975, a.size - 1) * a.std(ddof=1) / np.sqrt(a.size))
-    return float(a.mean()), float(a.mean()) - h, float(a.mean()) + h
+    """(mean, lo, hi): :func:`planetnav_train.stats.mean_ci` over ``x`` (the training runs); (mean, mean,
+    mean) for one run."""
+    ci = mean_ci(x)
+    return (ci.mean, ci.mean, ci.mean) if ci.n < 2 else (ci.mean, ci.low, ci.high)
 
 
 #: ``(task, episode_steps, seeds, world_overridden) -> (recorded, scale)``: the normalization record's
@@ -136,13 +133,15 @@ def curve_table(
 
 
 def group_runs(files: Sequence[dict[str, Any]]) -> dict[tuple[str, str], list[dict[str, Any]]]:
-    """Runs grouped by task and learner (its budget, changed defaults and world named in the learner's
-    key)."""
+    """Runs grouped by task and learner (its budget, target actions, changed defaults and world named in
+    the learner's key)."""
     import json
 
     groups: dict[tuple[str, str], list[dict[str, Any]]] = defaultdict(list)
     for d in files:
         algo = f"{d.get('algo', 'ppo')}, {d['budget_decisions']:,} decisions"
+        if d.get("target_actions", "absolute") != "absolute":
+            algo = f"{algo}, {d['target_actions']} target actions"
         if d.get("learner_overrides"):
             algo = f"{algo} {json.dumps(d['learner_overrides'], sort_keys=True)}"
         if d.get("world_overrides"):

@@ -90,3 +90,13 @@ def test_the_curve_table_refuses_runs_without_a_curve_or_on_other_seeds() -> Non
     # A cruise's score is undefined (its references lose to the zero): the paired difference alone.
     p = v3.curve_table([a])["points"][0]
     assert "minus_zero" in p and "score" not in p
+
+
+def test_runs_of_another_budget_or_target_actions_form_their_own_group() -> None:
+    task = "Cruise-Target-v3"
+    runs = [_run(task, s, [[1.0]], v3.EVAL_SEED) for s in range(3)]
+    runs[1]["target_actions"] = "relative"
+    runs[2]["budget_decisions"] = 400
+    groups = v3_curves.group_runs(runs)
+    want = ["ppo, 200 decisions", "ppo, 200 decisions, relative target actions", "ppo, 400 decisions"]
+    assert sorted(k[1] for k in groups) == want
