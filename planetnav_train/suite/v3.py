@@ -523,6 +523,18 @@ def normalization(task: str, path: Path = NORMALIZATION_FILE) -> dict[str, Any]:
     return rec
 
 
+def published_scale(task: str, path: Path = NORMALIZATION_FILE) -> tuple[float, float] | None:
+    """(J_zero, J_best) [km] of v3 ``task`` where its blind-zero score is defined: the task is normalized
+    and its best reference beats its zero (J_best < J_zero). None otherwise (a cruise, whose references
+    lose to the zero, has J and no score)."""
+    try:
+        norm = normalization(task, path)
+    except ConfigError:
+        return None
+    jz, jb = float(norm["J_zero"]["mean"]), float(norm["J_best"]["mean"])
+    return (jz, jb) if jb < jz else None
+
+
 # ---------------------------------------------------------------------------------------------------------
 # The commands
 # ---------------------------------------------------------------------------------------------------------
@@ -825,7 +837,7 @@ def _row(
         return row
     try:
         norm = normalization(task)
-    except Exception:  # no published constants yet: the row carries J only
+    except ConfigError:  # no published constants yet: the row carries J only
         row["score"] = None
     else:
         try:
@@ -862,7 +874,7 @@ def _paired_with_published(
     blind = read_json(BLIND_FILE)["tasks"].get(task)
     try:
         norm = normalization(task)
-    except Exception:  # not normalized yet: no reference row
+    except ConfigError:  # not normalized yet: no reference row
         norm = None
     recorded = _recorded_per_seed(norm, cfg, task, seeds)
     others: dict[str, np.ndarray] = {}
@@ -895,13 +907,12 @@ def _published_on(
     """The published constants a learning curve pairs with (:data:`v3_curves.Published`)."""
     try:
         norm = normalization(task)
-    except Exception:  # not normalized: J alone
+    except ConfigError:  # not normalized: J alone
         return None, None
     if world:  # another world: the task's constants are not its
         return None, None
     cfg = eval_config(f"planetnav/{task}", episode_steps=episode_steps)
-    scale = (norm["J_zero"]["mean"], norm["J_best"]["mean"])
-    return _recorded_per_seed(norm, cfg, task, seeds), scale if scale[1] < scale[0] else None
+    return _recorded_per_seed(norm, cfg, task, seeds), published_scale(task)
 
 
 def curve_table(runs: Sequence[dict[str, Any]], label: str | None = None) -> dict[str, Any]:

@@ -27,28 +27,14 @@ from collections import defaultdict
 from pathlib import Path
 
 import numpy as np
-from scipy import stats
 
+from planetnav_train.stats import mean_ci
 from planetnav_train.suite import v3
 
 
 def interval(x: list[float], fmt: str = ".1f") -> str:
-    a = np.asarray(x, float)
-    if a.size < 2:
-        return f"{a.mean():+{fmt}}"
-    h = stats.t.ppf(0.975, a.size - 1) * a.std(ddof=1) / np.sqrt(a.size)
-    return f"{a.mean():+{fmt}} [{a.mean() - h:+{fmt}}, {a.mean() + h:+{fmt}}]"
-
-
-def _scale(task: str) -> tuple[float, float] | None:
-    """The published (J_zero, J_best) of ``task`` where its blind-zero score is defined (J_best below
-    J_zero), else None."""
-    try:
-        norm = v3.normalization(task)
-    except Exception:  # not normalized
-        return None
-    jz, jb = norm["J_zero"]["mean"], norm["J_best"]["mean"]
-    return (jz, jb) if jb < jz else None
+    """The mean of ``x`` with its Student-t 95 % interval, signed (the mean alone for one value)."""
+    return mean_ci(x).format("{:+" + fmt + "}")
 
 
 def _published_reference(task: str, runs: list[dict]) -> tuple[str, float] | None:
@@ -58,7 +44,7 @@ def _published_reference(task: str, runs: list[dict]) -> tuple[str, float] | Non
     runs are not scored on the record's first seeds in the task's own world."""
     try:
         norm = v3.normalization(task)
-    except Exception:  # not normalized
+    except v3.ConfigError:  # not normalized
         return None
     best = norm["best_reference"]
     stored = [r["policy"] for r in runs[0]["rows"] if r["policy"].startswith("best reference")]
@@ -109,7 +95,7 @@ def main(paths: list[str]) -> None:
                     line += f", {key} {interval([x[key]['mean'] for x in rows])}"
             if published is not None:  # the same seeds in every run: J minus the reference's mean
                 line += f", minus_published_reference {interval([x - published[1] for x in j])}"
-            scale = _scale(task)
+            scale = v3.published_scale(task)
             if scale is not None:
                 jz, jb = scale
                 seeds = [run.get("per_seed", {}).get(name) for run in runs]

@@ -52,7 +52,7 @@ def _against_published(task: str, cfg, seeds: range, summary: list[tuple[str, np
     normalization record's."""
     try:
         rec = v3.normalization(task)
-    except Exception:  # not normalized
+    except v3.ConfigError:  # not normalized
         return
     recorded = v3._recorded_per_seed(rec, cfg, task, seeds)
     if recorded is None:
@@ -70,13 +70,11 @@ def _against_published(task: str, cfg, seeds: range, summary: list[tuple[str, np
             line += f", score {sc['score']:+.2f} [{sc['lo']:+.2f}, {sc['hi']:+.2f}]"
         print(line)
     if len(summary) > 1:
-        from scipy import stats
+        from planetnav_train.stats import mean_ci
 
         for name, other in (("zero", zero), ("best", best)):
-            d = np.array([per_draw.mean() - other.mean() for _, per_draw in summary])
-            h = stats.t.ppf(0.975, d.size - 1) * d.std(ddof=1) / np.sqrt(d.size)
-            print(f"  minus {name} over the {d.size} models: {d.mean():+.1f} [{d.mean() - h:+.1f}, "
-                  f"{d.mean() + h:+.1f}] km (Student t)")  # fmt: skip
+            d = mean_ci([per_draw.mean() - other.mean() for _, per_draw in summary])
+            print(f"  minus {name} over the {d.n} models: {d.format('{:+.1f}')} km (Student t)")
     if len(summary) > 1 and jb < jz:
         sc = v3.run_score([row for _, per_draw in summary for row in per_draw], jz, jb)
         print(f"  pooled: score {sc['score']:+.2f} [{sc['lo']:+.2f}, {sc['hi']:+.2f}]")

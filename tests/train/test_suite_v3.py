@@ -148,6 +148,22 @@ def test_the_run_score_refuses_a_reference_that_does_not_beat_the_zero():
             v3.run_score(np.full(5, 15.0), j_zero=20.0, j_best=j_best)
 
 
+def test_the_published_scale_is_the_records_constants_only_where_the_best_beats_the_zero(tmp_path) -> None:
+    scored = [t for t in v3.V3_TASKS if v3.published_scale(t) is not None]
+    assert "MarsApproach-Tasking-v3" in scored and "Cruise-Target-v3" not in scored
+    for task in v3.V3_TASKS:
+        rec = v3.normalization(task)
+        jz, jb = rec["J_zero"]["mean"], rec["J_best"]["mean"]
+        assert v3.published_scale(task) == ((jz, jb) if jb < jz else None)
+    assert v3.published_scale("NoSuchTask-v3") is None
+    # From another file: a task absent there has no scale, one listed there has the file's.
+    path = tmp_path / "norm.json"
+    record = {"J_zero": {"mean": 10.0}, "J_best": {"mean": 4.0}}
+    v3.write_json(path, {"suite_version": 3, "tasks": {"T": record}})
+    assert v3.published_scale("T", path) == (10.0, 4.0)
+    assert v3.published_scale("MarsApproach-Tasking-v3", path) is None
+
+
 def test_the_run_score_is_the_formula_with_a_bootstrap_over_the_seeds():
     j = np.array([8.0, 9.0, 10.0, 11.0, 12.0])
     s = v3.run_score(j, j_zero=20.0, j_best=10.0)
