@@ -41,20 +41,23 @@ _ONE_SECOND = Params(
     step_s=1.0, episode_steps=3600, attitude_substep_s=1.0, settled_substep_s=0.0, torque_action_scale=1.0
 )
 
-CRUISE_TORQUE_CONTROL = TaskSpec(
-    "Cruise-TorqueControl",
-    versions=(
+
+def _versions(action: str, v0_action_note: str) -> tuple[TaskVersion, TaskVersion]:
+    """Both tasks' two versions, which differ only in the action kind: v0 with the true-error reward, v1
+    the same physics with the on-board covariance reward and the ``since_measured`` block."""
+    layout = Layout("cruise", _PLANETS, action, blocks=("in_field",))
+    return (
         TaskVersion(
             0,
-            layout=Layout("cruise", _PLANETS, "torque", blocks=("in_field",)),
+            layout=layout,
             params=_ONE_SECOND,
             reward=Reward("truth", scale_km=1000.0),
             interface=Interface(),
-            note="the first published version: the true-error reward, the wheel torque held 1 s",
+            note=f"the first published version: the true-error reward, {v0_action_note}",
         ),
         TaskVersion(
             1,
-            layout=Layout("cruise", _PLANETS, "torque", blocks=("in_field",)),
+            layout=layout,
             params=_ONE_SECOND,
             reward=Reward("covariance", scale_km=1000.0),
             interface=Interface(since_measured=True),
@@ -62,7 +65,12 @@ CRUISE_TORQUE_CONTROL = TaskSpec(
             "block, one decision per 1-s physics step as in v0; benchmarked in suite version 1 (archived), "
             "the latest version",
         ),
-    ),
+    )
+
+
+CRUISE_TORQUE_CONTROL = TaskSpec(
+    "Cruise-TorqueControl",
+    versions=_versions("torque", "the wheel torque held 1 s"),
     card=Card(
         lead="Wheel torques at the attitude's own timescale: one decision per second for one hour of the "
         "cruise, so a learner can resolve a slew (a 90° slew takes ~100 s) and has time for tens of them "
@@ -89,26 +97,7 @@ Pages: [environment.md](../environment.md), "Wheel torques at the attitude's tim
 
 CRUISE_HYBRID = TaskSpec(
     "Cruise-Hybrid",
-    versions=(
-        TaskVersion(
-            0,
-            layout=Layout("cruise", _PLANETS, "hybrid", blocks=("in_field",)),
-            params=_ONE_SECOND,
-            reward=Reward("truth", scale_km=1000.0),
-            interface=Interface(),
-            note="the first published version: the true-error reward, an option or a torque each second",
-        ),
-        TaskVersion(
-            1,
-            layout=Layout("cruise", _PLANETS, "hybrid", blocks=("in_field",)),
-            params=_ONE_SECOND,
-            reward=Reward("covariance", scale_km=1000.0),
-            interface=Interface(since_measured=True),
-            note="v0's physics posed for learners: the on-board covariance reward and the `since_measured` "
-            "block, one decision per 1-s physics step as in v0; benchmarked in suite version 1 (archived), "
-            "the latest version",
-        ),
-    ),
+    versions=_versions("hybrid", "an option or a torque each second"),
     card=Card(
         lead="One-second decisions as in [Cruise-TorqueControl](Cruise-TorqueControl.md), each either an "
         'option ("slew to planet k with the PD law") or a direct wheel torque.',
