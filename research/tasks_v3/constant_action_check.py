@@ -42,9 +42,8 @@ def main() -> None:
     print(f"{task}: {episodes} evaluation seeds from {v3.EVAL_SEED}", flush=True)
     constant = {}
     for a in range(n_actions):
-        probs = np.zeros((1, n_actions))
-        probs[0, a] = 1.0
-        constant[a] = v3.roll_out(cfg, v3.BlindTargets(f"action {a}", probs, 1), seeds).objective
+        schedule = v3.BlindTargets(f"action {a}", v3._one_hot([a], n_actions), 1)
+        constant[a] = v3.roll_out(cfg, schedule, seeds).objective
         print(f"constant action {a}: J {constant[a].mean():.1f} km", flush=True)
     for p, r in zip(args.records, recs, strict=True):
         for name, j in r["per_seed"].items():
