@@ -40,6 +40,7 @@ from planetnav_env.errors import NonFiniteError, PlanetNavError
 from planetnav_env.kernel_params import build_params, episode_duration_s
 from planetnav_env.scenarios.episodes import Episode, approach_episode, draw_episode
 from planetnav_env.sensors.pulsar import SPEED_OF_LIGHT_KM_S
+from planetnav_env.sensors.star_tracker import read_only
 from planetnav_env.world import truth_perturbers, tuned_accel_psd
 
 #: Batches at least this large step in chunks on several threads (smaller ones are faster serially:
@@ -56,6 +57,13 @@ def attitude_err_arcsec(att_rad: Any) -> Any:
     # the finiteness test is on the value in radians.
     att_rad = np.asarray(att_rad)
     return np.where(np.isfinite(att_rad), att_rad / ARCSEC, np.nan)
+
+
+def _kernel_array(a: np.ndarray, dtype: type) -> np.ndarray:
+    """``a`` as the compiled step takes it: C-contiguous and writable, of ``dtype`` (``a`` itself when it
+    already is; a copy of a read-only or strided array)."""
+    out = np.ascontiguousarray(a, dtype=dtype)
+    return out if out.flags.writeable else out.copy()
 
 
 def _time_s(t0: Any, k: Any, step_s: float) -> Any:
@@ -377,7 +385,10 @@ class BatchCore:
         rows' status codes as named errors."""
         # Plain arrays, not the RowState/Actions records: typing a record passed from Python costs
         # several µs a call (K.step_range_arrays builds them in compiled code).
-        active = self._all if active is None else active
+        # One array type per argument, whatever the caller holds: numba compiles the step once per
+        # combination of layouts and read-only flags (minutes each), for the same arithmetic.
+        actions = _kernel_array(actions, np.float64)
+        active = self._all if active is None else _kernel_array(active, np.bool_)
         state = (self.f, self.p, self.i, self.rng, self.eph, self.obs)
         args = (self.params, *state, actions, self._targets, self._torques, active)
         n = self.num_rows
@@ -529,3 +540,7 @@ class BatchCore:
         state = self.__dict__.copy()
         state["_pool"] = None  # threads are not state: a copy starts its own
         return state
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
+        read_only(self.params.stars)  # unpickled arrays come back writable (see read_only)

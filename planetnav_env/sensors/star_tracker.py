@@ -443,19 +443,32 @@ def star_fix_tables(config: StarTrackerConfig, grid_n: int | None = None) -> Sta
     cell_start, cell_stars, _, _ = sky_grid(dirs, g, half_eff)
     # Own copies, read-only: the tables are cached and shared, the catalogue arrays stay writable for others.
     dirs, bs = dirs.copy(), bs.copy()
-    for a in (dirs, cell_start, cell_stars, bs):
-        a.setflags(write=False)
-    return StarFixTables(
-        dirs=dirs,
-        cell_start=cell_start,
-        cell_stars=cell_stars,
-        grid_n=g,
-        cos_half=cos_half,
-        boresight=bs,
-        sigma_rad=float(config.noise_arcsec * ARCSEC),
-        min_stars=int(config.min_stars),
-        max_stars=int(np.max(np.diff(cell_start))) if cell_start.size > 1 else 0,
+    return read_only(
+        StarFixTables(
+            dirs=dirs,
+            cell_start=cell_start,
+            cell_stars=cell_stars,
+            grid_n=g,
+            cos_half=cos_half,
+            boresight=bs,
+            sigma_rad=float(config.noise_arcsec * ARCSEC),
+            min_stars=int(config.min_stars),
+            max_stars=int(np.max(np.diff(cell_start))) if cell_start.size > 1 else 0,
+        )
     )
+
+
+def read_only(tables: StarFixTables) -> StarFixTables:
+    """``tables`` with every array marked read-only, in place (returned for chaining).
+
+    The kernels' parameters always hold the tables read-only: numba types a read-only array apart from a
+    writable one, so a copy with writable tables (what pickling or ``copy.deepcopy`` of an environment
+    gives back) would compile the whole step again, minutes, for the same arithmetic.
+    """
+    for a in tables:
+        if isinstance(a, np.ndarray):
+            a.setflags(write=False)
+    return tables
 
 
 @numba.njit(**ROW_KERNEL_OPTIONS, error_model=_ERROR_MODEL)

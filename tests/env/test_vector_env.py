@@ -132,6 +132,28 @@ def test_pickle_and_deepcopy_continue_bit_for_bit(kind: str) -> None:
         assert all(np.array_equal(a, b) for a, b in zip(ref, got, strict=True))
 
 
+def test_copies_and_the_callers_arrays_reuse_the_compiled_step() -> None:
+    """A pickled or deep-copied env, a read-only or strided mask of rows and integer actions all step
+    through the kernel already compiled: numba would type each as a new signature and compile the whole
+    step again (minutes the first time, on every machine)."""
+    from planetnav_env.core import kernels as K
+
+    env = PlanetNavVectorEnv(3, **SHORT)
+    env.reset(seed=4)
+    env.step(np.array([0, 1, 2]))
+    compiled = set(K.step_range_arrays.signatures)
+    read_only_mask = np.ones(3, dtype=bool)
+    read_only_mask.flags.writeable = False
+    strided_mask = np.ones(6, dtype=bool)[::2]
+    for c in (copy.deepcopy(env), pickle.loads(pickle.dumps(env))):
+        assert not c.core.params.stars.dirs.flags.writeable
+        c.step(np.array([2, 1, 0]))
+        c.step_rows(np.array([0, 0, 1]), read_only_mask)
+        c.step_rows(np.array([1, 0, 1]), strided_mask)
+        c.core.step(np.array([[0], [1], [2]], dtype=np.int64))
+    assert set(K.step_range_arrays.signatures) == compiled
+
+
 def test_bad_actions_name_the_row_and_step_nothing() -> None:
     venv = PlanetNavVectorEnv(3, **SHORT)
     venv.reset(seed=0)
