@@ -1,0 +1,69 @@
+"""Compile the environment's kernels before first use: ``python -m planetnav_env.precompile [ids...]``.
+
+numba compiles the step and the reset the first time an environment runs them (about three minutes on one
+core) and caches the machine code beside the source, where every later process loads it in about a second.
+Run this once after installing, wherever processes would otherwise each meet a cold cache: a container image,
+the nodes of a cluster that share no disk, the start of a CI job whose test processes start together.
+
+Every id shares one compiled step and one compiled reset (the kernels take the task as data), so the first
+id compiles and the others only check that they reuse it. The device env's kernels (``[gpu]`` extra) are
+compiled by the device's own launch.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from collections.abc import Sequence
+
+import gymnasium as gym
+import numpy as np
+
+import planetnav_env  # noqa: F401  (registers the ids)
+from planetnav_env.envs.registration import ENV_IDS, id_options
+
+
+def precompile(env_ids: Sequence[str] | None = None) -> dict[str, float]:
+    """Reset and step a two-row vector env of each id in ``env_ids`` (every registered id when None), so
+    numba has compiled, and cached, the kernels they run. Returns the seconds each id took, in order.
+
+    Raises :class:`~planetnav_env.errors.ConfigError` naming an id that is not a registered planetnav id,
+    before anything compiles.
+    """
+    ids = list(ENV_IDS) if env_ids is None else list(env_ids)
+    for env_id in ids:
+        id_options(env_id)
+    seconds: dict[str, float] = {}
+    for env_id in ids:
+        start = time.perf_counter()
+        env = gym.make_vec(env_id, num_envs=2)
+        try:
+            env.reset(seed=0)
+            env.action_space.seed(0)
+            env.step(np.asarray(env.action_space.sample()))
+        finally:
+            env.close()
+        seconds[env_id] = time.perf_counter() - start
+    return seconds
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(
+        prog="python -m planetnav_env.precompile",
+        description="Compile and cache the environment's kernels before first use.",
+    )
+    parser.add_argument("ids", nargs="*", help="registered ids (default: all)")
+    parser.add_argument("-q", "--quiet", action="store_true", help="print only the total")
+    args = parser.parse_args(argv)
+    start = time.perf_counter()
+    seconds = precompile(args.ids or None)
+    for env_id, s in seconds.items():
+        if not args.quiet:
+            print(f"{s:8.1f} s  {env_id}")
+    print(f"{time.perf_counter() - start:8.1f} s  in all ({len(seconds)} ids)")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
