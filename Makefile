@@ -3,9 +3,6 @@ PY ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
-# --no-compile: pip would byte-compile every installed module (torch's and ray's thousands) up front, half
-# of an install's time; Python compiles the ones a run imports when it first imports them.
-PIP_FLAGS := -q --no-compile
 
 .PHONY: run test test-ray test-ray-all reproduce bench bench-ray device-wheels clean
 
@@ -13,10 +10,10 @@ $(STAMP): pyproject.toml
 	$(PY) -m venv $(VENV)
 	$(BIN)/python -m pip install -q --upgrade pip
 	# CPU build first: an unpinned torch would pull several GB of CUDA packages.
-	$(BIN)/python -m pip install $(PIP_FLAGS) torch==2.13.0
+	$(BIN)/python -m pip install -q torch==2.13.0
 	# setuptools warns on every editable install of a package mapped to another folder (planetnav_agents
 	# lives in agents/), about folders named like the package in the working directory: this tree has none.
-	PYTHONWARNINGS="ignore:Editable installation" $(BIN)/python -m pip install $(PIP_FLAGS) -e ".[dev]"
+	PYTHONWARNINGS="ignore:Editable installation" $(BIN)/python -m pip install -q -e ".[dev]"
 	touch $(STAMP)
 
 # Second environment with the [ray] extra (RLlib + Tune). RLlib pins gymnasium (1.2.2 for ray 2.60), so
@@ -30,8 +27,8 @@ RAY_STAMP := $(RAY_VENV)/.installed
 $(RAY_STAMP): pyproject.toml
 	$(PY) -m venv $(RAY_VENV)
 	$(RAY_BIN)/python -m pip install -q --upgrade pip
-	$(RAY_BIN)/python -m pip install $(PIP_FLAGS) torch==2.13.0
-	PYTHONWARNINGS="ignore:Editable installation" $(RAY_BIN)/python -m pip install $(PIP_FLAGS) -e ".[dev,ray,clients]"
+	$(RAY_BIN)/python -m pip install -q torch==2.13.0
+	PYTHONWARNINGS="ignore:Editable installation" $(RAY_BIN)/python -m pip install -q -e ".[dev,ray,clients]"
 	touch $(RAY_STAMP)
 
 run: $(STAMP)
@@ -46,8 +43,8 @@ reproduce: $(STAMP)
 # functions and to PTX: about a third of the suite's time, nearly all of it numba compiling) beside the rest.
 # Its output follows the rest's, and the target fails if either fails.
 SPLIT_TESTS := tests/env/test_cuda_ptx.py
-# The kernels are compiled once first (planetnav_env.precompile), so the two processes load them rather
-# than both compile the same step at once.
+# The step is compiled once first (planetnav_env.precompile), so the two processes load it rather than
+# both compile it at once.
 test: $(STAMP)
 	$(BIN)/ruff check .
 	$(BIN)/python -m planetnav_env.precompile --quiet
