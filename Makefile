@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: run test test-ray test-ray-all reproduce bench bench-ray device-wheels clean
+.PHONY: run precompile test test-ray test-ray-all reproduce bench bench-ray device-wheels clean
 
 $(STAMP): pyproject.toml
 	$(PY) -m venv $(VENV)
@@ -43,16 +43,22 @@ reproduce: $(STAMP)
 # functions and to PTX: about a third of the suite's time, nearly all of it numba compiling) beside the rest.
 # Its output follows the rest's, and the target fails if either fails.
 SPLIT_TESTS := tests/env/test_cuda_ptx.py
-# The step is compiled once first (planetnav_env.precompile), so the two processes load it rather than
-# both compile it at once.
+# The step and the device env's host-mode thread functions are compiled first (planetnav_env.precompile,
+# the two side by side), so every test process loads them rather than several compile them at once.
 test: $(STAMP)
 	$(BIN)/ruff check .
-	$(BIN)/python -m planetnav_env.precompile --quiet
+	@$(MAKE) --no-print-directory precompile
 	@$(BIN)/python -m pytest $(SPLIT_TESTS) > .test-split.log 2>&1 & split=$$!; \
 	$(BIN)/python -m pytest --ignore=$(SPLIT_TESTS); rest=$$?; \
 	wait $$split; other=$$?; \
 	echo "===== $(SPLIT_TESTS) (rc $$other) ====="; cat .test-split.log; \
 	[ $$rest -eq 0 ] && [ $$other -eq 0 ]
+
+# numba's cache for the step (every id) and for the device env's host mode, one process each.
+precompile: $(STAMP)
+	@$(BIN)/python -m planetnav_env.precompile --quiet & step=$$!; \
+	$(BIN)/python -m planetnav_env.precompile --host-mode --quiet; host=$$?; \
+	wait $$step && [ $$host -eq 0 ]
 
 # Under the [ray] extra's gymnasium (the one RLlib pins): the Ray tests (two-node loopback clusters, RLlib
 # training and resume, Tune sweeps, node loss), the client tests (TorchRL, sb3-contrib) that the default

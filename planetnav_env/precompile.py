@@ -6,22 +6,36 @@ Run this once after installing, wherever processes would otherwise each meet a c
 the nodes of a cluster that share no disk, the start of a CI job whose test processes start together.
 
 Every id shares one compiled step and one compiled reset (the kernels take the task as data), so the first
-id compiles and the others only check that they reuse it. The device env's kernels (``[gpu]`` extra) are
-compiled by the device's own launch.
+id compiles and the others only check that they reuse it.
+
+``--host-mode`` compiles instead the device env's thread functions as its host mode runs them on the CPU
+(:class:`~planetnav_env.device.vector_env.DeviceVectorEnv` with ``device="cpu"``; needs torch): a second
+compilation of the row kernels, about as long, with one signature for the target ids and one for the Box
+ids (their action arrays differ in layout). The CUDA kernels are compiled by the device's own launch.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import sys
 import time
-from collections.abc import Sequence
+import warnings
+from collections.abc import Iterator, Sequence
 
 import gymnasium as gym
 import numpy as np
 
 import planetnav_env  # noqa: F401  (registers the ids)
 from planetnav_env.envs.registration import ENV_IDS, id_options
+
+
+@contextlib.contextmanager
+def _superseded_ids_allowed() -> Iterator[None]:
+    """Without gymnasium's warning that an id has a newer version: every id is compiled on purpose."""
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", ".*is out of date", DeprecationWarning)
+        yield
 
 
 def precompile(env_ids: Sequence[str] | None = None) -> dict[str, float]:
@@ -37,11 +51,42 @@ def precompile(env_ids: Sequence[str] | None = None) -> dict[str, float]:
     seconds: dict[str, float] = {}
     for env_id in ids:
         start = time.perf_counter()
-        env = gym.make_vec(env_id, num_envs=2)
+        with _superseded_ids_allowed():
+            env = gym.make_vec(env_id, num_envs=2)
         try:
             env.reset(seed=0)
             env.action_space.seed(0)
             env.step(np.asarray(env.action_space.sample()))
+        finally:
+            env.close()
+        seconds[env_id] = time.perf_counter() - start
+    return seconds
+
+
+def precompile_host_mode(env_ids: Sequence[str] | None = None) -> dict[str, float]:
+    """Reset and step a two-row host-mode device env of each id (every registered id when None) through an
+    autoreset, so numba has compiled, and cached, the thread functions it loops
+    (:mod:`planetnav_env.device.rows`). Returns the seconds each id took; an unknown id is named before
+    anything compiles."""
+    ids = list(ENV_IDS) if env_ids is None else list(env_ids)
+    for env_id in ids:
+        id_options(env_id)
+    import torch
+
+    from planetnav_env.device.vector_env import DeviceVectorEnv
+
+    seconds: dict[str, float] = {}
+    for env_id in ids:
+        start = time.perf_counter()
+        # One-decision episodes: the second step autoresets, so the autoreset loop compiles too.
+        with _superseded_ids_allowed():
+            env = DeviceVectorEnv(env_id, 2, device="cpu", bank_size=2, refill="inline", episode_steps=1)
+        try:
+            env.reset(seed=0)
+            env.single_action_space.seed(0)
+            for _ in range(2):
+                sample = [env.single_action_space.sample() for _ in range(2)]
+                env.step(torch.as_tensor(np.asarray(sample)))
         finally:
             env.close()
         seconds[env_id] = time.perf_counter() - start
@@ -55,9 +100,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     parser.add_argument("ids", nargs="*", help="registered ids (default: all)")
     parser.add_argument("-q", "--quiet", action="store_true", help="print only the total")
+    parser.add_argument(
+        "--host-mode",
+        action="store_true",
+        help="compile the device env's thread functions for its host mode (device='cpu') instead of the step",
+    )
     args = parser.parse_args(argv)
     start = time.perf_counter()
-    seconds = precompile(args.ids or None)
+    seconds = (precompile_host_mode if args.host_mode else precompile)(args.ids or None)
     for env_id, s in seconds.items():
         if not args.quiet:
             print(f"{s:8.1f} s  {env_id}")

@@ -9,14 +9,16 @@ by numba-cuda from this source.
 
 :func:`step_rows` and :func:`autoreset_rows` run the thread functions row by row on the CPU, each row with
 its own scratch (the device's layout): the device env's host mode, which the tests hold to the CPU vector
-env bit for bit.
+env bit for bit. :func:`reset_rows` runs the compiled part of the reset (``kernels.reset_thread``) the same
+way, for the tests that hold it to the CPU reset. All three are cached, so every process (a test run's
+several, ``python -m planetnav_env.precompile --host-mode``) shares one compilation.
 """
 
 from __future__ import annotations
 
 from numba import njit
 
-from planetnav_env.core.kernels import reset_row, step_thread
+from planetnav_env.core.kernels import reset_row, reset_thread, step_thread
 from planetnav_env.core.records import scratch_row
 from planetnav_env.numerics.jit import row_kernel
 
@@ -57,3 +59,10 @@ def autoreset_rows(prm, st, bank, slots, mask, rows) -> None:  # pragma: no cove
     """What the autoreset kernel's threads run, row by row on the CPU."""
     for n in range(st.f.shape[0]):
         autoreset_thread(prm, st, bank, slots, mask, rows, n)
+
+
+@njit(cache=True, nogil=True)
+def reset_rows(prm, st, reset, rows) -> None:  # pragma: no cover - compiled
+    """The compiled part of the reset of rows ``reset``, as reset threads run it, row by row on the CPU."""
+    for j in range(reset.shape[0]):
+        reset_thread(prm, st, reset, rows, j)

@@ -31,6 +31,7 @@ from planetnav_env.config import EnvConfig
 from planetnav_env.core import kernels as K
 from planetnav_env.core.decoding import raw_action_size
 from planetnav_env.core.records import Actions, rows_innermost_like, scratch_row, scratch_rows
+from planetnav_env.device import rows as R
 from planetnav_env.numerics import portable_math as pm
 from planetnav_env.tasks import ID_OPTIONS as ENV_IDS
 
@@ -122,18 +123,6 @@ def test_portable_remainder_and_rint_equal_numbas_ufuncs_bit_for_bit() -> None:
 
 # --- the thread functions on the CPU ---
 @njit
-def _reset_threads(prm, st, reset, rows):  # pragma: no cover - compiled
-    for j in range(reset.shape[0]):  # the compiled reset as an autoreset thread runs it, after its copy
-        K.reset_thread(prm, st, reset, rows, j)
-
-
-@njit
-def _step_threads(prm, st, act, rows):  # pragma: no cover - compiled
-    for n in range(st.f.shape[0]):  # what thread n of cuda_entry.step_kernel runs
-        K.step_thread(prm, st, act, rows, n)
-
-
-@njit
 def _row_zero(rows):  # pragma: no cover - compiled
     return scratch_row(rows, 0)
 
@@ -163,7 +152,7 @@ def test_thread_functions_equal_the_chunked_step_bit_for_bit(env_id: str, monkey
     chunked.reset_rows(all_rows, [np.random.default_rng(11 + r) for r in range(ROWS)])
     # The same host-side draws; the compiled part of the reset by reset_thread.
     with monkeypatch.context() as m:
-        m.setattr(K, "reset_rows", lambda prm, st, reset: _reset_threads(prm, st, reset, rows))
+        m.setattr(K, "reset_rows", lambda prm, st, reset: R.reset_rows(prm, st, reset, rows))
         threads.reset_rows(all_rows, [np.random.default_rng(11 + r) for r in range(ROWS)])
     assert _state_bytes(threads) == _state_bytes(chunked)
     st = rows_innermost_like(threads.state)
@@ -188,7 +177,7 @@ def test_thread_functions_equal_the_chunked_step_bit_for_bit(env_id: str, monkey
         )  # fmt: skip
         act.raw[:] = raw
         act.active[:] = active
-        _step_threads(threads.params, st, act, rows)
+        R.step_rows(threads.params, st, act, rows)
         assert [np.ascontiguousarray(a).tobytes() for a in st] == _state_bytes(chunked), f"step {k}"
 
 
@@ -265,6 +254,49 @@ def test_compute_capability_is_supplied_only_inside_the_block() -> None:
 
 
 # --- assembled by ptxas: what the driver will do with the PTX on a device ---
+@pytest.fixture(scope="module")
+def autoreset_ptx():
+    from planetnav_env.numerics.cuda_target import require_numba_cuda
+
+    try:
+        require_numba_cuda()
+    except ImportError as exc:
+        pytest.skip(str(exc))
+    from planetnav_env.device import cuda_kernels
+
+    compiled: dict = {}
+
+    def ptx(env_id: str) -> str:
+        types = cuda_kernels.autoreset_argtypes(BatchCore(EnvConfig.from_dict(ENV_IDS[env_id]), 2))
+        if types not in compiled:  # the ids share their types: one compilation
+            compiled[types] = cuda_kernels.compile_ptx(cuda_kernels.autoreset_kernel, types)
+        return compiled[types]
+
+    return ptx
+
+
+@pytest.mark.parametrize("env_id", list(ENV_IDS))
+def test_autoreset_kernel_compiles_to_ptx(env_id: str, autoreset_ptx) -> None:
+    ptx = autoreset_ptx(env_id)
+    assert ".target sm_90" in ptx
+    assert ".visible .entry" in ptx and "autoreset_kernel" in ptx
+    assert ".extern" not in ptx
+
+
+def test_autoreset_kernel_assembles_for_sm_90(autoreset_ptx) -> None:
+    """ptxas accepts the autoreset's PTX, and the device env's default block launches with its registers."""
+    from planetnav_env.device.kernel_resources import assemble, find_ptxas
+    from planetnav_env.device.occupancy import SM_90, THREADS_PER_BLOCK, require_launchable
+
+    try:
+        ptxas = find_ptxas()
+    except FileNotFoundError as exc:
+        pytest.skip(str(exc))
+    (res,) = assemble(autoreset_ptx("planetnav/Cruise-Target-v1"), ptxas=ptxas).values()
+    assert "autoreset_kernel" in res.function
+    require_launchable("autoreset", res.registers, THREADS_PER_BLOCK, SM_90)
+
+
 def _ptxas() -> str:
     from planetnav_env.device.kernel_resources import find_ptxas
 

@@ -8,8 +8,8 @@
   equal the CPU vector env's (``gym.make_vec``) bit for bit over many steps with autoresets, in both
   autoreset modes, and its buffers have the layout the device uses;
 * asked for CUDA without one, the env says what is missing;
-* with numba-cuda installed, the autoreset kernel compiles to PTX for every registered id (the step and
-  reset entry points: tests/env/test_cuda_ptx.py).
+* the kernels compile once per process (numba-cuda installed); they compile to PTX in
+  tests/env/test_cuda_ptx.py.
 
 What only a device checks: the numbers of the kernels on the GPU, the launch itself and the speed
 (benchmarks/bench_gpu.py).
@@ -22,27 +22,20 @@ import numpy as np
 import pytest
 import torch
 from gymnasium.utils import seeding
-from numba import njit
 
 import planetnav_env  # noqa: F401
 from planetnav_env.batch import BatchCore
 from planetnav_env.config import EnvConfig
-from planetnav_env.core import kernels as K
 from planetnav_env.core.records import scratch_rows
+from planetnav_env.device import rows as R
 from planetnav_env.device.bank import EpisodeBank, bank_slot
 from planetnav_env.device.vector_env import DeviceVectorEnv, cuda_unavailable_reason
-from planetnav_env.envs.registration import ENV_IDS, id_options
+from planetnav_env.envs.registration import id_options
 from planetnav_env.errors import InvalidParameterError
 
 ROWS = 3
 
 pytestmark = pytest.mark.filterwarnings("ignore:.*is out of date.*")
-
-
-@njit
-def _reset_threads(prm, st, reset, rows):  # pragma: no cover - compiled
-    for j in range(reset.shape[0]):  # the compiled reset as an autoreset thread runs it, after its copy
-        K.reset_thread(prm, st, reset, rows, j)
 
 
 BANK_IDS = [
@@ -68,7 +61,7 @@ def test_bank_rows_after_the_compiled_reset_equal_the_cpu_reset(env_id: str) -> 
         k = bank_slot(e, all_rows, n, bank.size)
         for name in ("f", "p", "rng", "eph"):
             getattr(dev, name)[:] = getattr(bank.rows, name)[k]
-        _reset_threads(dev.params, dev.state, all_rows, rows)
+        R.reset_rows(dev.params, dev.state, all_rows, rows)
         for name in ("f", "p", "i", "rng", "eph", "obs"):
             assert getattr(dev, name).tobytes() == getattr(cpu, name).tobytes(), (e, name)
         assert [bank.episodes[s] for s in k] == [cpu.episodes[r] for r in range(n)]
@@ -236,50 +229,6 @@ def test_asking_for_cuda_without_it_names_what_is_missing() -> None:
         pytest.skip("a CUDA device is available here")
     with pytest.raises(RuntimeError, match=r"needs a CUDA GPU.*pip install"):
         DeviceVectorEnv("planetnav/Cruise-Target-v1", 4, device="cuda")
-
-
-@pytest.fixture(scope="module")
-def autoreset_ptx():
-    from planetnav_env.numerics.cuda_target import require_numba_cuda
-
-    try:
-        require_numba_cuda()
-    except ImportError as exc:
-        pytest.skip(str(exc))
-    from planetnav_env.device import cuda_kernels
-
-    compiled: dict = {}
-
-    def ptx(env_id: str) -> str:
-        types = cuda_kernels.autoreset_argtypes(BatchCore(EnvConfig.from_dict(ENV_IDS[env_id]), 2))
-        if types not in compiled:  # the ids share their types: one compilation
-            compiled[types] = cuda_kernels.compile_ptx(cuda_kernels.autoreset_kernel, types)
-        return compiled[types]
-
-    return ptx
-
-
-@pytest.mark.parametrize("env_id", list(ENV_IDS))
-def test_autoreset_kernel_compiles_to_ptx(env_id: str, autoreset_ptx) -> None:
-    ptx = autoreset_ptx(env_id)
-    assert ".target sm_90" in ptx
-    assert ".visible .entry" in ptx and "autoreset_kernel" in ptx
-    assert ".extern" not in ptx
-
-
-def test_autoreset_kernel_assembles_for_sm_90(autoreset_ptx) -> None:
-    """ptxas accepts the autoreset's PTX, and the device env's default block launches with its registers."""
-    from planetnav_env.device.kernel_resources import assemble, find_ptxas
-    from planetnav_env.device.occupancy import SM_90, require_launchable
-    from planetnav_env.device.vector_env import THREADS_PER_BLOCK
-
-    try:
-        ptxas = find_ptxas()
-    except FileNotFoundError as exc:
-        pytest.skip(str(exc))
-    (res,) = assemble(autoreset_ptx("planetnav/Cruise-Target-v1"), ptxas=ptxas).values()
-    assert "autoreset_kernel" in res.function
-    require_launchable("autoreset", res.registers, THREADS_PER_BLOCK, SM_90)
 
 
 def test_launch_settings_are_checked() -> None:

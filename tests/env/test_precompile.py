@@ -45,3 +45,21 @@ def test_an_unknown_id_is_named_before_anything_compiles(capsys: pytest.CaptureF
     with pytest.raises(ConfigError, match="planetnav/Cruise-Target-v9"):
         main(["planetnav/Cruise-Target-v3", "planetnav/Cruise-Target-v9"])
     assert capsys.readouterr().out == ""
+
+
+def test_host_mode_runs_the_device_envs_step_and_autoreset_loops() -> None:
+    from planetnav_env.device import rows as R
+    from planetnav_env.precompile import precompile_host_mode
+
+    ids = ["planetnav/Cruise-Target-v3", "planetnav/Cruise-Torque-v3"]
+    seconds = precompile_host_mode(ids)
+    assert list(seconds) == ids
+    # A target id and a Box id: their action arrays differ in layout, hence one signature each.
+    assert len(R.step_rows.signatures) >= 2
+    assert R.autoreset_rows.signatures
+
+
+def test_host_mode_names_an_unknown_id_before_anything_compiles(capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(ConfigError, match="planetnav/Cruise-Torque-v9"):
+        main(["--host-mode", "planetnav/Cruise-Torque-v9"])
+    assert capsys.readouterr().out == ""
