@@ -39,16 +39,22 @@ reproduce: $(STAMP)
 	$(BIN)/python -m planetnav_validation.reproduce optical-pulsar --plots results/optical_pulsar --json results/optical_pulsar.json
 	$(BIN)/python -m planetnav_validation.reproduce gnss-magnetometer --plots results/gnss_magnetometer --json results/gnss_magnetometer.json
 
-# Two pytest processes at once, one per core: SPLIT_TESTS (the row kernels compiled as the device's thread
-# functions and to PTX: about a third of the suite's time, nearly all of it numba compiling) beside the rest.
-# Its output follows the rest's, and the target fails if either fails.
+# Two pytest processes at once, one per core: SPLIT_TESTS (the row kernels compiled to PTX and as the
+# device's thread functions: about a third of the suite's time, nearly all of it numba compiling) beside the
+# rest. Its output follows the rest's, and the target fails if either fails.
 SPLIT_TESTS := tests/env/test_cuda_ptx.py
-# The step and the device env's host-mode thread functions are compiled first (planetnav_env.precompile,
-# the two side by side), so every test process loads them rather than several compile them at once.
+# numba's cache is filled first (planetnav_env.precompile), so that the test processes load the kernels
+# rather than several compile them at once: the step, and beside it the device env's host mode. SPLIT_TESTS
+# starts once the step is cached (its thread-function tests come last, by when the host mode is too); the
+# rest, and whoever waits for .test-compiled (.ci/run's [ray] pass), once both are.
 test: $(STAMP)
 	$(BIN)/ruff check .
-	@$(MAKE) --no-print-directory precompile
-	@$(BIN)/python -m pytest $(SPLIT_TESTS) > .test-split.log 2>&1 & split=$$!; \
+	@rm -f .test-compiled; \
+	$(BIN)/python -m planetnav_env.precompile --host-mode --quiet & host=$$!; \
+	$(BIN)/python -m planetnav_env.precompile --quiet || { wait $$host; touch .test-compiled; exit 1; }; \
+	$(BIN)/python -m pytest $(SPLIT_TESTS) > .test-split.log 2>&1 & split=$$!; \
+	wait $$host; compiled=$$?; touch .test-compiled; \
+	if [ $$compiled -ne 0 ]; then wait $$split; exit 1; fi; \
 	$(BIN)/python -m pytest --ignore=$(SPLIT_TESTS); rest=$$?; \
 	wait $$split; other=$$?; \
 	echo "===== $(SPLIT_TESTS) (rc $$other) ====="; cat .test-split.log; \

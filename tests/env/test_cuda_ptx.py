@@ -121,66 +121,6 @@ def test_portable_remainder_and_rint_equal_numbas_ufuncs_bit_for_bit() -> None:
     assert np.array_equal(bits[0][~both_nan], bits[1][~both_nan])
 
 
-# --- the thread functions on the CPU ---
-@njit
-def _row_zero(rows):  # pragma: no cover - compiled
-    return scratch_row(rows, 0)
-
-
-def test_a_rows_scratch_views_have_one_type_for_every_task() -> None:
-    """The tasks' scratch rows differ in numba type (sizes of 0 or 1 change the arrays' layout flags), and
-    the views a thread reads have one type for all of them, so the row kernels are compiled once."""
-    for kw in CONFIGS.values():
-        _row_zero(scratch_rows(BatchCore(EnvConfig.from_dict(kw), ROWS).params, ROWS))
-    signatures = _row_zero.nopython_signatures
-    assert len({s.args for s in signatures}) > 1
-    assert len({s.return_type for s in signatures}) == 1
-
-
-def _state_bytes(core: BatchCore) -> list[bytes]:
-    return [a.tobytes() for a in (core.f, core.p, core.i, core.rng, core.eph, core.obs)]
-
-
-@pytest.mark.parametrize("env_id", list(CONFIGS))
-def test_thread_functions_equal_the_chunked_step_bit_for_bit(env_id: str, monkeypatch) -> None:
-    """Row by row with per-row scratch slices, state, actions and scratch rows innermost (the device's
-    layout), gives the CPU step's numbers."""
-    cfg = EnvConfig.from_dict(CONFIGS[env_id])
-    chunked, threads = BatchCore(cfg, ROWS), BatchCore(cfg, ROWS)
-    rows = scratch_rows(threads.params, ROWS)
-    all_rows = np.arange(ROWS, dtype=np.int64)
-    chunked.reset_rows(all_rows, [np.random.default_rng(11 + r) for r in range(ROWS)])
-    # The same host-side draws; the compiled part of the reset by reset_thread.
-    with monkeypatch.context() as m:
-        m.setattr(K, "reset_rows", lambda prm, st, reset: R.reset_rows(prm, st, reset, rows))
-        threads.reset_rows(all_rows, [np.random.default_rng(11 + r) for r in range(ROWS)])
-    assert _state_bytes(threads) == _state_bytes(chunked)
-    st = rows_innermost_like(threads.state)
-    assert st.f.strides[0] == 8 and st.p.strides[0] == 8
-    rng = np.random.default_rng(3)
-    width = raw_action_size(int(threads.params.scalars[0]["mode"]), cfg.n_planets)
-    decoded = (np.zeros(ROWS, np.int64), np.zeros((ROWS, 3)))  # the chunked step's decoding buffers
-    act = rows_innermost_like(Actions(raw=np.zeros((ROWS, width)), targets=decoded[0],
-                                      torques=decoded[1], active=np.ones(ROWS, np.bool_)))  # fmt: skip
-    for k in range(STEPS):
-        if cfg.action_mode == "target":
-            # Hold each action a few steps (slews, settling, pulsar integration), change it now and then.
-            if k % 4 == 0:
-                raw = rng.integers(0, cfg.n_target_actions, (ROWS, 1)).astype(float)
-        else:  # Box actions, some outside [-1, 1] (the decoding clips them)
-            raw = rng.uniform(-1.2, 1.2, (ROWS, width))
-        active = np.ones(ROWS, dtype=np.bool_)
-        active[k % ROWS] = k % 5 != 0  # an inactive row now and then
-        K.step_range_arrays(
-            chunked.params, chunked.f, chunked.p, chunked.i, chunked.rng, chunked.eph, chunked.obs,
-            raw, *decoded, active, 0, ROWS, True, cfg.decision_steps,
-        )  # fmt: skip
-        act.raw[:] = raw
-        act.active[:] = active
-        R.step_rows(threads.params, st, act, rows)
-        assert [np.ascontiguousarray(a).tobytes() for a in st] == _state_bytes(chunked), f"step {k}"
-
-
 # --- PTX (numba-cuda) ---
 def _numba_cuda():
     from planetnav_env.numerics.cuda_target import require_numba_cuda
@@ -384,3 +324,64 @@ def test_ptxas_report_is_parsed() -> None:
     (res,) = parse_ptxas_verbose(text).values()
     assert (res.function, res.registers, res.stack_bytes) == ("_Z6kernelPd", 200, 40)
     assert (res.spill_store_bytes, res.spill_load_bytes) == (8, 12)
+
+
+# --- the thread functions on the CPU (last: make test starts this file before the host-mode cache is
+# written, and the PTX compiling above takes minutes) ---
+@njit
+def _row_zero(rows):  # pragma: no cover - compiled
+    return scratch_row(rows, 0)
+
+
+def test_a_rows_scratch_views_have_one_type_for_every_task() -> None:
+    """The tasks' scratch rows differ in numba type (sizes of 0 or 1 change the arrays' layout flags), and
+    the views a thread reads have one type for all of them, so the row kernels are compiled once."""
+    for kw in CONFIGS.values():
+        _row_zero(scratch_rows(BatchCore(EnvConfig.from_dict(kw), ROWS).params, ROWS))
+    signatures = _row_zero.nopython_signatures
+    assert len({s.args for s in signatures}) > 1
+    assert len({s.return_type for s in signatures}) == 1
+
+
+def _state_bytes(core: BatchCore) -> list[bytes]:
+    return [a.tobytes() for a in (core.f, core.p, core.i, core.rng, core.eph, core.obs)]
+
+
+@pytest.mark.parametrize("env_id", list(CONFIGS))
+def test_thread_functions_equal_the_chunked_step_bit_for_bit(env_id: str, monkeypatch) -> None:
+    """Row by row with per-row scratch slices, state, actions and scratch rows innermost (the device's
+    layout), gives the CPU step's numbers."""
+    cfg = EnvConfig.from_dict(CONFIGS[env_id])
+    chunked, threads = BatchCore(cfg, ROWS), BatchCore(cfg, ROWS)
+    rows = scratch_rows(threads.params, ROWS)
+    all_rows = np.arange(ROWS, dtype=np.int64)
+    chunked.reset_rows(all_rows, [np.random.default_rng(11 + r) for r in range(ROWS)])
+    # The same host-side draws; the compiled part of the reset by reset_thread.
+    with monkeypatch.context() as m:
+        m.setattr(K, "reset_rows", lambda prm, st, reset: R.reset_rows(prm, st, reset, rows))
+        threads.reset_rows(all_rows, [np.random.default_rng(11 + r) for r in range(ROWS)])
+    assert _state_bytes(threads) == _state_bytes(chunked)
+    st = rows_innermost_like(threads.state)
+    assert st.f.strides[0] == 8 and st.p.strides[0] == 8
+    rng = np.random.default_rng(3)
+    width = raw_action_size(int(threads.params.scalars[0]["mode"]), cfg.n_planets)
+    decoded = (np.zeros(ROWS, np.int64), np.zeros((ROWS, 3)))  # the chunked step's decoding buffers
+    act = rows_innermost_like(Actions(raw=np.zeros((ROWS, width)), targets=decoded[0],
+                                      torques=decoded[1], active=np.ones(ROWS, np.bool_)))  # fmt: skip
+    for k in range(STEPS):
+        if cfg.action_mode == "target":
+            # Hold each action a few steps (slews, settling, pulsar integration), change it now and then.
+            if k % 4 == 0:
+                raw = rng.integers(0, cfg.n_target_actions, (ROWS, 1)).astype(float)
+        else:  # Box actions, some outside [-1, 1] (the decoding clips them)
+            raw = rng.uniform(-1.2, 1.2, (ROWS, width))
+        active = np.ones(ROWS, dtype=np.bool_)
+        active[k % ROWS] = k % 5 != 0  # an inactive row now and then
+        K.step_range_arrays(
+            chunked.params, chunked.f, chunked.p, chunked.i, chunked.rng, chunked.eph, chunked.obs,
+            raw, *decoded, active, 0, ROWS, True, cfg.decision_steps,
+        )  # fmt: skip
+        act.raw[:] = raw
+        act.active[:] = active
+        R.step_rows(threads.params, st, act, rows)
+        assert [np.ascontiguousarray(a).tobytes() for a in st] == _state_bytes(chunked), f"step {k}"
