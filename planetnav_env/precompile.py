@@ -21,7 +21,7 @@ import contextlib
 import sys
 import time
 import warnings
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 
 import gymnasium as gym
 import numpy as np
@@ -39,6 +39,21 @@ def _superseded_ids_allowed() -> Iterator[None]:
         yield
 
 
+def _each_id(env_ids: Sequence[str] | None, run: Callable[[str], None]) -> dict[str, float]:
+    """``run`` on each id of ``env_ids`` (every registered id when None), every id checked first; the seconds
+    each took, in order."""
+    ids = list(ENV_IDS) if env_ids is None else list(env_ids)
+    for env_id in ids:
+        id_options(env_id)
+    seconds: dict[str, float] = {}
+    for env_id in ids:
+        start = time.perf_counter()
+        with _superseded_ids_allowed():
+            run(env_id)
+        seconds[env_id] = time.perf_counter() - start
+    return seconds
+
+
 def precompile(env_ids: Sequence[str] | None = None) -> dict[str, float]:
     """Reset and step a two-row vector env of each id in ``env_ids`` (every registered id when None), so
     numba has compiled, and cached, the kernels they run. Returns the seconds each id took, in order.
@@ -46,22 +61,17 @@ def precompile(env_ids: Sequence[str] | None = None) -> dict[str, float]:
     Raises :class:`~planetnav_env.errors.ConfigError` naming an id that is not a registered planetnav id,
     before anything compiles.
     """
-    ids = list(ENV_IDS) if env_ids is None else list(env_ids)
-    for env_id in ids:
-        id_options(env_id)
-    seconds: dict[str, float] = {}
-    for env_id in ids:
-        start = time.perf_counter()
-        with _superseded_ids_allowed():
-            env = gym.make_vec(env_id, num_envs=2)
+
+    def run(env_id: str) -> None:
+        env = gym.make_vec(env_id, num_envs=2)
         try:
             env.reset(seed=0)
             env.action_space.seed(0)
             env.step(np.asarray(env.action_space.sample()))
         finally:
             env.close()
-        seconds[env_id] = time.perf_counter() - start
-    return seconds
+
+    return _each_id(env_ids, run)
 
 
 def precompile_host_mode(env_ids: Sequence[str] | None = None) -> dict[str, float]:
@@ -69,19 +79,14 @@ def precompile_host_mode(env_ids: Sequence[str] | None = None) -> dict[str, floa
     autoreset, and run the reset's thread loop, so numba has compiled, and cached, the loops of
     :mod:`planetnav_env.device.rows`. Returns the seconds each id took; an unknown id is named before
     anything compiles."""
-    ids = list(ENV_IDS) if env_ids is None else list(env_ids)
-    for env_id in ids:
-        id_options(env_id)
-    import torch
 
-    from planetnav_env.device.vector_env import DeviceVectorEnv
+    def run(env_id: str) -> None:
+        import torch
 
-    seconds: dict[str, float] = {}
-    for env_id in ids:
-        start = time.perf_counter()
+        from planetnav_env.device.vector_env import DeviceVectorEnv
+
         # One-decision episodes: the second step autoresets, so the autoreset loop compiles too.
-        with _superseded_ids_allowed():
-            env = DeviceVectorEnv(env_id, 2, device="cpu", bank_size=2, refill="inline", episode_steps=1)
+        env = DeviceVectorEnv(env_id, 2, device="cpu", bank_size=2, refill="inline", episode_steps=1)
         try:
             env.reset(seed=0)
             env.single_action_space.seed(0)
@@ -91,8 +96,8 @@ def precompile_host_mode(env_ids: Sequence[str] | None = None) -> dict[str, floa
         finally:
             env.close()
         _reset_as_threads_run_it(env.config)
-        seconds[env_id] = time.perf_counter() - start
-    return seconds
+
+    return _each_id(env_ids, run)
 
 
 def _reset_as_threads_run_it(cfg: EnvConfig) -> None:
